@@ -1,0 +1,52 @@
+#include "cli.hpp"
+
+#include <terracl/io.hpp>
+
+namespace terracl::cli {
+namespace {
+
+struct ConvertArgs {
+  std::string input, output;
+  std::optional<double> zmin, zmax, out_zmin, out_zmax, cell;
+  std::optional<int> width, height;
+  bool fill = false;
+};
+
+CommandRegistrar reg(12, [](CLI::App& app) {
+  auto a = std::make_shared<ConvertArgs>();
+  auto* sub = app.add_subcommand("convert", "Convert between raster formats (format from the extension)");
+  sub->add_option("input", a->input, "Input raster")->required();
+  sub->add_option("output", a->output, "Output raster (.tif .exr .png .r16 .raw)")->required();
+  sub->add_option("--zmin", a->zmin, "Input PNG/RAW16: elevation of code 0 (m)");
+  sub->add_option("--zmax", a->zmax, "Input PNG/RAW16: elevation of the largest code (m)");
+  sub->add_option("--width", a->width, "Input RAW16 width (cells)");
+  sub->add_option("--height", a->height, "Input RAW16 height (cells)");
+  sub->add_option("--cell-size", a->cell, "Cell size in metres for inputs without georeferencing");
+  sub->add_option("--out-zmin", a->out_zmin, "Output PNG16/RAW16: elevation of code 0 (default: data minimum)");
+  sub->add_option("--out-zmax", a->out_zmax, "Output PNG16/RAW16: elevation of code 65535 (default: data maximum)");
+  sub->add_flag("--fill-nodata", a->fill, "Fill nodata cells by harmonic interpolation");
+  sub->callback([a] {
+    if (is_gradient_file(a->input)) {
+      GradientField g = read_gradient(a->input);
+      for (const auto& [k, v] : provenance()) g.metadata[k] = v;
+      write_gradient(g, a->output);
+      return;
+    }
+    ReadOptions ro;
+    ro.zmin = a->zmin;
+    ro.zmax = a->zmax;
+    ro.width = a->width;
+    ro.height = a->height;
+    ro.cell_size = a->cell;
+    ro.fill_nodata = a->fill;
+    Heightfield h = read_heightfield(a->input, ro);
+    for (const auto& [k, v] : provenance()) h.metadata[k] = v;
+    WriteOptions wo;
+    wo.zmin = a->out_zmin;
+    wo.zmax = a->out_zmax;
+    write_heightfield(h, a->output, wo);
+  });
+});
+
+}  // namespace
+}  // namespace terracl::cli

@@ -1,0 +1,143 @@
+// `terracl stages` and one auto-generated subcommand per stage, built from the stage table:
+// `terracl <stage> [IN] -o OUT [--option value ...]`.
+#include "cli.hpp"
+
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/stage.hpp>
+
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <map>
+
+namespace terracl::cli {
+namespace {
+
+std::string kebab(std::string s) {
+  for (char& c : s)
+    if (c == '_') c = '-';
+  return s;
+}
+
+/// CLI text to a JSON value of the option's type; validation (resolve_options) reports errors.
+json to_json(const OptionSpec& o, const std::string& text) {
+  switch (o.type) {
+    case OptionType::Int: {
+      char* end = nullptr;
+      long long v = std::strtoll(text.c_str(), &end, 10);
+      if (end && *end == '\0' && !text.empty()) return v;
+      return text;
+    }
+    case OptionType::Float: {
+      char* end = nullptr;
+      double v = std::strtod(text.c_str(), &end);
+      if (end && *end == '\0' && !text.empty()) return v;
+      return text;
+    }
+    case OptionType::Json:
+      try {
+        return json::parse(text);
+      } catch (const json::exception&) {
+        return text;
+      }
+    default:
+      return text;
+  }
+}
+
+struct StageArgs {
+  std::string input, output;
+  bool fill_nodata = false;
+  std::map<std::string, std::string> values;
+  std::map<std::string, bool> flags;
+};
+
+void add_stage_command(CLI::App& app, const StageInfo& s) {
+  auto a = std::make_shared<StageArgs>();
+  auto* sub = app.add_subcommand(s.name, s.description);
+  auto* in = sub->add_option("input", a->input,
+                             s.input == DataKind::Gradient ? "Input gradient field (.exr)" : "Input raster");
+  if (s.input != DataKind::None) in->required();
+  sub->add_option("-o,--output", a->output, "Output file (format from the extension)")->required();
+  if (s.input == DataKind::Heightfield) sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first");
+  for (const auto& o : s.options) {
+    std::string help = o.help;
+    if (!o.unit.empty()) help += fmt::format(" [{}]", o.unit);
+    if (o.type == OptionType::Enum) help += fmt::format(" ({})", fmt::join(o.choices, "|"));
+    if (!o.default_value.is_null()) help += fmt::format(" (default {})", o.default_value.dump());
+    if (o.type == OptionType::Bool) {
+      sub->add_flag("--" + kebab(o.name) + ",!--no-" + kebab(o.name), a->flags[o.name], help);
+    } else {
+      auto* opt = sub->add_option("--" + kebab(o.name), a->values[o.name], help);
+      if (o.required) opt->required();
+    }
+  }
+  const StageInfo* sp = &s;
+  sub->callback([a, sp, sub] {
+    const StageInfo& s = *sp;
+    json opts = json::object();
+    for (const auto& o : s.options) {
+      const std::string flag = "--" + kebab(o.name);
+      if (o.type == OptionType::Bool) {
+        if (sub->count(flag) || sub->count("--no-" + kebab(o.name))) opts[o.name] = a->flags[o.name];
+      } else if (sub->count(flag)) {
+        opts[o.name] = to_json(o, a->values[o.name]);
+      }
+    }
+    json resolved;
+    try {
+      resolved = resolve_options(s, opts, s.name);
+    } catch (const Error& e) {
+      throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
+    }
+    StageData data;
+    if (!a->input.empty()) {
+      if (s.input == DataKind::Gradient || (s.input == DataKind::None && is_gradient_file(a->input))) {
+        data.gradient = read_gradient(a->input);
+        data.current = DataKind::Gradient;
+      } else {
+        ReadOptions ro;
+        ro.fill_nodata = a->fill_nodata;
+        data.height = read_heightfield(a->input, ro);
+        data.current = DataKind::Heightfield;
+      }
+    }
+    StageContext ctx{data, resolved, [] () -> Device& { return device(); }, make_progress(s.name), s.name, provenance()};
+    ctx.provenance["terracl:stages"] = json::array({json{{"type", s.name}, {"options", resolved}}}).dump();
+    s.run(ctx);
+    finish_progress();
+    if (data.current == DataKind::Gradient || (s.output == DataKind::Gradient && data.gradient)) {
+      GradientField& g = *data.gradient;
+      for (const auto& [k, v] : ctx.provenance) g.metadata[k] = v;
+      write_gradient(g, a->output);
+    } else {
+      if (!data.height) fail(s.name, "produced no heightfield to write");
+      Heightfield& h = *data.height;
+      for (const auto& [k, v] : ctx.provenance) h.metadata[k] = v;
+      write_heightfield(h, a->output);
+    }
+  });
+}
+
+struct StagesArgs {
+  bool markdown = false;
+};
+
+CommandRegistrar reg(50, [](CLI::App& app) {
+  auto a = std::make_shared<StagesArgs>();
+  auto* sub = app.add_subcommand("stages", "List the pipeline stages and their options");
+  sub->add_flag("--markdown", a->markdown, "Print docs/stages.md");
+  sub->callback([a] {
+    if (a->markdown) {
+      fmt::print("{}", stages_markdown());
+      return;
+    }
+    for (const auto& s : StageRegistry::instance().all()) fmt::print("{:<16} {}\n", s.name, s.description);
+  });
+  for (const auto& s : StageRegistry::instance().all())
+    if (s.cli) add_stage_command(app, s);
+});
+
+}  // namespace
+}  // namespace terracl::cli

@@ -1,0 +1,63 @@
+// Progress display (GDAL's convention: one callback, fraction + message). A bar on a terminal,
+// JSON lines for machines, nothing with -q. Ctrl-C turns the next callback into a cancel.
+#include "cli.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+
+namespace terracl::cli {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+bool g_bar_open = false;
+
+void on_sigint(int) {
+  if (g_interrupted.exchange(true)) std::_Exit(130);  // a second Ctrl-C stops at once
+}
+
+}  // namespace
+
+void install_interrupt_handler() { std::signal(SIGINT, on_sigint); }
+bool interrupted() { return g_interrupted.load(); }
+
+void finish_progress() {
+  if (g_bar_open) {
+    std::fputc('\n', stderr);
+    g_bar_open = false;
+  }
+}
+
+Progress make_progress(const std::string& stage) {
+  const Globals& g = globals();
+  std::string mode = g.quiet ? "none" : g.progress;
+  if (mode == "auto") mode = isatty(STDERR_FILENO) ? "bar" : "none";
+  if (mode == "none") return [](double, const std::string&) { return !interrupted(); };
+  if (mode == "json") {
+    return [stage](double f, const std::string& msg) {
+      std::string m;
+      for (char c : msg) m += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+      std::printf("{\"stage\": \"%s\", \"fraction\": %.4f, \"message\": \"%s\"}\n", stage.c_str(), f, m.c_str());
+      std::fflush(stdout);
+      return !interrupted();
+    };
+  }
+  auto last = std::make_shared<std::chrono::steady_clock::time_point>();
+  return [stage, last](double f, const std::string& msg) {
+    const auto now = std::chrono::steady_clock::now();
+    if (f < 1.0 && now - *last < std::chrono::milliseconds(100)) return !interrupted();
+    *last = now;
+    const int width = 30, filled = int(f * width + 0.5);
+    std::fprintf(stderr, "\r%-12s [%s%s] %3d%% %-30.30s", stage.c_str(), std::string(filled, '#').c_str(),
+                 std::string(width - filled, '.').c_str(), int(f * 100 + 0.5), msg.c_str());
+    std::fflush(stderr);
+    g_bar_open = true;
+    return !interrupted();
+  };
+}
+
+}  // namespace terracl::cli

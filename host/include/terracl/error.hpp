@@ -1,0 +1,38 @@
+#pragma once
+/// Errors thrown by the library. Every message starts with "<stage>: " so that the CLI can print
+/// `terracl ERROR: <stage>: <message>` without knowing where it came from.
+#include <fmt/format.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace terracl {
+
+class Error : public std::runtime_error {
+ public:
+  Error(const std::string& stage, const std::string& message)
+      : std::runtime_error(stage + ": " + message), m_stage(stage) {}
+  const std::string& stage() const { return m_stage; }
+
+ private:
+  std::string m_stage;
+};
+
+/// Thrown for bad command-line or pipeline usage (the CLI exits with 2 for these).
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Thrown when a progress callback asked to stop.
+class Cancelled : public Error {
+ public:
+  explicit Cancelled(const std::string& stage) : Error(stage, "cancelled") {}
+};
+
+template <typename... Args>
+[[noreturn]] void fail(const std::string& stage, fmt::format_string<Args...> f, Args&&... args) {
+  throw Error(stage, fmt::format(f, std::forward<Args>(args)...));
+}
+
+}  // namespace terracl

@@ -1,0 +1,71 @@
+#pragma once
+/// Reading and writing heightfields and gradient fields. The format comes from the file's
+/// extension and is checked against the file's content:
+///   .tif/.tiff (GDAL, GeoTIFF), .hgt (SRTM), .asc (ESRI ASCII grid), other GDAL rasters on read;
+///   .png (8/16-bit), .exr (float) through OpenImageIO/OpenEXR; .r16/.raw (RAW16 little-endian).
+/// Writers put the output under a temporary name in the same folder and rename it when complete,
+/// so a failure never leaves a partial file.
+#include <terracl/heightfield.hpp>
+
+#include <optional>
+#include <string>
+
+namespace terracl {
+
+struct ReadOptions {
+  /// Vertical range that 0 and the largest code of a PNG/RAW16 map to (overrides the sidecar).
+  std::optional<double> zmin, zmax;
+  /// Size of a RAW16 file (overrides the sidecar).
+  std::optional<int> width, height;
+  /// Cell size in metres for formats without georeferencing (overrides the sidecar).
+  std::optional<double> cell_size;
+  /// Harmonic fill of nodata cells after reading.
+  bool fill_nodata = false;
+};
+
+struct WriteOptions {
+  /// Vertical range mapped to 0..65535 in PNG16/RAW16 (default: the data's min/max).
+  std::optional<double> zmin, zmax;
+};
+
+enum class FileFormat { GeoTIFF, HGT, AsciiGrid, PNG, EXR, TIFF, RAW16, GDALOther, Unknown };
+/// Format from the extension (lower-cased); Unknown when not recognised.
+FileFormat format_from_extension(const std::string& path);
+const char* format_name(FileFormat f);
+
+Heightfield read_heightfield(const std::string& path, const ReadOptions& opts = {});
+void write_heightfield(const Heightfield& h, const std::string& path, const WriteOptions& opts = {});
+
+/// Gradient fields travel as two-channel float EXR ("gx", "gy"), with the cell size, georef and
+/// mean elevation as attributes.
+GradientField read_gradient(const std::string& path);
+void write_gradient(const GradientField& g, const std::string& path);
+
+/// True when the file is an EXR with two channels named gx/gy (or any two channels).
+bool is_gradient_file(const std::string& path);
+
+/// Writes `content` to `path` atomically (temporary name in the same folder, then rename).
+void write_text_file_atomic(const std::string& path, const std::string& content);
+
+/// Runs `writer(tmp_path)` and renames tmp_path to `path` on success; removes tmp_path on failure.
+/// The temporary name keeps the extension so format-by-extension libraries still work.
+template <typename F>
+void write_atomically(const std::string& path, F&& writer);
+
+std::string temporary_path_for(const std::string& path);
+void commit_temporary(const std::string& tmp, const std::string& path);
+void discard_temporary(const std::string& tmp);
+
+template <typename F>
+void write_atomically(const std::string& path, F&& writer) {
+  const std::string tmp = temporary_path_for(path);
+  try {
+    writer(tmp);
+  } catch (...) {
+    discard_temporary(tmp);
+    throw;
+  }
+  commit_temporary(tmp, path);
+}
+
+}  // namespace terracl

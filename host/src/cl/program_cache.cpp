@@ -1,0 +1,126 @@
+// Program building with a two-level cache: in memory per Device, and on disk as device binaries
+// keyed by a hash of everything that can change the binary (source, options, platform, device,
+// driver). A stale or corrupt cache entry is ignored and rebuilt, never an error.
+#include <terracl/device.hpp>
+#include <terracl/error.hpp>
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace terracl {
+namespace detail {
+const std::map<std::string, std::string>& embedded_kernels();
+}
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Kernels are built as OpenCL C 1.2 and never with fast-math: determinism and NaN safety matter
+// more to us than the last few per cent.
+const char* kBaseOptions = "-cl-std=CL1.2";
+
+uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+fs::path cache_dir() {
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return fs::path(x) / "terracl";
+  if (const char* home = std::getenv("HOME"); home && *home) return fs::path(home) / ".cache" / "terracl";
+  return {};
+}
+
+bool disk_cache_enabled() {
+  const char* v = std::getenv("TERRACL_NO_CACHE");
+  return !(v && *v && std::string(v) != "0");
+}
+
+std::string build_log(const cl::Program& p, const cl::Device& d) {
+  try {
+    return p.getBuildInfo<CL_PROGRAM_BUILD_LOG>(d);
+  } catch (const cl::Error&) {
+    return "(no build log available)";
+  }
+}
+
+}  // namespace
+
+const std::string& kernel_source(const std::string& file) {
+  const auto& k = detail::embedded_kernels();
+  auto it = k.find(file);
+  if (it == k.end()) fail("device", "no embedded kernel file kernels/{}.cl", file);
+  return it->second;
+}
+
+std::vector<std::string> kernel_files() {
+  std::vector<std::string> out;
+  for (const auto& [name, src] : detail::embedded_kernels()) out.push_back(name);
+  return out;
+}
+
+cl::Program& Device::program(const std::string& file, const std::string& extra_options) {
+  std::lock_guard<std::mutex> lock(m_mutex);
+  const std::string options = extra_options.empty() ? kBaseOptions : std::string(kBaseOptions) + " " + extra_options;
+  const std::string mem_key = file + "\n" + options;
+  if (auto it = m_programs.find(mem_key); it != m_programs.end()) return it->second;
+
+  const std::string& src = kernel_source(file);
+  uint64_t h = fnv1a(src);
+  for (const std::string& part : {options, m_info.platform, m_info.name, m_info.driver_version, m_info.device_version})
+    h = fnv1a("\x1f" + part, h);
+  const fs::path dir = cache_dir();
+  const bool use_disk = disk_cache_enabled() && !dir.empty();
+  const fs::path bin_path = dir / fmt::format("{}-{:016x}.bin", file, h);
+
+  if (use_disk && fs::exists(bin_path)) {
+    std::ifstream in(bin_path, std::ios::binary);
+    std::vector<unsigned char> bin((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!bin.empty()) {
+      try {
+        cl::Program::Binaries bins{bin};
+        cl::Program p(m_context, {m_device}, bins);
+        p.build({m_device}, options.c_str());
+        return m_programs.emplace(mem_key, p).first->second;
+      } catch (const cl::Error&) {
+        // Corrupt or incompatible binary: fall through to a source build that rewrites it.
+      }
+    }
+  }
+
+  cl::Program p(m_context, src);
+  try {
+    p.build({m_device}, options.c_str());
+  } catch (const cl::Error& e) {
+    throw Error("device", fmt::format("building kernels/{}.cl for {} failed ({}) with options '{}'. Build log:\n{}",
+                                      file, m_info.name, describe(e), options, build_log(p, m_device)));
+  }
+
+  if (use_disk) {
+    try {
+      auto bins = p.getInfo<CL_PROGRAM_BINARIES>();
+      if (!bins.empty() && !bins[0].empty()) {
+        fs::create_directories(dir);
+        const fs::path tmp = bin_path.string() + fmt::format(".tmp{}", std::rand());
+        {
+          std::ofstream out(tmp, std::ios::binary);
+          out.write(reinterpret_cast<const char*>(bins[0].data()), std::streamsize(bins[0].size()));
+        }
+        fs::rename(tmp, bin_path);
+      }
+    } catch (const std::exception&) {
+      // A read-only or full cache folder only costs the next run a rebuild.
+    }
+  }
+  return m_programs.emplace(mem_key, p).first->second;
+}
+
+}  // namespace terracl

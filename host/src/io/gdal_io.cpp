@@ -1,0 +1,154 @@
+// GDAL backend: every georeferenced raster on read (GeoTIFF, SRTM .hgt, ESRI ASCII grid, ...),
+// float32 GeoTIFF on write. GDAL's own error messages are captured and passed on, so the user
+// sees why a file was refused.
+#include "io/io_common.hpp"
+
+#include <terracl/error.hpp>
+
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace terracl::io {
+namespace {
+
+void CPL_STDCALL quiet_handler(CPLErr, CPLErrorNum, const char*) {}
+
+void init_gdal() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    GDALAllRegister();
+    CPLSetErrorHandler(quiet_handler);
+  });
+}
+
+std::string last_gdal_error() {
+  const char* m = CPLGetLastErrorMsg();
+  return (m && *m) ? std::string(m) : std::string("no details from GDAL");
+}
+
+struct DatasetCloser {
+  void operator()(GDALDataset* d) const { GDALClose(d); }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
+
+bool looks_like_degrees(const std::array<double, 6>& gt, int w, int h) {
+  const double x0 = gt[0], y0 = gt[3], x1 = gt[0] + gt[1] * w + gt[2] * h, y1 = gt[3] + gt[4] * w + gt[5] * h;
+  const double cell = std::max(std::fabs(gt[1]), std::fabs(gt[5]));
+  return cell > 0 && cell < 0.1 && std::fabs(x0) <= 180 && std::fabs(x1) <= 180 && std::fabs(y0) <= 90 &&
+         std::fabs(y1) <= 90;
+}
+
+}  // namespace
+
+Heightfield read_gdal(const std::string& path) {
+  init_gdal();
+  CPLErrorReset();
+  DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  if (!ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
+  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
+  if (w <= 0 || h <= 0 || ds->GetRasterCount() < 1)
+    fail("io", "{}: raster has no cells ({} x {}, {} bands)", path, w, h, ds->GetRasterCount());
+  Heightfield out(w, h);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  if (band->RasterIO(GF_Read, 0, 0, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+    fail("io", "{}: reading band 1 failed ({})", path, last_gdal_error());
+
+  Georef& g = out.georef;
+  int has_nodata = 0;
+  const double nd = band->GetNoDataValue(&has_nodata);
+  if (has_nodata) {
+    g.nodata = nd;
+    const float ndf = float(nd);
+    for (float& v : out.z)
+      if (v == ndf || (std::isnan(nd) && std::isnan(v))) v = NAN;
+  }
+  double gt[6];
+  if (ds->GetGeoTransform(gt) == CE_None) {
+    std::copy(gt, gt + 6, g.geotransform.begin());
+    g.has_geotransform = true;
+  }
+  if (const OGRSpatialReference* srs = ds->GetSpatialRef()) {
+    char* wkt = nullptr;
+    if (srs->exportToWkt(&wkt) == OGRERR_NONE && wkt) g.crs_wkt = wkt;
+    CPLFree(wkt);
+    g.geographic = srs->IsGeographic();
+  }
+  if (g.crs_wkt.empty() && g.has_geotransform && looks_like_degrees(g.geotransform, w, h)) {
+    // ESRI ASCII grids often come without a .prj; SRTM extracts are in degrees on WGS 84. Assume
+    // it, so metric cell sizes are right, and say so in the metadata.
+    OGRSpatialReference wgs84;
+    wgs84.SetWellKnownGeogCS("WGS84");
+    char* wkt = nullptr;
+    if (wgs84.exportToWkt(&wkt) == OGRERR_NONE && wkt) g.crs_wkt = wkt;
+    CPLFree(wkt);
+    g.geographic = true;
+    out.metadata["terracl:crs_assumed"] = "WGS 84 (the file has no CRS; its coordinates look like degrees)";
+  }
+  if (const char* units = band->GetUnitType(); units && *units) g.vertical_units = units;
+  g.update_metric_cell_size(w, h);
+  if (char** md = ds->GetMetadata()) {
+    for (char** p = md; *p; ++p) {
+      std::string kv(*p);
+      auto eq = kv.find('=');
+      if (eq != std::string::npos && kv.rfind("terracl:", 0) == 0) out.metadata[kv.substr(0, eq)] = kv.substr(eq + 1);
+    }
+  }
+  return out;
+}
+
+void write_geotiff(const Heightfield& h, const std::string& tmp_path) {
+  init_gdal();
+  CPLErrorReset();
+  GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
+  if (!drv) fail("io", "GDAL has no GTiff driver");
+  char** opts = nullptr;
+  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
+  opts = CSLSetNameValue(opts, "PREDICTOR", "3");
+  opts = CSLSetNameValue(opts, "TILED", "YES");
+  opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
+  DatasetPtr ds(drv->Create(tmp_path.c_str(), h.width, h.height, 1, GDT_Float32, opts));
+  CSLDestroy(opts);
+  if (!ds) fail("io", "cannot create GeoTIFF {} ({})", tmp_path, last_gdal_error());
+  const Georef& g = h.georef;
+  if (g.has_geotransform) {
+    double gt[6];
+    std::copy(g.geotransform.begin(), g.geotransform.end(), gt);
+    ds->SetGeoTransform(gt);
+  }
+  if (!g.crs_wkt.empty()) ds->SetProjection(g.crs_wkt.c_str());
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  const bool has_nan = h.count_nodata() > 0;
+  std::vector<float> data;
+  const std::vector<float>* src = &h.z;
+  if (g.nodata || has_nan) {
+    const double nd = g.nodata ? *g.nodata : double(NAN);
+    band->SetNoDataValue(nd);
+    if (has_nan && !std::isnan(nd)) {
+      data = h.z;
+      for (float& v : data)
+        if (!std::isfinite(v)) v = float(nd);
+      src = &data;
+    }
+  }
+  band->SetUnitType(g.vertical_units.c_str());
+  for (const auto& [k, v] : h.metadata) ds->SetMetadataItem(k.c_str(), v.c_str());
+  ds->SetMetadataItem("TIFFTAG_SOFTWARE", ("terracl " + std::string(h.metadata.count("terracl:version") ? h.metadata.at("terracl:version") : "")).c_str());
+  ds->SetMetadataItem("terracl:cell_x", std::to_string(g.cell_x).c_str());
+  ds->SetMetadataItem("terracl:cell_y", std::to_string(g.cell_y).c_str());
+  if (band->RasterIO(GF_Write, 0, 0, h.width, h.height, const_cast<float*>(src->data()), h.width, h.height, GDT_Float32,
+                     0, 0) != CE_None)
+    fail("io", "writing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());
+  GDALDataset* raw = ds.release();
+  CPLErrorReset();
+  GDALClose(raw);
+  if (CPLGetLastErrorType() >= CE_Failure) fail("io", "finishing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());
+}
+
+}  // namespace terracl::io

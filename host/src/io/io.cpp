@@ -1,0 +1,164 @@
+// Format dispatch: the extension names the format and the content must agree, so that a PNG
+// renamed .tif is refused with a clear message rather than silently read by whichever library
+// recognises it.
+#include "io/io_common.hpp"
+
+#include <terracl/error.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+namespace terracl {
+namespace fs = std::filesystem;
+
+FileFormat format_from_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext == ".tif" || ext == ".tiff") return FileFormat::GeoTIFF;
+  if (ext == ".hgt") return FileFormat::HGT;
+  if (ext == ".asc") return FileFormat::AsciiGrid;
+  if (ext == ".png") return FileFormat::PNG;
+  if (ext == ".exr") return FileFormat::EXR;
+  if (ext == ".r16" || ext == ".raw") return FileFormat::RAW16;
+  if (ext == ".img" || ext == ".vrt" || ext == ".dem" || ext == ".bil" || ext == ".nc" || ext == ".dt0" ||
+      ext == ".dt1" || ext == ".dt2" || ext == ".xyz")
+    return FileFormat::GDALOther;
+  return FileFormat::Unknown;
+}
+
+const char* format_name(FileFormat f) {
+  switch (f) {
+    case FileFormat::GeoTIFF: return "GeoTIFF";
+    case FileFormat::HGT: return "SRTM HGT";
+    case FileFormat::AsciiGrid: return "ESRI ASCII grid";
+    case FileFormat::PNG: return "PNG";
+    case FileFormat::EXR: return "OpenEXR";
+    case FileFormat::TIFF: return "TIFF";
+    case FileFormat::RAW16: return "RAW16";
+    case FileFormat::GDALOther: return "GDAL raster";
+    default: return "unknown";
+  }
+}
+
+namespace {
+
+const char* kKnown = ".tif .tiff .hgt .asc .png .exr .r16 .raw (and other GDAL rasters: .img .vrt .dem .bil .nc .dt0-2 .xyz)";
+
+void require_magic(const std::string& path, const char* expected, FileFormat f) {
+  const std::string got = io::sniff_magic(path);
+  if (got != expected)
+    fail("io", "{}: extension says {} but the content is {}", path, format_name(f),
+         got.empty() ? "not a " + std::string(format_name(f)) + " file" : "a " + got + " file");
+}
+
+void check_hgt(const std::string& path) {
+  const auto size = fs::file_size(path);
+  // SRTM3 (3") and SRTM1 (1") tiles; anything else is truncated or not an HGT.
+  if (size != 1201ull * 1201 * 2 && size != 3601ull * 3601 * 2)
+    fail("io", "{}: SRTM .hgt must be 2884802 bytes (SRTM3, 1201 x 1201) or 25934402 bytes (SRTM1, 3601 x 3601); "
+         "this file has {} bytes (truncated?)", path, size);
+}
+
+void check_ascii_grid(const std::string& path) {
+  std::ifstream in(path);
+  std::string word;
+  in >> word;
+  std::transform(word.begin(), word.end(), word.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (word != "ncols" && word != "nrows")
+    fail("io", "{}: an ESRI ASCII grid starts with an 'ncols' header line; found '{}'", path, word.substr(0, 40));
+}
+
+}  // namespace
+
+Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
+  io::require_readable(path);
+  const FileFormat f = format_from_extension(path);
+  Heightfield h;
+  switch (f) {
+    case FileFormat::GeoTIFF:
+      require_magic(path, "TIFF", f);
+      h = io::read_gdal(path);
+      break;
+    case FileFormat::HGT:
+      check_hgt(path);
+      h = io::read_gdal(path);
+      break;
+    case FileFormat::AsciiGrid:
+      check_ascii_grid(path);
+      h = io::read_gdal(path);
+      break;
+    case FileFormat::GDALOther:
+      h = io::read_gdal(path);
+      break;
+    case FileFormat::PNG:
+      require_magic(path, "PNG", f);
+      h = io::read_oiio(path, opts);
+      break;
+    case FileFormat::EXR:
+      require_magic(path, "EXR", f);
+      h = io::read_oiio(path, opts);
+      break;
+    case FileFormat::RAW16:
+      h = io::read_raw16(path, opts);
+      break;
+    default:
+      fail("io", "{}: unknown raster extension; expected one of {}", path, kKnown);
+  }
+  if (h.width <= 0 || h.height <= 0) fail("io", "{}: raster has no cells", path);
+  if (f == FileFormat::GeoTIFF && !h.georef.has_geotransform) {
+    // Our own non-georeferenced outputs keep their metric cell size as metadata.
+    if (auto it = h.metadata.find("terracl:cell_x"); it != h.metadata.end()) h.georef.cell_x = std::stod(it->second);
+    if (auto it = h.metadata.find("terracl:cell_y"); it != h.metadata.end()) h.georef.cell_y = std::stod(it->second);
+  }
+  h.metadata.erase("terracl:cell_x");
+  h.metadata.erase("terracl:cell_y");
+  if (opts.fill_nodata) fill_nodata_harmonic(h);
+  return h;
+}
+
+void write_heightfield(const Heightfield& h, const std::string& path, const WriteOptions& opts) {
+  const FileFormat f = format_from_extension(path);
+  if (f == FileFormat::Unknown || f == FileFormat::HGT || f == FileFormat::AsciiGrid || f == FileFormat::GDALOther)
+    fail("io", "{}: cannot write this extension; terracl writes .tif/.tiff (GeoTIFF float32), .exr (float), "
+         ".png (16-bit + JSON sidecar), .r16/.raw (RAW16 + JSON sidecar)", path);
+  if (h.width <= 0 || h.height <= 0 || h.z.size() != size_t(h.width) * h.height)
+    fail("io", "{}: refusing to write an empty or inconsistent heightfield ({} x {})", path, h.width, h.height);
+  io::require_writable_folder(path);
+  if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t); });
+  if (f == FileFormat::EXR) return write_atomically(path, [&](const std::string& t) { io::write_exr(h, t); });
+
+  // Quantised formats: the image and its sidecar are both written under temporary names and
+  // moved into place together.
+  auto [lo, hi] = io::finite_range(h.z);
+  const double zmin = opts.zmin.value_or(lo), zmax = opts.zmax.value_or(hi);
+  if (!(zmax >= zmin)) fail("io", "{}: vertical range zmax ({}) is below zmin ({})", path, zmax, zmin);
+  nlohmann::json sc = io::georef_to_json(h.georef);
+  sc["width"] = h.width;
+  sc["height"] = h.height;
+  sc["zmin"] = zmin;
+  sc["zmax"] = zmax;
+  sc["format"] = f == FileFormat::PNG ? "png16-linear" : "raw16-le";
+  sc["metadata"] = h.metadata;
+  const std::string sc_path = io::sidecar_path(path);
+  const std::string sc_tmp = temporary_path_for(sc_path);
+  write_atomically(path, [&](const std::string& tmp) {
+    if (f == FileFormat::PNG)
+      io::write_png16(h, tmp, zmin, zmax);
+    else
+      io::write_raw16(h, tmp, zmin, zmax);
+    try {
+      std::ofstream out(sc_tmp);
+      out << sc.dump(2) << "\n";
+      out.close();
+      if (!out) fail("io", "cannot write sidecar {}", sc_path);
+      commit_temporary(sc_tmp, sc_path);
+    } catch (...) {
+      discard_temporary(sc_tmp);
+      throw;
+    }
+  });
+}
+
+}  // namespace terracl

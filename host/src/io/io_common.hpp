@@ -1,0 +1,38 @@
+#pragma once
+// Shared helpers of the I/O backends (private to host/src/io).
+#include <terracl/heightfield.hpp>
+#include <terracl/io.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+namespace terracl::io {
+
+/// What the file's first bytes say it is ("PNG", "TIFF", "EXR", "" when unknown or empty).
+std::string sniff_magic(const std::string& path);
+/// Throws "io: <path>: ..." when the file is missing, unreadable, empty or a folder.
+void require_readable(const std::string& path);
+/// Throws when the folder of `path` is missing or not writable.
+void require_writable_folder(const std::string& path);
+
+std::string sidecar_path(const std::string& path);  // "<file>.json"
+/// Sidecar JSON if present (null otherwise); a malformed one is an error naming the file.
+nlohmann::json read_sidecar(const std::string& path);
+nlohmann::json georef_to_json(const Georef& g);
+void georef_from_json(const nlohmann::json& j, Georef& g, const std::string& where);
+
+/// Min/max of the finite values; {0, 0} when none are finite.
+std::pair<double, double> finite_range(const std::vector<float>& z);
+
+Heightfield read_gdal(const std::string& path);
+void write_geotiff(const Heightfield& h, const std::string& tmp_path);
+
+Heightfield read_oiio(const std::string& path, const ReadOptions& opts);
+void write_png16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax);
+void write_exr(const Heightfield& h, const std::string& tmp_path);
+
+Heightfield read_raw16(const std::string& path, const ReadOptions& opts);
+void write_raw16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax);
+
+}  // namespace terracl::io

@@ -1,0 +1,180 @@
+// OpenImageIO backend: PNG (8/16-bit codes mapped to a vertical range) and float EXR with
+// terracl attributes. PNG16 output is linear: integer codes written as-is, so no gamma or dither.
+#include "io/io_common.hpp"
+
+#include <terracl/error.hpp>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdlib>
+
+namespace terracl::io {
+namespace {
+
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+void apply_georef_attributes(const ImageSpec& spec, Georef& g, Metadata& md) {
+  if (const auto* p = spec.find_attribute("terracl:georef", TypeDesc::STRING)) {
+    try {
+      georef_from_json(nlohmann::json::parse(p->get_string()), g, "EXR attribute terracl:georef");
+    } catch (const nlohmann::json::exception&) {
+    }
+  }
+  for (const auto& a : spec.extra_attribs) {
+    const std::string name = a.name().string();
+    if (name.rfind("terracl:", 0) == 0 && name != "terracl:georef" && a.type() == TypeDesc::STRING)
+      md[name] = a.get_string();
+  }
+}
+
+void set_attributes(ImageSpec& spec, const Georef& g, const Metadata& md) {
+  spec.attribute("terracl:georef", georef_to_json(g).dump());
+  spec.attribute("terracl:cell_x", float(g.cell_x));
+  spec.attribute("terracl:cell_y", float(g.cell_y));
+  spec.attribute("terracl:units", g.vertical_units);
+  for (const auto& [k, v] : md) spec.attribute(k, v);
+  spec.attribute("Software", "terracl");
+}
+
+void write_image(const std::string& tmp_path, const ImageSpec& spec, TypeDesc type, const void* data) {
+  auto out = ImageOutput::create(tmp_path);
+  if (!out) fail("io", "cannot create {}: {}", tmp_path, OIIO::geterror());
+  if (!out->open(tmp_path, spec)) fail("io", "cannot open {} for writing: {}", tmp_path, out->geterror());
+  if (!out->write_image(type, data)) fail("io", "writing {} failed: {}", tmp_path, out->geterror());
+  if (!out->close()) fail("io", "closing {} failed: {}", tmp_path, out->geterror());
+}
+
+}  // namespace
+
+Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
+  auto in = ImageInput::open(path);
+  if (!in) fail("io", "{}: not an image OpenImageIO can read ({})", path, OIIO::geterror());
+  const ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0) fail("io", "{}: image has no pixels", path);
+  Heightfield h(spec.width, spec.height);
+  const bool is_float = spec.format.basetype == TypeDesc::FLOAT || spec.format.basetype == TypeDesc::HALF ||
+                        spec.format.basetype == TypeDesc::DOUBLE;
+  if (is_float) {
+    if (!in->read_image(0, 0, 0, 1, TypeDesc::FLOAT, h.z.data()))
+      fail("io", "{}: reading pixels failed: {}", path, in->geterror());
+    apply_georef_attributes(spec, h.georef, h.metadata);
+  } else {
+    // Integer images hold codes; map them to metres with zmin + code/max_code*(zmax - zmin).
+    const bool sixteen = spec.format.size() >= 2;
+    const double max_code = sixteen ? 65535.0 : 255.0;
+    std::vector<uint16_t> codes(h.size());
+    if (!in->read_image(0, 0, 0, 1, TypeDesc::UINT16, codes.data()))
+      fail("io", "{}: reading pixels failed: {}", path, in->geterror());
+    // OIIO rescales 8-bit to the full 16-bit range on read; undo that so 8-bit codes stay 0..255.
+    const double scale_back = sixteen ? 1.0 : 255.0 / 65535.0;
+    double zmin = 0.0, zmax = max_code;
+    const nlohmann::json sc = read_sidecar(path);
+    if (!sc.is_null()) {
+      try {
+        if (sc.contains("zmin")) zmin = sc.at("zmin").get<double>();
+        if (sc.contains("zmax")) zmax = sc.at("zmax").get<double>();
+      } catch (const nlohmann::json::exception& e) {
+        fail("io", "{}: sidecar fields zmin/zmax must be numbers ({})", sidecar_path(path), e.what());
+      }
+      georef_from_json(sc, h.georef, sidecar_path(path));
+      if (sc.contains("metadata") && sc["metadata"].is_object())
+        for (auto& [k, v] : sc["metadata"].items())
+          if (v.is_string()) h.metadata[k] = v.get<std::string>();
+    }
+    if (opts.zmin) zmin = *opts.zmin;
+    if (opts.zmax) zmax = *opts.zmax;
+    for (size_t i = 0; i < codes.size(); ++i)
+      h.z[i] = float(zmin + std::round(codes[i] * scale_back) / max_code * (zmax - zmin));
+  }
+  if (opts.cell_size) h.georef.cell_x = h.georef.cell_y = *opts.cell_size;
+  in->close();
+  return h;
+}
+
+void write_png16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax) {
+  std::vector<uint16_t> codes(h.size());
+  const double span = zmax - zmin;
+  for (size_t i = 0; i < codes.size(); ++i) {
+    const double v = h.z[i];
+    double c = (std::isfinite(v) && span > 0) ? (v - zmin) / span * 65535.0 : 0.0;
+    codes[i] = uint16_t(std::clamp(std::round(c), 0.0, 65535.0));
+  }
+  ImageSpec spec(h.width, h.height, 1, TypeDesc::UINT16);
+  spec.attribute("oiio:ColorSpace", "Linear");
+  spec.attribute("Software", "terracl");
+  write_image(tmp_path, spec, TypeDesc::UINT16, codes.data());
+}
+
+void write_exr(const Heightfield& h, const std::string& tmp_path) {
+  ImageSpec spec(h.width, h.height, 1, TypeDesc::FLOAT);
+  spec.channelnames = {"Y"};
+  spec.attribute("compression", "zip");
+  set_attributes(spec, h.georef, h.metadata);
+  write_image(tmp_path, spec, TypeDesc::FLOAT, h.z.data());
+}
+
+}  // namespace terracl::io
+
+namespace terracl {
+
+bool is_gradient_file(const std::string& path) {
+  if (io::sniff_magic(path) != "EXR") return false;
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return false;
+  return in->spec().nchannels == 2;
+}
+
+GradientField read_gradient(const std::string& path) {
+  io::require_readable(path);
+  if (io::sniff_magic(path) != "EXR") fail("io", "{}: a gradient field must be a two-channel float EXR", path);
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) fail("io", "{}: cannot open EXR ({})", path, OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.nchannels != 2)
+    fail("io", "{}: a gradient field has 2 channels (gx, gy), this file has {}", path, spec.nchannels);
+  GradientField g(spec.width, spec.height);
+  std::vector<float> px(size_t(spec.width) * spec.height * 2);
+  if (!in->read_image(0, 0, 0, 2, OIIO::TypeDesc::FLOAT, px.data()))
+    fail("io", "{}: reading pixels failed: {}", path, in->geterror());
+  // Channel order on disk is alphabetical in EXR; find gx/gy by name when present.
+  int ix = 0, iy = 1;
+  if (spec.channelnames.size() == 2 && spec.channelnames[0] == "gy") std::swap(ix, iy);
+  for (size_t i = 0; i < g.size(); ++i) {
+    g.gx[i] = px[2 * i + ix];
+    g.gy[i] = px[2 * i + iy];
+  }
+  io::apply_georef_attributes(spec, g.georef, g.metadata);
+  if (auto it = g.metadata.find("terracl:mean_elevation"); it != g.metadata.end()) {
+    g.mean_elevation = std::strtod(it->second.c_str(), nullptr);
+    g.metadata.erase(it);
+  }
+  for (size_t i = 0; i < g.size(); ++i)
+    if (!std::isfinite(g.gx[i]) || !std::isfinite(g.gy[i]))
+      fail("io", "{}: gradient has a non-finite value at cell ({}, {})", path, i % g.width, i / g.width);
+  return g;
+}
+
+void write_gradient(const GradientField& g, const std::string& path) {
+  if (format_from_extension(path) != FileFormat::EXR)
+    fail("io", "{}: gradient fields are written as .exr (two float channels)", path);
+  io::require_writable_folder(path);
+  std::vector<float> px(g.size() * 2);
+  for (size_t i = 0; i < g.size(); ++i) {
+    px[2 * i] = g.gx[i];
+    px[2 * i + 1] = g.gy[i];
+  }
+  OIIO::ImageSpec spec(g.width, g.height, 2, OIIO::TypeDesc::FLOAT);
+  spec.channelnames = {"gx", "gy"};
+  spec.attribute("compression", "zip");
+  io::set_attributes(spec, g.georef, g.metadata);
+  // As text: a float attribute would lose centimetres at mountain elevations.
+  if (std::isfinite(g.mean_elevation)) spec.attribute("terracl:mean_elevation", fmt::format("{:.17g}", g.mean_elevation));
+  write_atomically(path, [&](const std::string& tmp) { io::write_image(tmp, spec, OIIO::TypeDesc::FLOAT, px.data()); });
+}
+
+}  // namespace terracl

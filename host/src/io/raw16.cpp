@@ -1,0 +1,74 @@
+// RAW16: headerless little-endian uint16 (Unreal/Unity heightmaps). Size and vertical range live
+// in the JSON sidecar "<file>.json" or come from options; without a size the file is ambiguous.
+#include "io/io_common.hpp"
+
+#include <terracl/error.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+namespace terracl::io {
+
+Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
+  const nlohmann::json sc = read_sidecar(path);
+  std::optional<int> w = opts.width, h = opts.height;
+  double zmin = 0.0, zmax = 65535.0;
+  Georef g;
+  Metadata md;
+  if (!sc.is_null()) {
+    try {
+      if (!w && sc.contains("width")) w = sc.at("width").get<int>();
+      if (!h && sc.contains("height")) h = sc.at("height").get<int>();
+      if (sc.contains("zmin")) zmin = sc.at("zmin").get<double>();
+      if (sc.contains("zmax")) zmax = sc.at("zmax").get<double>();
+    } catch (const nlohmann::json::exception& e) {
+      fail("io", "{}: sidecar fields width/height/zmin/zmax have the wrong type ({})", sidecar_path(path), e.what());
+    }
+    georef_from_json(sc, g, sidecar_path(path));
+    if (sc.contains("metadata") && sc["metadata"].is_object())
+      for (auto& [k, v] : sc["metadata"].items())
+        if (v.is_string()) md[k] = v.get<std::string>();
+  }
+  if (!w || !h)
+    fail("io", "{}: RAW16 needs its size: no sidecar {} with width/height, and no --width/--height given", path,
+         sidecar_path(path));
+  if (*w <= 0 || *h <= 0) fail("io", "{}: RAW16 size must be positive, got {} x {}", path, *w, *h);
+  if (opts.zmin) zmin = *opts.zmin;
+  if (opts.zmax) zmax = *opts.zmax;
+  const uint64_t expected = uint64_t(*w) * uint64_t(*h) * 2;
+  const uint64_t actual = std::filesystem::file_size(path);
+  if (actual != expected)
+    fail("io", "{}: RAW16 of {} x {} must be {} bytes, the file has {}", path, *w, *h, expected, actual);
+  std::ifstream in(path, std::ios::binary);
+  std::vector<unsigned char> bytes(expected);
+  in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(expected));
+  if (!in) fail("io", "{}: read failed", path);
+  Heightfield out(*w, *h);
+  for (size_t i = 0; i < out.size(); ++i) {
+    const unsigned code = unsigned(bytes[2 * i]) | (unsigned(bytes[2 * i + 1]) << 8);
+    out.z[i] = float(zmin + code / 65535.0 * (zmax - zmin));
+  }
+  out.georef = g;
+  out.metadata = md;
+  if (opts.cell_size) out.georef.cell_x = out.georef.cell_y = *opts.cell_size;
+  return out;
+}
+
+void write_raw16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax) {
+  std::vector<unsigned char> bytes(h.size() * 2);
+  const double span = zmax - zmin;
+  for (size_t i = 0; i < h.size(); ++i) {
+    const double v = h.z[i];
+    const double c = (std::isfinite(v) && span > 0) ? (v - zmin) / span * 65535.0 : 0.0;
+    const unsigned code = unsigned(std::clamp(std::round(c), 0.0, 65535.0));
+    bytes[2 * i] = static_cast<unsigned char>(code & 0xff);
+    bytes[2 * i + 1] = static_cast<unsigned char>(code >> 8);
+  }
+  std::ofstream out(tmp_path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  out.close();
+  if (!out) fail("io", "writing {} failed", tmp_path);
+}
+
+}  // namespace terracl::io

@@ -1,0 +1,9 @@
+#pragma once
+// Each stage module exposes one registration function; builtin_stages.cpp calls them all.
+// Add yours here and in builtin_stages.cpp (one line each).
+#include <terracl/stage.hpp>
+
+namespace terracl {
+void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
+void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
+}  // namespace terracl

@@ -1,0 +1,23 @@
+#include "pipeline/builtin.hpp"
+
+namespace terracl {
+
+StageRegistry& StageRegistry::instance() {
+  static StageRegistry r = [] {
+    StageRegistry reg;
+    register_core_stages(reg);
+    return reg;
+  }();
+  return r;
+}
+
+BenchRegistry& BenchRegistry::instance() {
+  static BenchRegistry r = [] {
+    BenchRegistry reg;
+    register_core_benches(reg);
+    return reg;
+  }();
+  return r;
+}
+
+}  // namespace terracl

@@ -1,0 +1,204 @@
+// Option validation and unit conversion for self-describing stages. Every error names the JSON
+// path of the offending value, so that a pipeline author can find it.
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/stage.hpp>
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+namespace terracl {
+
+const char* option_type_name(OptionType t) {
+  switch (t) {
+    case OptionType::String: return "string";
+    case OptionType::Int: return "int";
+    case OptionType::Float: return "float";
+    case OptionType::Bool: return "bool";
+    case OptionType::Path: return "input file";
+    case OptionType::OutputPath: return "output file";
+    case OptionType::Enum: return "enum";
+    case OptionType::Json: return "json";
+  }
+  return "?";
+}
+
+Heightfield& StageContext::height() {
+  if (!data.height) fail(tag, "needs a heightfield from the previous stage or an input file, and has none");
+  return *data.height;
+}
+
+GradientField& StageContext::gradient() {
+  if (!data.gradient) fail(tag, "needs a gradient field (from `extract` or a gradient .exr), and has none");
+  return *data.gradient;
+}
+
+void StageRegistry::add(StageInfo info) {
+  if (find(info.name)) fail("stages", "stage '{}' registered twice", info.name);
+  m_stages.push_back(std::move(info));
+}
+
+const StageInfo* StageRegistry::find(const std::string& name) const {
+  for (const auto& s : m_stages)
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+const BenchInfo* BenchRegistry::find(const std::string& name) const {
+  for (const auto& b : m_benches)
+    if (b.name == name) return &b;
+  return nullptr;
+}
+
+namespace {
+
+struct Unit {
+  std::string dimension;
+  double to_si;
+};
+
+// Units a stage may declare, with their dimension and factor to SI. A value may be written in
+// any unit of the same dimension ("2 km" for a length in m).
+const std::map<std::string, Unit>& unit_table() {
+  static const std::map<std::string, Unit> t = {
+      {"m", {"length", 1}},          {"km", {"length", 1000}},       {"cm", {"length", 0.01}},
+      {"mm", {"length", 0.001}},     {"s", {"time", 1}},             {"ms", {"time", 0.001}},
+      {"min", {"time", 60}},         {"h", {"time", 3600}},          {"deg", {"angle", M_PI / 180}},
+      {"rad", {"angle", 1}},         {"m/s", {"speed", 1}},          {"mm/h", {"speed", 0.001 / 3600}},
+      {"mm/s", {"speed", 0.001}},    {"m/h", {"speed", 1.0 / 3600}}, {"1/s", {"rate", 1}},
+      {"1/h", {"rate", 1.0 / 3600}}, {"m/m", {"ratio", 1}},          {"%", {"ratio", 0.01}},
+      {"m2", {"area", 1}},           {"km2", {"area", 1e6}},         {"cells", {"cells", 1}},
+      {"m/s2", {"acceleration", 1}}, {"kg/m3", {"density", 1}},      {"px", {"cells", 1}},
+  };
+  return t;
+}
+
+}  // namespace
+
+double convert_unit(const json& value, const std::string& unit, const std::string& where) {
+  if (value.is_number()) return value.get<double>();
+  if (!value.is_string()) fail("pipeline", "{}: expected a number{}, got {}", where, unit.empty() ? "" : " in " + unit, value.dump());
+  const std::string s = value.get<std::string>();
+  const char* begin = s.c_str();
+  char* end = nullptr;
+  const double v = std::strtod(begin, &end);
+  if (end == begin || !std::isfinite(v)) fail("pipeline", "{}: '{}' is not a number with a unit", where, s);
+  std::string u(end);
+  u.erase(0, u.find_first_not_of(" \t"));
+  u.erase(u.find_last_not_of(" \t") + 1);
+  if (u.empty() || u == unit) return v;
+  if (unit.empty()) fail("pipeline", "{}: '{}' has a unit, but this option takes a plain number", where, s);
+  const auto& t = unit_table();
+  auto from = t.find(u), to = t.find(unit);
+  if (from == t.end()) fail("pipeline", "{}: unknown unit '{}' in '{}' (expected {} or a unit of the same kind)", where, u, s, unit);
+  if (to == t.end() || from->second.dimension != to->second.dimension)
+    fail("pipeline", "{}: unit '{}' is not a {} unit like {}", where, u, to == t.end() ? unit : to->second.dimension, unit);
+  return v * from->second.to_si / to->second.to_si;
+}
+
+json resolve_options(const StageInfo& stage, const json& options, const std::string& where) {
+  if (!options.is_object()) fail("pipeline", "{}: stage options must be a JSON object", where);
+  json out = json::object();
+  for (auto& [key, value] : options.items()) {
+    if (key == "type" || key == "tag") continue;
+    bool known = false;
+    for (const auto& o : stage.options) known = known || o.name == key;
+    if (!known) {
+      std::string names;
+      for (const auto& o : stage.options) names += (names.empty() ? "" : ", ") + o.name;
+      fail("pipeline", "{}/{}: stage '{}' has no option '{}' (options: {})", where, key, stage.name, key,
+           names.empty() ? "none" : names);
+    }
+  }
+  for (const auto& o : stage.options) {
+    const std::string path = where + "/" + o.name;
+    json v = options.contains(o.name) ? options.at(o.name) : o.default_value;
+    if (v.is_null()) {
+      if (o.required) fail("pipeline", "{}: required option '{}' of stage '{}' is missing", path, o.name, stage.name);
+      out[o.name] = nullptr;
+      continue;
+    }
+    switch (o.type) {
+      case OptionType::Int: {
+        if (v.is_number_integer()) break;
+        if (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()) {
+          v = int64_t(v.get<double>());
+          break;
+        }
+        if (v.is_string() && !o.unit.empty()) {
+          const double d = convert_unit(v, o.unit, path);
+          if (std::floor(d) != d) fail("pipeline", "{}: expected a whole number of {}, got {}", path, o.unit, d);
+          v = int64_t(d);
+          break;
+        }
+        fail("pipeline", "{}: expected an integer, got {}", path, v.dump());
+      }
+      case OptionType::Float:
+        v = convert_unit(v, o.unit, path);
+        if (!std::isfinite(v.get<double>())) fail("pipeline", "{}: must be finite", path);
+        break;
+      case OptionType::Bool:
+        if (!v.is_boolean()) fail("pipeline", "{}: expected true or false, got {}", path, v.dump());
+        break;
+      case OptionType::String:
+        if (!v.is_string()) fail("pipeline", "{}: expected a string, got {}", path, v.dump());
+        break;
+      case OptionType::Path: {
+        if (!v.is_string() || v.get<std::string>().empty())
+          fail("pipeline", "{}: expected a file name, got {}", path, v.dump());
+        const std::string p = v.get<std::string>();
+        if (p.rfind("flat:", 0) != 0 && !std::filesystem::exists(p)) fail("pipeline", "{}: input file {} does not exist", path, p);
+        break;
+      }
+      case OptionType::OutputPath:
+        if (!v.is_string() || v.get<std::string>().empty())
+          fail("pipeline", "{}: expected an output file name, got {}", path, v.dump());
+        break;
+      case OptionType::Enum: {
+        if (!v.is_string()) fail("pipeline", "{}: expected one of {}, got {}", path, fmt::join(o.choices, "|"), v.dump());
+        bool ok = false;
+        for (const auto& c : o.choices) ok = ok || c == v.get<std::string>();
+        if (!ok) fail("pipeline", "{}: '{}' is not one of {}", path, v.get<std::string>(), fmt::join(o.choices, "|"));
+        break;
+      }
+      case OptionType::Json:
+        break;
+    }
+    out[o.name] = v;
+  }
+  return out;
+}
+
+std::string stages_markdown() {
+  std::ostringstream md;
+  md << "# terracl stages\n\nGenerated from the stage table by `terracl stages --markdown`; do not edit.\n"
+        "Each stage runs as `terracl <stage> [IN] -o OUT [--option value ...]` or as "
+        "`{\"type\": \"<stage>\", ...}` in a pipeline. Options are `snake_case` in JSON and `--kebab-case` on "
+        "the command line; values with a unit also accept another unit of the same kind (\"2 km\").\n";
+  auto kind = [](DataKind k) {
+    return k == DataKind::Heightfield ? "heightfield" : k == DataKind::Gradient ? "gradient" : "nothing";
+  };
+  for (const auto& s : StageRegistry::instance().all()) {
+    md << "\n## " << s.name << "\n\n" << s.description << "\n\nInput: " << kind(s.input)
+       << "; output: " << kind(s.output) << ".\n\n";
+    if (s.options.empty()) {
+      md << "No options.\n";
+      continue;
+    }
+    md << "| option | type | default | unit | help |\n|---|---|---|---|---|\n";
+    for (const auto& o : s.options) {
+      std::string type = option_type_name(o.type);
+      if (o.type == OptionType::Enum) type = fmt::format("{}", fmt::join(o.choices, " \\| "));
+      std::string def = o.required ? "(required)" : o.default_value.is_null() ? "" : o.default_value.dump();
+      md << "| `" << o.name << "` | " << type << " | " << def << " | " << o.unit << " | " << o.help << " |\n";
+    }
+  }
+  return md.str();
+}
+
+}  // namespace terracl

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs every Debian package the build, tests and demo need. Idempotent and non-interactive:
+# packages already installed are skipped, and `apt-get update` runs at most once per call.
+set -euo pipefail
+
+PACKAGES=(
+  cmake g++ make pkg-config
+  pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
+  libopenimageio-dev openimageio-tools libopenexr-dev
+  libgdal-dev gdal-bin
+  libflann-dev liblz4-dev
+  libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev
+  libgtest-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

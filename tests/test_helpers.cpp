@@ -1,0 +1,78 @@
+#include "test_helpers.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+
+namespace terracl::test {
+
+Device& device() {
+  static std::shared_ptr<Device> d;
+  if (!d) {
+    try {
+      d = Device::open();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "no OpenCL device (CI must have PoCL): " << e.what();
+      throw;
+    }
+  }
+  return *d;
+}
+
+TempDir::TempDir() {
+  static int counter = 0;
+  m_dir = std::filesystem::temp_directory_path() /
+          ("terracl-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+  std::filesystem::remove_all(m_dir);
+  std::filesystem::create_directories(m_dir);
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(m_dir, ec);
+}
+
+size_t TempDir::count() const {
+  size_t n = 0;
+  for ([[maybe_unused]] auto& e : std::filesystem::directory_iterator(m_dir)) ++n;
+  return n;
+}
+
+CmdResult run_cli(const std::string& args) {
+  const std::string cmd = std::string(TERRACL_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  CmdResult r{-1, ""};
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string data_path(const std::string& rel) { return std::string(TERRACL_SOURCE_DIR) + "/data/" + rel; }
+
+Heightfield smooth_terrain(int w, int h, double cell, double relief, unsigned seed) {
+  Heightfield t(w, h);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  struct Wave {
+    double kx, ky, phase, amp;
+  };
+  std::vector<Wave> waves;
+  for (int i = 0; i < 6; ++i)
+    waves.push_back({(1 + 3 * u(rng)) * 2 * M_PI / w, (1 + 3 * u(rng)) * 2 * M_PI / h, 2 * M_PI * u(rng), relief / (i + 2)});
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      double v = 1000.0;
+      for (auto& wv : waves) v += wv.amp * std::sin(wv.kx * x + wv.ky * y + wv.phase);
+      t.at(x, y) = float(v);
+    }
+  t.georef.cell_x = t.georef.cell_y = cell;
+  return t;
+}
+
+}  // namespace terracl::test

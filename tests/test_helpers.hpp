@@ -1,0 +1,45 @@
+#pragma once
+// Helpers shared by the tests: the default device (a hard failure under CI when none exists),
+// temporary folders, and running the built CLI as a user would.
+#include <terracl/device.hpp>
+#include <terracl/heightfield.hpp>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace terracl::test {
+
+/// The default device; the test fails (never skips) when there is none.
+Device& device();
+
+/// A fresh, empty folder under the system temp dir, removed at exit of the test.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  std::string path(const std::string& name) const { return (m_dir / name).string(); }
+  const std::filesystem::path& dir() const { return m_dir; }
+  /// Number of entries in the folder (to check that nothing partial was left behind).
+  size_t count() const;
+
+ private:
+  std::filesystem::path m_dir;
+};
+
+struct CmdResult {
+  int exit_code;
+  std::string out;  ///< stdout and stderr together
+};
+/// Runs the built `terracl` with `args` (a shell-quoted string).
+CmdResult run_cli(const std::string& args);
+
+/// Path of a file under the repository's data/ folder.
+std::string data_path(const std::string& rel);
+
+/// A smooth synthetic terrain (sum of sines) with the given cell size, for numerics tests.
+Heightfield smooth_terrain(int w, int h, double cell = 10.0, double relief = 500.0, unsigned seed = 1);
+
+}  // namespace terracl::test
