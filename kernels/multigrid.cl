@@ -28,14 +28,18 @@ typedef float acc_t;
 // Level 0: 5-point operator, hard cells = NaN in g.
 
 // Residual g - A u at column x of a level-0 row. `un`/`us` are the rows above/below (aliasing
-// the row itself with weight 0 at the grid border).
-inline float res0(__global const float* ur, __global const float* un, __global const float* us,
+// the row itself with weight 0 at the grid border). Evaluated in double where the device has it:
+// the terms are ~|u| w and cancel to a residual many orders smaller, and float rounding of that
+// sum would set the floor of the whole solve (badly conditioned cases, e.g. one anchor cell,
+// then keep a large smooth error); u itself stays float.
+inline acc_t res0(__global const float* ur, __global const float* un, __global const float* us,
                   __global const float* gr, int x, int W, float wx, float wn, float ws) {
   const float gv = gr[x];
   if (isnan(gv)) return 0.0f;
-  const float wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
-  const float l = x > 0 ? ur[x - 1] : 0.0f, r = x + 1 < W ? ur[x + 1] : 0.0f;
-  return gv + wl * l + wr * r + wn * un[x] + ws * us[x] - (wl + wr + wn + ws) * ur[x];
+  const acc_t wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
+  const acc_t l = x > 0 ? ur[x - 1] : 0.0f, r = x + 1 < W ? ur[x + 1] : 0.0f;
+  return (acc_t)gv + wl * l + wr * r + (acc_t)wn * (acc_t)un[x] + (acc_t)ws * (acc_t)us[x] -
+         (wl + wr + (acc_t)wn + (acc_t)ws) * (acc_t)ur[x];
 }
 
 // Red-black Gauss-Seidel half-sweep on level 0: cells with (x + y) % 2 == colour.
@@ -86,7 +90,7 @@ __kernel void jacobi0(__global float* out, __global const float* u, __global con
     const float wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
     const float d = wl + wr + wn + ws;
     const float uc = row[x];
-    const float r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
+    const float r = (float)res0(row, up, dn, g + o, x, W, wx, wn, ws);
     out[o + x] = d > 0.0f ? uc + omega * r / d : uc;
   }
 }
@@ -119,11 +123,11 @@ __kernel void residual_restrict0(__global const float* u, __global const float* 
   ((a0 != 0.0f ? a0 * res0(ur[0], un[0], us[0], gr[0], xx, W, wx, wn[0], ws[0]) : 0.0f) + \
    (a1 != 0.0f ? res0(ur[1], un[1], us[1], gr[1], xx, W, wx, wn[1], ws[1]) : 0.0f) +       \
    (a2 != 0.0f ? a2 * res0(ur[2], un[2], us[2], gr[2], xx, W, wx, wn[2], ws[2]) : 0.0f))
-  float prev = 0.0f;  // column 2i-1
+  acc_t prev = 0.0f;  // column 2i-1
   for (int i = 0; i < Wc; ++i) {
-    const float c0 = 2 * i < W ? COL(2 * i) : 0.0f;
-    const float c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
-    rc[GI(i, j, P)] = 0.5f * prev + c0 + 0.5f * c1;
+    const acc_t c0 = 2 * i < W ? COL(2 * i) : 0.0f;
+    const acc_t c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
+    rc[GI(i, j, P)] = (float)(0.5f * prev + c0 + 0.5f * c1);
     ec[GI(i, j, P)] = 0.0f;
     prev = c1;
   }
@@ -159,8 +163,8 @@ __kernel void residual_norm0(__global const float* u, __global const float* g, c
   const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
   acc_t s = 0;
   for (int x = 0; x < W; ++x) {
-    const float r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
-    s += (acc_t)(r * r);
+    const acc_t r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
+    s += r * r;
   }
   rows[y] = (float)s;
 }
@@ -175,15 +179,15 @@ __kernel void rhs_norm0(__global const float* u, __global const float* g, const 
     const size_t o = (size_t)y * W + x;
     const float gv = g[o];
     if (isnan(gv)) continue;
-    float r = gv;
+    acc_t r = gv;
 #define HARD_NB(cond, off, w) \
-  if ((cond) && isnan(g[o + (off)])) r += (w) * u[o + (off)];
+  if ((cond) && isnan(g[o + (off)])) r += (acc_t)(w) * (acc_t)u[o + (off)];
     HARD_NB(x > 0, -1, wx)
     HARD_NB(x + 1 < W, 1, wx)
     HARD_NB(y > 0, -(long)W, wy)
     HARD_NB(y + 1 < H, (long)W, wy)
 #undef HARD_NB
-    s += (acc_t)(r * r);
+    s += r * r;
   }
   rows[y] = (float)s;
 }

@@ -139,7 +139,7 @@ class Solver {
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
     const double top = es.eigenvalues().cwiseAbs().maxCoeff();
     Eigen::VectorXd inv = es.eigenvalues();
-    for (int i = 0; i < n; ++i) inv(i) = std::abs(inv(i)) > 1e-9 * top && top > 0 ? 1.0 / inv(i) : 0.0;
+    for (int i = 0; i < n; ++i) inv(i) = std::abs(inv(i)) > 1e-5 * top && top > 0 ? 1.0 / inv(i) : 0.0;
     Eigen::MatrixXd P = es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
     m_pinv_host.resize(size_t(n) * n);
     for (int i = 0; i < n; ++i)
