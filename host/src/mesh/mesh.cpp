@@ -75,11 +75,12 @@ Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Prog
 
   // Triangles are numbered like a binary heap (id 2, 3 are the two halves of the square; the
   // children of id are 2 id and 2 id + 1); finer triangles have larger ids, so walking the ids
-  // downwards finishes every child before its parent.
+  // downwards finishes every child before its parent. The finest level stored here has unit
+  // area (hypotenuse 2); its halves, the unit half-squares, need no error of their own.
   const int64_t num_triangles = int64_t(tile) * tile * 2 - 2;
   const int64_t num_parents = num_triangles - int64_t(tile) * tile;
   int64_t reported = 0;
-  for (int64_t i = num_parents - 1; i >= 0; --i) {
+  for (int64_t i = num_triangles - 1; i >= 0; --i) {
     int64_t id = i + 2;
     int ax = 0, ay = 0, bx = 0, by = 0, cx = 0, cy = 0;
     if (id & 1) {
@@ -126,14 +127,14 @@ Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Prog
     }
     const size_t mi = size_t(my) * size + mx;
     errors[mi] = std::max(errors[mi], err);
-    if (2 * (i + 2) - 2 < num_parents) {
+    if (i < num_parents) {
       // Children's midpoints (only when the children are themselves parents).
       const size_t l = size_t((ay + cy) >> 1) * size + ((ax + cx) >> 1);
       const size_t r = size_t((by + cy) >> 1) * size + ((bx + cx) >> 1);
       errors[mi] = std::max({errors[mi], errors[l], errors[r]});
     }
     if (++reported % (1 << 18) == 0)
-      report_progress(progress, "mesh", double(reported) / double(num_parents) * 0.9, "errors");
+      report_progress(progress, "mesh", double(reported) / double(num_triangles) * 0.9, "errors");
   }
 
   Mesh m;
