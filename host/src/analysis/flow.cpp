@@ -133,22 +133,24 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress) {
         const float e1 = z[size_t(ptrdiff_t(i) + g.off[kc])];
         const float e2 = z[size_t(ptrdiff_t(i) + g.off[kd])];
         if (std::isnan(e1) || std::isnan(e2)) continue;
-        // d1 along the cardinal direction, d2 across it towards the diagonal.
+        // d1 along the cardinal direction, d2 across it towards the diagonal. Tarboton's angle
+        // r = atan2(s2, s1) is clipped to [0, atan(d2 / d1)]; the comparisons below decide the
+        // clipping without trigonometry, and only the winning facet's angle is computed.
         const double d1 = kDx[kc] != 0 ? cx : cy, d2 = kDx[kc] != 0 ? cy : cx;
         const double s1 = (double(e0) - double(e1)) / d1;
         const double s2 = (double(e1) - double(e2)) / d2;
-        const double amax = std::atan2(d2, d1);
-        double rr = std::atan2(s2, s1), s = std::hypot(s1, s2);
-        if (rr < 0) {
-          rr = 0;
-          s = s1;
-        } else if (rr > amax) {
-          rr = amax;
-          s = (double(e0) - double(e2)) / std::hypot(d1, d2);
+        double s;
+        int clip;  // -1: along the cardinal, +1: along the diagonal, 0: inside the facet
+        if (s2 < 0) {
+          s = s1, clip = -1;
+        } else if (s1 <= 0 || s2 * d1 > s1 * d2) {
+          s = (double(e0) - double(e2)) / std::hypot(d1, d2), clip = 1;
+        } else {
+          s = std::sqrt(s1 * s1 + s2 * s2), clip = 0;
         }
         if (s > best_s) {  // strict: the lowest facet wins ties
           best_s = s;
-          best_r = rr;
+          best_r = clip < 0 ? 0.0 : (clip > 0 ? std::atan2(d2, d1) : std::atan2(s2, s1));
           best_f = fi;
         }
       }
