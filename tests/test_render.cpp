@@ -51,17 +51,42 @@ TEST(RenderHillshade, MatchesGdaldemOnRealDemAwayFromBorder) {
     const std::vector<uint8_t> ref = read_gdal_bytes(out, w, ht);
     ASSERT_EQ(w, h.width);
     ASSERT_EQ(ht, h.height);
-    const std::vector<uint8_t> ours = render::hillshade(h, 315, 45, z);
+    const std::vector<uint8_t> host = render::hillshade(h, 315, 45, z);
+    render::Options o;
+    o.z_factor = z;
+    const render::Image dev = render::render(h, o, test::device());
+    for (int backend = 0; backend < 2; ++backend) {
+      int worst = 0;
+      size_t differ = 0;
+      for (int y = 1; y < h.height - 1; ++y)
+        for (int x = 1; x < h.width - 1; ++x) {
+          const size_t i = size_t(y) * w + x;
+          const int ours = backend == 0 ? host[i] : dev.pixels[3 * i];
+          const int d = std::abs(ours - int(ref[i]));
+          worst = std::max(worst, d);
+          differ += d != 0;
+        }
+      EXPECT_LE(worst, 1) << "z factor " << z << (backend ? " device" : " host");
+      EXPECT_LT(differ, size_t(w * ht / 20)) << "z factor " << z;  // off by one only rarely
+    }
+  }
+}
+
+TEST(RenderDevice, KernelMatchesHostForEveryMode) {
+  Heightfield h = read_heightfield(test::data_path("crops/frontrange_64.asc"));
+  for (int y = 30; y < 34; ++y)
+    for (int x = 10; x < 13; ++x) h.at(x, y) = NAN;  // nodata colour and border handling
+  for (auto mode : {render::Mode::Hillshade, render::Mode::Relief, render::Mode::Slope, render::Mode::ShadedRelief}) {
+    render::Options o;
+    o.mode = mode;
+    o.z_factor = 1.5;
+    o.ramp = render::ColorRamp::parse("nv 9 8 7\n0% 0 0 255\n2600 0 255 0\n100% 255 0 0\n", "test ramp");
+    const render::Image a = render::render(h, o), b = render::render(h, o, test::device());
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
     int worst = 0;
-    size_t differ = 0;
-    for (int y = 1; y < h.height - 1; ++y)
-      for (int x = 1; x < h.width - 1; ++x) {
-        const int d = std::abs(int(ours[size_t(y) * w + x]) - int(ref[size_t(y) * w + x]));
-        worst = std::max(worst, d);
-        differ += d != 0;
-      }
-    EXPECT_LE(worst, 1) << "z factor " << z;
-    EXPECT_LT(differ, size_t(w * ht / 20)) << "z factor " << z;  // off by one only rarely
+    for (size_t i = 0; i < a.pixels.size(); ++i) worst = std::max(worst, std::abs(int(a.pixels[i]) - int(b.pixels[i])));
+    EXPECT_LE(worst, 1) << "mode " << int(mode);
+    if (mode == render::Mode::Relief) EXPECT_EQ(b.pixels[3 * (31 * 64 + 11)], 9);  // nodata colour
   }
 }
 

@@ -2,6 +2,7 @@
 /// Preview pictures of a heightfield: hillshade (Horn's method, as `gdaldem hillshade`), colour
 /// relief from a gdaldem-format ramp, slope, and colour relief shaded by the hillshade. Pictures
 /// are 8-bit RGB, one pixel per cell; lengths use the metric cell size (georef.cell_x/cell_y).
+#include <terracl/device.hpp>
 #include <terracl/heightfield.hpp>
 
 #include <cstdint>
@@ -55,7 +56,11 @@ struct Options {
 std::vector<uint8_t> hillshade(const Heightfield& h, double azimuth_deg = 315, double altitude_deg = 45,
                                double z_factor = 1);
 
+/// Host reference implementation (double precision).
 Image render(const Heightfield& h, const Options& opt);
+/// The same picture computed by kernels/render.cl on `device` (single precision; agrees with the
+/// host version within one level per channel).
+Image render(const Heightfield& h, const Options& opt, Device& device);
 
 /// Writes an 8-bit PNG (any other extension OIIO knows works too), atomically.
 void write_image(const Image& img, const std::string& path);

@@ -55,7 +55,9 @@ void run_render(StageContext& c) {
   o.z_factor = c.get<double>("z_factor");
   o.slope_max_deg = c.get<double>("slope_max");
   if (c.has("ramp")) o.ramp = render::ColorRamp::load(c.get<std::string>("ramp"));
-  render::write_image(render::render(c.height(), o), c.get<std::string>("file"));
+  const Heightfield& h = c.height();
+  const render::Image img = c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
+  render::write_image(img, c.get<std::string>("file"));
 }
 
 void run_mesh(StageContext& c) {
@@ -124,7 +126,8 @@ void register_analysis_stages(StageRegistry& r) {
           {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
           {"z_factor", OptionType::Float, 1.0, "", "Vertical exaggeration", {}, false},
           {"ramp", OptionType::Path, nullptr, "", "Colour ramp in gdaldem color-relief format (default: hypsometric tints)", {}, false},
-          {"slope_max", OptionType::Float, 60.0, "deg", "Slope mode: this slope and steeper are black", {}, false}},
+          {"slope_max", OptionType::Float, 60.0, "deg", "Slope mode: this slope and steeper are black", {}, false},
+          {"backend", OptionType::Enum, "device", "", "Shade with kernels/render.cl on the OpenCL device, or with the host reference code", {"device", "host"}, false}},
          run_render, false});
   r.add({"mesh",
          "Export a triangle mesh in metres (.glb, .gltf or .obj), optionally simplified within a vertical "
