@@ -1,17 +1,16 @@
 // `terracl metrics|sketch|render|mesh IN ...`: the analysis stages write files of their own (a
 // report, a picture, a mesh), so `-o` names that file instead of an output heightfield. The
 // options come from the stage table, so the CLI and pipelines accept the same names.
-#include "cli.hpp"
+#include <fmt/format.h>
 
+#include <cstdlib>
+#include <map>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/stage.hpp>
 
-#include <fmt/format.h>
-
-#include <cstdlib>
-#include <map>
+#include "cli.hpp"
 
 namespace terracl::cli {
 namespace {

@@ -1,12 +1,11 @@
 // Known-answer tests for depression filling, breaching and flow routing (issue 7).
-#include "test_helpers.hpp"
-
+#include <cmath>
+#include <random>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
-#include <cmath>
-#include <random>
+#include "test_helpers.hpp"
 
 using namespace terracl;
 using namespace terracl::analysis;
@@ -93,7 +92,7 @@ TEST(AnalysisDepressions, SingleCellPitIsRaisedNotBreached) {
   Heightfield h = grid(9, 9, 2.0);
   for (int y = 0; y < 9; ++y)
     for (int x = 0; x < 9; ++x) h.at(x, y) = float(10 + x);  // rises to the east
-  h.at(4, 4) = 3.f;  // 10 m below its lowest neighbour (13)
+  h.at(4, 4) = 3.f;                                          // 10 m below its lowest neighbour (13)
   const BreachResult b = breach_depressions(h, true);
   EXPECT_EQ(b.pits_raised, 1u);
   EXPECT_DOUBLE_EQ(b.raised_volume_m3, 10.0 * 4.0);
@@ -114,8 +113,7 @@ TEST(AnalysisDepressions, ClosedBowlFillsToItsSpillLevel) {
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) h.at(x, y) = float(0.01 * ((x - 15) * (x - 15) + (y - 15) * (y - 15)) * 25.0);
   float spill = INFINITY;
-  for (int i = 0; i < n; ++i)
-    spill = std::min({spill, h.at(i, 0), h.at(i, n - 1), h.at(0, i), h.at(n - 1, i)});
+  for (int i = 0; i < n; ++i) spill = std::min({spill, h.at(i, 0), h.at(i, n - 1), h.at(0, i), h.at(n - 1, i)});
   double expected = 0;
   size_t below = 0;
   for (float v : h.z)

@@ -1,15 +1,14 @@
 // Sketch extraction and the metrics / sketch commands as a user runs them.
-#include "test_helpers.hpp"
+#include <OpenImageIO/imageio.h>
 
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
-#include <OpenImageIO/imageio.h>
-#include <nlohmann/json.hpp>
-
-#include <cmath>
-#include <fstream>
+#include "test_helpers.hpp"
 
 using namespace terracl;
 using namespace terracl::analysis;
@@ -90,7 +89,8 @@ TEST(AnalysisCli, MetricsPrintsAndWritesJsonReport) {
   EXPECT_NE(r.out.find("b-bar"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("hypsometric integral"), std::string::npos);
   const json m = read_json(tmp.path("m.json"));
-  for (const char* key : {"slope_deg", "laplacian_per_m", "spectral_slope", "hypsometric_integral", "fill", "breach", "drainage"})
+  for (const char* key :
+       {"slope_deg", "laplacian_per_m", "spectral_slope", "hypsometric_integral", "fill", "breach", "drainage"})
     EXPECT_TRUE(m.contains(key)) << key;
   EXPECT_EQ(m["drainage"]["outflow_cells"].get<double>(), 64.0 * 64.0);
   EXPECT_GE(m["breach"]["b_bar_m"].get<double>(), 0.0);

@@ -1,17 +1,16 @@
 // Mesh export: files re-read (tinygltf, a plain OBJ parser) and checked; simplification error
 // bound and crack-freeness checked against the grid.
-#include "test_helpers.hpp"
-
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/mesh.hpp>
-
 #include <tiny_gltf.h>
 
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
+
+#include "test_helpers.hpp"
 
 using namespace terracl;
 
@@ -40,7 +39,7 @@ bool load_gltf(const std::string& path, std::vector<float>& pos, std::vector<uin
   tinygltf::TinyGLTF loader;
   std::string err, warn;
   const bool ok = path.substr(path.size() - 4) == ".glb" ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
-                                                          : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+                                                         : loader.LoadASCIIFromFile(&model, &err, &warn, path);
   if (!ok) {
     ADD_FAILURE() << "tinygltf: " << err;
     return false;
@@ -82,8 +81,10 @@ double check_mesh_against_grid(const mesh::Mesh& m, const Heightfield& h) {
     const double ny = (gy[1] - gy[0]) * (gx[2] - gx[0]) - (gx[1] - gx[0]) * (gy[2] - gy[0]);
     EXPECT_GT(ny, 0) << "triangle " << t << " faces down";
     area += std::abs(ny) / 2;
-    const int x0 = int(std::floor(std::min({gx[0], gx[1], gx[2]}) + 0.5)), x1 = int(std::floor(std::max({gx[0], gx[1], gx[2]}) + 0.5));
-    const int y0 = int(std::floor(std::min({gy[0], gy[1], gy[2]}) + 0.5)), y1 = int(std::floor(std::max({gy[0], gy[1], gy[2]}) + 0.5));
+    const int x0 = int(std::floor(std::min({gx[0], gx[1], gx[2]}) + 0.5)),
+              x1 = int(std::floor(std::max({gx[0], gx[1], gx[2]}) + 0.5));
+    const int y0 = int(std::floor(std::min({gy[0], gy[1], gy[2]}) + 0.5)),
+              y1 = int(std::floor(std::max({gy[0], gy[1], gy[2]}) + 0.5));
     const double det = (gx[1] - gx[0]) * (gy[2] - gy[0]) - (gx[2] - gx[0]) * (gy[1] - gy[0]);
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) {
@@ -121,7 +122,7 @@ TEST(MeshExport, GlbAndGltfReReadWithVertexCountAndMetricBounds) {
     std::vector<uint32_t> idx;
     Bounds acc;
     ASSERT_TRUE(load_gltf(tmp.path(name), pos, idx, acc));
-    EXPECT_EQ(pos.size() / 3, h.size());                                  // one vertex per cell
+    EXPECT_EQ(pos.size() / 3, h.size());                                    // one vertex per cell
     EXPECT_EQ(idx.size(), size_t(3 * 2 * (h.width - 1) * (h.height - 1)));  // two triangles per quad
     Bounds b;
     for (size_t v = 0; v < pos.size() / 3; ++v) b.add(&pos[3 * v]);

@@ -1,16 +1,15 @@
 // Preview rendering: hillshade against gdaldem on a real DEM, colour ramps, the render CLI.
-#include "test_helpers.hpp"
-
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/render.hpp>
-
 #include <OpenImageIO/imageio.h>
 #include <gdal_priv.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+
+#include "test_helpers.hpp"
 
 using namespace terracl;
 
@@ -107,7 +106,8 @@ TEST(RenderHillshade, FlatGroundAndFacingSlopes) {
 }
 
 TEST(RenderRamp, GdaldemFormatWithPercentagesAndNodata) {
-  const auto r = render::ColorRamp::parse("# comment\n0% 0 0 0\n100 200,100,0\n50%:100 100 100\n nv 1 2 3\n", "ramp.txt");
+  const auto r =
+      render::ColorRamp::parse("# comment\n0% 0 0 0\n100 200,100,0\n50%:100 100 100\n nv 1 2 3\n", "ramp.txt");
   uint8_t c[3];
   r.color(0, 0, 400, c);  // 0 %
   EXPECT_EQ(c[0], 0);
@@ -145,7 +145,10 @@ TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {
   }
   for (const char* mode : {"hillshade", "relief", "slope", "shaded-relief"}) {
     const std::string out = tmp.path(std::string(mode) + ".png");
-    const auto r = test::run_cli("-q render " + in + " -o " + out + " --mode " + mode + " --ramp " + tmp.path("ramp.txt"));
+    // Both backends through the CLI (the host one skips the OpenCL start-up, keeping this quick).
+    const std::string backend = std::string(mode).find("shade") != std::string::npos ? "device" : "host";
+    const auto r = test::run_cli("-q render " + in + " -o " + out + " --mode " + mode + " --ramp " +
+                                 tmp.path("ramp.txt") + " --backend " + backend);
     ASSERT_EQ(r.exit_code, 0) << r.out;
     auto img = OIIO::ImageInput::open(out);
     ASSERT_TRUE(img) << out;
@@ -163,7 +166,8 @@ TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {
   const auto bad = test::run_cli("-q render " + in + " -o " + tmp.path("x.png") + " --mode glow");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.out.find("glow"), std::string::npos) << bad.out;
-  const auto noramp = test::run_cli("-q render " + in + " -o " + tmp.path("x.png") + " --ramp " + tmp.path("missing.txt"));
+  const auto noramp =
+      test::run_cli("-q render " + in + " -o " + tmp.path("x.png") + " --ramp " + tmp.path("missing.txt"));
   EXPECT_NE(noramp.exit_code, 0);
   EXPECT_NE(noramp.out.find("missing.txt"), std::string::npos) << noramp.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.path("x.png")));

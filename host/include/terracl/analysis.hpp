@@ -8,13 +8,11 @@
 ///   next to a nodata cell or on the raster border is an outlet where water leaves the grid.
 /// - Neighbour k (0..7) is E, SE, S, SW, W, NW, N, NE (kDx/kDy below); ties are always broken by
 ///   the lowest k, so results are deterministic.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
 #include <terracl/heightfield.hpp>
 #include <terracl/progress.hpp>
-
-#include <nlohmann/json.hpp>
-
-#include <cstdint>
-#include <string>
 #include <vector>
 
 namespace terracl::analysis {
@@ -44,13 +42,13 @@ FillResult priority_flood_fill(const Heightfield& h, bool epsilon = false, const
 
 /// Result of complete breaching (Lindsay 2016).
 struct BreachResult {
-  Heightfield breached;        ///< the breached surface
-  double volume_m3 = 0;        ///< b: sum of lowered depths times the cell area
-  double mean_depth_m = 0;     ///< b-bar: b divided by the area of all valid cells (metres)
+  Heightfield breached;              ///< the breached surface
+  double volume_m3 = 0;              ///< b: sum of lowered depths times the cell area
+  double mean_depth_m = 0;           ///< b-bar: b divided by the area of all valid cells (metres)
   double mean_depth_breached_m = 0;  ///< mean lowered depth over the lowered cells only
-  double max_depth_m = 0;      ///< deepest cut
+  double max_depth_m = 0;            ///< deepest cut
   size_t cells_lowered = 0;
-  double raised_volume_m3 = 0; ///< single-cell pits raised to their lowest neighbour first
+  double raised_volume_m3 = 0;  ///< single-cell pits raised to their lowest neighbour first
   size_t pits_raised = 0;
 };
 
@@ -67,10 +65,10 @@ BreachResult breach_depressions(const Heightfield& h, bool raise_single_cell_pit
 /// D8 flow routing on the epsilon-filled surface (so flats and depressions drain).
 struct D8Result {
   int width = 0, height = 0;
-  std::vector<uint8_t> dir;      ///< 0..7 neighbour, kOutlet (off the grid), kNoFlow (nodata)
-  std::vector<double> cells;     ///< accumulation in cells, including the cell itself (0 on nodata)
+  std::vector<uint8_t> dir;   ///< 0..7 neighbour, kOutlet (off the grid), kNoFlow (nodata)
+  std::vector<double> cells;  ///< accumulation in cells, including the cell itself (0 on nodata)
   double cell_area_m2 = 1;
-  double outflow_cells = 0;      ///< accumulation leaving the grid: equals the number of valid cells
+  double outflow_cells = 0;  ///< accumulation leaving the grid: equals the number of valid cells
   size_t valid_cells = 0;
   double area_m2(size_t i) const { return cells[i] * cell_area_m2; }
 };

@@ -2,11 +2,10 @@
 /// Triangle meshes of heightfields for 3D tools (Blender, game engines), in metres.
 /// Axes follow glTF (Y up, right-handed): X = column * cell_x (east), Y = elevation,
 /// Z = row * cell_y (south); the north-west cell centre is at X = Z = 0.
-#include <terracl/heightfield.hpp>
-#include <terracl/progress.hpp>
-
 #include <cstdint>
 #include <string>
+#include <terracl/heightfield.hpp>
+#include <terracl/progress.hpp>
 #include <vector>
 
 namespace terracl::mesh {

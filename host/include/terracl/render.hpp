@@ -2,11 +2,10 @@
 /// Preview pictures of a heightfield: hillshade (Horn's method, as `gdaldem hillshade`), colour
 /// relief from a gdaldem-format ramp, slope, and colour relief shaded by the hillshade. Pictures
 /// are 8-bit RGB, one pixel per cell; lengths use the metric cell size (georef.cell_x/cell_y).
-#include <terracl/device.hpp>
-#include <terracl/heightfield.hpp>
-
 #include <cstdint>
 #include <string>
+#include <terracl/device.hpp>
+#include <terracl/heightfield.hpp>
 #include <vector>
 
 namespace terracl::render {
@@ -29,7 +28,7 @@ struct ColorRamp {
     bool percent = false;
     uint8_t rgb[3] = {0, 0, 0};
   };
-  std::vector<Entry> entries;    ///< sorted by value after resolving percentages
+  std::vector<Entry> entries;  ///< sorted by value after resolving percentages
   uint8_t nodata_rgb[3] = {0, 0, 0};
 
   /// Parses ramp text; errors name `where` (the file) and the line.

@@ -2,20 +2,19 @@
 // `render` and `mesh` write their own files (option `file` / `json`) and pass the heightfield
 // through unchanged, so they can sit anywhere in a pipeline; their CLI commands are hand-written
 // (apps/cmd_analysis.cpp) because `-o` names the picture / mesh / report, not a heightfield.
-#include "pipeline/builtin.hpp"
-
-#include <terracl/analysis.hpp>
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/mesh.hpp>
-#include <terracl/render.hpp>
-
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <random>
+#include <terracl/analysis.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
+#include <terracl/render.hpp>
+
+#include "pipeline/builtin.hpp"
 
 namespace terracl {
 
@@ -56,7 +55,8 @@ void run_render(StageContext& c) {
   o.slope_max_deg = c.get<double>("slope_max");
   if (c.has("ramp")) o.ramp = render::ColorRamp::load(c.get<std::string>("ramp"));
   const Heightfield& h = c.height();
-  const render::Image img = c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
+  const render::Image img =
+      c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
   render::write_image(img, c.get<std::string>("file"));
 }
 
@@ -99,62 +99,133 @@ void register_analysis_stages(StageRegistry& r) {
   r.add({"metrics",
          "Realism statistics (slope, curvature, spectrum, hypsometry, drainage, fill and breach volumes) as a "
          "JSON report; passes the heightfield through.",
-         H, H,
+         H,
+         H,
          {{"json", OptionType::OutputPath, nullptr, "", "JSON report to write", {}, true}},
-         run_metrics, false});
+         run_metrics,
+         false});
   r.add({"sketch",
          "Extract rivers, ridges, peaks and basins as a sketch picture (R ridges, G rivers, B peak/basin "
          "elevation squares) and polylines JSON; passes the heightfield through.",
-         H, H,
+         H,
+         H,
          {{"file", OptionType::OutputPath, nullptr, "", "Sketch picture (.png)", {}, true},
           {"json", OptionType::OutputPath, nullptr, "", "Polylines/points JSON (docs/analysis.md)", {}, false},
-          {"river_fraction", OptionType::Float, 0.002, "", "River threshold: D8 accumulation as a fraction of the cells", {}, false},
-          {"ridge_fraction", OptionType::Float, 0.002, "", "Ridge threshold on the inverted terrain, as a fraction of the cells", {}, false},
+          {"river_fraction",
+           OptionType::Float,
+           0.002,
+           "",
+           "River threshold: D8 accumulation as a fraction of the cells",
+           {},
+           false},
+          {"ridge_fraction",
+           OptionType::Float,
+           0.002,
+           "",
+           "Ridge threshold on the inverted terrain, as a fraction of the cells",
+           {},
+           false},
           {"window", OptionType::Int, 15, "cells", "Peak/basin max/min filter size", {}, false},
-          {"prominence", OptionType::Float, nullptr, "m", "Peak/basin relief threshold in the window (default 10 % of the relief)", {}, false},
-          {"smooth", OptionType::Float, 0.0, "cells", "Gaussian blur sigma before extraction (coarser sketches)", {}, false},
+          {"prominence",
+           OptionType::Float,
+           nullptr,
+           "m",
+           "Peak/basin relief threshold in the window (default 10 % of the relief)",
+           {},
+           false},
+          {"smooth",
+           OptionType::Float,
+           0.0,
+           "cells",
+           "Gaussian blur sigma before extraction (coarser sketches)",
+           {},
+           false},
           {"simplify", OptionType::Float, 0.5, "cells", "Douglas-Peucker tolerance of the polylines", {}, false},
           {"patch", OptionType::Int, 15, "cells", "Size of the peak/basin squares in the picture", {}, false}},
-         run_sketch, false});
+         run_sketch,
+         false});
   r.add({"render",
          "Write a preview picture (8-bit RGB PNG): hillshade (gdaldem's Horn method), colour relief, slope or "
          "shaded relief; passes the heightfield through.",
-         H, H,
+         H,
+         H,
          {{"file", OptionType::OutputPath, nullptr, "", "Picture to write (.png)", {}, true},
-          {"mode", OptionType::Enum, "hillshade", "", "What to draw", {"hillshade", "relief", "slope", "shaded-relief"}, false},
+          {"mode",
+           OptionType::Enum,
+           "hillshade",
+           "",
+           "What to draw",
+           {"hillshade", "relief", "slope", "shaded-relief"},
+           false},
           {"azimuth", OptionType::Float, 315.0, "deg", "Sun azimuth, clockwise from north", {}, false},
           {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
           {"z_factor", OptionType::Float, 1.0, "", "Vertical exaggeration", {}, false},
-          {"ramp", OptionType::Path, nullptr, "", "Colour ramp in gdaldem color-relief format (default: hypsometric tints)", {}, false},
+          {"ramp",
+           OptionType::Path,
+           nullptr,
+           "",
+           "Colour ramp in gdaldem color-relief format (default: hypsometric tints)",
+           {},
+           false},
           {"slope_max", OptionType::Float, 60.0, "deg", "Slope mode: this slope and steeper are black", {}, false},
-          {"backend", OptionType::Enum, "device", "", "Shade with kernels/render.cl on the OpenCL device, or with the host reference code", {"device", "host"}, false}},
-         run_render, false});
+          {"backend",
+           OptionType::Enum,
+           "device",
+           "",
+           "Shade with kernels/render.cl on the OpenCL device, or with the host reference code",
+           {"device", "host"},
+           false}},
+         run_render,
+         false});
   r.add({"mesh",
          "Export a triangle mesh in metres (.glb, .gltf or .obj), optionally simplified within a vertical "
          "error; passes the heightfield through.",
-         H, H,
+         H,
+         H,
          {{"file", OptionType::OutputPath, nullptr, "", "Mesh file (.glb, .gltf or .obj)", {}, true},
-          {"max_error", OptionType::Float, nullptr, "m", "Simplify so that no cell is further than this from the mesh (default: full grid)", {}, false}},
-         run_mesh, false});
+          {"max_error",
+           OptionType::Float,
+           nullptr,
+           "m",
+           "Simplify so that no cell is further than this from the mesh (default: full grid)",
+           {},
+           false}},
+         run_mesh,
+         false});
   r.add({"fill_depressions",
          "Priority-Flood depression filling (Barnes et al. 2014); --epsilon gives every flat a drainage gradient.",
-         H, H,
-         {{"epsilon", OptionType::Bool, false, "", "Raise flats by the smallest float steps so that every cell drains", {}, false}},
+         H,
+         H,
+         {{"epsilon",
+           OptionType::Bool,
+           false,
+           "",
+           "Raise flats by the smallest float steps so that every cell drains",
+           {},
+           false}},
          [](StageContext& c) {
            Heightfield& h = c.height();
            h = analysis::priority_flood_fill(h, c.get<bool>("epsilon"), c.progress).filled;
          }});
   r.add({"breach",
          "Complete depression breaching (Lindsay 2016): carve channels from every pit to its outlet.",
-         H, H,
-         {{"raise_pits", OptionType::Bool, true, "", "Raise single-cell pits to their lowest neighbour first", {}, false}},
+         H,
+         H,
+         {{"raise_pits",
+           OptionType::Bool,
+           true,
+           "",
+           "Raise single-cell pits to their lowest neighbour first",
+           {},
+           false}},
          [](StageContext& c) {
            Heightfield& h = c.height();
            h = analysis::breach_depressions(h, c.get<bool>("raise_pits"), c.progress).breached;
          }});
   r.add({"drainage",
          "Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells.",
-         H, H,
+         H,
+         H,
          {{"method", OptionType::Enum, "d8", "", "Flow routing", {"d8", "dinf"}, false},
           {"units", OptionType::Enum, "m2", "", "Drainage area in square metres or in cells", {"m2", "cells"}, false}},
          run_drainage});
@@ -228,23 +299,34 @@ void register_analysis_benches(BenchRegistry& r) {
            };
            const int n = a.repeats;
            analysis::FillResult f;
-           time("fill (Priority-Flood)", n, [&] { f = analysis::priority_flood_fill(h, false); },
-                [&] { return fmt::format("volume {:.4g} m3, {} cells", f.volume_m3, f.cells_raised); });
-           time("fill epsilon", n, [&] { f = analysis::priority_flood_fill(h, true); }, [] { return std::string(); });
+           time(
+               "fill (Priority-Flood)", n, [&] { f = analysis::priority_flood_fill(h, false); },
+               [&] { return fmt::format("volume {:.4g} m3, {} cells", f.volume_m3, f.cells_raised); });
+           time(
+               "fill epsilon", n, [&] { f = analysis::priority_flood_fill(h, true); }, [] { return std::string(); });
            analysis::BreachResult b;
-           time("breach (Lindsay)", n, [&] { b = analysis::breach_depressions(h); },
-                [&] { return fmt::format("b {:.4g} m3, b-bar {:.4f} m", b.volume_m3, b.mean_depth_m); });
+           time(
+               "breach (Lindsay)", n, [&] { b = analysis::breach_depressions(h); },
+               [&] { return fmt::format("b {:.4g} m3, b-bar {:.4f} m", b.volume_m3, b.mean_depth_m); });
            analysis::D8Result d8;
-           time("D8 accumulation", n, [&] { d8 = analysis::d8_flow(h); },
-                [&] { return fmt::format("incl. epsilon fill; outflow {} of {} cells", d8.outflow_cells, d8.valid_cells); });
+           time(
+               "D8 accumulation", n, [&] { d8 = analysis::d8_flow(h); },
+               [&] {
+                 return fmt::format("incl. epsilon fill; outflow {} of {} cells", d8.outflow_cells, d8.valid_cells);
+               });
            analysis::DinfResult di;
-           time("D-inf accumulation", n, [&] { di = analysis::dinf_flow(h); },
-                [&] { return fmt::format("outflow {:.8g}", di.outflow_cells); });
-           time("hillshade", n, [&] { (void)render::hillshade(h); }, [] { return std::string(); });
+           time(
+               "D-inf accumulation", n, [&] { di = analysis::dinf_flow(h); },
+               [&] { return fmt::format("outflow {:.8g}", di.outflow_cells); });
+           time(
+               "hillshade", n, [&] { (void)render::hillshade(h); }, [] { return std::string(); });
            mesh::Mesh m;
-           time("mesh simplify 1 m", n, [&] { m = mesh::triangulate_simplified(h, 1.0); },
-                [&] { return fmt::format("{} triangles", m.triangle_count()); });
-           time("metrics (all)", std::max(1, n / 3), [&] { (void)analysis::terrain_metrics(h); }, [] { return std::string(); });
+           time(
+               "mesh simplify 1 m", n, [&] { m = mesh::triangulate_simplified(h, 1.0); },
+               [&] { return fmt::format("{} triangles", m.triangle_count()); });
+           time(
+               "metrics (all)", std::max(1, n / 3), [&] { (void)analysis::terrain_metrics(h); },
+               [] { return std::string(); });
          }});
 }
 

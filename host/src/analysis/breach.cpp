@@ -3,9 +3,9 @@
 // flood from the outlets records, for every cell, the cell it was reached from (its back-link,
 // i.e. its downstream neighbour on the cheapest way out). A cell lower than the cell that reached
 // it is the bottom of a depression: the back-link path from there is cut down to its level.
-#include "analysis/grid.hpp"
-
 #include <terracl/error.hpp>
+
+#include "analysis/grid.hpp"
 
 namespace terracl::analysis {
 

@@ -2,11 +2,10 @@
 // depression-filling and watershed-labeling algorithm for digital elevation models", Algorithms 2
 // and 3). Cells inside depressions and on flats are processed through a plain FIFO queue instead
 // of the heap, which is what makes the "improved" variant fast.
-#include "analysis/grid.hpp"
-
+#include <deque>
 #include <terracl/error.hpp>
 
-#include <deque>
+#include "analysis/grid.hpp"
 
 namespace terracl::analysis {
 

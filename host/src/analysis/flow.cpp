@@ -2,9 +2,9 @@
 // Priority-Flood+epsilon surface, so that every valid cell has a strictly lower neighbour or is an
 // outlet (flats and depressions drain towards their spill points). Accumulation visits cells in
 // topological order (Kahn: a cell is processed once all its donors are), which is O(n).
-#include "analysis/grid.hpp"
-
 #include <terracl/error.hpp>
+
+#include "analysis/grid.hpp"
 
 namespace terracl::analysis {
 

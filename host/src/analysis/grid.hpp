@@ -1,12 +1,11 @@
 #pragma once
 // Small shared pieces of the analysis modules: priority keys, outlet seeding, neighbour distances.
-#include <terracl/analysis.hpp>
-
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <functional>
 #include <queue>
+#include <terracl/analysis.hpp>
 #include <vector>
 
 namespace terracl::analysis::detail {

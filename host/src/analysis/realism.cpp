@@ -1,16 +1,15 @@
 // Realism statistics: the numbers the terrain-synthesis literature compares generated terrains
 // with (slope distribution, curvature, spectral slope, hypsometry, drainage concentration,
 // breaching volume as in Perche et al. 2023, section 5.4).
-#include "analysis/grid.hpp"
-
-#include <terracl/error.hpp>
-
 #include <fmt/format.h>
-#include <unsupported/Eigen/FFT>
 
 #include <algorithm>
 #include <complex>
 #include <numeric>
+#include <terracl/error.hpp>
+#include <unsupported/Eigen/FFT>
+
+#include "analysis/grid.hpp"
 
 namespace terracl::analysis {
 
@@ -170,9 +169,12 @@ json terrain_metrics(const Heightfield& h, const Progress& progress) {
   }
   j["slope_deg"] = {{"mean", smean},
                     {"max", s.back()},
-                    {"quantiles", {{"p05", quantile_sorted(s, 0.05)}, {"p25", quantile_sorted(s, 0.25)},
-                                   {"p50", quantile_sorted(s, 0.50)}, {"p75", quantile_sorted(s, 0.75)},
-                                   {"p95", quantile_sorted(s, 0.95)}}},
+                    {"quantiles",
+                     {{"p05", quantile_sorted(s, 0.05)},
+                      {"p25", quantile_sorted(s, 0.25)},
+                      {"p50", quantile_sorted(s, 0.50)},
+                      {"p75", quantile_sorted(s, 0.75)},
+                      {"p95", quantile_sorted(s, 0.95)}}},
                     {"histogram_5deg", hist}};
   report_progress(progress, stage, 0.1, "slope");
 
@@ -206,13 +208,10 @@ json terrain_metrics(const Heightfield& h, const Progress& progress) {
                {"cells", f.cells_raised}};
   report_progress(progress, stage, 0.45, "fill");
   const BreachResult b = breach_depressions(h, true);
-  j["breach"] = {{"volume_m3", b.volume_m3},
-                 {"b_bar_m", b.mean_depth_m},
-                 {"mean_depth_breached_m", b.mean_depth_breached_m},
-                 {"max_depth_m", b.max_depth_m},
-                 {"cells", b.cells_lowered},
-                 {"raised_volume_m3", b.raised_volume_m3},
-                 {"pits_raised", b.pits_raised}};
+  j["breach"] = {
+      {"volume_m3", b.volume_m3},     {"b_bar_m", b.mean_depth_m}, {"mean_depth_breached_m", b.mean_depth_breached_m},
+      {"max_depth_m", b.max_depth_m}, {"cells", b.cells_lowered},  {"raised_volume_m3", b.raised_volume_m3},
+      {"pits_raised", b.pits_raised}};
   report_progress(progress, stage, 0.7, "breach");
   const D8Result d8 = d8_flow(h);
   double amax = 0;
@@ -235,34 +234,42 @@ json terrain_metrics(const Heightfield& h, const Progress& progress) {
 
 std::string format_metrics(const json& r) {
   std::string s;
-  auto num = [&](const json& v, const char* f) { return v.is_null() ? std::string("n/a") : fmt::format(fmt::runtime(f), v.get<double>()); };
+  auto num = [&](const json& v, const char* f) {
+    return v.is_null() ? std::string("n/a") : fmt::format(fmt::runtime(f), v.get<double>());
+  };
   s += fmt::format("size:                 {} x {} cells of {:.2f} m x {:.2f} m ({:.4g} km2)\n", r["width"].get<int>(),
                    r["height"].get<int>(), r["cell_x_m"].get<double>(), r["cell_y_m"].get<double>(),
                    r["area_m2"].get<double>() / 1e6);
   const json& e = r["elevation"];
-  s += fmt::format("elevation:            min {:.2f}  max {:.2f}  mean {:.2f}  relief {:.2f} m\n", e["min_m"].get<double>(),
-                   e["max_m"].get<double>(), e["mean_m"].get<double>(), e["relief_m"].get<double>());
+  s += fmt::format("elevation:            min {:.2f}  max {:.2f}  mean {:.2f}  relief {:.2f} m\n",
+                   e["min_m"].get<double>(), e["max_m"].get<double>(), e["mean_m"].get<double>(),
+                   e["relief_m"].get<double>());
   s += fmt::format("hypsometric integral: {:.4f}\n", r["hypsometric_integral"].get<double>());
   const json& sl = r["slope_deg"];
   const json& q = sl["quantiles"];
-  s += fmt::format("slope (deg):          mean {:.2f}  steepest {:.2f}  p05 {:.2f}  p25 {:.2f}  p50 {:.2f}  p75 {:.2f}  p95 {:.2f}\n",
-                   sl["mean"].get<double>(), sl["max"].get<double>(), q["p05"].get<double>(), q["p25"].get<double>(),
-                   q["p50"].get<double>(), q["p75"].get<double>(), q["p95"].get<double>());
+  s += fmt::format(
+      "slope (deg):          mean {:.2f}  steepest {:.2f}  p05 {:.2f}  p25 {:.2f}  p50 {:.2f}  p75 {:.2f}  p95 "
+      "{:.2f}\n",
+      sl["mean"].get<double>(), sl["max"].get<double>(), q["p05"].get<double>(), q["p25"].get<double>(),
+      q["p50"].get<double>(), q["p75"].get<double>(), q["p95"].get<double>());
   const json& lp = r["laplacian_per_m"];
   s += fmt::format("laplacian (1/m):      mean {:.3e}  std {:.3e}  concave-up {:.1f} %\n", lp["mean"].get<double>(),
                    lp["std"].get<double>(), 100 * lp["fraction_concave_up"].get<double>());
   s += fmt::format("spectral slope:       {}  (fractal dimension {})\n", num(r["spectral_slope"], "{:.3f}"),
                    num(r["fractal_dimension"], "{:.3f}"));
   const json& f = r["fill"];
-  s += fmt::format("fill:                 {:.4g} m3 over {} cells (max {:.2f} m, mean {:.4f} m)\n", f["volume_m3"].get<double>(),
-                   f["cells"].get<size_t>(), f["max_depth_m"].get<double>(), f["mean_depth_m"].get<double>());
+  s += fmt::format("fill:                 {:.4g} m3 over {} cells (max {:.2f} m, mean {:.4f} m)\n",
+                   f["volume_m3"].get<double>(), f["cells"].get<size_t>(), f["max_depth_m"].get<double>(),
+                   f["mean_depth_m"].get<double>());
   const json& b = r["breach"];
-  s += fmt::format("breach:               b {:.4g} m3, b-bar {:.4f} m over {} cells (max {:.2f} m); {} single-cell pits raised ({:.4g} m3)\n",
-                   b["volume_m3"].get<double>(), b["b_bar_m"].get<double>(), b["cells"].get<size_t>(),
-                   b["max_depth_m"].get<double>(), b["pits_raised"].get<size_t>(), b["raised_volume_m3"].get<double>());
+  s += fmt::format(
+      "breach:               b {:.4g} m3, b-bar {:.4f} m over {} cells (max {:.2f} m); {} single-cell pits raised "
+      "({:.4g} m3)\n",
+      b["volume_m3"].get<double>(), b["b_bar_m"].get<double>(), b["cells"].get<size_t>(),
+      b["max_depth_m"].get<double>(), b["pits_raised"].get<size_t>(), b["raised_volume_m3"].get<double>());
   const json& d = r["drainage"];
-  s += fmt::format("drainage (D8):        max area {:.4g} km2, {} outlets, Gini {:.4f}\n", d["max_area_m2"].get<double>() / 1e6,
-                   d["outlets"].get<size_t>(), d["gini_d8_area"].get<double>());
+  s += fmt::format("drainage (D8):        max area {:.4g} km2, {} outlets, Gini {:.4f}\n",
+                   d["max_area_m2"].get<double>() / 1e6, d["outlets"].get<size_t>(), d["gini_d8_area"].get<double>());
   return s;
 }
 

@@ -4,12 +4,11 @@
 // with a relief threshold. The D8 network above a threshold is a tree of one-cell-wide paths, so it
 // is already the skeleton the paper obtains by thinning a thresholded image; we trace it into
 // polylines (split at confluences) and draw those.
-#include "analysis/grid.hpp"
-
-#include <terracl/error.hpp>
-
 #include <algorithm>
 #include <numeric>
+#include <terracl/error.hpp>
+
+#include "analysis/grid.hpp"
 
 namespace terracl::analysis {
 
@@ -61,8 +60,8 @@ void simplify(const std::vector<Sketch::Point>& in, double tol, std::vector<Sket
     double worst = -1;
     size_t wi = a;
     for (size_t i = a + 1; i < b; ++i) {
-      const double d = len > 0 ? std::abs(dx * (in[i].y - ay) - dy * (in[i].x - ax)) / len
-                               : std::hypot(in[i].x - ax, in[i].y - ay);
+      const double d =
+          len > 0 ? std::abs(dx * (in[i].y - ay) - dy * (in[i].x - ax)) / len : std::hypot(in[i].x - ax, in[i].y - ay);
       if (d > worst) worst = d, wi = i;
     }
     if (worst > tol) {
@@ -138,15 +137,16 @@ std::vector<float> extremum_filter(const Heightfield& h, int window, float sign)
   for (int y = 0; y < h.height; ++y)
     for (int x = 0; x < h.width; ++x) {
       float m = NAN;
-      for (int j = std::max(0, y - r); j <= std::min(h.height - 1, y + r); ++j) m = better(tmp[size_t(j) * h.width + x], m);
+      for (int j = std::max(0, y - r); j <= std::min(h.height - 1, y + r); ++j)
+        m = better(tmp[size_t(j) * h.width + x], m);
       out[size_t(y) * h.width + x] = m;
     }
   return out;
 }
 
 std::vector<Sketch::Extremum> find_extrema(const Heightfield& surface, const Heightfield& original,
-                                           const std::vector<float>& fmax, const std::vector<float>& fmin,
-                                           bool peaks, int window, double prominence) {
+                                           const std::vector<float>& fmax, const std::vector<float>& fmin, bool peaks,
+                                           int window, double prominence) {
   struct Cand {
     float z;
     size_t i;

@@ -4,19 +4,17 @@
 // a parent splits whenever a child must (errors are propagated upwards). Unlike Martini, whose
 // error is only the midpoint's deviation, we store the largest vertical deviation of every grid
 // point inside the triangle from its plane, so --max-error is a guarantee.
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/mesh.hpp>
-
-#include <tiny_gltf.h>
-
 #include <fmt/format.h>
+#include <tiny_gltf.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
 
 namespace terracl::mesh {
 
@@ -52,7 +50,8 @@ Mesh triangulate_full(const Heightfield& h) {
   VertexMap vm(h, m);
   for (int y = 0; y + 1 < h.height; ++y)
     for (int x = 0; x + 1 < h.width; ++x) {
-      if (std::isnan(h.at(x, y)) || std::isnan(h.at(x + 1, y)) || std::isnan(h.at(x, y + 1)) || std::isnan(h.at(x + 1, y + 1)))
+      if (std::isnan(h.at(x, y)) || std::isnan(h.at(x + 1, y)) || std::isnan(h.at(x, y + 1)) ||
+          std::isnan(h.at(x + 1, y + 1)))
         continue;
       const uint32_t a = vm.get(x, y), b = vm.get(x + 1, y), c = vm.get(x, y + 1), d = vm.get(x + 1, y + 1);
       // Counter-clockwise seen from +Y with X east and Z south: (a, c, b) and (b, c, d).
@@ -184,11 +183,13 @@ void write_obj(const Mesh& m, const std::string& path) {
     buf += fmt::format("# terracl heightfield mesh: metres, Y up, X east, Z south\n# {} vertices, {} triangles\n",
                        m.vertex_count(), m.triangle_count());
     for (size_t v = 0; v < m.vertex_count(); ++v) {
-      fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
+      fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", m.positions[3 * v], m.positions[3 * v + 1],
+                     m.positions[3 * v + 2]);
       if (buf.size() > (1 << 20)) flush();
     }
     for (size_t t = 0; t < m.triangle_count(); ++t) {
-      fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", m.indices[3 * t] + 1, m.indices[3 * t + 1] + 1, m.indices[3 * t + 2] + 1);
+      fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", m.indices[3 * t] + 1, m.indices[3 * t + 1] + 1,
+                     m.indices[3 * t + 2] + 1);
       if (buf.size() > (1 << 20)) flush();
     }
     flush();

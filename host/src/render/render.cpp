@@ -2,16 +2,15 @@
 // constants, same 1 + 254 * cos mapping, same rounding) so that `gdaldem hillshade` and
 // `terracl render --mode hillshade` agree within one grey level (gdaldem uses an approximate
 // inverse square root).
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/render.hpp>
-
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
 
 namespace terracl::render {
 
@@ -111,9 +110,11 @@ ColorRamp ColorRamp::parse(const std::string& text, const std::string& where) {
   }
   (void)have_nv;
   if (r.entries.empty()) fail("render", "{}: colour ramp has no elevation entries", where);
-  const bool mixed = std::any_of(r.entries.begin(), r.entries.end(), [&](const Entry& e) { return e.percent != r.entries[0].percent; });
+  const bool mixed = std::any_of(r.entries.begin(), r.entries.end(),
+                                 [&](const Entry& e) { return e.percent != r.entries[0].percent; });
   if (!mixed)
-    std::stable_sort(r.entries.begin(), r.entries.end(), [](const Entry& a, const Entry& b) { return a.value < b.value; });
+    std::stable_sort(r.entries.begin(), r.entries.end(),
+                     [](const Entry& a, const Entry& b) { return a.value < b.value; });
   return r;
 }
 
@@ -165,8 +166,10 @@ void ColorRamp::color(double z, double zmin, double zmax, uint8_t out[3]) const 
 
 Image render(const Heightfield& h, const Options& opt) {
   if (h.width <= 0 || h.height <= 0) fail("render", "empty heightfield");
-  if (!(opt.altitude_deg >= 0 && opt.altitude_deg <= 90)) fail("render", "altitude must be in 0..90 deg, got {}", opt.altitude_deg);
-  if (!(opt.slope_max_deg > 0 && opt.slope_max_deg <= 90)) fail("render", "slope_max must be in (0, 90] deg, got {}", opt.slope_max_deg);
+  if (!(opt.altitude_deg >= 0 && opt.altitude_deg <= 90))
+    fail("render", "altitude must be in 0..90 deg, got {}", opt.altitude_deg);
+  if (!(opt.slope_max_deg > 0 && opt.slope_max_deg <= 90))
+    fail("render", "slope_max must be in (0, 90] deg, got {}", opt.slope_max_deg);
   Image img;
   img.width = h.width;
   img.height = h.height;
@@ -223,7 +226,8 @@ void write_image(const Image& img, const std::string& path) {
     if (!out) fail("render", "cannot write {}: {}", path, OIIO::geterror());
     OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
     if (!out->open(tmp, spec)) fail("render", "cannot write {}: {}", path, out->geterror());
-    if (!out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data())) fail("render", "cannot write {}: {}", path, out->geterror());
+    if (!out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()))
+      fail("render", "cannot write {}: {}", path, out->geterror());
     if (!out->close()) fail("render", "cannot write {}: {}", path, out->geterror());
   });
 }

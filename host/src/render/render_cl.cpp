@@ -1,16 +1,17 @@
 // Launcher of kernels/render.cl: uploads the heights and the resolved colour ramp, shades one row
 // per work-item, reads the RGB picture back (one finish for the whole picture).
+#include <cmath>
 #include <terracl/error.hpp>
 #include <terracl/render.hpp>
-
-#include <cmath>
 
 namespace terracl::render {
 
 Image render(const Heightfield& h, const Options& opt, Device& device) {
   if (h.width <= 0 || h.height <= 0) fail("render", "empty heightfield");
-  if (!(opt.altitude_deg >= 0 && opt.altitude_deg <= 90)) fail("render", "altitude must be in 0..90 deg, got {}", opt.altitude_deg);
-  if (!(opt.slope_max_deg > 0 && opt.slope_max_deg <= 90)) fail("render", "slope_max must be in (0, 90] deg, got {}", opt.slope_max_deg);
+  if (!(opt.altitude_deg >= 0 && opt.altitude_deg <= 90))
+    fail("render", "altitude must be in 0..90 deg, got {}", opt.altitude_deg);
+  if (!(opt.slope_max_deg > 0 && opt.slope_max_deg <= 90))
+    fail("render", "slope_max must be in (0, 90] deg, got {}", opt.slope_max_deg);
   const HeightStats st = compute_stats(h);
   // Ramp entries with percentages resolved against this heightfield's range, in file order.
   std::vector<float> rz;
@@ -19,14 +20,22 @@ Image render(const Heightfield& h, const Options& opt, Device& device) {
     rz.push_back(float(e.percent ? st.min + e.value / 100.0 * (st.max - st.min) : e.value));
     rgb.insert(rgb.end(), e.rgb, e.rgb + 3);
   }
-  const uint32_t nodata = uint32_t(opt.ramp.nodata_rgb[0]) | uint32_t(opt.ramp.nodata_rgb[1]) << 8 |
-                          uint32_t(opt.ramp.nodata_rgb[2]) << 16;
+  const uint32_t nodata =
+      uint32_t(opt.ramp.nodata_rgb[0]) | uint32_t(opt.ramp.nodata_rgb[1]) << 8 | uint32_t(opt.ramp.nodata_rgb[2]) << 16;
   int mode = 0;
   switch (opt.mode) {
-    case Mode::Hillshade: mode = 0; break;
-    case Mode::Relief: mode = 1; break;
-    case Mode::Slope: mode = 2; break;
-    case Mode::ShadedRelief: mode = 3; break;
+    case Mode::Hillshade:
+      mode = 0;
+      break;
+    case Mode::Relief:
+      mode = 1;
+      break;
+    case Mode::Slope:
+      mode = 2;
+      break;
+    case Mode::ShadedRelief:
+      mode = 3;
+      break;
   }
   const double d2r = M_PI / 180.0, zs = opt.z_factor / 8.0;
   const double cos_alt_z = std::cos(opt.altitude_deg * d2r) * zs, az = opt.azimuth_deg * d2r;
