@@ -127,3 +127,31 @@ TEST(AnalysisCli, SketchWritesPictureAndPolylines) {
   EXPECT_NE(bad.out.find("window"), std::string::npos) << bad.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.path("t.png")));
 }
+
+TEST(AnalysisCli, FillBreachAndDrainageStages) {
+  test::TempDir tmp;
+  const std::string in = test::data_path("crops/frontrange_64.asc");
+  const Heightfield h = read_heightfield(in);
+  auto r = test::run_cli("-q breach " + in + " -o " + tmp.path("b.tif"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield b = read_heightfield(tmp.path("b.tif"));
+  EXPECT_EQ(priority_flood_fill(b).cells_raised, 0u);  // drains everywhere
+  EXPECT_DOUBLE_EQ(b.georef.cell_x, h.georef.cell_x);  // georeferencing kept
+  r = test::run_cli("-q fill_depressions " + in + " -o " + tmp.path("f.tif") + " --epsilon");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield f = read_heightfield(tmp.path("f.tif"));
+  EXPECT_EQ(f.z, priority_flood_fill(h, true).filled.z);
+  r = test::run_cli("-q drainage " + in + " -o " + tmp.path("a.tif") + " --method dinf --units cells");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield a = read_heightfield(tmp.path("a.tif"));
+  const DinfResult di = dinf_flow(h);
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a.z[i], di.cells[i], 1e-3 * di.cells[i]);
+  r = test::run_cli("-q drainage " + in + " -o " + tmp.path("m2.tif"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield m2 = read_heightfield(tmp.path("m2.tif"));
+  const D8Result d8 = d8_flow(h);
+  for (size_t i = 0; i < m2.size(); ++i) ASSERT_NEAR(m2.z[i], d8.area_m2(i), 1e-6 * d8.area_m2(i));
+  r = test::run_cli("-q drainage " + in + " -o " + tmp.path("x.tif") + " --method mfd");
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("mfd"), std::string::npos) << r.out;
+}
