@@ -57,6 +57,16 @@ bool load_gltf(const std::string& path, std::vector<float>& pos, std::vector<uin
   EXPECT_EQ(ia.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
   idx.resize(ia.count);
   std::memcpy(idx.data(), model.buffers.at(iv.buffer).data.data() + iv.byteOffset + ia.byteOffset, idx.size() * 4);
+  // Unit normals pointing up, one per vertex.
+  const auto& na = model.accessors.at(prim.attributes.at("NORMAL"));
+  const auto& nv = model.bufferViews.at(na.bufferView);
+  EXPECT_EQ(na.count, pa.count);
+  std::vector<float> nrm(na.count * 3);
+  std::memcpy(nrm.data(), model.buffers.at(nv.buffer).data.data() + nv.byteOffset + na.byteOffset, nrm.size() * 4);
+  for (size_t v = 0; v < na.count; ++v) {
+    EXPECT_NEAR(nrm[3 * v] * nrm[3 * v] + nrm[3 * v + 1] * nrm[3 * v + 1] + nrm[3 * v + 2] * nrm[3 * v + 2], 1.0, 1e-4);
+    EXPECT_GT(nrm[3 * v + 1], 0.f);
+  }
   return true;
 }
 
@@ -140,6 +150,7 @@ TEST(MeshExport, ObjReReadAndSimplifiedWithinMaxError) {
   ASSERT_EQ(r.exit_code, 0) << r.out;
   std::ifstream f(tmp.path("s.obj"));
   mesh::Mesh m;
+  size_t normals = 0;
   std::string line;
   while (std::getline(f, line)) {
     std::istringstream ls(line);
@@ -149,13 +160,24 @@ TEST(MeshExport, ObjReReadAndSimplifiedWithinMaxError) {
       float x, y, z;
       ls >> x >> y >> z;
       m.positions.insert(m.positions.end(), {x, y, z});
+    } else if (tag == "vn") {
+      float x, y, z;
+      ls >> x >> y >> z;
+      EXPECT_NEAR(x * x + y * y + z * z, 1.0, 1e-4);
+      EXPECT_GT(y, 0.f);  // terrain normals point up
+      normals++;
     } else if (tag == "f") {
-      uint32_t a, b, c;
+      std::string a, b, c;  // "v//vn"
       ls >> a >> b >> c;
-      m.indices.insert(m.indices.end(), {a - 1, b - 1, c - 1});
+      for (const std::string* t : {&a, &b, &c}) {
+        const uint32_t v = uint32_t(std::stoul(t->substr(0, t->find('/'))));
+        EXPECT_EQ(*t, std::to_string(v) + "//" + std::to_string(v));
+        m.indices.push_back(v - 1);
+      }
     }
   }
   ASSERT_GT(m.triangle_count(), 0u);
+  EXPECT_EQ(normals, m.vertex_count());
   EXPECT_LT(m.vertex_count(), h.size());  // simplified
   Bounds b;
   for (size_t v = 0; v < m.vertex_count(); ++v) b.add(&m.positions[3 * v]);

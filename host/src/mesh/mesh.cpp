@@ -167,6 +167,29 @@ Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Prog
 
 namespace {
 
+/// Unit vertex normals: area-weighted sums of the adjacent faces' normals (smooth shading in
+/// viewers; without normals glTF viewers must shade flat facets).
+std::vector<float> vertex_normals(const Mesh& m) {
+  std::vector<double> acc(m.positions.size(), 0.0);
+  for (size_t t = 0; t < m.triangle_count(); ++t) {
+    const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
+    double u[3], v[3];
+    for (int k = 0; k < 3; ++k) {
+      u[k] = double(m.positions[3 * b + k]) - m.positions[3 * a + k];
+      v[k] = double(m.positions[3 * c + k]) - m.positions[3 * a + k];
+    }
+    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    for (uint32_t i : {a, b, c})
+      for (int k = 0; k < 3; ++k) acc[3 * i + k] += n[k];
+  }
+  std::vector<float> out(acc.size());
+  for (size_t i = 0; i < acc.size(); i += 3) {
+    const double len = std::sqrt(acc[i] * acc[i] + acc[i + 1] * acc[i + 1] + acc[i + 2] * acc[i + 2]);
+    for (int k = 0; k < 3; ++k) out[i + k] = len > 0 ? float(acc[i + k] / len) : (k == 1 ? 1.f : 0.f);
+  }
+  return out;
+}
+
 void write_obj(const Mesh& m, const std::string& path) {
   write_atomically(path, [&](const std::string& tmp) {
     FILE* f = std::fopen(tmp.c_str(), "wb");
@@ -187,9 +210,14 @@ void write_obj(const Mesh& m, const std::string& path) {
                      m.positions[3 * v + 2]);
       if (buf.size() > (1 << 20)) flush();
     }
+    const std::vector<float> normals = vertex_normals(m);
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      fmt::format_to(std::back_inserter(buf), "vn {} {} {}\n", normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]);
+      if (buf.size() > (1 << 20)) flush();
+    }
     for (size_t t = 0; t < m.triangle_count(); ++t) {
-      fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", m.indices[3 * t] + 1, m.indices[3 * t + 1] + 1,
-                     m.indices[3 * t + 2] + 1);
+      const uint32_t a = m.indices[3 * t] + 1, b = m.indices[3 * t + 1] + 1, c = m.indices[3 * t + 2] + 1;
+      fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", a, a, b, b, c, c);
       if (buf.size() > (1 << 20)) flush();
     }
     flush();
@@ -201,9 +229,11 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary) {
   tinygltf::Model model;
   tinygltf::Buffer buffer;
   const size_t pos_bytes = m.positions.size() * sizeof(float), idx_bytes = m.indices.size() * sizeof(uint32_t);
-  buffer.data.resize(pos_bytes + idx_bytes);
+  const std::vector<float> normals = vertex_normals(m);
+  buffer.data.resize(2 * pos_bytes + idx_bytes);
   std::memcpy(buffer.data.data(), m.positions.data(), pos_bytes);
   std::memcpy(buffer.data.data() + pos_bytes, m.indices.data(), idx_bytes);
+  std::memcpy(buffer.data.data() + pos_bytes + idx_bytes, normals.data(), pos_bytes);
   model.buffers.push_back(std::move(buffer));
 
   tinygltf::BufferView pos_view;
@@ -216,7 +246,9 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary) {
   idx_view.byteOffset = pos_bytes;
   idx_view.byteLength = idx_bytes;
   idx_view.target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
-  model.bufferViews = {pos_view, idx_view};
+  tinygltf::BufferView nrm_view = pos_view;
+  nrm_view.byteOffset = pos_bytes + idx_bytes;
+  model.bufferViews = {pos_view, idx_view, nrm_view};
 
   tinygltf::Accessor pos;
   pos.bufferView = 0;
@@ -235,10 +267,16 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary) {
   idx.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
   idx.count = m.indices.size();
   idx.type = TINYGLTF_TYPE_SCALAR;
-  model.accessors = {pos, idx};
+  tinygltf::Accessor nrm;
+  nrm.bufferView = 2;
+  nrm.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  nrm.count = m.vertex_count();
+  nrm.type = TINYGLTF_TYPE_VEC3;
+  model.accessors = {pos, idx, nrm};
 
   tinygltf::Primitive prim;
   prim.attributes["POSITION"] = 0;
+  prim.attributes["NORMAL"] = 2;
   prim.indices = 1;
   prim.mode = TINYGLTF_MODE_TRIANGLES;
   tinygltf::Mesh mesh;
