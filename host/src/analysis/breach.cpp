@@ -16,25 +16,26 @@ BreachResult breach_depressions(const Heightfield& h, bool raise_single_cell_pit
   require_indexable(h, stage);
   BreachResult r;
   r.breached = h;
-  std::vector<float>& z = r.breached.z;
-  const int w = h.width, ht = h.height;
-  const size_t n = z.size();
+  const size_t n = h.size();
   const double area = h.georef.cell_x * h.georef.cell_y;
-  ptrdiff_t off[8];
-  for (int k = 0; k < 8; ++k) off[k] = ptrdiff_t(kDy[k]) * w + kDx[k];
+  Padded g(h);
+  std::vector<float>& z = g.z;
+  const size_t valid = n - h.count_nodata();
 
-  // Single-cell pits are usually data noise; Lindsay raises them rather than cut a channel.
+  // Single-cell pits are usually data noise; Lindsay raises them rather than cut a channel. Two
+  // pits are never neighbours, so raising one in place cannot change the test of another.
   if (raise_single_cell_pits) {
+    const std::vector<float>& orig = z;
     double raised = 0;
-    for (int y = 1; y < ht - 1; ++y)
-      for (int x = 1; x < w - 1; ++x) {
-        const size_t i = size_t(y) * w + x;
-        const float zc = h.z[i];
+    for (int y = 1; y < h.height - 1; ++y)
+      for (int x = 1; x < h.width - 1; ++x) {
+        const size_t i = g.index(x, y);
+        const float zc = orig[i];
         if (std::isnan(zc)) continue;
         float lowest = INFINITY;
         bool pit = true;
         for (int k = 0; k < 8 && pit; ++k) {
-          const float zn = h.z[size_t(ptrdiff_t(i) + off[k])];
+          const float zn = orig[size_t(ptrdiff_t(i) + g.off[k])];
           if (!(zn > zc)) pit = false;  // a lower/equal or nodata neighbour: not a closed pit
           lowest = std::fmin(lowest, zn);
         }
@@ -46,30 +47,17 @@ BreachResult breach_depressions(const Heightfield& h, bool raise_single_cell_pit
     r.raised_volume_m3 = raised * area;
   }
 
-  std::vector<uint8_t> closed(n, 0);
-  std::vector<uint8_t> link(n, kOutlet);  // back-link: direction to the downstream cell
-  size_t valid = 0;
-  for (size_t i = 0; i < n; ++i) {
-    if (std::isnan(z[i]))
-      closed[i] = 1;
-    else
-      valid++;
-  }
-  MinHeap open = make_heap(size_t(2 * (w + ht)) + 1024);
-  seed_outlets(r.breached, closed, open);
+  std::vector<uint8_t>& closed = g.closed;
+  std::vector<uint8_t> link(z.size(), kOutlet);  // back-link: direction to the downstream cell
+  MinHeap open = make_heap(size_t(2 * (h.width + h.height)) + 1024);
+  g.seed_outlets(open, h.count_nodata() > 0);
 
   size_t done = 0, next_report = n / 8 + 1;
   while (!open.empty()) {
     const size_t c = key_index(open.top());
     open.pop();
-    const int cx = int(c % w), cy = int(c / w);
-    const bool interior = cx > 0 && cy > 0 && cx < w - 1 && cy < ht - 1;
     for (int k = 0; k < 8; ++k) {
-      if (!interior) {
-        const int nx = cx + kDx[k], ny = cy + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= w || ny >= ht) continue;
-      }
-      const size_t m = size_t(ptrdiff_t(c) + off[k]);
+      const size_t m = size_t(ptrdiff_t(c) + g.off[k]);
       if (closed[m]) continue;
       closed[m] = 1;
       link[m] = uint8_t((k + 4) & 7);  // from m back to c
@@ -81,7 +69,7 @@ BreachResult breach_depressions(const Heightfield& h, bool raise_single_cell_pit
         while (z[p] > zm) {
           z[p] = zm;
           if (link[p] == kOutlet) break;
-          p = size_t(ptrdiff_t(p) + off[link[p]]);
+          p = size_t(ptrdiff_t(p) + g.off[link[p]]);
         }
       }
       open.push(key(zm, m));
@@ -91,10 +79,11 @@ BreachResult breach_depressions(const Heightfield& h, bool raise_single_cell_pit
       next_report += n / 8 + 1;
     }
   }
+  g.unpad(r.breached.z);
 
   double sum = 0;
   for (size_t i = 0; i < n; ++i) {
-    const double d = double(h.z[i]) - double(z[i]);
+    const double d = double(h.z[i]) - double(r.breached.z[i]);
     if (d > 0) {
       sum += d;
       r.cells_lowered++;

@@ -13,7 +13,8 @@ namespace detail {
 void require_indexable(const Heightfield& h, const char* stage) {
   if (h.width <= 0 || h.height <= 0 || h.z.size() != size_t(h.width) * h.height)
     fail(stage, "empty or inconsistent heightfield ({} x {})", h.width, h.height);
-  if (h.z.size() >= (size_t(1) << 32)) fail(stage, "grid of {} cells is too large (limit 2^32)", h.z.size());
+  if (size_t(h.width + 2) * size_t(h.height + 2) >= (size_t(1) << 32))
+    fail(stage, "grid of {} cells is too large (limit 2^32)", h.z.size());
   for (float v : h.z)
     if (std::isinf(v)) fail(stage, "heightfield has infinite elevations");
 }
@@ -26,19 +27,15 @@ FillResult priority_flood_fill(const Heightfield& h, bool epsilon, const Progres
   require_indexable(h, stage);
   FillResult r;
   r.filled = h;
-  std::vector<float>& z = r.filled.z;
-  const int w = h.width, ht = h.height;
-  const size_t n = z.size();
-  std::vector<uint8_t> closed(n, 0);
-  for (size_t i = 0; i < n; ++i)
-    if (std::isnan(z[i])) closed[i] = 1;
-  MinHeap open = make_heap(size_t(2 * (w + ht)) + 1024);
-  seed_outlets(h, closed, open);
+  const size_t n = h.size();
+  Padded g(h);
+  std::vector<float>& z = g.z;
+  std::vector<uint8_t>& closed = g.closed;
+  MinHeap open = make_heap(size_t(2 * (h.width + h.height)) + 1024);
+  g.seed_outlets(open, h.count_nodata() > 0);
   std::vector<uint32_t> pit;  // FIFO as a vector with a moving head (cheaper than std::deque)
   pit.reserve(1024);
   size_t pit_head = 0;
-  ptrdiff_t off[8];
-  for (int k = 0; k < 8; ++k) off[k] = ptrdiff_t(kDy[k]) * w + kDx[k];
 
   size_t done = 0, next_report = n / 8 + 1;
   while (!open.empty() || pit_head < pit.size()) {
@@ -55,14 +52,8 @@ FillResult priority_flood_fill(const Heightfield& h, bool epsilon, const Progres
     }
     const float zc = z[c];
     const float zmin = epsilon ? std::nextafter(zc, INFINITY) : zc;
-    const int cx = int(c % w), cy = int(c / w);
-    const bool interior = cx > 0 && cy > 0 && cx < w - 1 && cy < ht - 1;
     for (int k = 0; k < 8; ++k) {
-      if (!interior) {
-        const int nx = cx + kDx[k], ny = cy + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= w || ny >= ht) continue;
-      }
-      const size_t m = size_t(ptrdiff_t(c) + off[k]);
+      const size_t m = size_t(ptrdiff_t(c) + g.off[k]);
       if (closed[m]) continue;
       closed[m] = 1;
       if (z[m] <= zmin) {
@@ -77,10 +68,11 @@ FillResult priority_flood_fill(const Heightfield& h, bool epsilon, const Progres
       next_report += n / 8 + 1;
     }
   }
+  g.unpad(r.filled.z);
   const double area = h.georef.cell_x * h.georef.cell_y;
   double sum = 0;
   for (size_t i = 0; i < n; ++i) {
-    const double d = double(z[i]) - double(h.z[i]);
+    const double d = double(r.filled.z[i]) - double(h.z[i]);
     if (d > 0) {
       sum += d;
       r.cells_raised++;

@@ -22,7 +22,7 @@ struct Grid {
 };
 
 /// Steepest-descent neighbour of cell (x, y); kOutlet when no neighbour is lower.
-inline uint8_t d8_receiver(const std::vector<float>& z, const Grid& g, int x, int y, const double dist[8]) {
+inline uint8_t d8_receiver(const std::vector<float>& z, const Grid& g, int x, int y, const double inv_dist[8]) {
   const size_t i = size_t(y) * g.w + x;
   const float zc = z[i];
   const bool interior = x > 0 && y > 0 && x < g.w - 1 && y < g.ht - 1;
@@ -32,7 +32,7 @@ inline uint8_t d8_receiver(const std::vector<float>& z, const Grid& g, int x, in
     if (!interior && !g.inside(x + kDx[k], y + kDy[k])) continue;
     const float zn = z[size_t(ptrdiff_t(i) + g.off[k])];
     if (!(zn < zc)) continue;  // also skips NaN
-    const double s = (double(zc) - double(zn)) / dist[k];
+    const double s = (double(zc) - double(zn)) * inv_dist[k];
     if (s > best) {  // strict: the lowest k wins ties
       best = s;
       dir = uint8_t(k);
@@ -49,8 +49,9 @@ D8Result d8_flow(const Heightfield& h, const Progress& progress) {
   const FillResult f = priority_flood_fill(h, true, scaled_progress(progress, 0.0, 0.6));
   const std::vector<float>& z = f.filled.z;
   const Grid g(h);
-  double dist[8];
+  double dist[8], inv_dist[8];
   neighbour_distances(h, dist);
+  for (int k = 0; k < 8; ++k) inv_dist[k] = 1.0 / dist[k];
   const size_t n = z.size();
   D8Result r;
   r.width = h.width;
@@ -64,7 +65,7 @@ D8Result d8_flow(const Heightfield& h, const Progress& progress) {
       const size_t i = size_t(y) * g.w + x;
       if (std::isnan(z[i])) continue;
       r.valid_cells++;
-      const uint8_t d = d8_receiver(z, g, x, y, dist);
+      const uint8_t d = d8_receiver(z, g, x, y, inv_dist);
       r.dir[i] = d;
       r.cells[i] = 1.0;
       if (d < 8) donors[size_t(ptrdiff_t(i) + g.off[d])]++;

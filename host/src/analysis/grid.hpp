@@ -1,5 +1,6 @@
 #pragma once
 // Small shared pieces of the analysis modules: priority keys, outlet seeding, neighbour distances.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -31,42 +32,61 @@ inline MinHeap make_heap(size_t reserve) {
   return MinHeap(std::greater<uint64_t>(), std::move(storage));
 }
 
-/// True for valid cells where water can leave the grid: on the border or next to nodata.
-inline bool is_outlet_cell(const Heightfield& h, int x, int y) {
-  if (x == 0 || y == 0 || x == h.width - 1 || y == h.height - 1) return true;
-  for (int k = 0; k < 8; ++k)
-    if (std::isnan(h.at(x + kDx[k], y + kDy[k]))) return true;
-  return false;
-}
-
 /// Distances to the 8 neighbours in metres.
 inline void neighbour_distances(const Heightfield& h, double d[8]) {
   const double cx = h.georef.cell_x, cy = h.georef.cell_y, dg = std::hypot(cx, cy);
   for (int k = 0; k < 8; ++k) d[k] = (kDx[k] != 0 && kDy[k] != 0) ? dg : (kDx[k] != 0 ? cx : cy);
 }
 
-/// Pushes every outlet cell into `heap` and marks it closed. Interior rows only test the
-/// neighbours of cells next to nodata when the grid has nodata at all (the common case is fast).
-inline void seed_outlets(const Heightfield& h, std::vector<uint8_t>& closed, MinHeap& heap) {
-  const int w = h.width, ht = h.height;
-  const bool any_nan = h.count_nodata() > 0;
-  for (int y = 0; y < ht; ++y) {
-    const bool border_row = (y == 0 || y == ht - 1);
-    for (int x = 0; x < w; ++x) {
-      if (!border_row && !any_nan && x != 0 && x != w - 1) {
-        x = w - 2;  // jump to the last column
-        continue;
+/// The grid with a one-cell nodata frame: every valid cell then has 8 addressable neighbours, so
+/// the flood loops need no bounds checks and no divisions, and "border cell" and "next to nodata"
+/// become the same test. Padded indices keep the row-major order of the original ones, so
+/// index tie-breaking is unchanged.
+struct Padded {
+  int w = 0, h = 0, pw = 0;
+  std::vector<float> z;         ///< (w + 2) * (h + 2), frame NaN
+  std::vector<uint8_t> closed;  ///< frame and nodata closed
+  ptrdiff_t off[8];
+  size_t index(int x, int y) const { return size_t(y + 1) * pw + size_t(x + 1); }
+
+  explicit Padded(const Heightfield& src) : w(src.width), h(src.height), pw(src.width + 2) {
+    z.assign(size_t(pw) * (h + 2), NAN);
+    closed.assign(z.size(), 1);
+    for (int y = 0; y < h; ++y) {
+      const float* row = &src.z[size_t(y) * w];
+      float* dst = &z[index(0, y)];
+      uint8_t* cl = &closed[index(0, y)];
+      for (int x = 0; x < w; ++x) {
+        dst[x] = row[x];
+        cl[x] = std::isnan(row[x]) ? 1 : 0;
       }
-      const size_t i = size_t(y) * w + x;
-      const float z = h.z[i];
-      if (std::isnan(z)) continue;
-      if (is_outlet_cell(h, x, y)) {
+    }
+    for (int k = 0; k < 8; ++k) off[k] = ptrdiff_t(kDy[k]) * pw + kDx[k];
+  }
+  /// Copies the interior back into `dst` (same size as the source).
+  void unpad(std::vector<float>& dst) const {
+    for (int y = 0; y < h; ++y) std::copy_n(&z[index(0, y)], w, &dst[size_t(y) * w]);
+  }
+  /// Pushes every outlet (a valid cell with a nodata or frame neighbour) and closes it.
+  void seed_outlets(MinHeap& heap, bool any_nodata) {
+    for (int y = 0; y < h; ++y) {
+      const bool border_row = (y == 0 || y == h - 1);
+      for (int x = 0; x < w; ++x) {
+        if (!border_row && !any_nodata && x != 0 && x != w - 1) {
+          x = w - 2;  // interior cells of a grid without nodata are never outlets
+          continue;
+        }
+        const size_t i = index(x, y);
+        if (std::isnan(z[i])) continue;
+        bool outlet = false;
+        for (int k = 0; k < 8 && !outlet; ++k) outlet = std::isnan(z[size_t(ptrdiff_t(i) + off[k])]);
+        if (!outlet) continue;
         closed[i] = 1;
-        heap.push(key(z, i));
+        heap.push(key(z[i], i));
       }
     }
   }
-}
+};
 
 /// Index space check (the keys hold 32-bit cell indices).
 void require_indexable(const Heightfield& h, const char* stage);
