@@ -197,8 +197,6 @@ json terrain_metrics(const Heightfield& h, const Progress& progress) {
   }
   const double beta = spectral_slope(h);
   j["spectral_slope"] = std::isnan(beta) ? json(nullptr) : json(beta);
-  // For a self-affine surface P(k) ~ k^-(2H+2), so D = 3 - H = (8 + slope) / 2.
-  j["fractal_dimension"] = std::isnan(beta) ? json(nullptr) : json((8.0 + beta) / 2.0);
   report_progress(progress, stage, 0.25, "spectrum");
 
   const FillResult f = priority_flood_fill(h, false);
@@ -255,8 +253,8 @@ std::string format_metrics(const json& r) {
   const json& lp = r["laplacian_per_m"];
   s += fmt::format("laplacian (1/m):      mean {:.3e}  std {:.3e}  concave-up {:.1f} %\n", lp["mean"].get<double>(),
                    lp["std"].get<double>(), 100 * lp["fraction_concave_up"].get<double>());
-  s += fmt::format("spectral slope:       {}  (fractal dimension {})\n", num(r["spectral_slope"], "{:.3f}"),
-                   num(r["fractal_dimension"], "{:.3f}"));
+  s += fmt::format("spectral slope:       {}  (log P / log k of the radially averaged power spectrum)\n",
+                   num(r["spectral_slope"], "{:.3f}"));
   const json& f = r["fill"];
   s += fmt::format("fill:                 {:.4g} m3 over {} cells (max {:.2f} m, mean {:.4f} m)\n",
                    f["volume_m3"].get<double>(), f["cells"].get<size_t>(), f["max_depth_m"].get<double>(),
