@@ -6,6 +6,8 @@
 namespace terracl {
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
+void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
+void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct_stages.cpp
 void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct_stages.cpp
 }  // namespace terracl
