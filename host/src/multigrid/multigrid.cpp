@@ -161,11 +161,12 @@ class Solver {
   }
 
   // ---- smoothing, transfer, cycles ----
-  void smooth0(int sweeps) {
+  // Post-smoothing runs the colours in reverse order, which makes the V-cycle symmetric.
+  void smooth0(int sweeps, bool reverse) {
     for (int s = 0; s < sweeps; ++s) {
       if (m_o.smoother == Smoother::Rbgs) {
         for (int c = 0; c < 2; ++c) {
-          set(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, c);
+          set(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, reverse ? 1 - c : c);
           run(m_rb0, m_p.height, double(m_p.width) * m_p.height / 2);
         }
       } else {
@@ -177,14 +178,15 @@ class Solver {
     }
   }
 
-  void smooth(size_t l, int sweeps) {
-    if (l == 0) return smooth0(sweeps);
+  void smooth(size_t l, int sweeps, bool reverse = false) {
+    if (l == 0) return smooth0(sweeps, reverse);
     Level& L = m_levels[l];
     for (int s = 0; s < sweeps; ++s) {
       if (m_o.smoother == Smoother::Rbgs) {
         // Four colours on large levels; zebra rows (half the launches) where launches dominate.
         const int colours = int64_t(L.W) * L.H >= kFourColourCells ? 4 : 2;
-        for (int c = 0; c < colours; ++c) {
+        for (int cc = 0; cc < colours; ++cc) {
+          const int c = reverse ? colours - 1 - cc : cc;
           const int px = colours == 4 ? (c & 1) : 0, py = colours == 4 ? (c >> 1) : c;
           set(m_z9, L.e, L.r, L.st, L.W, L.H, px, py, colours == 4 ? 2 : 1);
           run(m_z9, size_t((L.H - py + 1) / 2), double(L.W) * L.H / colours);
