@@ -1,0 +1,79 @@
+// Launchers of kernels/noise.cl.
+#include <terracl/error.hpp>
+#include <terracl/noise.hpp>
+
+#include <cmath>
+
+namespace terracl {
+
+NoiseType parse_noise_type(const std::string& s) {
+  if (s == "perlin") return NoiseType::Perlin;
+  if (s == "fbm") return NoiseType::Fbm;
+  if (s == "ridged") return NoiseType::Ridged;
+  fail("noise", "unknown noise type '{}' (expected perlin, fbm or ridged)", s);
+}
+
+namespace {
+void check(const NoiseParams& p) {
+  if (!(p.wavelength > 0)) fail("noise", "wavelength must be > 0 m, got {}", p.wavelength);
+  if (p.octaves < 1 || p.octaves > 16) fail("noise", "octaves must be in [1, 16], got {}", p.octaves);
+  if (!std::isfinite(p.amplitude)) fail("noise", "amplitude must be finite");
+  if (!(p.lacunarity >= 1) || !(p.gain > 0 && p.gain <= 1)) fail("noise", "lacunarity >= 1 and gain in (0, 1] expected");
+}
+
+void set_params(cl::Kernel& k, int& a, const NoiseParams& p) {
+  k.setArg(a++, float(p.amplitude));
+  k.setArg(a++, float(p.wavelength));
+  k.setArg(a++, p.octaves);
+  k.setArg(a++, float(p.lacunarity));
+  k.setArg(a++, float(p.gain));
+  k.setArg(a++, int(p.type));
+  k.setArg(a++, cl_uint(p.seed));
+}
+}  // namespace
+
+void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const Box& box, bool use_mask, bool to_scratch) {
+  check(p);
+  if (box.empty()) return;
+  cl::Kernel k = d.kernel("noise", "noise_gradient");
+  int a = 0;
+  k.setArg(a++, to_scratch ? g.tx : g.gx);
+  k.setArg(a++, to_scratch ? g.ty : g.gy);
+  k.setArg(a++, g.width);
+  k.setArg(a++, g.height);
+  k.setArg(a++, float(g.cell_x));
+  k.setArg(a++, float(g.cell_y));
+  k.setArg(a++, box.x0);
+  k.setArg(a++, box.y0);
+  k.setArg(a++, box.w);
+  k.setArg(a++, box.h);
+  k.setArg(a++, g.mask);
+  k.setArg(a++, use_mask ? 1 : 0);
+  set_params(k, a, p);
+  k.setArg(a++, to_scratch ? 0 : 1);
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(box.h)), cl::NullRange);
+}
+
+Heightfield noise_values(Device& d, int width, int height, double cell_x, double cell_y, const NoiseParams& p) {
+  check(p);
+  Heightfield h(width, height);
+  h.georef.cell_x = cell_x;
+  h.georef.cell_y = cell_y;
+  cl::Buffer out = d.buffer(h.size() * sizeof(float), CL_MEM_WRITE_ONLY, "noise values");
+  cl::Buffer dummy = d.buffer(sizeof(float), CL_MEM_READ_ONLY, "mask");
+  cl::Kernel k = d.kernel("noise", "noise_value");
+  int a = 0;
+  k.setArg(a++, out);
+  k.setArg(a++, width);
+  k.setArg(a++, height);
+  k.setArg(a++, float(cell_x));
+  k.setArg(a++, float(cell_y));
+  k.setArg(a++, dummy);
+  k.setArg(a++, 0);
+  set_params(k, a, p);
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(height)), cl::NullRange);
+  d.queue().enqueueReadBuffer(out, CL_TRUE, 0, h.size() * sizeof(float), h.z.data());
+  return h;
+}
+
+}  // namespace terracl
