@@ -6,4 +6,6 @@
 namespace terracl {
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
+void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct_stages.cpp
+void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct_stages.cpp
 }  // namespace terracl

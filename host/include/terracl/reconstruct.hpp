@@ -1,0 +1,85 @@
+#pragma once
+/// Multigrid Poisson reconstruction: elevations from a gradient field (or a divergence) with hard
+/// elevation constraints.
+///
+/// Discrete problem: sum over in-grid 4-neighbours n of (h_n - h)/d^2 = f (d = cx along rows, cy
+/// along columns) at every free cell, h = c at every hard cell, natural Neumann border. With a
+/// gradient input f = div(g) by backward differences of the staggered gradient, which makes
+/// reconstruct(extract(h)) == h up to the solver tolerance.
+#include <terracl/constraints.hpp>
+#include <terracl/device.hpp>
+#include <terracl/heightfield.hpp>
+#include <terracl/progress.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace terracl {
+
+/// Multigrid schedule. Fmg: full multigrid (coarse-to-fine with one V-cycle per level) followed by
+/// V-cycles. Cascade: the published one-pass coarse-to-fine Jacobi schedule (comparison only).
+enum class Cycle { V, W, Fmg, Cascade };
+/// Rbgs: red-black Gauss-Seidel on the 5-point finest level and zebra (row red-black,
+/// lexicographic in a row) Gauss-Seidel on the 9-point coarse levels. Jacobi: weighted Jacobi.
+enum class Smoother { Rbgs, Jacobi };
+
+Cycle parse_cycle(const std::string& s);          ///< "v" | "w" | "fmg" | "cascade"
+Smoother parse_smoother(const std::string& s);    ///< "rbgs" | "jacobi"
+const char* cycle_name(Cycle c);
+const char* smoother_name(Smoother s);
+
+struct SolverOptions {
+  Cycle cycle = Cycle::Fmg;
+  Smoother smoother = Smoother::Rbgs;
+  /// Stop when ||f - L h|| / ||b|| <= tolerance, where b is the residual of the trivial guess
+  /// (hard values, reference level elsewhere), i.e. the right-hand side of the reduced system.
+  double tolerance = 1e-6;
+  int max_cycles = 50;
+  int pre_smooth = 2, post_smooth = 2;
+  double jacobi_omega = 0.8;
+  /// Fix the border cells to `initial` (Dirichlet border) instead of the natural Neumann border.
+  bool dirichlet_border = false;
+  /// Mean elevation of the result when no cell is hard (default: the gradient's source mean,
+  /// else the mean of `initial`, else 0).
+  std::optional<double> mean;
+  /// Warm start (e.g. the previous solution of an interactive edit); not copied, may be null.
+  const Heightfield* initial = nullptr;
+  Progress progress;
+};
+
+struct ReconstructResult {
+  Heightfield height;
+  int cycles = 0;                    ///< fine-level cycles (FMG's initial pass not counted)
+  std::vector<double> residuals;     ///< relative residual before the first and after each cycle
+  bool converged = false;            ///< reached the tolerance
+  bool stagnated = false;            ///< stopped at the float32 rounding floor
+  int levels = 0;
+  double setup_ms = 0, solve_ms = 0, total_ms = 0;
+  uint64_t device_bytes = 0;         ///< peak device memory of the solve
+  std::string device;
+  Cycle cycle = Cycle::Fmg;
+  Smoother smoother = Smoother::Rbgs;
+  size_t hard_cells = 0;
+  /// cycles, residuals, times, memory and device as JSON (the --report file).
+  nlohmann::json to_json() const;
+};
+
+/// Reconstructs elevations from a gradient field (staggered, or central which is converted
+/// first). `c` may be empty (then the mean rule of SolverOptions applies) and must match the
+/// gradient's size otherwise. Throws on NaN/Inf input, size mismatch or a device failure.
+ReconstructResult reconstruct(Device& d, const GradientField& g, const ConstraintSet& c, const SolverOptions& o = {});
+
+/// Same with the divergence f (1/m) given directly: (sum of in-grid neighbours - k h)/d^2 = f,
+/// d from f.georef (1 when the raster has no georeferencing). With no hard cell f is projected
+/// onto the solvable (zero-mean) part first.
+ReconstructResult reconstruct_divergence(Device& d, const Heightfield& f, const ConstraintSet& c,
+                                         const SolverOptions& o = {});
+
+/// Number of multigrid levels and their sizes for a W x H grid (coarse n = n/2 + 1 until the
+/// coarsest has at most 64 cells).
+std::vector<std::pair<int, int>> multigrid_levels(int width, int height);
+
+}  // namespace terracl

@@ -1,0 +1,336 @@
+// Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
+// docs/reconstruct.md for the design choices and measurements.
+#include "multigrid/multigrid.hpp"
+
+#include <terracl/error.hpp>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace terracl::mg {
+namespace {
+
+constexpr int kCoarsestCells = 64;
+
+struct Level {
+  int W = 0, H = 0;
+  cl::Buffer e, r, st, tmp;  // level 0 uses Problem::u/g instead of e/r
+};
+
+double now_ms() {
+  using namespace std::chrono;
+  return duration<double, std::milli>(steady_clock::now().time_since_epoch()).count();
+}
+
+class Solver {
+ public:
+  Solver(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline)
+      : m_d(d), m_q(d.queue()), m_p(p), m_o(o), m_baseline(baseline) {
+    m_wx = float(1.0 / (p.cell_x * p.cell_x));
+    m_wy = float(1.0 / (p.cell_y * p.cell_y));
+    auto k = [&](const char* n) { return d.kernel("multigrid", n); };
+    m_rb0 = k("smooth_rb0");
+    m_jac0 = k("jacobi0");
+    m_rr0 = k("residual_restrict0");
+    m_pc0 = k("prolong_correct0");
+    m_norm0 = k("residual_norm0");
+    m_z9 = k("smooth_zebra9");
+    m_jac9 = k("jacobi9");
+    m_rr9 = k("residual_restrict9");
+    m_pc9 = k("prolong_correct9");
+    m_cs = k("coarse_solve");
+    m_rows = d.buffer(sizeof(float) * size_t(p.height), CL_MEM_READ_WRITE, "residual rows");
+    m_rows_host.resize(size_t(p.height));
+  }
+
+  void track() { m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_d.allocated_bytes() - m_baseline); }
+
+  void build() {
+    const auto dims = multigrid_levels(m_p.width, m_p.height);
+    m_levels.resize(dims.size());
+    const bool jac = m_o.smoother == Smoother::Jacobi;
+    for (size_t l = 0; l < dims.size(); ++l) {
+      Level& L = m_levels[l];
+      L.W = dims[l].first;
+      L.H = dims[l].second;
+      const size_t n = size_t(L.W) * L.H * sizeof(float);
+      if (l == 0) {
+        if (jac) L.tmp = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid level 0 Jacobi buffer");
+        continue;
+      }
+      L.e = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid correction");
+      L.r = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid residual");
+      L.st = m_d.buffer(5 * n, CL_MEM_READ_WRITE, "multigrid coarse operator");
+      if (jac) L.tmp = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid Jacobi buffer");
+    }
+    track();
+    // Galerkin operators, finest to coarsest, all enqueued.
+    cl::Kernel g0 = m_d.kernel("multigrid", "galerkin0");
+    cl::Kernel g9 = m_d.kernel("multigrid", "galerkin9");
+    for (size_t l = 1; l < m_levels.size(); ++l) {
+      const Level &F = m_levels[l - 1], &C = m_levels[l];
+      if (l == 1) {
+        set(g0, m_p.g, F.W, F.H, m_wx, m_wy, C.st, C.W, C.H);
+        run(g0, C.H);
+      } else {
+        set(g9, F.st, F.W, F.H, C.st, C.W, C.H);
+        run(g9, C.H);
+      }
+    }
+    // Coarsest level: pseudo-inverse on the host, in double (handles the singular Neumann case
+    // and dead nodes).
+    const Level& C = m_levels.back();
+    const int n = C.W * C.H;
+    std::vector<float> st(size_t(5) * n);
+    m_q.enqueueReadBuffer(C.st, CL_TRUE, 0, st.size() * sizeof(float), st.data());
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+    for (int y = 0; y < C.H; ++y)
+      for (int x = 0; x < C.W; ++x) {
+        const int i = y * C.W + x;
+        A(i, i) = st[i];
+        auto link = [&](int k, int xx, int yy) {
+          if (xx < 0 || yy < 0 || xx >= C.W || yy >= C.H) return;
+          const int j = yy * C.W + xx;
+          A(i, j) -= st[size_t(k) * n + i];
+          A(j, i) -= st[size_t(k) * n + i];
+        };
+        link(1, x + 1, y);
+        link(2, x, y + 1);
+        link(3, x + 1, y + 1);
+        link(4, x - 1, y + 1);
+      }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
+    const double top = es.eigenvalues().cwiseAbs().maxCoeff();
+    Eigen::VectorXd inv = es.eigenvalues();
+    for (int i = 0; i < n; ++i) inv(i) = std::abs(inv(i)) > 1e-9 * top && top > 0 ? 1.0 / inv(i) : 0.0;
+    Eigen::MatrixXd P = es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
+    m_pinv_host.resize(size_t(n) * n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) m_pinv_host[size_t(i) * n + j] = float(P(i, j));
+    m_pinv = m_d.buffer(m_pinv_host.size() * sizeof(float), CL_MEM_READ_ONLY, "coarsest pseudo-inverse");
+    m_q.enqueueWriteBuffer(m_pinv, CL_FALSE, 0, m_pinv_host.size() * sizeof(float), m_pinv_host.data());
+    track();
+    m_stats.levels = int(m_levels.size());
+  }
+
+  /// sqrt(sum of squared level-0 residuals); `cold` measures the trivial guess instead of u.
+  double norm(bool cold) {
+    set(m_norm0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, int(cold), m_rows);
+    run(m_norm0, m_p.height);
+    m_q.enqueueReadBuffer(m_rows, CL_TRUE, 0, m_rows_host.size() * sizeof(float), m_rows_host.data());
+    double s = 0;
+    for (float v : m_rows_host) s += v;
+    return std::sqrt(s);
+  }
+
+  // ---- smoothing, transfer, cycles ----
+  void smooth0(int sweeps) {
+    for (int s = 0; s < sweeps; ++s) {
+      if (m_o.smoother == Smoother::Rbgs) {
+        for (int c = 0; c < 2; ++c) {
+          set(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, c);
+          run(m_rb0, m_p.height);
+        }
+      } else {
+        Level& L = m_levels[0];
+        set(m_jac0, L.tmp, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, float(m_o.jacobi_omega));
+        run(m_jac0, m_p.height);
+        std::swap(L.tmp, m_p.u);
+      }
+    }
+  }
+
+  void smooth(size_t l, int sweeps) {
+    if (l == 0) return smooth0(sweeps);
+    Level& L = m_levels[l];
+    for (int s = 0; s < sweeps; ++s) {
+      if (m_o.smoother == Smoother::Rbgs) {
+        for (int par = 0; par < 2; ++par) {
+          set(m_z9, L.e, L.r, L.st, L.W, L.H, par);
+          run(m_z9, size_t((L.H - par + 1) / 2));
+        }
+      } else {
+        set(m_jac9, L.tmp, L.e, L.r, L.st, L.W, L.H, float(m_o.jacobi_omega));
+        run(m_jac9, L.H);
+        std::swap(L.tmp, L.e);
+      }
+    }
+  }
+
+  void restrict_to(size_t l) {  // residual of level l -> rhs of level l+1, e_{l+1} = 0
+    Level& F = m_levels[l];
+    Level& C = m_levels[l + 1];
+    if (l == 0) {
+      set(m_rr0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, C.r, C.e, C.W, C.H);
+      run(m_rr0, C.H);
+    } else {
+      set(m_rr9, F.e, F.r, F.st, F.W, F.H, C.r, C.e, C.W, C.H);
+      run(m_rr9, C.H);
+    }
+  }
+
+  void prolong_from(size_t l) {  // level l += P e_{l+1}
+    Level& C = m_levels[l + 1];
+    if (l == 0) {
+      set(m_pc0, m_p.u, m_p.g, m_p.width, m_p.height, C.e, C.W);
+      run(m_pc0, m_p.height);
+    } else {
+      Level& F = m_levels[l];
+      set(m_pc9, F.e, F.W, F.H, C.e, C.W);
+      run(m_pc9, F.H);
+    }
+  }
+
+  void coarse_solve() {
+    Level& C = m_levels.back();
+    const int n = C.W * C.H;
+    set(m_cs, C.e, C.r, m_pinv, n);
+    run(m_cs, size_t(n));
+  }
+
+  void cycle(size_t l, int gamma) {
+    if (l + 1 == m_levels.size()) return coarse_solve();
+    smooth(l, m_o.pre_smooth);
+    restrict_to(l);
+    cycle(l + 1, gamma);
+    if (gamma > 1 && l + 2 < m_levels.size()) cycle(l + 1, gamma);
+    prolong_from(l);
+    smooth(l, m_o.post_smooth);
+  }
+
+  void fmg_start() {
+    // Restrict the initial residual down the hierarchy (coarse corrections start at 0), solve
+    // the coarsest exactly, then interpolate up with one V-cycle per level.
+    for (size_t l = 0; l + 1 < m_levels.size(); ++l) restrict_to(l);
+    coarse_solve();
+    for (size_t l = m_levels.size() - 1; l-- > 0;) {
+      prolong_from(l);
+      if (l > 0) cycle(l, 1);
+    }
+  }
+
+  SolveStats run_cycles() {
+    const double b = norm(true);
+    auto rel = [&](double r) { return b > 0 ? r / b : 0.0; };
+    double r = rel(norm(false));
+    m_stats.residuals.push_back(r);
+    if (r <= m_o.tolerance) {
+      m_stats.converged = true;
+      return m_stats;
+    }
+    const int gamma = m_o.cycle == Cycle::W ? 2 : 1;
+    int slow = 0;
+    for (int c = 0; c < m_o.max_cycles; ++c) {
+      if (c == 0 && m_o.cycle == Cycle::Fmg) fmg_start();
+      cycle(0, gamma);
+      const double rn = rel(norm(false));
+      m_stats.cycles = c + 1;
+      m_stats.residuals.push_back(rn);
+      report_progress(m_o.progress, "reconstruct", std::clamp(std::log(rn) / std::log(m_o.tolerance), 0.0, 1.0),
+                      fmt::format("cycle {} residual {:.2e}", c + 1, rn));
+      if (rn <= m_o.tolerance) {
+        m_stats.converged = true;
+        break;
+      }
+      // float32 floor: the residual stops shrinking (rounding noise of u dominates).
+      slow = rn > 0.6 * r ? slow + 1 : 0;
+      r = rn;
+      if (slow >= 2) {
+        m_stats.stagnated = true;
+        break;
+      }
+    }
+    return m_stats;
+  }
+
+  // ---- the published cascade ----
+  SolveStats cascade() {
+    const auto dims = multigrid_levels(m_p.width, m_p.height);
+    const size_t L = dims.size();
+    std::vector<Level> lv(L);
+    for (size_t l = 0; l < L; ++l) {
+      lv[l].W = dims[l].first;
+      lv[l].H = dims[l].second;
+      const size_t n = size_t(lv[l].W) * lv[l].H * sizeof(float);
+      lv[l].tmp = m_d.buffer(n, CL_MEM_READ_WRITE, "cascade Jacobi buffer");
+      if (l == 0) continue;
+      lv[l].e = m_d.buffer(n, CL_MEM_READ_WRITE, "cascade solution");
+      lv[l].r = m_d.buffer(n, CL_MEM_READ_WRITE, "cascade right-hand side");
+    }
+    track();
+    m_stats.levels = int(L);
+    lv[0].e = m_p.u;
+    lv[0].r = m_p.g;
+    cl::Kernel fuse = m_d.kernel("multigrid", "fuse_restrict");
+    cl::Kernel pa = m_d.kernel("multigrid", "prolong_assign");
+    for (size_t l = 0; l + 1 < L; ++l) {
+      set(fuse, lv[l].r, lv[l].e, lv[l].W, lv[l].H, lv[l + 1].r, lv[l + 1].e, lv[l + 1].W, lv[l + 1].H);
+      run(fuse, lv[l + 1].H);
+    }
+    const double b = norm(true);
+    m_stats.residuals.push_back(b > 0 ? norm(false) / b : 0.0);
+    for (size_t l = L; l-- > 0;) {
+      if (l + 1 < L) {
+        set(pa, lv[l].e, lv[l].r, lv[l].W, lv[l].H, lv[l + 1].e, lv[l + 1].W);
+        run(pa, lv[l].H);
+      }
+      const double scale = std::ldexp(1.0, int(l));
+      const float wx = float(1.0 / (p2(m_p.cell_x * scale))), wy = float(1.0 / p2(m_p.cell_y * scale));
+      const int sweeps = 50 + 10 * int(L - 1 - l);
+      for (int s = 0; s < sweeps; ++s) {
+        set(m_jac0, lv[l].tmp, lv[l].e, lv[l].r, lv[l].W, lv[l].H, wx, wy, 1.0f);
+        run(m_jac0, lv[l].H);
+        std::swap(lv[l].tmp, lv[l].e);
+      }
+    }
+    m_p.u = lv[0].e;
+    m_stats.cycles = 1;
+    const double rn = b > 0 ? norm(false) / b : 0.0;
+    m_stats.residuals.push_back(rn);
+    m_stats.converged = rn <= m_o.tolerance;
+    return m_stats;
+  }
+
+  SolveStats& stats() { return m_stats; }
+
+ private:
+  static double p2(double v) { return v * v; }
+  template <typename... A>
+  void set(cl::Kernel& k, const A&... a) {
+    cl_uint i = 0;
+    (k.setArg(i++, a), ...);
+  }
+  void run(cl::Kernel& k, size_t n) {
+    if (n == 0) return;
+    m_q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NullRange);
+  }
+
+  Device& m_d;
+  cl::CommandQueue& m_q;
+  Problem& m_p;
+  const SolverOptions& m_o;
+  uint64_t m_baseline;
+  float m_wx = 1, m_wy = 1;
+  std::vector<Level> m_levels;
+  cl::Kernel m_rb0, m_jac0, m_rr0, m_pc0, m_norm0, m_z9, m_jac9, m_rr9, m_pc9, m_cs;
+  cl::Buffer m_rows, m_pinv;
+  std::vector<float> m_rows_host, m_pinv_host;
+  SolveStats m_stats;
+};
+
+}  // namespace
+
+SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline) {
+  const double t0 = now_ms();
+  Solver s(d, p, o, baseline);
+  s.track();
+  if (o.cycle == Cycle::Cascade) return s.cascade();
+  s.build();
+  s.stats().setup_ms = now_ms() - t0;
+  return s.run_cycles();
+}
+
+}  // namespace terracl::mg

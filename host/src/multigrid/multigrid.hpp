@@ -1,0 +1,33 @@
+#pragma once
+// Launcher for kernels/multigrid.cl (internal): the level hierarchy, smoothers, cycles and the
+// published cascade, all enqueued without host waits except one norm read per cycle.
+#include <terracl/device.hpp>
+#include <terracl/reconstruct.hpp>
+
+#include <vector>
+
+namespace terracl::mg {
+
+/// The level-0 problem already on the device: u (hard cells hold value - m, free cells the
+/// initial guess - m) and g = -f with NaN at hard cells.
+struct Problem {
+  int width = 0, height = 0;
+  double cell_x = 1, cell_y = 1;
+  cl::Buffer u, g;
+  bool singular = false;  ///< no hard cell: pure Neumann, defined up to a constant
+};
+
+struct SolveStats {
+  int cycles = 0;
+  std::vector<double> residuals;
+  bool converged = false, stagnated = false;
+  int levels = 0;
+  double setup_ms = 0;
+  uint64_t peak_bytes = 0;
+};
+
+/// Runs the solve in place on p.u. `baseline` is the device allocation before the solve started
+/// (for the peak memory figure).
+SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline);
+
+}  // namespace terracl::mg

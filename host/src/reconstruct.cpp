@@ -1,0 +1,267 @@
+// Public reconstruction API: uploads the problem (divergence computed on the device, constraint
+// values scattered into the solution buffer), runs the multigrid launcher and reads the result.
+#include <terracl/error.hpp>
+#include <terracl/gradient.hpp>
+#include <terracl/reconstruct.hpp>
+
+#include "multigrid/multigrid.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+
+namespace terracl {
+namespace {
+
+double now_ms() {
+  using namespace std::chrono;
+  return duration<double, std::milli>(steady_clock::now().time_since_epoch()).count();
+}
+
+using RhsMaker = std::function<void(Device&, cl::Buffer& g)>;
+
+ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
+                               double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
+                               const SolverOptions& o) {
+  const double t0 = now_ms();
+  if (W < 1 || H < 1) fail("reconstruct", "empty input grid");
+  const double cx = georef.cell_x, cy = georef.cell_y;
+  if (!(cx > 0) || !(cy > 0) || !std::isfinite(cx) || !std::isfinite(cy))
+    fail("reconstruct", "cell size must be positive and finite, got {} x {} m", cx, cy);
+  if (!(o.tolerance > 0)) fail("reconstruct", "tolerance must be positive, got {}", o.tolerance);
+  if (o.max_cycles < 1) fail("reconstruct", "max cycles must be at least 1, got {}", o.max_cycles);
+  if (o.pre_smooth < 0 || o.post_smooth < 0 || o.pre_smooth + o.post_smooth < 1)
+    fail("reconstruct", "smoothing sweeps must be >= 0 with at least one in total");
+  if (o.initial) {
+    if (o.initial->width != W || o.initial->height != H)
+      fail("reconstruct", "initial/warm-start heightfield is {}x{}, the input is {}x{}", o.initial->width,
+           o.initial->height, W, H);
+    require_finite(*o.initial, "reconstruct", "the initial/warm-start heightfield");
+  }
+  if (cin.width() != 0 && (cin.width() != W || cin.height() != H))
+    fail("reconstruct", "constraints are {}x{}, the input is {}x{}", cin.width(), cin.height(), W, H);
+
+  // Resolved constraint values (NaN = free), with the border added when asked.
+  std::vector<float> vals;
+  if (o.dirichlet_border) {
+    if (!o.initial) fail("reconstruct", "a Dirichlet border needs the initial heightfield for its values");
+    ConstraintSet c = cin.width() ? cin : ConstraintSet(W, H);
+    c.add_border(*o.initial);
+    vals = c.values();
+  } else if (cin.width() && !cin.empty()) {
+    vals = cin.values();
+  }
+  size_t hard = 0;
+  double hard_sum = 0;
+  for (float v : vals)
+    if (!std::isnan(v)) ++hard, hard_sum += v;
+  const bool singular = hard == 0;
+  double target = 0;
+  if (o.mean) target = *o.mean;
+  else if (std::isfinite(source_mean)) target = source_mean;
+  else if (o.initial) {
+    double s = 0;
+    for (float v : o.initial->z) s += v;
+    target = s / double(o.initial->size());
+  }
+  // Work with the deviation from a reference level: float32 keeps more digits for the solve.
+  const double m = singular ? target : hard_sum / double(hard);
+
+  ReconstructResult res;
+  res.device = d.info().name;
+  res.cycle = o.cycle;
+  res.smoother = o.smoother;
+  res.hard_cells = hard;
+  const uint64_t baseline = d.allocated_bytes();
+  uint64_t peak = 0;
+  mg::Problem p;
+  p.width = W;
+  p.height = H;
+  p.cell_x = cx;
+  p.cell_y = cy;
+  p.singular = singular;
+  const size_t N = size_t(W) * H, bytes = N * sizeof(float);
+  std::vector<float> out(N);
+  try {
+    cl::CommandQueue& q = d.queue();
+    p.u = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction solution");
+    p.g = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction right-hand side");
+    if (!vals.empty()) q.enqueueWriteBuffer(p.u, CL_FALSE, 0, bytes, vals.data());
+    else q.enqueueFillBuffer(p.u, std::numeric_limits<float>::quiet_NaN(), 0, bytes);
+    {
+      make_rhs(d, p.g);
+      peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
+      cl::Buffer warm;
+      if (o.initial) {
+        warm = d.buffer(bytes, CL_MEM_READ_ONLY, "warm start");
+        q.enqueueWriteBuffer(warm, CL_FALSE, 0, bytes, o.initial->z.data());
+      }
+      cl::Kernel init = d.kernel("multigrid", "init_level0");
+      init.setArg(0, p.u);
+      init.setArg(1, p.g);
+      init.setArg(2, o.initial ? warm : p.u);
+      init.setArg(3, int(o.initial != nullptr));
+      init.setArg(4, W);
+      init.setArg(5, H);
+      init.setArg(6, float(m));
+      q.enqueueNDRangeKernel(init, cl::NullRange, cl::NDRange(size_t(H)), cl::NullRange);
+      peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
+      q.finish();  // releases the gradient and warm-start buffers before the hierarchy is built
+    }
+    if (singular) {
+      // Project onto the range of the pure-Neumann operator: the mean of f must vanish.
+      cl::Buffer rows = d.buffer(size_t(H) * sizeof(float), CL_MEM_READ_WRITE, "row sums");
+      cl::Kernel k = d.kernel("multigrid", "row_sums");
+      k.setArg(0, p.g);
+      k.setArg(1, W);
+      k.setArg(2, H);
+      k.setArg(3, rows);
+      q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(H)), cl::NullRange);
+      std::vector<float> rs(static_cast<size_t>(H));
+      q.enqueueReadBuffer(rows, CL_TRUE, 0, rs.size() * sizeof(float), rs.data());
+      double s = 0;
+      for (float v : rs) s += v;
+      const double mean = s / double(N);
+      if (mean != 0.0) {
+        cl::Kernel sh = d.kernel("multigrid", "shift_free");
+        sh.setArg(0, p.g);
+        sh.setArg(1, W);
+        sh.setArg(2, H);
+        sh.setArg(3, float(mean));
+        q.enqueueNDRangeKernel(sh, cl::NullRange, cl::NDRange(size_t(H)), cl::NullRange);
+      }
+    }
+    const double t_setup0 = now_ms() - t0;
+    mg::SolveStats st = mg::solve(d, p, o, baseline);
+    const double t_solved = now_ms();
+    q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, out.data());
+    res.cycles = st.cycles;
+    res.residuals = st.residuals;
+    res.converged = st.converged;
+    res.stagnated = st.stagnated;
+    res.levels = st.levels;
+    res.setup_ms = t_setup0 + st.setup_ms;
+    res.solve_ms = t_solved - t0 - res.setup_ms;
+    res.device_bytes = std::max(peak, st.peak_bytes);
+  } catch (const cl::Error& e) {
+    fail("reconstruct", "{}", describe(e));
+  }
+
+  Heightfield& h = res.height;
+  h.width = W;
+  h.height = H;
+  h.georef = georef;
+  h.georef.vertical_units = "m";
+  h.metadata = meta;
+  h.metadata.erase("terracl:gradient");
+  h.z.resize(N);
+  double shift = m;
+  if (singular) {
+    double s = 0;
+    for (float v : out) s += v;
+    shift = target - s / double(N);
+  }
+  for (size_t i = 0; i < N; ++i) {
+    const bool is_hard = !vals.empty() && !std::isnan(vals[i]);
+    h.z[i] = is_hard ? vals[i] : float(double(out[i]) + shift);  // hard cells bit-exact
+    if (!std::isfinite(h.z[i]))
+      fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}); input too large for float32?",
+           i % W, i / W);
+  }
+  res.total_ms = now_ms() - t0;
+  return res;
+}
+
+}  // namespace
+
+Cycle parse_cycle(const std::string& s) {
+  if (s == "v") return Cycle::V;
+  if (s == "w") return Cycle::W;
+  if (s == "fmg") return Cycle::Fmg;
+  if (s == "cascade") return Cycle::Cascade;
+  fail("reconstruct", "unknown cycle '{}' (v|w|fmg|cascade)", s);
+}
+
+Smoother parse_smoother(const std::string& s) {
+  if (s == "rbgs") return Smoother::Rbgs;
+  if (s == "jacobi") return Smoother::Jacobi;
+  fail("reconstruct", "unknown smoother '{}' (rbgs|jacobi)", s);
+}
+
+const char* cycle_name(Cycle c) {
+  switch (c) {
+    case Cycle::V: return "v";
+    case Cycle::W: return "w";
+    case Cycle::Fmg: return "fmg";
+    case Cycle::Cascade: return "cascade";
+  }
+  return "?";
+}
+
+const char* smoother_name(Smoother s) { return s == Smoother::Rbgs ? "rbgs" : "jacobi"; }
+
+std::vector<std::pair<int, int>> multigrid_levels(int width, int height) {
+  std::vector<std::pair<int, int>> v{{width, height}};
+  do {
+    const auto [w, h] = v.back();
+    v.push_back({w / 2 + 1, h / 2 + 1});
+  } while (int64_t(v.back().first) * v.back().second > 64);
+  return v;
+}
+
+nlohmann::json ReconstructResult::to_json() const {
+  return {{"device", device},
+          {"width", height.width},
+          {"height", height.height},
+          {"cycle", cycle_name(cycle)},
+          {"smoother", smoother_name(smoother)},
+          {"levels", levels},
+          {"hard_cells", hard_cells},
+          {"cycles", cycles},
+          {"relative_residuals", residuals},
+          {"final_relative_residual", residuals.empty() ? 0.0 : residuals.back()},
+          {"converged", converged},
+          {"stagnated_at_float32_floor", stagnated},
+          {"setup_ms", setup_ms},
+          {"solve_ms", solve_ms},
+          {"total_ms", total_ms},
+          {"device_bytes", device_bytes}};
+}
+
+ReconstructResult reconstruct(Device& d, const GradientField& gin, const ConstraintSet& c, const SolverOptions& o) {
+  const int W = gin.width, H = gin.height;
+  if (gin.gx.size() != size_t(W) * H || gin.gy.size() != size_t(W) * H)
+    fail("reconstruct", "gradient arrays do not match its {}x{} size", W, H);
+  for (size_t i = 0; i < gin.size(); ++i)
+    if (!std::isfinite(gin.gx[i]) || !std::isfinite(gin.gy[i]))
+      fail("reconstruct", "gradient has a NaN/Inf value at cell ({}, {})", i % size_t(W), i / size_t(W));
+  GradientField converted;
+  const GradientField* g = &gin;
+  if (gradient_format(gin) == GradientFormat::Central) {
+    converted = to_staggered(d, gin);
+    g = &converted;
+  }
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
+    const size_t bytes = g->size() * sizeof(float);
+    cl::Buffer gx = dev.buffer(bytes, CL_MEM_READ_ONLY, "gradient gx");
+    cl::Buffer gy = dev.buffer(bytes, CL_MEM_READ_ONLY, "gradient gy");
+    dev.queue().enqueueWriteBuffer(gx, CL_FALSE, 0, bytes, g->gx.data());
+    dev.queue().enqueueWriteBuffer(gy, CL_FALSE, 0, bytes, g->gy.data());
+    enqueue_divergence(dev, gx, gy, out, g->width, g->height, g->georef.cell_x, g->georef.cell_y, -1.0f);
+  };
+  return solve_common(d, W, H, g->georef, g->metadata, g->mean_elevation, rhs, c, o);
+}
+
+ReconstructResult reconstruct_divergence(Device& d, const Heightfield& f, const ConstraintSet& c,
+                                         const SolverOptions& o) {
+  require_finite(f, "reconstruct", "the divergence");
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
+    std::vector<float> neg(f.size());
+    for (size_t i = 0; i < neg.size(); ++i) neg[i] = -f.z[i];
+    dev.queue().enqueueWriteBuffer(out, CL_TRUE, 0, neg.size() * sizeof(float), neg.data());
+  };
+  Georef geo = f.georef;
+  return solve_common(d, f.width, f.height, geo, f.metadata, std::numeric_limits<double>::quiet_NaN(), rhs, c, o);
+}
+
+}  // namespace terracl

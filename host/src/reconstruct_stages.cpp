@@ -1,0 +1,216 @@
+// Stage table entries `extract` and `reconstruct`, and the `terracl bench reconstruct` benchmark.
+#include "pipeline/builtin.hpp"
+
+#include <terracl/error.hpp>
+#include <terracl/gradient.hpp>
+#include <terracl/io.hpp>
+#include <terracl/reconstruct.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace terracl {
+namespace {
+
+void run_extract(StageContext& c) {
+  const bool central = c.has("central") && c.get<bool>("central");
+  c.data.gradient = extract_gradient(c.device(), c.height(),
+                                     central ? GradientFormat::Central : GradientFormat::Staggered);
+  c.data.current = DataKind::Gradient;
+}
+
+void run_reconstruct(StageContext& c) {
+  const bool has_g = c.has("gradient"), has_f = c.has("divergence");
+  if (has_g && has_f) throw UsageError("reconstruct", "give either --gradient or --divergence, not both");
+  std::optional<Heightfield> initial;
+  if (c.has("initial")) initial = read_heightfield(c.get<std::string>("initial"));
+  else if (c.data.height) initial = *c.data.height;  // the pipeline's current terrain
+
+  GradientField g;
+  Heightfield f;
+  bool use_div = false;
+  if (has_g) {
+    g = read_gradient(c.get<std::string>("gradient"));
+  } else if (has_f) {
+    f = read_heightfield(c.get<std::string>("divergence"));
+    use_div = true;
+  } else if (c.data.gradient) {
+    g = *c.data.gradient;
+  } else {
+    throw UsageError("reconstruct",
+                     "needs a gradient: --gradient FILE, --divergence FILE, a gradient .exr as input, or a previous "
+                     "stage that produces one");
+  }
+  const int W = use_div ? f.width : g.width, H = use_div ? f.height : g.height;
+  const Georef& geo = use_div ? f.georef : g.georef;
+  if (initial && (initial->width != W || initial->height != H))
+    fail("reconstruct", "the initial heightfield is {}x{}, the gradient {}x{}", initial->width, initial->height, W, H);
+
+  ConstraintSet cs(W, H);
+  if (c.has("fixed_mask") != c.has("fixed_elevation"))
+    throw UsageError("reconstruct", "--fixed-mask and --fixed-elevation go together");
+  if (c.has("fixed_mask")) {
+    const std::string mp = c.get<std::string>("fixed_mask"), ep = c.get<std::string>("fixed_elevation");
+    Heightfield mask = read_heightfield(mp), elev = read_heightfield(ep);
+    if (mask.width != W || mask.height != H)
+      fail("reconstruct", "{}: fixed mask is {}x{}, the gradient {}x{}", mp, mask.width, mask.height, W, H);
+    if (elev.width != W || elev.height != H)
+      fail("reconstruct", "{}: fixed elevation is {}x{}, the gradient {}x{}", ep, elev.width, elev.height, W, H);
+    cs.add_rasters(mask, elev, mp);
+  }
+  if (c.has("constraints"))
+    add_constraints_file(cs, c.get<std::string>("constraints"), geo, initial ? &*initial : nullptr);
+
+  SolverOptions o;
+  o.cycle = parse_cycle(c.get<std::string>("cycle"));
+  o.smoother = parse_smoother(c.get<std::string>("smoother"));
+  o.tolerance = c.get<double>("tolerance");
+  o.max_cycles = int(c.get<int64_t>("max_cycles"));
+  if (c.has("mean")) o.mean = c.get<double>("mean");
+  o.dirichlet_border = c.get<std::string>("border") == "dirichlet";
+  if (o.dirichlet_border && !initial)
+    throw UsageError("reconstruct", "--border dirichlet takes the border values from --initial, which is missing");
+  if (initial && (c.has("initial") || o.dirichlet_border)) o.initial = &*initial;
+  o.progress = c.progress;
+  ReconstructResult r = use_div ? reconstruct_divergence(c.device(), f, cs, o) : reconstruct(c.device(), g, cs, o);
+  if (c.has("report")) {
+    nlohmann::json j = r.to_json();
+    write_text_file_atomic(c.get<std::string>("report"), j.dump(2) + "\n");
+  }
+  if (!r.converged && !r.stagnated && o.cycle != Cycle::Cascade)
+    fail("reconstruct", "did not converge in {} cycles (relative residual {:.3g}, tolerance {:.3g})", r.cycles,
+         r.residuals.back(), o.tolerance);
+  c.data.height = std::move(r.height);
+  c.data.current = DataKind::Heightfield;
+}
+
+// ---- benchmark ----
+
+struct BenchProblem {
+  GradientField g;
+  ConstraintSet c;
+  std::vector<double> exact;
+  double range = 0;
+};
+
+// Smooth terrain quantised to 1/1024 m on an 8 m grid: every gradient value and the device's
+// divergence are then exact in float32, so the exact discrete solution is the terrain itself (a
+// float64 reference without a float64 solve).
+BenchProblem make_problem(int n, double fixed_fraction, unsigned seed) {
+  BenchProblem p;
+  const double cell = 8.0, q = 1.0 / 1024;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  struct Wave {
+    double kx, ky, ph, a;
+  };
+  std::vector<Wave> waves;
+  for (int i = 0; i < 6; ++i)
+    waves.push_back({(1 + 3 * u(rng)) * 2 * M_PI / n, (1 + 3 * u(rng)) * 2 * M_PI / n, 2 * M_PI * u(rng), 500.0 / (i + 2)});
+  p.exact.resize(size_t(n) * n);
+  double lo = 1e300, hi = -1e300;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      double v = 1000;
+      for (auto& w : waves) v += w.a * std::sin(w.kx * x + w.ky * y + w.ph);
+      v = std::round(v / q) * q;
+      p.exact[size_t(y) * n + x] = v;
+      lo = std::min(lo, v), hi = std::max(hi, v);
+    }
+  p.range = hi - lo;
+  p.g = GradientField(n, n);
+  p.g.georef.cell_x = p.g.georef.cell_y = cell;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const size_t i = size_t(y) * n + x;
+      p.g.gx[i] = x + 1 < n ? float((p.exact[i + 1] - p.exact[i]) / cell) : 0.f;
+      p.g.gy[i] = y + 1 < n ? float((p.exact[i + n] - p.exact[i]) / cell) : 0.f;
+    }
+  p.c = ConstraintSet(n, n);
+  const size_t k = size_t(fixed_fraction * double(n) * n);
+  std::uniform_int_distribution<int> cellpick(0, n - 1);
+  for (size_t i = 0; i < k; ++i) {
+    const int x = cellpick(rng), y = cellpick(rng);
+    p.c.add_cell(x, y, p.exact[size_t(y) * n + x], ConstraintKind::Raster);
+  }
+  return p;
+}
+
+void bench_reconstruct(const BenchArgs& a) {
+  auto dev = Device::open(a.device);
+  const json& e = a.extra;
+  SolverOptions o;
+  o.cycle = parse_cycle(e.value("cycle", std::string("fmg")));
+  o.smoother = parse_smoother(e.value("smoother", std::string("rbgs")));
+  o.tolerance = e.value("tolerance", 1e-6);
+  o.max_cycles = e.value("max_cycles", 50);
+  const double fixed = e.value("fixed", 0.01);
+  const int n = a.size;
+  BenchProblem p = make_problem(n, fixed, 7);
+  fmt::print("reconstruct {}x{}: cycle {}, smoother {}, {:.2f} % fixed cells, device {}\n", n, n, cycle_name(o.cycle),
+             smoother_name(o.smoother), 100 * fixed, dev->info().name);
+  ReconstructResult r = reconstruct(*dev, p.g, p.c, o);  // warm-up: builds kernels, first-touch memory
+  std::vector<double> ms;
+  for (int i = 0; i < a.repeats; ++i) {
+    r = reconstruct(*dev, p.g, p.c, o);
+    ms.push_back(r.total_ms);
+  }
+  std::sort(ms.begin(), ms.end());
+  double err = 0;
+  for (size_t i = 0; i < p.exact.size(); ++i) err = std::max(err, std::fabs(double(r.height.z[i]) - p.exact[i]));
+  fmt::print("median_ms {:.2f}   (min {:.2f}, max {:.2f}, {} runs after 1 warm-up; setup {:.2f} ms, cycles {:.2f} ms "
+             "in the last run)\n",
+             ms[ms.size() / 2], ms.front(), ms.back(), ms.size(), r.setup_ms, r.solve_ms);
+  fmt::print("cycles {}{}   levels {}\n", r.cycles, o.cycle == Cycle::Fmg ? " V(2,2) after the FMG pass" : "", r.levels);
+  fmt::print("final_relative_residual {:.3e}   ({})\n", r.residuals.back(),
+             r.converged ? "converged" : r.stagnated ? "stopped at the float32 floor" : "not converged");
+  fmt::print("residual_history");
+  for (double v : r.residuals) fmt::print(" {:.2e}", v);
+  fmt::print("\nmax_error_m {:.3e}   ({:.2e} of the {:.1f} m range, vs the exact float64 solution)\n", err,
+             err / p.range, p.range);
+  fmt::print("device_memory_mb {:.1f}\n", r.device_bytes / 1048576.0);
+}
+
+}  // namespace
+
+void register_reconstruct_stages(StageRegistry& r) {
+  r.add({"extract",
+         "Gradient of a heightfield (staggered forward differences in m/m, or the paper's central differences).",
+         DataKind::Heightfield,
+         DataKind::Gradient,
+         {{"central", OptionType::Bool, false, "", "write central differences (h[i+1]-h[i-1])/2d (export format)"}},
+         run_extract});
+  r.add({"reconstruct",
+         "Multigrid Poisson reconstruction of elevations from a gradient (or divergence) with hard constraints.",
+         DataKind::None,
+         DataKind::Heightfield,
+         {
+             {"gradient", OptionType::Path, nullptr, "", "gradient field .exr (default: the previous stage's gradient)"},
+             {"divergence", OptionType::Path, nullptr, "", "divergence raster (1/m) instead of a gradient"},
+             {"fixed_mask", OptionType::Path, nullptr, "", "raster; non-zero cells are hard constraints"},
+             {"fixed_elevation", OptionType::Path, nullptr, "", "raster of elevations for --fixed-mask cells"},
+             {"constraints", OptionType::Path, nullptr, "", "constraint JSON (points, polylines, polygons)"},
+             {"initial", OptionType::Path, nullptr, "",
+              "warm start / current elevations (for 'freeze' polygons and a Dirichlet border)"},
+             {"cycle", OptionType::Enum, "fmg", "", "multigrid schedule", {"v", "w", "fmg", "cascade"}},
+             {"smoother", OptionType::Enum, "rbgs", "", "smoother", {"rbgs", "jacobi"}},
+             {"tolerance", OptionType::Float, 1e-6, "", "relative residual to stop at"},
+             {"max_cycles", OptionType::Int, 50, "", "maximum number of cycles"},
+             {"mean", OptionType::Float, nullptr, "m", "mean elevation when no cell is fixed (default: the source's)"},
+             {"border", OptionType::Enum, "neumann", "", "grid border condition", {"neumann", "dirichlet"}},
+             {"report", OptionType::OutputPath, nullptr, "", "write cycles, residuals, times and device as JSON"},
+         },
+         run_reconstruct});
+}
+
+void register_reconstruct_benches(BenchRegistry& r) {
+  r.add({"reconstruct",
+         "Multigrid reconstruction of an NxN smooth terrain with 1 % random fixed cells (--set cycle=, smoother=, "
+         "fixed=, tolerance=)",
+         bench_reconstruct});
+}
+
+}  // namespace terracl
