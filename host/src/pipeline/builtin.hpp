@@ -8,4 +8,6 @@ void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
 void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct_stages.cpp
 void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct_stages.cpp
+void register_edit_stages(StageRegistry& r);   // host/src/edit/edit_stage.cpp
+void register_edit_benches(BenchRegistry& r);  // host/src/edit/edit_stage.cpp
 }  // namespace terracl

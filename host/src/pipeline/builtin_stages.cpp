@@ -7,6 +7,7 @@ StageRegistry& StageRegistry::instance() {
     StageRegistry reg;
     register_core_stages(reg);
     register_reconstruct_stages(reg);
+    register_edit_stages(reg);
     return reg;
   }();
   return r;
@@ -17,6 +18,7 @@ BenchRegistry& BenchRegistry::instance() {
     BenchRegistry reg;
     register_core_benches(reg);
     register_reconstruct_benches(reg);
+    register_edit_benches(reg);
     return reg;
   }();
   return r;
