@@ -19,10 +19,16 @@ uint hash3(int x, int y, uint seed) {
   return h;
 }
 
-float2 lattice_gradient(int x, int y, uint seed) {
-  const float a = (float)hash3(x, y, seed) * (6.28318530718f / 4294967296.0f);
-  return (float2)(cos(a), sin(a));
-}
+// One of 16 unit directions chosen by the hash (a table lookup instead of cos/sin per corner).
+__constant float2 kDirections[16] = {
+    (float2)(1.0f, 0.0f),           (float2)(0.92387953f, 0.38268343f),  (float2)(0.70710678f, 0.70710678f),
+    (float2)(0.38268343f, 0.92387953f), (float2)(0.0f, 1.0f),            (float2)(-0.38268343f, 0.92387953f),
+    (float2)(-0.70710678f, 0.70710678f), (float2)(-0.92387953f, 0.38268343f), (float2)(-1.0f, 0.0f),
+    (float2)(-0.92387953f, -0.38268343f), (float2)(-0.70710678f, -0.70710678f), (float2)(-0.38268343f, -0.92387953f),
+    (float2)(0.0f, -1.0f),          (float2)(0.38268343f, -0.92387953f), (float2)(0.70710678f, -0.70710678f),
+    (float2)(0.92387953f, -0.38268343f)};
+
+float2 lattice_gradient(int x, int y, uint seed) { return kDirections[hash3(x, y, seed) >> 28]; }
 
 // (value, d/dx, d/dy) of 2-D gradient noise at p (lattice units). Value in about [-0.7, 0.7].
 float3 perlin(float2 p, uint seed) {
@@ -67,38 +73,38 @@ float3 noise_sum(float2 p, float wavelength, int octaves, float lacunarity, floa
 
 float mask_at(__global const float* mask, int use_mask, size_t o) { return use_mask ? mask[o] : 1.0f; }
 
-// dst (add ? += : =) grad(amplitude * w * n) on the faces of the box.
+// dst (add ? += : =) grad(amplitude * w * n) on the faces of the box. One work-item per cell of the
+// box (a 2-D range): this kernel is compute-bound, and PoCL vectorises across work-items.
 __kernel void noise_gradient(__global float* gx, __global float* gy, const int W, const int H, const float cx,
                              const float cy, const int x0, const int y0, const int bw, const int bh,
                              __global const float* mask, const int use_mask, const float amplitude,
                              const float wavelength, const int octaves, const float lacunarity, const float gain,
                              const int type, const uint seed, const int add) {
-  const int j = get_global_id(0);
-  if (j >= bh) return;
-  const int y = y0 + j;
-  for (int x = x0; x < x0 + bw; ++x) {
-    const size_t o = (size_t)y * W + x;
-    float vx = 0.0f, vy = 0.0f;
-    if (x < W - 1) {
-      const float w0 = mask_at(mask, use_mask, o), w1 = mask_at(mask, use_mask, o + 1);
-      const float w = 0.5f * (w0 + w1);
-      if (w != 0.0f || w0 != w1) {
-        const float3 n = noise_sum((float2)(((float)x + 0.5f) * cx, (float)y * cy), wavelength, octaves, lacunarity,
-                                   gain, type, seed);
-        vx = amplitude * (w * n.y + n.x * (w1 - w0) / cx);
-      }
+  const int i = get_global_id(0), j = get_global_id(1);
+  if (i >= bw || j >= bh) return;
+  const int x = x0 + i, y = y0 + j;
+  const size_t o = (size_t)y * W + x;
+  float vx = 0.0f, vy = 0.0f;
+  const float wc = mask_at(mask, use_mask, o);
+  if (x < W - 1) {
+    const float w1 = mask_at(mask, use_mask, o + 1);
+    const float w = 0.5f * (wc + w1);
+    if (w != 0.0f || wc != w1) {
+      const float3 n = noise_sum((float2)(((float)x + 0.5f) * cx, (float)y * cy), wavelength, octaves, lacunarity,
+                                 gain, type, seed);
+      vx = amplitude * (w * n.y + n.x * (w1 - wc) / cx);
     }
-    if (y < H - 1) {
-      const float w0 = mask_at(mask, use_mask, o), w1 = mask_at(mask, use_mask, o + W);
-      const float w = 0.5f * (w0 + w1);
-      if (w != 0.0f || w0 != w1) {
-        const float3 n = noise_sum((float2)((float)x * cx, ((float)y + 0.5f) * cy), wavelength, octaves, lacunarity,
-                                   gain, type, seed);
-        vy = amplitude * (w * n.z + n.x * (w1 - w0) / cy);
-      }
+    gx[o] = add ? gx[o] + vx : vx;
+  }
+  if (y < H - 1) {
+    const float w1 = mask_at(mask, use_mask, o + W);
+    const float w = 0.5f * (wc + w1);
+    if (w != 0.0f || wc != w1) {
+      const float3 n = noise_sum((float2)((float)x * cx, ((float)y + 0.5f) * cy), wavelength, octaves, lacunarity,
+                                 gain, type, seed);
+      vy = amplitude * (w * n.z + n.x * (w1 - wc) / cy);
     }
-    if (x < W - 1) gx[o] = add ? gx[o] + vx : vx;
-    if (y < H - 1) gy[o] = add ? gy[o] + vy : vy;
+    gy[o] = add ? gy[o] + vy : vy;
   }
 }
 

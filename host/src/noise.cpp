@@ -51,7 +51,9 @@ void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const B
   k.setArg(a++, use_mask ? 1 : 0);
   set_params(k, a, p);
   k.setArg(a++, to_scratch ? 0 : 1);
-  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(box.h)), cl::NullRange);
+  // 2-D range in tiles of 64 x 1 (compute-bound kernel: PoCL vectorises across work-items).
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(size_t(box.w), 64), size_t(box.h)),
+                                 cl::NDRange(64, 1));
 }
 
 Heightfield noise_values(Device& d, int width, int height, double cell_x, double cell_y, const NoiseParams& p) {

@@ -77,6 +77,7 @@ void bench_edit(const BenchArgs& a) {
   one_more["operations"] = json::array({crest});
   std::vector<double> ops_ms, solve_ms, total_ms, add_ms, warm_ms, cold_ms;
   int warm_cycles = 0, cold_cycles = 0, cycles = 0;
+  json last_log;
   for (int rep = 0; rep <= a.repeats; ++rep) {  // rep 0 warms up kernel builds
     EditOptions o;
     EditSession s(d, base, o);
@@ -96,6 +97,7 @@ void bench_edit(const BenchArgs& a) {
     cold_cycles = s.solve(false).cycles;
     const double t_cold = ms_since(t4);
     if (rep == 0) continue;
+    last_log = s.log();
     ops_ms.push_back(t_ops), solve_ms.push_back(t_solve), total_ms.push_back(t_ops + t_solve);
     add_ms.push_back(t_add), warm_ms.push_back(t_warm), cold_ms.push_back(t_cold);
   }
@@ -106,6 +108,9 @@ void bench_edit(const BenchArgs& a) {
   fmt::print("  one more operation   {:8.1f} ms\n", median(add_ms));
   fmt::print("  re-solve, warm start {:8.1f} ms ({} cycles)\n", median(warm_ms), warm_cycles);
   fmt::print("  re-solve, cold       {:8.1f} ms ({} cycles)\n", median(cold_ms), cold_cycles);
+  std::string per_op;
+  for (const auto& e : last_log) per_op += fmt::format(" {}:{:.1f}", e["op"].get<std::string>(), e["ms"].get<double>());
+  fmt::print("  per operation (ms, last run):{}\n", per_op);
 }
 
 }  // namespace
