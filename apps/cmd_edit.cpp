@@ -35,8 +35,15 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       for (const auto& [name, summary] : edit_operations()) fmt::print("{:<16} {}\n", name, summary);
       return;
     }
-    if (a->base.empty()) throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE])");
     if (a->script.empty()) throw UsageError("edit", "needs --script edits.json");
+    const nlohmann::json script = read_edit_script(a->script);
+    if (a->base.empty() && script.is_object() && script.contains("base")) {
+      if (!script["base"].is_string()) throw UsageError("edit", fmt::format("{}: /base must be a string", a->script));
+      // A script's own base names files relative to the script.
+      a->base = resolve_path(script["base"].get<std::string>(), std::filesystem::path(a->script).parent_path().string());
+    }
+    if (a->base.empty())
+      throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE]), or \"base\" in the script");
     if (a->output.empty() && !a->validate) throw UsageError("edit", "needs -o OUTPUT");
     Heightfield base;
     if (auto flat = parse_flat_spec(a->base)) {
@@ -49,7 +56,6 @@ CommandRegistrar reg(40, [](CLI::App& app) {
         fill_nodata_harmonic(base);
       }
     }
-    const nlohmann::json script = read_edit_script(a->script);
     EditOptions o;
     o.progress = make_progress("edit");
     o.base_dir = std::filesystem::path(a->script).parent_path().string();

@@ -37,6 +37,9 @@ struct EditOptions {
 /// when `spec` does not start with "flat:"; throws on a malformed spec.
 std::optional<Heightfield> parse_flat_spec(const std::string& spec);
 
+/// `path` when it exists, else `base_dir`/`path` when that exists, else `path`.
+std::string resolve_path(const std::string& path, const std::string& base_dir);
+
 /// Reads a script file; malformed JSON is an error naming the file, line and column.
 nlohmann::json read_edit_script(const std::string& path);
 

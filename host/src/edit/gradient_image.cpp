@@ -41,6 +41,8 @@ void write_gradient_image(const GradientField& g, const std::string& path) {
     OIIO::ImageSpec spec(g.width, g.height, 2, OIIO::TypeDesc::UINT16);
     spec.channelnames = {"R", "G"};
     spec.attribute("oiio:ColorSpace", "linear");
+    spec.alpha_channel = -1;  // a PNG with 2 channels is grey + alpha: keep the values unassociated
+    spec.attribute("oiio:UnassociatedAlpha", 1);
     if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT16, px.data()) || !out->close())
       fail("gradient-image", "{}: write failed: {}", path, out->geterror());
   });
@@ -59,7 +61,9 @@ GradientField read_gradient_image(const std::string& path) {
   if (!sc.contains("m") || !sc["m"].is_number() || !(sc["m"].get<double>() > 0))
     fail("gradient-image", "{}.json: needs \"m\" > 0 (the gradient scale)", path);
   const double m = sc["m"].get<double>();
-  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path);
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);  // no premultiplication of the "alpha" (g) channel
+  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path, &config);
   if (!in) fail("gradient-image", "{}: cannot open: {}", path, OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.nchannels < 2) fail("gradient-image", "{}: expected 2 channels, has {}", path, spec.nchannels);

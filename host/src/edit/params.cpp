@@ -165,12 +165,18 @@ std::vector<Vec3> Params::points_of(const json& arr, const std::string& w, size_
   return out;
 }
 
+}  // namespace terracl::edit
+
+namespace terracl {
 std::string resolve_path(const std::string& path, const std::string& base_dir) {
   namespace fs = std::filesystem;
   if (fs::exists(path) || base_dir.empty() || fs::path(path).is_absolute()) return path;
   const fs::path alt = fs::path(base_dir) / path;
   return fs::exists(alt) ? alt.string() : path;
 }
+}  // namespace terracl
+
+namespace terracl::edit {
 
 void Params::done() const {
   for (auto it = m_j.begin(); it != m_j.end(); ++it)

@@ -1,6 +1,7 @@
 #pragma once
 // Typed access to one edit operation's JSON object. Every error names the JSON path
 // ("/operations/3/radius: expected ...") and unknown keys are errors (typos must not pass silently).
+#include <terracl/edit.hpp>
 #include <terracl/stage.hpp>
 #include <terracl/tensor.hpp>
 
@@ -25,8 +26,7 @@ struct Grid {
   std::string base_dir;
 };
 
-/// `path` as given when it exists, else relative to `base_dir` when that exists, else as given.
-std::string resolve_path(const std::string& path, const std::string& base_dir);
+using terracl::resolve_path;
 
 /// A vertex with an optional elevation (NaN when the point has only x, y).
 struct Vec3 {

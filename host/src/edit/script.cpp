@@ -58,8 +58,9 @@ Parsed parse_script(const json& script, Grid grid) {
   Parsed out;
   if (script.is_object()) {
     for (auto it = script.begin(); it != script.end(); ++it)
-      if (it.key() != "operations" && it.key() != "units" && it.key() != "seed" && it.key() != "description")
-        param_error("/" + it.key(), "unknown key (expected operations, units, seed, description)");
+      if (it.key() != "operations" && it.key() != "units" && it.key() != "seed" && it.key() != "description" &&
+          it.key() != "base")
+        param_error("/" + it.key(), "unknown key (expected operations, units, seed, base, description)");
     if (!script.contains("operations")) param_error("/operations", "missing (required): the array of operations");
     ops = &script.at("operations");
     base = "/operations";
