@@ -157,7 +157,7 @@ std::vector<Vec3> Params::points_of(const json& arr, const std::string& w, size_
       param_error(pw, fmt::format("expected [x, y] or [x, y, z], got {}", p.dump()));
     for (const auto& c : p)
       if (!c.is_number() || !std::isfinite(c.get<double>())) param_error(pw, fmt::format("coordinates must be numbers, got {}", p.dump()));
-    Vec3 v{p[0].get<double>() * m_grid.unit, p[1].get<double>() * m_grid.unit};
+    Vec3 v{p[0].get<double>() * m_grid.unit, p[1].get<double>() * m_grid.unit_y};
     if (p.size() == 3) v.z = p[2].get<double>();
     out.push_back(v);
   }

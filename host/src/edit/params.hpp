@@ -18,8 +18,9 @@ namespace terracl::edit {
 struct Grid {
   int width = 0, height = 0;
   double cell_x = 1, cell_y = 1;
-  /// Metres per unit of plain-number horizontal lengths and coordinates ("units": "m" or "cells").
-  double unit = 1;
+  /// Metres per unit of plain-number horizontal lengths and x coordinates ("units": "m" or "cells");
+  /// unit_y for y coordinates (cells may not be square).
+  double unit = 1, unit_y = 1;
   /// Default noise seed of the operation being parsed (the script's seed + its index).
   unsigned seed = 1;
   /// Folder of the script file: relative file names are tried there when not found as given.

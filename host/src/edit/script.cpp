@@ -48,7 +48,7 @@ using edit::param_error;
 
 struct Parsed {
   std::vector<std::pair<std::string, Operation>> ops;
-  double unit = 1;
+  double unit = 1, unit_y = 1;
 };
 
 Parsed parse_script(const json& script, Grid grid) {
@@ -66,7 +66,7 @@ Parsed parse_script(const json& script, Grid grid) {
     base = "/operations";
     if (script.contains("units")) {
       const json& u = script.at("units");
-      if (u == "cells") out.unit = grid.cell_x;
+      if (u == "cells") out.unit = grid.cell_x, out.unit_y = grid.cell_y;
       else if (u != "m") param_error("/units", fmt::format("expected \"m\" or \"cells\", got {}", u.dump()));
     }
     if (script.contains("seed")) {
@@ -77,6 +77,7 @@ Parsed parse_script(const json& script, Grid grid) {
   }
   if (!ops->is_array()) param_error(base.empty() ? "/" : base, "expected an array of operations");
   grid.unit = out.unit;
+  grid.unit_y = out.unit_y;
   for (size_t i = 0; i < ops->size(); ++i) {
     const std::string path = base + "/" + std::to_string(i);
     const json& j = (*ops)[i];
