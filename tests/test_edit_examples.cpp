@@ -5,6 +5,8 @@
 #include <terracl/edit.hpp>
 #include <terracl/io.hpp>
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <filesystem>
 
