@@ -3,14 +3,16 @@
 // Level 0 (the user's grid): 5-point operator with weights wx = 1/cx^2, wy = 1/cy^2 between in-grid
 // neighbours (natural Neumann border), hard cells marked by g = NaN (their u is the fixed value).
 // Coarse levels are vertex-centred: coarse node I sits on fine node 2I, n_c = n/2 + 1, so fine nodes
-// past the border are simply absent (no padding memory). Their operators are Galerkin products
-// P^T A P with bilinear P zeroed at hard nodes, stored in "edge form" per node as five planes
-// [D, wE, wS, wSE, wSW] (diagonal and the weights -A of the forward edges; the other four come from
-// the neighbours). A coarse node with D == 0 is "dead" (every fine node under it is hard) and stays 0.
+// past the border are simply absent (no padding of the user's grid). Their operators are Galerkin
+// products P^T A P with bilinear P zeroed at hard nodes, stored in "edge form" as five planes
+// [D, wE, wS, wSE, wSW] (diagonal, and the weights -A of the forward edges; the other four come
+// from the neighbours). A coarse node with D == 0 is "dead" (every fine node under it is hard).
+// Coarse arrays carry a one-node ghost frame of zeros (pitch W+2), so their stencil loops need no
+// bounds tests: ghost nodes have e = 0 and zero weights.
 //
-// Layout: one work-item per row with the x-loop inside (fastest for stencils on PoCL, the fastest
-// index on the contiguous axis on GPUs is the row loop's stride-1 access). Host code never waits
-// between kernels of a cycle. FMA contraction off: same bits as the CPU reference loops.
+// Layout: one work-item per row with the x-loop inside (fastest for stencils on PoCL; on GPUs
+// consecutive work-items then stride by rows, acceptable for this CPU-first code). The host never
+// waits between kernels of a cycle. FMA contraction off: results do not depend on the compiler.
 #pragma OPENCL FP_CONTRACT OFF
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -19,30 +21,25 @@ typedef double acc_t;
 typedef float acc_t;
 #endif
 
+// Index of node (x, y) in a ghosted coarse array of pitch P = W + 2.
+#define GI(x, y, P) ((size_t)((y) + 1) * (size_t)(P) + (size_t)((x) + 1))
+
 // ---------------------------------------------------------------------------------------------
 // Level 0: 5-point operator, hard cells = NaN in g.
 
-// Residual g - A u at (x, y) of level 0 (0 at hard cells). `cold`: free cells read as 0, i.e. the
-// residual of the trivial initial guess (used as the reference norm).
-inline float res0(__global const float* u, __global const float* g, int x, int y, int W, int H, float wx, float wy,
-                  int cold) {
-  const size_t o = (size_t)y * W + x;
-  const float gv = g[o];
+// Residual g - A u at column x of a level-0 row. `un`/`us` are the rows above/below (aliasing
+// the row itself with weight 0 at the grid border). Evaluated in double where the device has it:
+// the terms are ~|u| w and cancel to a residual many orders smaller, and float rounding of that
+// sum would set the floor of the whole solve (badly conditioned cases, e.g. one anchor cell,
+// then keep a large smooth error); u itself stays float.
+inline acc_t res0(__global const float* ur, __global const float* un, __global const float* us,
+                  __global const float* gr, int x, int W, float wx, float wn, float ws) {
+  const float gv = gr[x];
   if (isnan(gv)) return 0.0f;
-  float sum = 0.0f, diag = 0.0f;
-#define NB0(cond, off, w)                               \
-  if (cond) {                                           \
-    const float un = u[o + (off)];                      \
-    sum += (w) * ((cold && !isnan(g[o + (off)])) ? 0.0f : un); \
-    diag += (w);                                        \
-  }
-  NB0(x > 0, -1, wx)
-  NB0(x + 1 < W, 1, wx)
-  NB0(y > 0, -(long)W, wy)
-  NB0(y + 1 < H, (long)W, wy)
-#undef NB0
-  const float uc = cold ? 0.0f : u[o];
-  return gv + sum - diag * uc;
+  const acc_t wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
+  const acc_t l = x > 0 ? ur[x - 1] : 0.0f, r = x + 1 < W ? ur[x + 1] : 0.0f;
+  return (acc_t)gv + wl * l + wr * r + (acc_t)wn * (acc_t)un[x] + (acc_t)ws * (acc_t)us[x] -
+         (wl + wr + (acc_t)wn + (acc_t)ws) * (acc_t)ur[x];
 }
 
 // Red-black Gauss-Seidel half-sweep on level 0: cells with (x + y) % 2 == colour.
@@ -66,10 +63,11 @@ __kernel void smooth_rb0(__global float* u, __global const float* g, const int W
     if (!isnan(gv) && d > 0.0f) row[0] = (gv + wr * (W > 1 ? row[1] : 0.0f) + wn * up[0] + ws * dn[0]) / d;
     x += 2;
   }
-  const float d2 = dy + 2.0f * wx;
+  const float inv = 1.0f / (dy + 2.0f * wx);
   for (; x < W - 1; x += 2) {
     const float gv = gr[x];
-    if (!isnan(gv)) row[x] = (gv + wx * (row[x - 1] + row[x + 1]) + wn * up[x] + ws * dn[x]) / d2;
+    const float v = (gv + wx * (row[x - 1] + row[x + 1]) + wn * up[x] + ws * dn[x]) * inv;
+    row[x] = isnan(gv) ? row[x] : v;
   }
   if (x == W - 1 && W > 1) {
     const float gv = gr[x];
@@ -84,75 +82,112 @@ __kernel void jacobi0(__global float* out, __global const float* u, __global con
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
+  __global const float* row = u + o;
+  __global const float* up = (y > 0) ? row - W : row;
+  __global const float* dn = (y + 1 < H) ? row + W : row;
   const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
   for (int x = 0; x < W; ++x) {
-    const float gv = g[o + x];
-    const float uc = u[o + x];
     const float wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
     const float d = wl + wr + wn + ws;
-    float v = uc;
-    if (!isnan(gv) && d > 0.0f) {
-      const float s = wl * (x > 0 ? u[o + x - 1] : 0.0f) + wr * (x + 1 < W ? u[o + x + 1] : 0.0f) +
-                      wn * (y > 0 ? u[o + x - W] : 0.0f) + ws * (y + 1 < H ? u[o + x + W] : 0.0f);
-      v = uc + omega * ((gv + s) / d - uc);
-    }
-    out[o + x] = v;
+    const float uc = row[x];
+    const float r = (float)res0(row, up, dn, g + o, x, W, wx, wn, ws);
+    out[o + x] = d > 0.0f ? uc + omega * r / d : uc;
   }
 }
 
 // Full-weighting restriction of the level-0 residual to coarse row j (fused: the fine residual is
 // never stored), and zero initial guess for the coarse correction.
 __kernel void residual_restrict0(__global const float* u, __global const float* g, const int W, const int H,
-                                 const float wx, const float wy, __global float* rc, __global float* ec, const int Wc,
-                                 const int Hc) {
+                                 const float wx, const float wy, __global float* rc, __global float* ec, const int Wc) {
   const int j = get_global_id(0);
+  const int Hc = H / 2 + 1;
   if (j >= Hc) return;
-  const int y0 = 2 * j - 1, y1 = 2 * j, y2 = 2 * j + 1;
-  const int h0 = y0 >= 0, h1 = y1 < H, h2 = y2 < H;
-#define COL(xx)                                                             \
-  (((xx) < 0 || (xx) >= W) ? 0.0f                                          \
-                           : ((h0 ? 0.5f * res0(u, g, xx, y0, W, H, wx, wy, 0) : 0.0f) + \
-                              (h1 ? res0(u, g, xx, y1, W, H, wx, wy, 0) : 0.0f) +         \
-                              (h2 ? 0.5f * res0(u, g, xx, y2, W, H, wx, wy, 0) : 0.0f)))
-  float prev = 0.0f;  // column 2i-1
+  const int P = Wc + 2;
+  float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;  // weights of fine rows 2j-1, 2j, 2j+1 (0 outside)
+  int ys[3] = {2 * j - 1, 2 * j, 2 * j + 1};
+  if (ys[0] >= 0) a0 = 0.5f;
+  if (ys[1] < H) a1 = 1.0f;
+  if (ys[2] < H) a2 = 0.5f;
+  __global const float *ur[3], *un[3], *us[3], *gr[3];
+  float wn[3], ws[3];
+  for (int k = 0; k < 3; ++k) {
+    const int y = clamp(ys[k], 0, H - 1);
+    ur[k] = u + (size_t)y * W;
+    gr[k] = g + (size_t)y * W;
+    un[k] = y > 0 ? ur[k] - W : ur[k];
+    us[k] = y + 1 < H ? ur[k] + W : ur[k];
+    wn[k] = y > 0 ? wy : 0.0f;
+    ws[k] = y + 1 < H ? wy : 0.0f;
+  }
+#define COL(xx)                                                                 \
+  ((a0 != 0.0f ? a0 * res0(ur[0], un[0], us[0], gr[0], xx, W, wx, wn[0], ws[0]) : 0.0f) + \
+   (a1 != 0.0f ? res0(ur[1], un[1], us[1], gr[1], xx, W, wx, wn[1], ws[1]) : 0.0f) +       \
+   (a2 != 0.0f ? a2 * res0(ur[2], un[2], us[2], gr[2], xx, W, wx, wn[2], ws[2]) : 0.0f))
+  acc_t prev = 0.0f;  // column 2i-1
   for (int i = 0; i < Wc; ++i) {
-    const float c0 = COL(2 * i), c1 = COL(2 * i + 1);
-    rc[(size_t)j * Wc + i] = 0.5f * prev + c0 + 0.5f * c1;
-    ec[(size_t)j * Wc + i] = 0.0f;
+    const acc_t c0 = 2 * i < W ? COL(2 * i) : 0.0f;
+    const acc_t c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
+    rc[GI(i, j, P)] = (float)(0.5f * prev + c0 + 0.5f * c1);
+    ec[GI(i, j, P)] = 0.0f;
     prev = c1;
   }
 #undef COL
 }
 
-// Bilinear interpolation of coarse row values at fine x (coarse node I on fine node 2I).
-inline float interp_row(__global const float* r, int x) {
-  const int xc = x >> 1;
-  return (x & 1) ? 0.5f * (r[xc] + r[xc + 1]) : r[xc];
-}
-
-// u += P ec on free cells of level 0.
+// u += P ec on free cells of level 0 (ec ghosted, pitch Wc + 2).
 __kernel void prolong_correct0(__global float* u, __global const float* g, const int W, const int H,
                                __global const float* ec, const int Wc) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
-  __global const float* r0 = ec + (size_t)(y >> 1) * Wc;
-  __global const float* r1 = (y & 1) ? r0 + Wc : r0;
+  const int P = Wc + 2;
+  __global const float* r0 = ec + GI(0, y >> 1, P);
+  __global const float* r1 = (y & 1) ? r0 + P : r0;
   for (int x = 0; x < W; ++x) {
-    if (isnan(g[o + x])) continue;
-    u[o + x] += 0.5f * (interp_row(r0, x) + interp_row(r1, x));
+    const int xc = x >> 1;
+    const float v = (x & 1) ? 0.25f * (r0[xc] + r0[xc + 1] + r1[xc] + r1[xc + 1]) : 0.5f * (r0[xc] + r1[xc]);
+    const float gv = g[o + x];
+    u[o + x] = isnan(gv) ? u[o + x] : u[o + x] + v;
   }
 }
 
 // Per-row sums of squared level-0 residuals (the host adds the rows in double).
 __kernel void residual_norm0(__global const float* u, __global const float* g, const int W, const int H,
-                             const float wx, const float wy, const int cold, __global float* rows) {
+                             const float wx, const float wy, __global float* rows) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const size_t o = (size_t)y * W;
+  __global const float* row = u + o;
+  __global const float* up = (y > 0) ? row - W : row;
+  __global const float* dn = (y + 1 < H) ? row + W : row;
+  const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
+  acc_t s = 0;
+  for (int x = 0; x < W; ++x) {
+    const acc_t r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
+    s += r * r;
+  }
+  rows[y] = (float)s;
+}
+
+// Same for the trivial guess (free cells read as 0): the norm of the reduced right-hand side.
+__kernel void rhs_norm0(__global const float* u, __global const float* g, const int W, const int H, const float wx,
+                        const float wy, __global float* rows) {
   const int y = get_global_id(0);
   if (y >= H) return;
   acc_t s = 0;
   for (int x = 0; x < W; ++x) {
-    const float r = res0(u, g, x, y, W, H, wx, wy, cold);
-    s += (acc_t)r * (acc_t)r;
+    const size_t o = (size_t)y * W + x;
+    const float gv = g[o];
+    if (isnan(gv)) continue;
+    acc_t r = gv;
+#define HARD_NB(cond, off, w) \
+  if ((cond) && isnan(g[o + (off)])) r += (acc_t)(w) * (acc_t)u[o + (off)];
+    HARD_NB(x > 0, -1, wx)
+    HARD_NB(x + 1 < W, 1, wx)
+    HARD_NB(y > 0, -(long)W, wy)
+    HARD_NB(y + 1 < H, (long)W, wy)
+#undef HARD_NB
+    s += r * r;
   }
   rows[y] = (float)s;
 }
@@ -175,7 +210,7 @@ __kernel void init_level0(__global float* u, __global float* g, __global const f
   }
 }
 
-// g -= mean over free cells (projection onto the range of the singular pure-Neumann operator).
+// g -= delta on free cells (projection onto the range of the singular pure-Neumann operator).
 __kernel void shift_free(__global float* g, const int W, const int H, const float delta) {
   const int y = get_global_id(0);
   if (y >= H) return;
@@ -186,7 +221,7 @@ __kernel void shift_free(__global float* g, const int W, const int H, const floa
   }
 }
 
-// Per-row sums (and free-cell counts) of g, for the mean in the singular case.
+// Per-row sums of g over free cells, for the mean in the singular case.
 __kernel void row_sums(__global const float* g, const int W, const int H, __global float* sums) {
   const int y = get_global_id(0);
   if (y >= H) return;
@@ -200,63 +235,37 @@ __kernel void row_sums(__global const float* g, const int W, const int H, __glob
 }
 
 // ---------------------------------------------------------------------------------------------
-// Coarse levels: 9-point Galerkin operators in edge form, planes [D, wE, wS, wSE, wSW] of size N.
+// Coarse levels: 9-point Galerkin operators in edge form, ghosted planes [D, wE, wS, wSE, wSW]
+// (+ s for the next Galerkin product), each of N = (W+2)(H+2) floats.
 
-#define PLANE(st, k, N) ((st) + (size_t)(k) * (N))
-
-// Residual r - A e at (x, y) of a coarse level.
-inline float res9(__global const float* e, __global const float* r, __global const float* st, int x, int y, int W,
-                  int H) {
-  const size_t N = (size_t)W * H, o = (size_t)y * W + x;
-  const float D = st[o];
-  float s = 0.0f;
-  if (x + 1 < W) s += PLANE(st, 1, N)[o] * e[o + 1];
-  if (y + 1 < H) s += PLANE(st, 2, N)[o] * e[o + W];
-  if (x + 1 < W && y + 1 < H) s += PLANE(st, 3, N)[o] * e[o + W + 1];
-  if (x > 0 && y + 1 < H) s += PLANE(st, 4, N)[o] * e[o + W - 1];
-  if (x > 0) s += PLANE(st, 1, N)[o - 1] * e[o - 1];
-  if (y > 0) s += PLANE(st, 2, N)[o - W] * e[o - W];
-  if (x > 0 && y > 0) s += PLANE(st, 3, N)[o - W - 1] * e[o - W - 1];
-  if (x + 1 < W && y > 0) s += PLANE(st, 4, N)[o - W + 1] * e[o - W + 1];
-  return r[o] + s - D * e[o];
+// Residual r - A e at ghosted index o (pitch P, plane size N).
+inline float res9(__global const float* e, __global const float* r, __global const float* st, size_t o, int P,
+                  size_t N) {
+  __global const float* wE = st + N;
+  __global const float* wS = st + 2 * N;
+  __global const float* wSE = st + 3 * N;
+  __global const float* wSW = st + 4 * N;
+  const float s = wE[o] * e[o + 1] + wS[o] * e[o + P] + wSE[o] * e[o + P + 1] + wSW[o] * e[o + P - 1] +
+                  wE[o - 1] * e[o - 1] + wS[o - P] * e[o - P] + wSE[o - P - 1] * e[o - P - 1] +
+                  wSW[o - P + 1] * e[o - P + 1];
+  return r[o] + s - st[o] * e[o];
 }
 
-// Zebra Gauss-Seidel on a 9-point level: rows of one parity in parallel (they only couple to the
-// other parity), each row swept left to right (lexicographic, so x-neighbours are already new).
-__kernel void smooth_zebra9(__global float* e, __global const float* r, __global const float* st, const int W,
-                            const int H, const int parity) {
-  const int y = 2 * (int)get_global_id(0) + parity;
+// Gauss-Seidel on a 9-point level over rows y % 2 == py (rows of one parity only couple to the
+// other parity). xstep 2: four-colour ordering (nodes x % 2 == px independent, vectorisable);
+// xstep 1: zebra ordering, each row swept left to right (half the launches, for small levels
+// where the launch cost dominates).
+__kernel void smooth9(__global float* e, __global const float* r, __global const float* st, const int W, const int H,
+                      const int px, const int py, const int xstep) {
+  const int y = 2 * (int)get_global_id(0) + py;
   if (y >= H) return;
-  const size_t N = (size_t)W * H, o = (size_t)y * W;
-  __global const float* D = st + o;
-  __global const float* wE = PLANE(st, 1, N) + o;
-  __global const float* wS = PLANE(st, 2, N) + o;
-  __global const float* wSE = PLANE(st, 3, N) + o;
-  __global const float* wSW = PLANE(st, 4, N) + o;
-  const int hn = y > 0, hs = y + 1 < H;
-  // Rows outside the grid alias this row with zero weights.
-  __global const float* wSn = hn ? wS - W : wS;
-  __global const float* wSEn = hn ? wSE - W : wSE;
-  __global const float* wSWn = hn ? wSW - W : wSW;
-  __global float* ec = e + o;
-  __global const float* en = hn ? ec - W : ec;
-  __global const float* es = hs ? ec + W : ec;
-  const float fn = hn ? 1.0f : 0.0f, fs = hs ? 1.0f : 0.0f;
-  float west = 0.0f, wWest = 0.0f;  // e and edge weight of x-1
-  for (int x = 0; x < W; ++x) {
-    const int xe = x + 1 < W ? x + 1 : x, xw = x > 0 ? x - 1 : x;
-    const float fe = x + 1 < W ? 1.0f : 0.0f, fw = x > 0 ? 1.0f : 0.0f;
-    float s = wWest * west + fe * wE[x] * ec[xe];
-    s += fs * (wS[x] * es[x] + fe * wSE[x] * es[xe] + fw * wSW[x] * es[xw]);
-    s += fn * (wSn[x] * en[x] + fw * wSEn[xw] * en[xw] + fe * wSWn[xe] * en[xe]);
-    const float d = D[x];
-    float v = ec[x];
-    if (d > 0.0f) {
-      v = (r[o + x] + s) / d;
-      ec[x] = v;
-    }
-    west = v;
-    wWest = wE[x];
+  const int P = W + 2;
+  const size_t N = (size_t)P * (H + 2);
+  for (int x = px; x < W; x += xstep) {
+    const size_t o = GI(x, y, P);
+    const float d = st[o];
+    const float v = e[o] + res9(e, r, st, o, P, N) / d;
+    e[o] = d > 0.0f ? v : 0.0f;
   }
 }
 
@@ -265,230 +274,301 @@ __kernel void jacobi9(__global float* out, __global const float* e, __global con
                       __global const float* st, const int W, const int H, const float omega) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const size_t o = (size_t)y * W;
+  const int P = W + 2;
+  const size_t N = (size_t)P * (H + 2);
   for (int x = 0; x < W; ++x) {
-    const float d = st[o + x];
-    const float ec = e[o + x];
-    out[o + x] = d > 0.0f ? ec + omega * res9(e, r, st, x, y, W, H) / d : ec;
+    const size_t o = GI(x, y, P);
+    const float d = st[o];
+    out[o] = d > 0.0f ? e[o] + omega * res9(e, r, st, o, P, N) / d : 0.0f;
   }
 }
 
 // Restriction of the coarse-level residual (fused), zero initial coarse correction.
 __kernel void residual_restrict9(__global const float* e, __global const float* r, __global const float* st,
-                                 const int W, const int H, __global float* rc, __global float* ec, const int Wc,
-                                 const int Hc) {
+                                 const int W, const int H, __global float* rc, __global float* ec, const int Wc) {
   const int j = get_global_id(0);
+  const int Hc = H / 2 + 1;
   if (j >= Hc) return;
-  const int y0 = 2 * j - 1, y1 = 2 * j, y2 = 2 * j + 1;
-  const int h0 = y0 >= 0, h1 = y1 < H, h2 = y2 < H;
-#define COL(xx)                                                                \
-  (((xx) < 0 || (xx) >= W) ? 0.0f                                             \
-                           : ((h0 ? 0.5f * res9(e, r, st, xx, y0, W, H) : 0.0f) + \
-                              (h1 ? res9(e, r, st, xx, y1, W, H) : 0.0f) +         \
-                              (h2 ? 0.5f * res9(e, r, st, xx, y2, W, H) : 0.0f)))
+  const int P = W + 2, Pc = Wc + 2;
+  const size_t N = (size_t)P * (H + 2);
+  const float a0 = 2 * j - 1 >= 0 ? 0.5f : 0.0f, a1 = 2 * j < H ? 1.0f : 0.0f, a2 = 2 * j + 1 < H ? 0.5f : 0.0f;
+  const int y0 = max(2 * j - 1, 0), y1 = min(2 * j, H - 1), y2 = min(2 * j + 1, H - 1);
+#define COL(xx)                                                          \
+  ((a0 != 0.0f ? a0 * res9(e, r, st, GI(xx, y0, P), P, N) : 0.0f) +     \
+   (a1 != 0.0f ? res9(e, r, st, GI(xx, y1, P), P, N) : 0.0f) +          \
+   (a2 != 0.0f ? a2 * res9(e, r, st, GI(xx, y2, P), P, N) : 0.0f))
   float prev = 0.0f;
   for (int i = 0; i < Wc; ++i) {
-    const float c0 = COL(2 * i), c1 = COL(2 * i + 1);
-    rc[(size_t)j * Wc + i] = 0.5f * prev + c0 + 0.5f * c1;
-    ec[(size_t)j * Wc + i] = 0.0f;
+    const float c0 = 2 * i < W ? COL(2 * i) : 0.0f;
+    const float c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
+    rc[GI(i, j, Pc)] = 0.5f * prev + c0 + 0.5f * c1;
+    ec[GI(i, j, Pc)] = 0.0f;
     prev = c1;
   }
 #undef COL
 }
 
-// e += P ec on a coarse level (dead nodes take any value: nothing couples to them).
+// e += P ec on a coarse level (dead nodes are reset to 0 by the smoother).
 __kernel void prolong_correct9(__global float* e, const int W, const int H, __global const float* ec, const int Wc) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const size_t o = (size_t)y * W;
-  __global const float* r0 = ec + (size_t)(y >> 1) * Wc;
-  __global const float* r1 = (y & 1) ? r0 + Wc : r0;
-  for (int x = 0; x < W; ++x) e[o + x] += 0.5f * (interp_row(r0, x) + interp_row(r1, x));
+  const int P = W + 2, Pc = Wc + 2;
+  __global const float* r0 = ec + GI(0, y >> 1, Pc);
+  __global const float* r1 = (y & 1) ? r0 + Pc : r0;
+  __global float* row = e + GI(0, y, P);
+  for (int x = 0; x < W; ++x) {
+    const int xc = x >> 1;
+    row[x] += (x & 1) ? 0.25f * (r0[xc] + r0[xc + 1] + r1[xc] + r1[xc + 1]) : 0.5f * (r0[xc] + r1[xc]);
+  }
 }
 
 // Coarsest level: e = pinv(A) r with the pseudo-inverse computed on the host at set-up
-// (handles the singular pure-Neumann case). One work-item per row of pinv.
-__kernel void coarse_solve(__global float* e, __global const float* r, __global const float* pinv, const int n) {
+// (handles the singular pure-Neumann case and dead nodes). One work-item per row of pinv.
+__kernel void coarse_solve(__global float* e, __global const float* r, __global const float* pinv, const int W,
+                           const int H) {
   const int i = get_global_id(0);
+  const int n = W * H;
   if (i >= n) return;
+  const int P = W + 2;
   float s = 0.0f;
-  for (int j = 0; j < n; ++j) s += pinv[(size_t)i * n + j] * r[j];
-  e[i] = s;
+  for (int j = 0; j < n; ++j) s += pinv[(size_t)i * n + j] * r[GI(j % W, j / W, P)];
+  e[GI(i % W, i / W, P)] = s;
 }
 
 // ---------------------------------------------------------------------------------------------
 // Galerkin coarse operators. Generated by scripts/gen_galerkin.py (do not edit by hand).
+#define GALERKIN_LOADS \
+  const float S_m1_m1 = S(-1, -1); \
+  const float S_p0_m1 = S(0, -1); \
+  const float S_p1_m1 = S(1, -1); \
+  const float S_m1_p0 = S(-1, 0); \
+  const float S_p0_p0 = S(0, 0); \
+  const float S_p1_p0 = S(1, 0); \
+  const float S_m1_p1 = S(-1, 1); \
+  const float S_p0_p1 = S(0, 1); \
+  const float S_p1_p1 = S(1, 1); \
+  const float WE_m2_m1 = WE(-2, -1); \
+  const float WE_m1_m1 = WE(-1, -1); \
+  const float WE_p0_m1 = WE(0, -1); \
+  const float WE_p1_m1 = WE(1, -1); \
+  const float WE_m2_p0 = WE(-2, 0); \
+  const float WE_m1_p0 = WE(-1, 0); \
+  const float WE_p0_p0 = WE(0, 0); \
+  const float WE_p1_p0 = WE(1, 0); \
+  const float WE_m2_p1 = WE(-2, 1); \
+  const float WE_m1_p1 = WE(-1, 1); \
+  const float WE_p0_p1 = WE(0, 1); \
+  const float WE_p1_p1 = WE(1, 1); \
+  const float WS_m1_m2 = WS(-1, -2); \
+  const float WS_p0_m2 = WS(0, -2); \
+  const float WS_p1_m2 = WS(1, -2); \
+  const float WS_m1_m1 = WS(-1, -1); \
+  const float WS_p0_m1 = WS(0, -1); \
+  const float WS_p1_m1 = WS(1, -1); \
+  const float WS_m1_p0 = WS(-1, 0); \
+  const float WS_p0_p0 = WS(0, 0); \
+  const float WS_p1_p0 = WS(1, 0); \
+  const float WS_m1_p1 = WS(-1, 1); \
+  const float WS_p0_p1 = WS(0, 1); \
+  const float WS_p1_p1 = WS(1, 1); \
+  const float WSE_m2_m2 = WSE(-2, -2); \
+  const float WSE_m1_m2 = WSE(-1, -2); \
+  const float WSE_p0_m2 = WSE(0, -2); \
+  const float WSE_m2_m1 = WSE(-2, -1); \
+  const float WSE_m1_m1 = WSE(-1, -1); \
+  const float WSE_p1_m1 = WSE(1, -1); \
+  const float WSE_m2_p0 = WSE(-2, 0); \
+  const float WSE_p0_p0 = WSE(0, 0); \
+  const float WSE_p1_p0 = WSE(1, 0); \
+  const float WSE_m1_p1 = WSE(-1, 1); \
+  const float WSE_p0_p1 = WSE(0, 1); \
+  const float WSE_p1_p1 = WSE(1, 1); \
+  const float WSW_p0_m2 = WSW(0, -2); \
+  const float WSW_p1_m2 = WSW(1, -2); \
+  const float WSW_p2_m2 = WSW(2, -2); \
+  const float WSW_m1_m1 = WSW(-1, -1); \
+  const float WSW_p1_m1 = WSW(1, -1); \
+  const float WSW_p2_m1 = WSW(2, -1); \
+  const float WSW_m1_p0 = WSW(-1, 0); \
+  const float WSW_p0_p0 = WSW(0, 0); \
+  const float WSW_p2_p0 = WSW(2, 0); \
+  const float WSW_m1_p1 = WSW(-1, 1); \
+  const float WSW_p0_p1 = WSW(0, 1); \
+  const float WSW_p1_p1 = WSW(1, 1); \
+  (void)0
 #define GALERKIN_D ( \
-      0.0625f * WSE(-2, -2) \
-    + 0.0625f * WS(-1, -2) \
-    + 0.25f * WSE(-1, -2) \
-    + 0.25f * WS(0, -2) \
-    + 0.0625f * WSE(0, -2) \
-    + 0.0625f * WSW(0, -2) \
-    + 0.0625f * WS(1, -2) \
-    + 0.25f * WSW(1, -2) \
-    + 0.0625f * WSW(2, -2) \
-    + 0.0625f * WE(-2, -1) \
-    + 0.25f * WSE(-2, -1) \
-    + 0.0625f * S(-1, -1) \
-    + 0.0625f * WE(-1, -1) \
-    + 0.0625f * WS(-1, -1) \
-    + 0.5625f * WSE(-1, -1) \
-    + 0.0625f * WSW(-1, -1) \
-    + 0.25f * S(0, -1) \
-    + 0.0625f * WE(0, -1) \
-    + 0.25f * WS(0, -1) \
-    + 0.0625f * S(1, -1) \
-    + 0.0625f * WE(1, -1) \
-    + 0.0625f * WS(1, -1) \
-    + 0.0625f * WSE(1, -1) \
-    + 0.5625f * WSW(1, -1) \
-    + 0.25f * WSW(2, -1) \
-    + 0.25f * WE(-2, 0) \
-    + 0.0625f * WSE(-2, 0) \
-    + 0.25f * S(-1, 0) \
-    + 0.25f * WE(-1, 0) \
-    + 0.0625f * WS(-1, 0) \
-    + 0.25f * WSW(-1, 0) \
-    + 1.0f * S(0, 0) \
-    + 0.25f * WE(0, 0) \
-    + 0.25f * WS(0, 0) \
-    + 0.5625f * WSE(0, 0) \
-    + 0.5625f * WSW(0, 0) \
-    + 0.25f * S(1, 0) \
-    + 0.25f * WE(1, 0) \
-    + 0.0625f * WS(1, 0) \
-    + 0.25f * WSE(1, 0) \
-    + 0.0625f * WSW(2, 0) \
-    + 0.0625f * WE(-2, 1) \
-    + 0.0625f * S(-1, 1) \
-    + 0.0625f * WE(-1, 1) \
-    + 0.0625f * WS(-1, 1) \
-    + 0.0625f * WSE(-1, 1) \
-    + 0.0625f * WSW(-1, 1) \
-    + 0.25f * S(0, 1) \
-    + 0.0625f * WE(0, 1) \
-    + 0.25f * WS(0, 1) \
-    + 0.25f * WSE(0, 1) \
-    + 0.25f * WSW(0, 1) \
-    + 0.0625f * S(1, 1) \
-    + 0.0625f * WE(1, 1) \
-    + 0.0625f * WS(1, 1) \
-    + 0.0625f * WSE(1, 1) \
-    + 0.0625f * WSW(1, 1) \
+      0.0625f * WSE_m2_m2 \
+    + 0.0625f * WS_m1_m2 \
+    + 0.25f * WSE_m1_m2 \
+    + 0.25f * WS_p0_m2 \
+    + 0.0625f * WSE_p0_m2 \
+    + 0.0625f * WSW_p0_m2 \
+    + 0.0625f * WS_p1_m2 \
+    + 0.25f * WSW_p1_m2 \
+    + 0.0625f * WSW_p2_m2 \
+    + 0.0625f * WE_m2_m1 \
+    + 0.25f * WSE_m2_m1 \
+    + 0.0625f * S_m1_m1 \
+    + 0.0625f * WE_m1_m1 \
+    + 0.0625f * WS_m1_m1 \
+    + 0.5625f * WSE_m1_m1 \
+    + 0.0625f * WSW_m1_m1 \
+    + 0.25f * S_p0_m1 \
+    + 0.0625f * WE_p0_m1 \
+    + 0.25f * WS_p0_m1 \
+    + 0.0625f * S_p1_m1 \
+    + 0.0625f * WE_p1_m1 \
+    + 0.0625f * WS_p1_m1 \
+    + 0.0625f * WSE_p1_m1 \
+    + 0.5625f * WSW_p1_m1 \
+    + 0.25f * WSW_p2_m1 \
+    + 0.25f * WE_m2_p0 \
+    + 0.0625f * WSE_m2_p0 \
+    + 0.25f * S_m1_p0 \
+    + 0.25f * WE_m1_p0 \
+    + 0.0625f * WS_m1_p0 \
+    + 0.25f * WSW_m1_p0 \
+    + 1.0f * S_p0_p0 \
+    + 0.25f * WE_p0_p0 \
+    + 0.25f * WS_p0_p0 \
+    + 0.5625f * WSE_p0_p0 \
+    + 0.5625f * WSW_p0_p0 \
+    + 0.25f * S_p1_p0 \
+    + 0.25f * WE_p1_p0 \
+    + 0.0625f * WS_p1_p0 \
+    + 0.25f * WSE_p1_p0 \
+    + 0.0625f * WSW_p2_p0 \
+    + 0.0625f * WE_m2_p1 \
+    + 0.0625f * S_m1_p1 \
+    + 0.0625f * WE_m1_p1 \
+    + 0.0625f * WS_m1_p1 \
+    + 0.0625f * WSE_m1_p1 \
+    + 0.0625f * WSW_m1_p1 \
+    + 0.25f * S_p0_p1 \
+    + 0.0625f * WE_p0_p1 \
+    + 0.25f * WS_p0_p1 \
+    + 0.25f * WSE_p0_p1 \
+    + 0.25f * WSW_p0_p1 \
+    + 0.0625f * S_p1_p1 \
+    + 0.0625f * WE_p1_p1 \
+    + 0.0625f * WS_p1_p1 \
+    + 0.0625f * WSE_p1_p1 \
+    + 0.0625f * WSW_p1_p1 \
   )
 #define GALERKIN_WE ( \
-      -0.0625f * WSE(0, -2) \
-    + -0.0625f * WS(1, -2) \
-    + -0.0625f * WSW(2, -2) \
-    + 0.0625f * WE(0, -1) \
-    + -0.0625f * S(1, -1) \
-    + 0.0625f * WE(1, -1) \
-    + -0.0625f * WS(1, -1) \
-    + 0.1875f * WSE(1, -1) \
-    + 0.1875f * WSW(1, -1) \
-    + 0.25f * WE(0, 0) \
-    + 0.1875f * WSE(0, 0) \
-    + -0.25f * S(1, 0) \
-    + 0.25f * WE(1, 0) \
-    + -0.0625f * WS(1, 0) \
-    + 0.1875f * WSW(2, 0) \
-    + 0.0625f * WE(0, 1) \
-    + -0.0625f * S(1, 1) \
-    + 0.0625f * WE(1, 1) \
-    + -0.0625f * WS(1, 1) \
-    + -0.0625f * WSE(1, 1) \
-    + -0.0625f * WSW(1, 1) \
+      -0.0625f * WSE_p0_m2 \
+    + -0.0625f * WS_p1_m2 \
+    + -0.0625f * WSW_p2_m2 \
+    + 0.0625f * WE_p0_m1 \
+    + -0.0625f * S_p1_m1 \
+    + 0.0625f * WE_p1_m1 \
+    + -0.0625f * WS_p1_m1 \
+    + 0.1875f * WSE_p1_m1 \
+    + 0.1875f * WSW_p1_m1 \
+    + 0.25f * WE_p0_p0 \
+    + 0.1875f * WSE_p0_p0 \
+    + -0.25f * S_p1_p0 \
+    + 0.25f * WE_p1_p0 \
+    + -0.0625f * WS_p1_p0 \
+    + 0.1875f * WSW_p2_p0 \
+    + 0.0625f * WE_p0_p1 \
+    + -0.0625f * S_p1_p1 \
+    + 0.0625f * WE_p1_p1 \
+    + -0.0625f * WS_p1_p1 \
+    + -0.0625f * WSE_p1_p1 \
+    + -0.0625f * WSW_p1_p1 \
   )
 #define GALERKIN_WS ( \
-      -0.0625f * WSE(-2, 0) \
-    + 0.0625f * WS(-1, 0) \
-    + 0.25f * WS(0, 0) \
-    + 0.1875f * WSE(0, 0) \
-    + 0.1875f * WSW(0, 0) \
-    + 0.0625f * WS(1, 0) \
-    + -0.0625f * WSW(2, 0) \
-    + -0.0625f * WE(-2, 1) \
-    + -0.0625f * S(-1, 1) \
-    + -0.0625f * WE(-1, 1) \
-    + 0.0625f * WS(-1, 1) \
-    + 0.1875f * WSE(-1, 1) \
-    + -0.0625f * WSW(-1, 1) \
-    + -0.25f * S(0, 1) \
-    + -0.0625f * WE(0, 1) \
-    + 0.25f * WS(0, 1) \
-    + -0.0625f * S(1, 1) \
-    + -0.0625f * WE(1, 1) \
-    + 0.0625f * WS(1, 1) \
-    + -0.0625f * WSE(1, 1) \
-    + 0.1875f * WSW(1, 1) \
+      -0.0625f * WSE_m2_p0 \
+    + 0.0625f * WS_m1_p0 \
+    + 0.25f * WS_p0_p0 \
+    + 0.1875f * WSE_p0_p0 \
+    + 0.1875f * WSW_p0_p0 \
+    + 0.0625f * WS_p1_p0 \
+    + -0.0625f * WSW_p2_p0 \
+    + -0.0625f * WE_m2_p1 \
+    + -0.0625f * S_m1_p1 \
+    + -0.0625f * WE_m1_p1 \
+    + 0.0625f * WS_m1_p1 \
+    + 0.1875f * WSE_m1_p1 \
+    + -0.0625f * WSW_m1_p1 \
+    + -0.25f * S_p0_p1 \
+    + -0.0625f * WE_p0_p1 \
+    + 0.25f * WS_p0_p1 \
+    + -0.0625f * S_p1_p1 \
+    + -0.0625f * WE_p1_p1 \
+    + 0.0625f * WS_p1_p1 \
+    + -0.0625f * WSE_p1_p1 \
+    + 0.1875f * WSW_p1_p1 \
   )
 #define GALERKIN_WSE ( \
-      0.1875f * WSE(0, 0) \
-    + 0.0625f * WS(1, 0) \
-    + 0.25f * WSE(1, 0) \
-    + -0.0625f * WSW(2, 0) \
-    + 0.0625f * WE(0, 1) \
-    + 0.25f * WSE(0, 1) \
-    + -0.0625f * S(1, 1) \
-    + 0.0625f * WE(1, 1) \
-    + 0.0625f * WS(1, 1) \
-    + 0.1875f * WSE(1, 1) \
-    + -0.0625f * WSW(1, 1) \
+      0.1875f * WSE_p0_p0 \
+    + 0.0625f * WS_p1_p0 \
+    + 0.25f * WSE_p1_p0 \
+    + -0.0625f * WSW_p2_p0 \
+    + 0.0625f * WE_p0_p1 \
+    + 0.25f * WSE_p0_p1 \
+    + -0.0625f * S_p1_p1 \
+    + 0.0625f * WE_p1_p1 \
+    + 0.0625f * WS_p1_p1 \
+    + 0.1875f * WSE_p1_p1 \
+    + -0.0625f * WSW_p1_p1 \
   )
 #define GALERKIN_WSW ( \
-      -0.0625f * WSE(-2, 0) \
-    + 0.0625f * WS(-1, 0) \
-    + 0.25f * WSW(-1, 0) \
-    + 0.1875f * WSW(0, 0) \
-    + 0.0625f * WE(-2, 1) \
-    + -0.0625f * S(-1, 1) \
-    + 0.0625f * WE(-1, 1) \
-    + 0.0625f * WS(-1, 1) \
-    + -0.0625f * WSE(-1, 1) \
-    + 0.1875f * WSW(-1, 1) \
-    + 0.25f * WSW(0, 1) \
+      -0.0625f * WSE_m2_p0 \
+    + 0.0625f * WS_m1_p0 \
+    + 0.25f * WSW_m1_p0 \
+    + 0.1875f * WSW_p0_p0 \
+    + 0.0625f * WE_m2_p1 \
+    + -0.0625f * S_m1_p1 \
+    + 0.0625f * WE_m1_p1 \
+    + 0.0625f * WS_m1_p1 \
+    + -0.0625f * WSE_m1_p1 \
+    + 0.1875f * WSW_m1_p1 \
+    + 0.25f * WSW_p0_p1 \
   )
 
-// Fine stencil accessors in edge form, relative to fine node (2i, 2j); absent nodes give 0.
 // Level 0 applies D A D (hard rows/columns removed): an edge to a hard cell becomes diagonal
-// excess s, a hard cell has an all-zero stencil.
-inline int free0(__global const float* g, int x, int y, int W, int H) {
-  return x >= 0 && y >= 0 && x < W && y < H && !isnan(g[(size_t)y * W + x]);
-}
-inline int hard0(__global const float* g, int x, int y, int W, int H) {
-  return x >= 0 && y >= 0 && x < W && y < H && isnan(g[(size_t)y * W + x]);
-}
-inline float we0(__global const float* g, int x, int y, int W, int H, float wx) {
-  return (free0(g, x, y, W, H) && free0(g, x + 1, y, W, H)) ? wx : 0.0f;
-}
-inline float ws0(__global const float* g, int x, int y, int W, int H, float wy) {
-  return (free0(g, x, y, W, H) && free0(g, x, y + 1, W, H)) ? wy : 0.0f;
-}
-inline float s0(__global const float* g, int x, int y, int W, int H, float wx, float wy) {
-  if (!free0(g, x, y, W, H)) return 0.0f;
-  return wx * (float)(hard0(g, x - 1, y, W, H) + hard0(g, x + 1, y, W, H)) +
-         wy * (float)(hard0(g, x, y - 1, W, H) + hard0(g, x, y + 1, W, H));
-}
+// excess s, a hard cell has an all-zero stencil. The 5x5 window of cell states around fine node
+// (2i, 2j) (0 absent, 1 free, 2 hard) holds everything the formula needs.
+// Coarse planes: [D, wE, wS, wSE, wSW, s]; s (diagonal excess, = P^T s_fine because P 1 = 1 on
+// every existing fine node) feeds the next Galerkin product.
+#define FULL_WEIGHT(F) \
+  (F(0, 0) + 0.5f * (F(-1, 0) + F(1, 0) + F(0, -1) + F(0, 1)) + 0.25f * (F(-1, -1) + F(1, -1) + F(-1, 1) + F(1, 1)))
 
 __kernel void galerkin0(__global const float* g, const int W, const int H, const float wx, const float wy,
                         __global float* stc, const int Wc, const int Hc) {
   const int j = get_global_id(0);
   if (j >= Hc) return;
-  const size_t Nc = (size_t)Wc * Hc;
+  const int Pc = Wc + 2;
+  const size_t Nc = (size_t)Pc * (Hc + 2);
   for (int i = 0; i < Wc; ++i) {
     const int bx = 2 * i, by = 2 * j;
-#define WE(a, b) we0(g, bx + (a), by + (b), W, H, wx)
-#define WS(a, b) ws0(g, bx + (a), by + (b), W, H, wy)
+    int cs[5][5];
+#pragma unroll
+    for (int b = 0; b < 5; ++b)
+#pragma unroll
+      for (int a = 0; a < 5; ++a) {
+        const int x = bx + a - 2, y = by + b - 2;
+        cs[b][a] = (x < 0 || y < 0 || x >= W || y >= H) ? 0 : (isnan(g[(size_t)y * W + x]) ? 2 : 1);
+      }
+#define FR(a, b) (cs[(b) + 2][(a) + 2] == 1)
+#define HD(a, b) (float)(cs[(b) + 2][(a) + 2] == 2)
+#define WE(a, b) ((FR(a, b) && FR((a) + 1, b)) ? wx : 0.0f)
+#define WS(a, b) ((FR(a, b) && FR(a, (b) + 1)) ? wy : 0.0f)
 #define WSE(a, b) 0.0f
 #define WSW(a, b) 0.0f
-#define S(a, b) s0(g, bx + (a), by + (b), W, H, wx, wy)
-    const size_t o = (size_t)j * Wc + i;
+#define S(a, b) (FR(a, b) ? wx * (HD((a) - 1, b) + HD((a) + 1, b)) + wy * (HD(a, (b) - 1) + HD(a, (b) + 1)) : 0.0f)
+    GALERKIN_LOADS;
+    const size_t o = GI(i, j, Pc);
     stc[o] = GALERKIN_D;
-    PLANE(stc, 1, Nc)[o] = GALERKIN_WE;
-    PLANE(stc, 2, Nc)[o] = GALERKIN_WS;
-    PLANE(stc, 3, Nc)[o] = GALERKIN_WSE;
-    PLANE(stc, 4, Nc)[o] = GALERKIN_WSW;
+    stc[Nc + o] = GALERKIN_WE;
+    stc[2 * Nc + o] = GALERKIN_WS;
+    stc[3 * Nc + o] = GALERKIN_WSE;
+    stc[4 * Nc + o] = GALERKIN_WSW;
+    stc[5 * Nc + o] = FULL_WEIGHT(S);
+#undef FR
+#undef HD
 #undef WE
 #undef WS
 #undef WSE
@@ -497,35 +577,35 @@ __kernel void galerkin0(__global const float* g, const int W, const int H, const
   }
 }
 
+// Ghosted coarse stencil value, 0 outside the array (the Galerkin window reaches 2 nodes out).
 inline float ld9(__global const float* st, int k, int x, int y, int W, int H) {
-  return (x >= 0 && y >= 0 && x < W && y < H) ? st[(size_t)k * W * H + (size_t)y * W + x] : 0.0f;
-}
-// Diagonal excess s = D - (sum of the 8 edge weights) of a stored 9-point stencil.
-inline float s9(__global const float* st, int x, int y, int W, int H) {
-  if (x < 0 || y < 0 || x >= W || y >= H) return 0.0f;
-  return ld9(st, 0, x, y, W, H) - (ld9(st, 1, x, y, W, H) + ld9(st, 2, x, y, W, H) + ld9(st, 3, x, y, W, H) +
-                                   ld9(st, 4, x, y, W, H) + ld9(st, 1, x - 1, y, W, H) + ld9(st, 2, x, y - 1, W, H) +
-                                   ld9(st, 3, x - 1, y - 1, W, H) + ld9(st, 4, x + 1, y - 1, W, H));
+  return (x >= -1 && y >= -1 && x <= W && y <= H) ? st[(size_t)k * (W + 2) * (H + 2) + GI(x, y, W + 2)] : 0.0f;
 }
 
 __kernel void galerkin9(__global const float* st, const int W, const int H, __global float* stc, const int Wc,
                         const int Hc) {
   const int j = get_global_id(0);
   if (j >= Hc) return;
-  const size_t Nc = (size_t)Wc * Hc;
+  const int Pc = Wc + 2;
+  const size_t Nc = (size_t)Pc * (Hc + 2);
   for (int i = 0; i < Wc; ++i) {
     const int bx = 2 * i, by = 2 * j;
 #define WE(a, b) ld9(st, 1, bx + (a), by + (b), W, H)
 #define WS(a, b) ld9(st, 2, bx + (a), by + (b), W, H)
 #define WSE(a, b) ld9(st, 3, bx + (a), by + (b), W, H)
 #define WSW(a, b) ld9(st, 4, bx + (a), by + (b), W, H)
-#define S(a, b) s9(st, bx + (a), by + (b), W, H)
-    const size_t o = (size_t)j * Wc + i;
+#define S(a, b) ld9(st, 5, bx + (a), by + (b), W, H)
+    GALERKIN_LOADS;
+    const size_t o = GI(i, j, Pc);
     stc[o] = GALERKIN_D;
-    PLANE(stc, 1, Nc)[o] = GALERKIN_WE;
-    PLANE(stc, 2, Nc)[o] = GALERKIN_WS;
-    PLANE(stc, 3, Nc)[o] = GALERKIN_WSE;
-    PLANE(stc, 4, Nc)[o] = GALERKIN_WSW;
+    stc[Nc + o] = GALERKIN_WE;
+    stc[2 * Nc + o] = GALERKIN_WS;
+    stc[3 * Nc + o] = GALERKIN_WSE;
+    stc[4 * Nc + o] = GALERKIN_WSW;
+#define SV(a, b) S_##a##_##b
+    stc[5 * Nc + o] = S_p0_p0 + 0.5f * (S_m1_p0 + S_p1_p0 + S_p0_m1 + S_p0_p1) +
+                      0.25f * (S_m1_m1 + S_p1_m1 + S_m1_p1 + S_p1_p1);
+#undef SV
 #undef WE
 #undef WS
 #undef WSE
@@ -536,7 +616,7 @@ __kernel void galerkin9(__global const float* st, const int W, const int H, __gl
 
 // ---------------------------------------------------------------------------------------------
 // The published one-pass cascade (comparison mode): re-discretised 5-point Laplacians on every
-// level, constraints fused by priority while coarsening.
+// level (plain user-grid layout, no ghosts), constraints fused by priority while coarsening.
 
 // Coarse node (i, j) over the fine full-weighting footprint: if any fine cell is hard, the coarse
 // cell is hard with the weighted mean of the fine hard values (hard beats soft); otherwise its
@@ -585,6 +665,9 @@ __kernel void prolong_assign(__global float* u, __global const float* g, const i
   const size_t o = (size_t)y * W;
   __global const float* r0 = uc + (size_t)(y >> 1) * Wc;
   __global const float* r1 = (y & 1) ? r0 + Wc : r0;
-  for (int x = 0; x < W; ++x)
-    if (!isnan(g[o + x])) u[o + x] = 0.5f * (interp_row(r0, x) + interp_row(r1, x));
+  for (int x = 0; x < W; ++x) {
+    const int xc = x >> 1;
+    const float v = (x & 1) ? 0.25f * (r0[xc] + r0[xc + 1] + r1[xc] + r1[xc + 1]) : 0.5f * (r0[xc] + r1[xc]);
+    if (!isnan(g[o + x])) u[o + x] = v;
+  }
 }

@@ -9,11 +9,35 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
 
 namespace terracl::mg {
 namespace {
 
-constexpr int kCoarsestCells = 64;
+constexpr int64_t kFourColourCells = 128 * 128;
+
+// TERRACL_MG_PROFILE=1: wait after every kernel and print the time per kernel (development aid;
+// the waits themselves cost 25-50 us each on PoCL).
+bool profiling() {
+  static const bool on = std::getenv("TERRACL_MG_PROFILE") != nullptr;
+  return on;
+}
+struct ProfileEntry {
+  double ms = 0, items = 0;
+  int calls = 0;
+};
+std::map<std::string, ProfileEntry>& profile() {
+  static std::map<std::string, ProfileEntry> p;
+  return p;
+}
+struct ProfilePrinter {
+  ~ProfilePrinter() {
+    for (auto& [k, v] : profile())
+      std::fprintf(stderr, "%-22s %9.2f ms %5d calls %8.2f ns/item\n", k.c_str(), v.ms, v.calls, 1e6 * v.ms / v.items);
+  }
+} g_printer;
 
 struct Level {
   int W = 0, H = 0;
@@ -29,6 +53,7 @@ class Solver {
  public:
   Solver(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline)
       : m_d(d), m_q(d.queue()), m_p(p), m_o(o), m_baseline(baseline) {
+    profile().clear();
     m_wx = float(1.0 / (p.cell_x * p.cell_x));
     m_wy = float(1.0 / (p.cell_y * p.cell_y));
     auto k = [&](const char* n) { return d.kernel("multigrid", n); };
@@ -37,7 +62,8 @@ class Solver {
     m_rr0 = k("residual_restrict0");
     m_pc0 = k("prolong_correct0");
     m_norm0 = k("residual_norm0");
-    m_z9 = k("smooth_zebra9");
+    m_rhs0 = k("rhs_norm0");
+    m_z9 = k("smooth9");
     m_jac9 = k("jacobi9");
     m_rr9 = k("residual_restrict9");
     m_pc9 = k("prolong_correct9");
@@ -56,15 +82,21 @@ class Solver {
       Level& L = m_levels[l];
       L.W = dims[l].first;
       L.H = dims[l].second;
-      const size_t n = size_t(L.W) * L.H * sizeof(float);
       if (l == 0) {
-        if (jac) L.tmp = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid level 0 Jacobi buffer");
+        if (jac) L.tmp = m_d.buffer(size_t(L.W) * L.H * sizeof(float), CL_MEM_READ_WRITE, "multigrid level 0 Jacobi buffer");
         continue;
       }
-      L.e = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid correction");
-      L.r = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid residual");
-      L.st = m_d.buffer(5 * n, CL_MEM_READ_WRITE, "multigrid coarse operator");
-      if (jac) L.tmp = m_d.buffer(n, CL_MEM_READ_WRITE, "multigrid Jacobi buffer");
+      // Coarse levels carry a ghost frame of zeros (see kernels/multigrid.cl).
+      const size_t n = size_t(L.W + 2) * (L.H + 2) * sizeof(float);
+      auto zeroed = [&](size_t bytes, const char* what) {
+        cl::Buffer b = m_d.buffer(bytes, CL_MEM_READ_WRITE, what);
+        m_q.enqueueFillBuffer(b, 0.0f, 0, bytes);
+        return b;
+      };
+      L.e = zeroed(n, "multigrid correction");
+      L.r = zeroed(n, "multigrid residual");
+      L.st = zeroed(6 * n, "multigrid coarse operator");
+      if (jac) L.tmp = zeroed(n, "multigrid Jacobi buffer");
     }
     track();
     // Galerkin operators, finest to coarsest, all enqueued.
@@ -74,28 +106,30 @@ class Solver {
       const Level &F = m_levels[l - 1], &C = m_levels[l];
       if (l == 1) {
         set(g0, m_p.g, F.W, F.H, m_wx, m_wy, C.st, C.W, C.H);
-        run(g0, C.H);
+        run(g0, C.H, double(C.W) * C.H);
       } else {
         set(g9, F.st, F.W, F.H, C.st, C.W, C.H);
-        run(g9, C.H);
+        run(g9, C.H, double(C.W) * C.H);
       }
     }
     // Coarsest level: pseudo-inverse on the host, in double (handles the singular Neumann case
     // and dead nodes).
     const Level& C = m_levels.back();
     const int n = C.W * C.H;
-    std::vector<float> st(size_t(5) * n);
+    const size_t N = size_t(C.W + 2) * (C.H + 2);
+    std::vector<float> st(5 * N);
     m_q.enqueueReadBuffer(C.st, CL_TRUE, 0, st.size() * sizeof(float), st.data());
     Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
     for (int y = 0; y < C.H; ++y)
       for (int x = 0; x < C.W; ++x) {
         const int i = y * C.W + x;
-        A(i, i) = st[i];
+        const size_t gi = size_t(y + 1) * (C.W + 2) + x + 1;
+        A(i, i) = st[gi];
         auto link = [&](int k, int xx, int yy) {
           if (xx < 0 || yy < 0 || xx >= C.W || yy >= C.H) return;
           const int j = yy * C.W + xx;
-          A(i, j) -= st[size_t(k) * n + i];
-          A(j, i) -= st[size_t(k) * n + i];
+          A(i, j) -= st[size_t(k) * N + gi];
+          A(j, i) -= st[size_t(k) * N + gi];
         };
         link(1, x + 1, y);
         link(2, x, y + 1);
@@ -105,7 +139,7 @@ class Solver {
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
     const double top = es.eigenvalues().cwiseAbs().maxCoeff();
     Eigen::VectorXd inv = es.eigenvalues();
-    for (int i = 0; i < n; ++i) inv(i) = std::abs(inv(i)) > 1e-9 * top && top > 0 ? 1.0 / inv(i) : 0.0;
+    for (int i = 0; i < n; ++i) inv(i) = std::abs(inv(i)) > 1e-5 * top && top > 0 ? 1.0 / inv(i) : 0.0;
     Eigen::MatrixXd P = es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
     m_pinv_host.resize(size_t(n) * n);
     for (int i = 0; i < n; ++i)
@@ -118,8 +152,9 @@ class Solver {
 
   /// sqrt(sum of squared level-0 residuals); `cold` measures the trivial guess instead of u.
   double norm(bool cold) {
-    set(m_norm0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, int(cold), m_rows);
-    run(m_norm0, m_p.height);
+    cl::Kernel& k = cold ? m_rhs0 : m_norm0;
+    set(k, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, m_rows);
+    run(k, m_p.height, double(m_p.width) * m_p.height);
     m_q.enqueueReadBuffer(m_rows, CL_TRUE, 0, m_rows_host.size() * sizeof(float), m_rows_host.data());
     double s = 0;
     for (float v : m_rows_host) s += v;
@@ -132,7 +167,7 @@ class Solver {
       if (m_o.smoother == Smoother::Rbgs) {
         for (int c = 0; c < 2; ++c) {
           set(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, c);
-          run(m_rb0, m_p.height);
+          run(m_rb0, m_p.height, double(m_p.width) * m_p.height / 2);
         }
       } else {
         Level& L = m_levels[0];
@@ -148,9 +183,12 @@ class Solver {
     Level& L = m_levels[l];
     for (int s = 0; s < sweeps; ++s) {
       if (m_o.smoother == Smoother::Rbgs) {
-        for (int par = 0; par < 2; ++par) {
-          set(m_z9, L.e, L.r, L.st, L.W, L.H, par);
-          run(m_z9, size_t((L.H - par + 1) / 2));
+        // Four colours on large levels; zebra rows (half the launches) where launches dominate.
+        const int colours = int64_t(L.W) * L.H >= kFourColourCells ? 4 : 2;
+        for (int c = 0; c < colours; ++c) {
+          const int px = colours == 4 ? (c & 1) : 0, py = colours == 4 ? (c >> 1) : c;
+          set(m_z9, L.e, L.r, L.st, L.W, L.H, px, py, colours == 4 ? 2 : 1);
+          run(m_z9, size_t((L.H - py + 1) / 2), double(L.W) * L.H / colours);
         }
       } else {
         set(m_jac9, L.tmp, L.e, L.r, L.st, L.W, L.H, float(m_o.jacobi_omega));
@@ -164,11 +202,11 @@ class Solver {
     Level& F = m_levels[l];
     Level& C = m_levels[l + 1];
     if (l == 0) {
-      set(m_rr0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, C.r, C.e, C.W, C.H);
-      run(m_rr0, C.H);
+      set(m_rr0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, C.r, C.e, C.W);
+      run(m_rr0, C.H, double(C.W) * C.H * 4);
     } else {
-      set(m_rr9, F.e, F.r, F.st, F.W, F.H, C.r, C.e, C.W, C.H);
-      run(m_rr9, C.H);
+      set(m_rr9, F.e, F.r, F.st, F.W, F.H, C.r, C.e, C.W);
+      run(m_rr9, C.H, double(C.W) * C.H * 4);
     }
   }
 
@@ -176,18 +214,18 @@ class Solver {
     Level& C = m_levels[l + 1];
     if (l == 0) {
       set(m_pc0, m_p.u, m_p.g, m_p.width, m_p.height, C.e, C.W);
-      run(m_pc0, m_p.height);
+      run(m_pc0, m_p.height, double(m_p.width) * m_p.height);
     } else {
       Level& F = m_levels[l];
       set(m_pc9, F.e, F.W, F.H, C.e, C.W);
-      run(m_pc9, F.H);
+      run(m_pc9, F.H, double(F.W) * F.H);
     }
   }
 
   void coarse_solve() {
     Level& C = m_levels.back();
     const int n = C.W * C.H;
-    set(m_cs, C.e, C.r, m_pinv, n);
+    set(m_cs, C.e, C.r, m_pinv, C.W, C.H);
     run(m_cs, size_t(n));
   }
 
@@ -303,9 +341,22 @@ class Solver {
     cl_uint i = 0;
     (k.setArg(i++, a), ...);
   }
-  void run(cl::Kernel& k, size_t n) {
+  void run(cl::Kernel& k, size_t n, double items = 0) {
     if (n == 0) return;
-    m_q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NullRange);
+    const bool prof = profiling();
+    const double t = prof ? now_ms() : 0;
+    static const size_t ls = std::getenv("TERRACL_LS") ? std::atoi(std::getenv("TERRACL_LS")) : 0;
+    if (ls) m_q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(n, ls)), cl::NDRange(ls));
+    else m_q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NullRange);
+    if (prof) {
+      m_q.finish();
+      std::string name = k.getInfo<CL_KERNEL_FUNCTION_NAME>();
+      name = name.c_str();
+      auto& e = profile()[name];
+      e.ms += now_ms() - t;
+      e.calls++;
+      e.items += items > 0 ? items : double(n);
+    }
   }
 
   Device& m_d;
@@ -315,7 +366,7 @@ class Solver {
   uint64_t m_baseline;
   float m_wx = 1, m_wy = 1;
   std::vector<Level> m_levels;
-  cl::Kernel m_rb0, m_jac0, m_rr0, m_pc0, m_norm0, m_z9, m_jac9, m_rr9, m_pc9, m_cs;
+  cl::Kernel m_rb0, m_jac0, m_rr0, m_pc0, m_norm0, m_rhs0, m_z9, m_jac9, m_rr9, m_pc9, m_cs;
   cl::Buffer m_rows, m_pinv;
   std::vector<float> m_rows_host, m_pinv_host;
   SolveStats m_stats;
