@@ -60,7 +60,8 @@ json bench_script(int n) {
   ops.push_back({{"op", "noise"}, {"center", P(0.2, 0.2)}, {"radius", 2 * r}, {"falloff", r}, {"amplitude", 20}, {"wavelength", r}, {"type", "ridged"}, {"orient", {{"angle", 45}}}});
   ops.push_back({{"op", "tensor"}, {"primitives", {{{"shape", "disc"}, {"center", P(0.4, 0.25)}, {"disc_radius", r}, {"radius", 2 * r}, {"angle", 90}, {"strength", 0.7}}}}});
   ops.push_back({{"op", "tensor"}, {"primitives", {{{"shape", "polyline"}, {"points", {P(0.1, 0.4), P(0.3, 0.45)}}, {"radius", r}, {"tensor", "tangent"}}}}});
-  ops.push_back({{"op", "freeze"}, {"center", P(0.95, 0.05)}, {"radius", r}});
+  // No freeze: it reconstructs to read the current elevations (a solve of its own).
+  ops.push_back({{"op", "cliff"}, {"points", {P(0.05, 0.05), P(0.25, 0.1)}}, {"elevation", 700}, {"height", 150}, {"radius", r}});
   return {{"units", "cells"}, {"seed", 7}, {"operations", ops}};
 }
 

@@ -121,8 +121,18 @@ bool inside_polygon(const std::vector<Vec2>& poly, double x, double y) {
 
 std::vector<size_t> region_cells(const Region& r, const Grid& g) {
   std::vector<size_t> out;
-  for (int y = 0; y < g.height; ++y)
-    for (int x = 0; x < g.width; ++x) {
+  int x0 = 0, y0 = 0, x1 = g.width - 1, y1 = g.height - 1;
+  if (r.kind != Region::Everywhere) {  // only the cells of the region's bounding box
+    double bx0 = r.center.x - r.radius, bx1 = r.center.x + r.radius, by0 = r.center.y - r.radius, by1 = r.center.y + r.radius;
+    if (r.kind == Region::Polygon) {
+      bx0 = by0 = 1e300, bx1 = by1 = -1e300;
+      for (const auto& v : r.polygon) bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
+    }
+    x0 = std::max(x0, int(std::floor(bx0 / g.cell_x))), x1 = std::min(x1, int(std::ceil(bx1 / g.cell_x)));
+    y0 = std::max(y0, int(std::floor(by0 / g.cell_y))), y1 = std::min(y1, int(std::ceil(by1 / g.cell_y)));
+  }
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
       const double px = x * g.cell_x, py = y * g.cell_y;
       bool in = r.kind == Region::Everywhere;
       if (r.kind == Region::Disc) in = std::hypot(px - r.center.x, py - r.center.y) <= r.radius;
