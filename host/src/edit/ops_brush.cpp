@@ -37,8 +37,10 @@ NoiseParams parse_noise_params(Params& p, std::optional<double> def_amp, std::op
 
 Operation parse_noise(Params& p) {
   const Region r = parse_region(p, true);
-  const double falloff = p.hlength("falloff", 0.0);
   const NoiseParams n = parse_noise_params(p, {}, {}, "fbm");
+  // A hard region edge would be a step of the noise's height (the exact gradient of w n): fade
+  // over one wavelength unless told otherwise.
+  const double falloff = p.hlength("falloff", n.wavelength);
   bool orient = false;
   double theta = 0, mu = 0;
   if (p.has("orient")) {
