@@ -242,3 +242,23 @@ TEST(Edit, StageRunsAScript) {
   st->run(ctx);
   EXPECT_EQ(data.height->at(10, 10), 50.0f);  // (50 m, 50 m) is cell (10, 10) at 5 m cells
 }
+
+// `terracl sketch --json` files (analysis module) feed `fit` directly: pixel coordinates of the
+// sketch's own grid, extra keys ignored, peaks become point constraints.
+TEST(Edit, FitReadsASketchFile) {
+  test::TempDir tmp;
+  const json sketch = {{"format", "terracl-sketch"}, {"version", 1}, {"width", 33}, {"height", 33},
+                       {"cell_x_m", 90.0}, {"cell_y_m", 90.0},
+                       {"rivers", {{{"points", {{2, 30, 15}, {16, 28, 10}, {30, 31, 5}}}, {"drainage_area_m2", 1e6}}}},
+                       {"ridges", {{{"points", {{4, 6, 200}, {28, 8, 260}}}, {"drainage_area_m2", 5e5}}}},
+                       {"peaks", {{{"x", 16}, {"y", 16}, {"z", 300.0}, {"relief_m", 200}}}},
+                       {"basins", json::array()}};
+  write_text_file_atomic(tmp.path("sketch.json"), sketch.dump());
+  // A 65x65 grid: the sketch's pixel (x, y) lands on cell (2x, 2y).
+  const Heightfield h = run(flat(65, 65, 10), json{{"operations", {{{"op", "fit"}, {"file", tmp.path("sketch.json")}}}}});
+  EXPECT_NEAR(h.at(32, 32), 300.0, 1e-4);
+  EXPECT_NEAR(h.at(8, 12), 200.0, 1e-4);
+  EXPECT_NEAR(h.at(60, 62), 5.0, 1e-4);
+  EXPECT_GT(h.at(32, 40), 5.0f);
+  EXPECT_LT(h.at(32, 40), 300.0f);
+}

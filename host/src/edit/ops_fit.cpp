@@ -19,11 +19,12 @@ namespace {
 
 struct Features {
   std::vector<std::vector<Vec3>> contours, ridges, rivers;
+  std::vector<Vec3> points;  // peaks and basins of a sketch file
 };
 
 // {"contours": [{"points": [[x, y], ...], "elevation": z, "closed": false}],
 //  "ridges": [{"points": [[x, y, z], ...]}], "rivers": [...]}; `p` may have other keys.
-void read_features(Params& p, Features& f) {
+void read_features(Params& p, Features& f, bool strict = true) {
   auto list = [&](const std::string& key, std::vector<std::vector<Vec3>>& out, bool contour) {
     if (!p.has(key)) return;
     const json& arr = p.raw(key);
@@ -50,7 +51,7 @@ void read_features(Params& p, Features& f) {
             if (std::isnan(v.z)) v.z = z;
         }
       }
-      q.done();
+      if (strict) q.done();
       out.push_back(std::move(pts));
     }
   };
@@ -72,11 +73,34 @@ Operation parse_fit(Params& p) {
     } catch (const json::exception& e) {
       param_error(p.where("file"), fmt::format("'{}' is not valid JSON: {}", given, e.what()));
     }
-    Params fp(doc, path + ":", p.grid());
-    read_features(fp, f);
+    // The analysis module's `terracl sketch --json` files (format "terracl-sketch") give pixel
+    // coordinates of their own grid: scale them onto ours; their extra keys are ignored.
+    const bool sketch = doc.is_object() && doc.value("format", std::string()) == "terracl-sketch";
+    Grid fg = p.grid();
+    if (sketch) {
+      const Grid& g = p.grid();
+      const int sw = doc.value("width", g.width), sh = doc.value("height", g.height);
+      fg.unit = g.cell_x * (sw > 1 ? double(g.width - 1) / (sw - 1) : 1.0);
+      fg.unit_y = g.cell_y * (sh > 1 ? double(g.height - 1) / (sh - 1) : 1.0);
+    }
+    Params fp(doc, path + ":", fg);
+    read_features(fp, f, !sketch);
+    if (sketch) {
+      for (const char* key : {"peaks", "basins"}) {
+        if (!doc.contains(key) || !doc[key].is_array()) continue;
+        for (size_t i = 0; i < doc[key].size(); ++i) {
+          const json& pk = doc[key][i];
+          const std::string w = path + ":/" + key + "/" + std::to_string(i);
+          if (!pk.is_object() || !pk.contains("x") || !pk.contains("y") || !pk.contains("z") || !pk["x"].is_number() ||
+              !pk["y"].is_number() || !pk["z"].is_number())
+            param_error(w, "expected {\"x\": .., \"y\": .., \"z\": ..}");
+          f.points.push_back({pk["x"].get<double>() * fg.unit, pk["y"].get<double>() * fg.unit_y, pk["z"].get<double>()});
+        }
+      }
+    }
   }
   read_features(p, f);
-  if (f.contours.empty() && f.ridges.empty() && f.rivers.empty())
+  if (f.contours.empty() && f.ridges.empty() && f.rivers.empty() && f.points.empty())
     param_error(p.path(), "needs at least one of contours, ridges, rivers (inline or in \"file\")");
   const bool clear = p.boolean("clear", true);
   const double width = p.hlength("width", 0.0);
@@ -123,7 +147,9 @@ Operation parse_fit(Params& p) {
     }
     for (const auto* set : {&f.contours, &f.ridges, &f.rivers})
       for (const auto& pl : *set) rasterize_polyline(s, pl, width);
-    s.log().back()["features"] = {{"contours", f.contours.size()}, {"ridges", f.ridges.size()}, {"rivers", f.rivers.size()}};
+    for (const auto& pt : f.points) rasterize_polyline(s, {pt, pt}, width);
+    s.log().back()["features"] = {{"contours", f.contours.size()}, {"ridges", f.ridges.size()},
+                                  {"rivers", f.rivers.size()}, {"points", f.points.size()}};
     s.changed();
   };
 }
