@@ -2,8 +2,8 @@
 //   * apply_tensor_field: the composite tensor field A(p) = I + sum_i mu_i alpha(d_i/r_i) T_i(p, u(p))
 //     applied to a staggered gradient, g' = A g (or g += A delta to orient a noise layer);
 //   * primitive_weight: the falloff weight max_i alpha(d_i/r_i) (masks for brushes and noise);
-//   * profile_gradient: g += sum_i grad P_i(d_i), the exact gradient of a cross-section profile of the
-//     distance to a curve (landform curves: crests, faults, ravines, river banks, mesa rims).
+//   * profile_potential + add_potential_gradient: g += the discrete gradient of sum_i P_i(d_i), a
+//     cross-section profile of the distance to a curve (crests, faults, ravines, river banks, rims).
 // Positions are metres: cell (x, y) is at (x * cx, y * cy), y growing southwards.
 // Each primitive is 16 floats (layout in host/src/tensor.cpp); vertices are float4 (x, y, amp, 0).
 // Kernels run over a bounding box (x0, y0, bw, bh) of the grid, one work-item per row.
@@ -263,52 +263,62 @@ __kernel void primitive_weight(__global float* w, const int W, const int H, cons
   }
 }
 
-// Gradient of primitive i's profile P_i at p. pr[12] = profile kind, pr[13] = amplitude scale.
+// Value of primitive i's profile P_i at p. pr[12] = profile kind, pr[13] = amplitude scale.
 // ROUND: P = a alpha(d/r); SHARP: P = a (1 - d/r)^3; STEP: P = a smoother((s/r + 1)/2) across a
 // signed distance s (a fault of throw a); DROP: P = -a smoother(s/r) for s >= 0 (a cliff face, a mesa
 // rim). a = pr[13] * the vertex amplitude at the closest point. Open-curve signed profiles taper off
-// past the curve's ends so that a finite fault dies out.
-float2 profile_grad(__global const float* pr, Closest c) {
+// past the curve's ends (times alpha(beyond/r)) so that a finite fault dies out.
+float profile_value(__global const float* pr, Closest c) {
   const float r = pr[3];
-  if (r <= 0.0f) return (float2)(0.0f, 0.0f);
+  if (r <= 0.0f) return 0.0f;
   const int kind = (int)pr[12];
   const float a = pr[13] * c.amp;
-  float dP = 0.0f;  // dP/ds along c.grad (the gradient of the signed distance)
-  if (kind == PROFILE_ROUND || kind == PROFILE_SHARP) {
-    const float t = c.dist / r;
-    if (t >= 1.0f || c.dist <= 0.0f) return (float2)(0.0f, 0.0f);
-    const float dd = kind == PROFILE_ROUND ? alpha_deriv(t) : -3.0f * (1.0f - t) * (1.0f - t);
-    // |d| = sign(s) s, so dP/ds = sign(s) dP/dd.
-    dP = (c.sdist >= 0.0f ? 1.0f : -1.0f) * a * dd / r;
+  float P;
+  if (kind == PROFILE_ROUND) {
+    P = a * alpha_fn(c.dist / r);
+  } else if (kind == PROFILE_SHARP) {
+    const float t = fmin(c.dist / r, 1.0f);
+    P = a * (1.0f - t) * (1.0f - t) * (1.0f - t);
   } else if (kind == PROFILE_STEP) {
-    const float t = (c.sdist / r + 1.0f) * 0.5f;
-    dP = a * smoother_deriv(t) * 0.5f / r;
+    P = a * smoother((c.sdist / r + 1.0f) * 0.5f);
   } else {
-    if (c.sdist < 0.0f) return (float2)(0.0f, 0.0f);
-    dP = -a * smoother_deriv(c.sdist / r) / r;
+    P = -a * smoother(c.sdist / r);
   }
-  if ((kind == PROFILE_STEP || kind == PROFILE_DROP) && c.beyond > 0.0f) dP *= alpha_fn(c.beyond / r);
-  return dP * c.grad;
+  if ((kind == PROFILE_STEP || kind == PROFILE_DROP) && c.beyond > 0.0f) P *= alpha_fn(c.beyond / r);
+  return P;
 }
 
-// g += sum_i grad P_i at the face centres of the box (profiles superpose additively).
-__kernel void profile_gradient(__global float* gx, __global float* gy, const int W, const int H, const float cx,
-                               const float cy, const int x0, const int y0, const int bw, const int bh,
-                               __global const float* prims, const int nprims, __global const float4* verts) {
+// P = sum_i P_i at the cell centres of the box (into `pot`).
+__kernel void profile_potential(__global float* pot, const int W, const int H, const float cx, const float cy,
+                                const int x0, const int y0, const int bw, const int bh,
+                                __global const float* prims, const int nprims, __global const float4* verts) {
   const int j = get_global_id(0);
   if (j >= bh) return;
   const int y = y0 + j;
   for (int x = x0; x < x0 + bw; ++x) {
-    const size_t o = (size_t)y * W + x;
-    float2 ex = (float2)(0.0f, 0.0f), sy = (float2)(0.0f, 0.0f);
-    const float2 px = (float2)(((float)x + 0.5f) * cx, (float)y * cy);
-    const float2 py = (float2)((float)x * cx, ((float)y + 0.5f) * cy);
+    const float2 p = (float2)((float)x * cx, (float)y * cy);
+    float P = 0.0f;
     for (int i = 0; i < nprims; ++i) {
       __global const float* pr = prims + 16 * i;
-      if (x < W - 1) ex += profile_grad(pr, closest_point(pr, verts, px));
-      if (y < H - 1) sy += profile_grad(pr, closest_point(pr, verts, py));
+      P += profile_value(pr, closest_point(pr, verts, p));
     }
-    if (x < W - 1) gx[o] += ex.x;
-    if (y < H - 1) gy[o] += sy.y;
+    pot[(size_t)y * W + x] = P;
+  }
+}
+
+// g += the staggered gradient of the potential on the faces between two cells of the box: the exact
+// discrete gradient of P, so it is curl-free and the solve reproduces P (profiles superpose additively).
+// The box extends past every support, so faces leaving it carry no gradient.
+__kernel void add_potential_gradient(__global float* gx, __global float* gy, __global const float* pot, const int W,
+                                     const int H, const float cx, const float cy, const int x0, const int y0,
+                                     const int bw, const int bh) {
+  const int j = get_global_id(0);
+  if (j >= bh) return;
+  const int y = y0 + j;
+  const float icx = 1.0f / cx, icy = 1.0f / cy;
+  for (int x = x0; x < x0 + bw; ++x) {
+    const size_t o = (size_t)y * W + x;
+    if (x + 1 < x0 + bw) gx[o] += (pot[o + 1] - pot[o]) * icx;
+    if (j + 1 < bh) gy[o] += (pot[o + W] - pot[o]) * icy;
   }
 }

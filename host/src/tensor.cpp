@@ -202,15 +202,21 @@ void add_profile_gradient(Device& d, GradientBuffers& g, const std::vector<Primi
   const Box box = primitives_box(prims, g.width, g.height, g.cell_x, g.cell_y);
   if (box.empty()) return;
   const DeviceSkeleton s = upload(d, prims);
-  cl::Kernel k = d.kernel("tensor", "profile_gradient");
+  cl::Kernel k = d.kernel("tensor", "profile_potential");
   int a = 0;
-  k.setArg(a++, g.gx);
-  k.setArg(a++, g.gy);
+  k.setArg(a++, g.mask);
   set_common(k, a, g, box);
   k.setArg(a++, s.prims);
   k.setArg(a++, s.count);
   k.setArg(a++, s.verts);
   launch_rows(d, k, box.h);
+  cl::Kernel k2 = d.kernel("tensor", "add_potential_gradient");
+  a = 0;
+  k2.setArg(a++, g.gx);
+  k2.setArg(a++, g.gy);
+  k2.setArg(a++, g.mask);
+  set_common(k2, a, g, box);
+  launch_rows(d, k2, box.h);
 }
 
 }  // namespace terracl

@@ -83,7 +83,9 @@ void apply_tensor_field(Device& d, GradientBuffers& g, const std::vector<Primiti
 void add_tensor_field_of_scratch(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box);
 /// mask = max_i alpha(d_i/r_i) over `box` (1 - that when `invert`); cells outside `box` untouched.
 void primitive_weight(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box, bool invert);
-/// g += sum_i grad P_i(d_i) (profiles superpose additively).
+/// g += the staggered (discrete) gradient of P = sum_i P_i(d_i), evaluated at the cell centres of the
+/// primitives' box: exactly curl-free, so reconstruction reproduces P; profiles superpose additively.
+/// Uses the mask scratch buffer.
 void add_profile_gradient(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims);
 
 }  // namespace terracl
