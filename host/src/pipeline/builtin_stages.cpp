@@ -8,6 +8,7 @@ StageRegistry& StageRegistry::instance() {
     register_core_stages(reg);
     register_reconstruct_stages(reg);
     register_edit_stages(reg);
+    register_analysis_stages(reg);
     return reg;
   }();
   return r;
@@ -19,6 +20,7 @@ BenchRegistry& BenchRegistry::instance() {
     register_core_benches(reg);
     register_reconstruct_benches(reg);
     register_edit_benches(reg);
+    register_analysis_benches(reg);
     return reg;
   }();
   return r;
