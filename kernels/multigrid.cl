@@ -103,26 +103,22 @@ __kernel void residual_restrict0(__global const float* u, __global const float* 
   const int Hc = H / 2 + 1;
   if (j >= Hc) return;
   const int P = Wc + 2;
-  float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;  // weights of fine rows 2j-1, 2j, 2j+1 (0 outside)
-  int ys[3] = {2 * j - 1, 2 * j, 2 * j + 1};
-  if (ys[0] >= 0) a0 = 0.5f;
-  if (ys[1] < H) a1 = 1.0f;
-  if (ys[2] < H) a2 = 0.5f;
-  __global const float *ur[3], *un[3], *us[3], *gr[3];
-  float wn[3], ws[3];
-  for (int k = 0; k < 3; ++k) {
-    const int y = clamp(ys[k], 0, H - 1);
-    ur[k] = u + (size_t)y * W;
-    gr[k] = g + (size_t)y * W;
-    un[k] = y > 0 ? ur[k] - W : ur[k];
-    us[k] = y + 1 < H ? ur[k] + W : ur[k];
-    wn[k] = y > 0 ? wy : 0.0f;
-    ws[k] = y + 1 < H ? wy : 0.0f;
-  }
-#define COL(xx)                                                                 \
-  ((a0 != 0.0f ? a0 * res0(ur[0], un[0], us[0], gr[0], xx, W, wx, wn[0], ws[0]) : 0.0f) + \
-   (a1 != 0.0f ? res0(ur[1], un[1], us[1], gr[1], xx, W, wx, wn[1], ws[1]) : 0.0f) +       \
-   (a2 != 0.0f ? a2 * res0(ur[2], un[2], us[2], gr[2], xx, W, wx, wn[2], ws[2]) : 0.0f))
+  // Fine rows 2j-1, 2j, 2j+1 with full-weighting factors a0, a1, a2 (0 outside the grid).
+#define ROW(k, yy, av)                                                           \
+  const int y##k = clamp(yy, 0, H - 1);                                          \
+  const float a##k = (yy) >= 0 && (yy) < H ? (av) : 0.0f;                        \
+  __global const float* ur##k = u + (size_t)y##k * W;                            \
+  __global const float* gr##k = g + (size_t)y##k * W;                            \
+  __global const float* un##k = y##k > 0 ? ur##k - W : ur##k;                    \
+  __global const float* us##k = y##k + 1 < H ? ur##k + W : ur##k;                \
+  const float wn##k = y##k > 0 ? wy : 0.0f, ws##k = y##k + 1 < H ? wy : 0.0f;
+  ROW(0, 2 * j - 1, 0.5f)
+  ROW(1, 2 * j, 1.0f)
+  ROW(2, 2 * j + 1, 0.5f)
+#undef ROW
+#define COL(xx)                                                                  \
+  (a0 * res0(ur0, un0, us0, gr0, xx, W, wx, wn0, ws0) + a1 * res0(ur1, un1, us1, gr1, xx, W, wx, wn1, ws1) + \
+   a2 * res0(ur2, un2, us2, gr2, xx, W, wx, wn2, ws2))
   acc_t prev = 0.0f;  // column 2i-1
   for (int i = 0; i < Wc; ++i) {
     const acc_t c0 = 2 * i < W ? COL(2 * i) : 0.0f;
@@ -527,14 +523,103 @@ __kernel void coarse_solve(__global float* e, __global const float* r, __global 
     + 0.1875f * WSW_m1_p1 \
     + 0.25f * WSW_p0_p1 \
   )
+#define GALERKIN0_STATES \
+  const int cs_m2_m2 = cell_state(g, bx + (-2), by + (-2), W, H); \
+  const int cs_m1_m2 = cell_state(g, bx + (-1), by + (-2), W, H); \
+  const int cs_p0_m2 = cell_state(g, bx + (0), by + (-2), W, H); \
+  const int cs_p1_m2 = cell_state(g, bx + (1), by + (-2), W, H); \
+  const int cs_p2_m2 = cell_state(g, bx + (2), by + (-2), W, H); \
+  const int cs_m2_m1 = cell_state(g, bx + (-2), by + (-1), W, H); \
+  const int cs_m1_m1 = cell_state(g, bx + (-1), by + (-1), W, H); \
+  const int cs_p0_m1 = cell_state(g, bx + (0), by + (-1), W, H); \
+  const int cs_p1_m1 = cell_state(g, bx + (1), by + (-1), W, H); \
+  const int cs_p2_m1 = cell_state(g, bx + (2), by + (-1), W, H); \
+  const int cs_m2_p0 = cell_state(g, bx + (-2), by + (0), W, H); \
+  const int cs_m1_p0 = cell_state(g, bx + (-1), by + (0), W, H); \
+  const int cs_p0_p0 = cell_state(g, bx + (0), by + (0), W, H); \
+  const int cs_p1_p0 = cell_state(g, bx + (1), by + (0), W, H); \
+  const int cs_p2_p0 = cell_state(g, bx + (2), by + (0), W, H); \
+  const int cs_m2_p1 = cell_state(g, bx + (-2), by + (1), W, H); \
+  const int cs_m1_p1 = cell_state(g, bx + (-1), by + (1), W, H); \
+  const int cs_p0_p1 = cell_state(g, bx + (0), by + (1), W, H); \
+  const int cs_p1_p1 = cell_state(g, bx + (1), by + (1), W, H); \
+  const int cs_p2_p1 = cell_state(g, bx + (2), by + (1), W, H); \
+  const int cs_m2_p2 = cell_state(g, bx + (-2), by + (2), W, H); \
+  const int cs_m1_p2 = cell_state(g, bx + (-1), by + (2), W, H); \
+  const int cs_p0_p2 = cell_state(g, bx + (0), by + (2), W, H); \
+  const int cs_p1_p2 = cell_state(g, bx + (1), by + (2), W, H); \
+  const int cs_p2_p2 = cell_state(g, bx + (2), by + (2), W, H); \
+  (void)0
+#define GALERKIN0_LOADS \
+  const float S_m1_m1 = cs_m1_m1 == 1 ? wx * (float)((cs_m2_m1 == 2) + (cs_p0_m1 == 2)) + wy * (float)((cs_m1_m2 == 2) + (cs_m1_p0 == 2)) : 0.0f; \
+  const float S_p0_m1 = cs_p0_m1 == 1 ? wx * (float)((cs_m1_m1 == 2) + (cs_p1_m1 == 2)) + wy * (float)((cs_p0_m2 == 2) + (cs_p0_p0 == 2)) : 0.0f; \
+  const float S_p1_m1 = cs_p1_m1 == 1 ? wx * (float)((cs_p0_m1 == 2) + (cs_p2_m1 == 2)) + wy * (float)((cs_p1_m2 == 2) + (cs_p1_p0 == 2)) : 0.0f; \
+  const float S_m1_p0 = cs_m1_p0 == 1 ? wx * (float)((cs_m2_p0 == 2) + (cs_p0_p0 == 2)) + wy * (float)((cs_m1_m1 == 2) + (cs_m1_p1 == 2)) : 0.0f; \
+  const float S_p0_p0 = cs_p0_p0 == 1 ? wx * (float)((cs_m1_p0 == 2) + (cs_p1_p0 == 2)) + wy * (float)((cs_p0_m1 == 2) + (cs_p0_p1 == 2)) : 0.0f; \
+  const float S_p1_p0 = cs_p1_p0 == 1 ? wx * (float)((cs_p0_p0 == 2) + (cs_p2_p0 == 2)) + wy * (float)((cs_p1_m1 == 2) + (cs_p1_p1 == 2)) : 0.0f; \
+  const float S_m1_p1 = cs_m1_p1 == 1 ? wx * (float)((cs_m2_p1 == 2) + (cs_p0_p1 == 2)) + wy * (float)((cs_m1_p0 == 2) + (cs_m1_p2 == 2)) : 0.0f; \
+  const float S_p0_p1 = cs_p0_p1 == 1 ? wx * (float)((cs_m1_p1 == 2) + (cs_p1_p1 == 2)) + wy * (float)((cs_p0_p0 == 2) + (cs_p0_p2 == 2)) : 0.0f; \
+  const float S_p1_p1 = cs_p1_p1 == 1 ? wx * (float)((cs_p0_p1 == 2) + (cs_p2_p1 == 2)) + wy * (float)((cs_p1_p0 == 2) + (cs_p1_p2 == 2)) : 0.0f; \
+  const float WE_m2_m1 = (cs_m2_m1 == 1 && cs_m1_m1 == 1) ? wx : 0.0f; \
+  const float WE_m1_m1 = (cs_m1_m1 == 1 && cs_p0_m1 == 1) ? wx : 0.0f; \
+  const float WE_p0_m1 = (cs_p0_m1 == 1 && cs_p1_m1 == 1) ? wx : 0.0f; \
+  const float WE_p1_m1 = (cs_p1_m1 == 1 && cs_p2_m1 == 1) ? wx : 0.0f; \
+  const float WE_m2_p0 = (cs_m2_p0 == 1 && cs_m1_p0 == 1) ? wx : 0.0f; \
+  const float WE_m1_p0 = (cs_m1_p0 == 1 && cs_p0_p0 == 1) ? wx : 0.0f; \
+  const float WE_p0_p0 = (cs_p0_p0 == 1 && cs_p1_p0 == 1) ? wx : 0.0f; \
+  const float WE_p1_p0 = (cs_p1_p0 == 1 && cs_p2_p0 == 1) ? wx : 0.0f; \
+  const float WE_m2_p1 = (cs_m2_p1 == 1 && cs_m1_p1 == 1) ? wx : 0.0f; \
+  const float WE_m1_p1 = (cs_m1_p1 == 1 && cs_p0_p1 == 1) ? wx : 0.0f; \
+  const float WE_p0_p1 = (cs_p0_p1 == 1 && cs_p1_p1 == 1) ? wx : 0.0f; \
+  const float WE_p1_p1 = (cs_p1_p1 == 1 && cs_p2_p1 == 1) ? wx : 0.0f; \
+  const float WS_m1_m2 = (cs_m1_m2 == 1 && cs_m1_m1 == 1) ? wy : 0.0f; \
+  const float WS_p0_m2 = (cs_p0_m2 == 1 && cs_p0_m1 == 1) ? wy : 0.0f; \
+  const float WS_p1_m2 = (cs_p1_m2 == 1 && cs_p1_m1 == 1) ? wy : 0.0f; \
+  const float WS_m1_m1 = (cs_m1_m1 == 1 && cs_m1_p0 == 1) ? wy : 0.0f; \
+  const float WS_p0_m1 = (cs_p0_m1 == 1 && cs_p0_p0 == 1) ? wy : 0.0f; \
+  const float WS_p1_m1 = (cs_p1_m1 == 1 && cs_p1_p0 == 1) ? wy : 0.0f; \
+  const float WS_m1_p0 = (cs_m1_p0 == 1 && cs_m1_p1 == 1) ? wy : 0.0f; \
+  const float WS_p0_p0 = (cs_p0_p0 == 1 && cs_p0_p1 == 1) ? wy : 0.0f; \
+  const float WS_p1_p0 = (cs_p1_p0 == 1 && cs_p1_p1 == 1) ? wy : 0.0f; \
+  const float WS_m1_p1 = (cs_m1_p1 == 1 && cs_m1_p2 == 1) ? wy : 0.0f; \
+  const float WS_p0_p1 = (cs_p0_p1 == 1 && cs_p0_p2 == 1) ? wy : 0.0f; \
+  const float WS_p1_p1 = (cs_p1_p1 == 1 && cs_p1_p2 == 1) ? wy : 0.0f; \
+  const float WSE_m2_m2 = 0.0f; \
+  const float WSE_m1_m2 = 0.0f; \
+  const float WSE_p0_m2 = 0.0f; \
+  const float WSE_m2_m1 = 0.0f; \
+  const float WSE_m1_m1 = 0.0f; \
+  const float WSE_p1_m1 = 0.0f; \
+  const float WSE_m2_p0 = 0.0f; \
+  const float WSE_p0_p0 = 0.0f; \
+  const float WSE_p1_p0 = 0.0f; \
+  const float WSE_m1_p1 = 0.0f; \
+  const float WSE_p0_p1 = 0.0f; \
+  const float WSE_p1_p1 = 0.0f; \
+  const float WSW_p0_m2 = 0.0f; \
+  const float WSW_p1_m2 = 0.0f; \
+  const float WSW_p2_m2 = 0.0f; \
+  const float WSW_m1_m1 = 0.0f; \
+  const float WSW_p1_m1 = 0.0f; \
+  const float WSW_p2_m1 = 0.0f; \
+  const float WSW_m1_p0 = 0.0f; \
+  const float WSW_p0_p0 = 0.0f; \
+  const float WSW_p2_p0 = 0.0f; \
+  const float WSW_m1_p1 = 0.0f; \
+  const float WSW_p0_p1 = 0.0f; \
+  const float WSW_p1_p1 = 0.0f; \
+  (void)0
 
 // Level 0 applies D A D (hard rows/columns removed): an edge to a hard cell becomes diagonal
 // excess s, a hard cell has an all-zero stencil. The 5x5 window of cell states around fine node
-// (2i, 2j) (0 absent, 1 free, 2 hard) holds everything the formula needs.
+// (2i, 2j) (0 absent, 1 free, 2 hard) holds everything the formula needs (GALERKIN0_*).
 // Coarse planes: [D, wE, wS, wSE, wSW, s]; s (diagonal excess, = P^T s_fine because P 1 = 1 on
 // every existing fine node) feeds the next Galerkin product.
-#define FULL_WEIGHT(F) \
-  (F(0, 0) + 0.5f * (F(-1, 0) + F(1, 0) + F(0, -1) + F(0, 1)) + 0.25f * (F(-1, -1) + F(1, -1) + F(-1, 1) + F(1, 1)))
+inline int cell_state(__global const float* g, int x, int y, int W, int H) {
+  return (x < 0 || y < 0 || x >= W || y >= H) ? 0 : (isnan(g[(size_t)y * W + x]) ? 2 : 1);
+}
+// Interior variant: the whole window is inside the grid.
+#define cell_state_in(g, x, y, W, H) (isnan((g)[(size_t)(y) * (W) + (x)]) ? 2 : 1)
 
 __kernel void galerkin0(__global const float* g, const int W, const int H, const float wx, const float wy,
                         __global float* stc, const int Wc, const int Hc) {
@@ -544,36 +629,30 @@ __kernel void galerkin0(__global const float* g, const int W, const int H, const
   const size_t Nc = (size_t)Pc * (Hc + 2);
   for (int i = 0; i < Wc; ++i) {
     const int bx = 2 * i, by = 2 * j;
-    int cs[5][5];
-#pragma unroll
-    for (int b = 0; b < 5; ++b)
-#pragma unroll
-      for (int a = 0; a < 5; ++a) {
-        const int x = bx + a - 2, y = by + b - 2;
-        cs[b][a] = (x < 0 || y < 0 || x >= W || y >= H) ? 0 : (isnan(g[(size_t)y * W + x]) ? 2 : 1);
-      }
-#define FR(a, b) (cs[(b) + 2][(a) + 2] == 1)
-#define HD(a, b) (float)(cs[(b) + 2][(a) + 2] == 2)
-#define WE(a, b) ((FR(a, b) && FR((a) + 1, b)) ? wx : 0.0f)
-#define WS(a, b) ((FR(a, b) && FR(a, (b) + 1)) ? wy : 0.0f)
-#define WSE(a, b) 0.0f
-#define WSW(a, b) 0.0f
-#define S(a, b) (FR(a, b) ? wx * (HD((a) - 1, b) + HD((a) + 1, b)) + wy * (HD(a, (b) - 1) + HD(a, (b) + 1)) : 0.0f)
-    GALERKIN_LOADS;
     const size_t o = GI(i, j, Pc);
+    if (bx >= 2 && by >= 2 && bx + 2 < W && by + 2 < H) {
+#define cell_state cell_state_in
+      GALERKIN0_STATES;
+#undef cell_state
+      GALERKIN0_LOADS;
+      stc[o] = GALERKIN_D;
+      stc[Nc + o] = GALERKIN_WE;
+      stc[2 * Nc + o] = GALERKIN_WS;
+      stc[3 * Nc + o] = GALERKIN_WSE;
+      stc[4 * Nc + o] = GALERKIN_WSW;
+      stc[5 * Nc + o] = S_p0_p0 + 0.5f * (S_m1_p0 + S_p1_p0 + S_p0_m1 + S_p0_p1) +
+                        0.25f * (S_m1_m1 + S_p1_m1 + S_m1_p1 + S_p1_p1);
+      continue;
+    }
+    GALERKIN0_STATES;
+    GALERKIN0_LOADS;
     stc[o] = GALERKIN_D;
     stc[Nc + o] = GALERKIN_WE;
     stc[2 * Nc + o] = GALERKIN_WS;
     stc[3 * Nc + o] = GALERKIN_WSE;
     stc[4 * Nc + o] = GALERKIN_WSW;
-    stc[5 * Nc + o] = FULL_WEIGHT(S);
-#undef FR
-#undef HD
-#undef WE
-#undef WS
-#undef WSE
-#undef WSW
-#undef S
+    stc[5 * Nc + o] = S_p0_p0 + 0.5f * (S_m1_p0 + S_p1_p0 + S_p0_m1 + S_p0_p1) +
+                      0.25f * (S_m1_m1 + S_p1_m1 + S_m1_p1 + S_p1_p1);
   }
 }
 
