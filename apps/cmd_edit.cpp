@@ -5,6 +5,7 @@
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
 #include <terracl/io.hpp>
+#include <terracl/render.hpp>
 
 #include <fmt/format.h>
 
@@ -24,7 +25,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("base", a->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE] (metres)");
   sub->add_option("--script", a->script, "Edit script (JSON)");
   sub->add_option("-o,--output", a->output, "Output heightfield (.tif, .exr, .png, ...)");
-  sub->add_option("--preview", a->preview, "Also write a hillshade PNG");
+  sub->add_option("--preview", a->preview, "Also write a shaded-relief preview PNG (render module)");
   sub->add_option("--report", a->report, "Write per-operation timings and solver figures (JSON)");
   sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr)");
   sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
@@ -73,7 +74,11 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
     h.metadata["terracl:edit_script"] = a->script;
     write_heightfield(h, a->output);
-    if (!a->preview.empty()) write_hillshade_png(h, a->preview);
+    if (!a->preview.empty()) {
+      render::Options ro;
+      ro.mode = render::Mode::ShadedRelief;
+      render::write_image(render::render(h, ro, device()), a->preview);
+    }
     if (!a->gradient_out.empty() || !a->gradient_image.empty()) {
       GradientField g = s.gradient();
       if (!a->gradient_out.empty()) write_gradient(g, a->gradient_out);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs every edit script in data/examples/ with `terracl edit` (each names its own base terrain)
-# into out/examples/<name>.tif with a hillshade preview <name>.png and a report <name>.report.json.
+# into out/examples/<name>.tif with a shaded-relief preview <name>.png and a report <name>.report.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TERRACL=${TERRACL:-build/bin/terracl}

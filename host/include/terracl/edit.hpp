@@ -76,9 +76,6 @@ class EditSession {
 /// Name and one-line summary of every edit operation.
 std::vector<std::pair<std::string, std::string>> edit_operations();
 
-/// A grey hillshade of `h` (sun from the north-west, 45 deg high) as an 8-bit PNG preview.
-void write_hillshade_png(const Heightfield& h, const std::string& path);
-
 /// Gradient image (paper section 3): a two-channel PNG with (r, g) = 2^(p-1) (1 + g/m), clamped to
 /// [0, 2^p - 1], p = 16 bits, m = the largest |component| (stored in the sidecar "<file>.json" with
 /// the cell size). Decoding error is at most m / 2^(p-1) per component.
