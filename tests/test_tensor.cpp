@@ -222,3 +222,49 @@ TEST(Tensor, ProfileGradientIsCurlFreeWithTheRightRelief) {
   for (int x = 0; x < 20; ++x) sum += out.gx[size_t(22) * 50 + x] * 3;
   EXPECT_NEAR(sum, 20 * (1 + 5505.0 / 5625) * std::pow(1 - 1.2 / 35, 3), 0.01);
 }
+
+// Stroke-aligned tensors: along a straight stroke the tangent tensor is D(stroke angle, mu); the
+// closest-point tensor of a point primitive is D(angle of u(p), mu).
+TEST(Tensor, AlignedTensorsFollowTheStrokeAndTheClosestPoint) {
+  const double mu = 0.9, phi = 60 * M_PI / 180;
+  const double stroke = 30 * M_PI / 180;
+  Primitive t;
+  t.shape = PrimitiveShape::Polyline;
+  t.points = {{-100 * std::cos(stroke), -100 * std::sin(stroke)}, {200 * std::cos(stroke), 200 * std::sin(stroke)}};
+  t.radius = 1e4;  // alpha ~ 1 near the stroke
+  t.tensor = TensorKind::Tangent;
+  t.strength = mu;
+  const GradientField out = apply(constant_field(6, 6, 1, std::cos(phi), std::sin(phi)), {t});
+  const auto D = directional_tensor(stroke, mu);
+  const size_t o = 2 * 6 + 2;
+  // Face (2.5, 2) lies within a few metres of the stroke: alpha(d/r) = 1 to 1e-6.
+  EXPECT_NEAR(out.gx[o], D[0] * std::cos(phi) + D[1] * std::sin(phi), 1e-4);
+  Primitive c;
+  c.shape = PrimitiveShape::Point;
+  c.points = {{1000.0, 2.0}};  // far east on the row of the probed face: u(p) points east
+  c.radius = 1e6;
+  c.tensor = TensorKind::Closest;
+  c.strength = mu;
+  const GradientField out2 = apply(constant_field(6, 6, 1, std::cos(phi), std::sin(phi)), {c});
+  const auto E = directional_tensor(0.0, mu);
+  EXPECT_NEAR(out2.gx[o], E[0] * std::cos(phi) + E[1] * std::sin(phi), 1e-3);
+}
+
+TEST(Tensor, AnisotropicDistanceStretchesTheSupport) {
+  Device& d = test::device();
+  GradientField g(41, 41);
+  GradientBuffers b = GradientBuffers::upload(d, g);
+  Primitive p;
+  p.shape = PrimitiveShape::Point;
+  p.points = {{20.0, 20.0}};
+  p.radius = 16;
+  p.aniso_ratio = 2;  // offsets across the x axis (along y) count twice
+  p.aniso_angle = 0;
+  primitive_weight(d, b, {p}, full_box(41, 41), false);
+  std::vector<float> w(g.size());
+  d.queue().enqueueReadBuffer(b.mask, CL_TRUE, 0, w.size() * 4, w.data());
+  EXPECT_NEAR(w[20 * 41 + 28], alpha(8.0 / 16), 1e-5);   // 8 m east: distance 8
+  EXPECT_NEAR(w[24 * 41 + 20], alpha(8.0 / 16), 1e-5);   // 4 m south: distance 8
+  EXPECT_EQ(w[28 * 41 + 20], 0.f);                       // 8 m south: distance 16, outside
+  EXPECT_GT(w[20 * 41 + 34], 0.f);                       // 14 m east: still inside
+}
