@@ -227,18 +227,23 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
   const int y = y0 + j;
   for (int x = x0; x < x0 + bw; ++x) {
     const size_t o = (size_t)y * W + x;
+    // A zero input gives a zero output: skip the tensor (most of a noise layer's box in add mode).
     if (x < W - 1) {
-      const float2 p = (float2)(((float)x + 0.5f) * cx, (float)y * cy);
-      const float4 A = tensor_at(prims, nprims, verts, p);
       const float gxv = sx[o], gyv = other_at_x_face(sy, x, y, W, H);
-      const float v = A.x * gxv + A.y * gyv;
+      float v = 0.0f;
+      if (gxv != 0.0f || gyv != 0.0f) {
+        const float4 A = tensor_at(prims, nprims, verts, (float2)(((float)x + 0.5f) * cx, (float)y * cy));
+        v = A.x * gxv + A.y * gyv;
+      }
       dx[o] = add ? dx[o] + v : v;
     }
     if (y < H - 1) {
-      const float2 p = (float2)((float)x * cx, ((float)y + 0.5f) * cy);
-      const float4 A = tensor_at(prims, nprims, verts, p);
       const float gxv = other_at_y_face(sx, x, y, W, H), gyv = sy[o];
-      const float v = A.z * gxv + A.w * gyv;
+      float v = 0.0f;
+      if (gxv != 0.0f || gyv != 0.0f) {
+        const float4 A = tensor_at(prims, nprims, verts, (float2)((float)x * cx, ((float)y + 0.5f) * cy));
+        v = A.z * gxv + A.w * gyv;
+      }
       dy[o] = add ? dy[o] + v : v;
     }
   }

@@ -68,6 +68,7 @@ struct GradientBuffers {
   cl::Buffer gx, gy;      ///< the field
   cl::Buffer tx, ty;      ///< scratch of the same size (zero outside what an operation uses)
   cl::Buffer mask;        ///< scratch weight field (cells)
+  cl::Buffer nv, nx, ny;  ///< noise values and derivatives at the cells (allocated by noise_gradient)
   size_t cells() const { return size_t(width) * size_t(height); }
 
   static GradientBuffers upload(Device& d, const GradientField& g);
