@@ -6,4 +6,5 @@
 namespace terracl {
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
+void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
 }  // namespace terracl

@@ -1,0 +1,238 @@
+// Virtual-pipe hydraulic erosion and thermal erosion (issue 5). OpenCL C 1.2.
+//
+// Layout: every field is a float32 array with a zero halo: row pitch P (a multiple of 8), one pad
+// row above and below the grid and 8 pad columns on the left; cell (x, y) is at (y + 1) * P + 8 + x.
+// Pads are kept at zero by every kernel (stores are masked), so the outside of the grid reads as
+// "no water, no flux, no sediment" without any index clamping.
+//
+// One work-item per row with an explicit float8 x-loop: PoCL runs one row per work-item fastest, and
+// explicit vectors make every cell go through exactly the same instruction sequence, which is one
+// ingredient of the bit-exact mirror symmetry (the other is that every sum over neighbours is a
+// commutative pairing, ((L + R) + (T + B)), that a flip or a transpose maps onto itself).
+//
+// Determinism: no fast-math, FMA contraction off (a contracted a*b+c rounds differently from the
+// uncontracted one, and mirror symmetry would then depend on which side the compiler fused).
+// No NaN: fmax/fmin with the possibly-NaN operand first never propagate it, and every division has
+// a denominator bounded away from zero.
+//
+// Build options: -DOPEN_BORDER (water and sediment drain over the grid edge), -DHAS_WEIGHT (a
+// per-cell erosion weight in [0, 1]: the brush mask, 0 on hard constraints).
+#pragma OPENCL FP_CONTRACT OFF
+
+#define PAD 8
+#define TINY 1e-30f
+
+typedef float8 V;
+typedef int8 VI;
+
+#define LD(p, i) vload8(0, (p) + (i))
+#define ST(v, p, i) vstore8((v), 0, (p) + (i))
+#define LANES ((VI)(0, 1, 2, 3, 4, 5, 6, 7))
+
+// Outflow fluxes (m^3/s) of the four virtual pipes, updated in place. Rain (rain_dt metres) is added
+// to the depth on the fly, identically here and in erosion_transport, so it needs no pass of its own.
+//   f <- max(0, f + dt*A*g*dh/l) / (1 + dt*k_f): damping written semi-implicitly, which damps for every
+//   dt instead of oscillating once the explicit coefficient exceeds 1.
+// Outflows are scaled down only when their volume over dt exceeds the water present.
+__kernel void erosion_flux(__global const float* restrict b, __global const float* restrict d,
+                           __global float* restrict fl, __global float* restrict fr,
+                           __global float* restrict ft, __global float* restrict fb, const int W, const int H,
+                           const int P, const float rain_dt, const float kx, const float ky, const float damp,
+                           const float area_over_dt) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const int row = (y + 1) * P + PAD;
+  for (int x0 = 0; x0 < W; x0 += 8) {
+    const int i = row + x0;
+    const VI xi = (VI)(x0) + LANES;
+    const V bc = LD(b, i);
+    const V dc = LD(d, i) + rain_dt;
+    const V hc = bc + dc;
+    V hl = LD(b, i - 1) + (LD(d, i - 1) + rain_dt);
+    V hr = LD(b, i + 1) + (LD(d, i + 1) + rain_dt);
+    V ht = LD(b, i - P) + (LD(d, i - P) + rain_dt);
+    V hb = LD(b, i + P) + (LD(d, i + P) + rain_dt);
+#ifdef OPEN_BORDER
+    // Outside the grid: bare ground at the border cell's own bed level, so the border drains.
+    hl = select(hl, bc, xi == 0);
+    hr = select(hr, bc, xi == W - 1);
+    if (y == 0) ht = bc;
+    if (y == H - 1) hb = bc;
+#endif
+    V nl = fmax(LD(fl, i) + kx * (hc - hl), 0.0f) * damp;
+    V nr = fmax(LD(fr, i) + kx * (hc - hr), 0.0f) * damp;
+    V nt = fmax(LD(ft, i) + ky * (hc - ht), 0.0f) * damp;
+    V nb = fmax(LD(fb, i) + ky * (hc - hb), 0.0f) * damp;
+#ifndef OPEN_BORDER
+    nl = select(nl, (V)(0.0f), xi == 0);
+    nr = select(nr, (V)(0.0f), xi == W - 1);
+    if (y == 0) nt = (V)(0.0f);
+    if (y == H - 1) nb = (V)(0.0f);
+#endif
+    const V out = (nl + nr) + (nt + nb);
+    const V avail = dc * area_over_dt;  // the outflow rate that empties the cell in one dt
+    const V k = select((V)(1.0f), avail / fmax(out, TINY), out > avail);
+    const VI valid = xi < W;
+    ST(select((V)(0.0f), nl * k, valid), fl, i);
+    ST(select((V)(0.0f), nr * k, valid), fr, i);
+    ST(select((V)(0.0f), nt * k, valid), ft, i);
+    ST(select((V)(0.0f), nb * k, valid), fb, i);
+  }
+}
+
+// Fraction of a donor's water (and so of its sediment) that one pipe carries in dt, times the
+// donor's sediment. The receiver evaluates the same expression on the same bits as the donor, so
+// what leaves one cell is exactly what enters its neighbour.
+#define CARRIED(s, f, d0) ((s) * fmin(((f) * dt_over_area) / fmax((d0), TINY), 1.0f))
+
+// Water and sediment transport, velocity, erosion/deposition and evaporation; writes the new bed,
+// depth and sediment into the *_out arrays (the inputs are read by the neighbours).
+//   s, d in metres (volume per cell area); fluxes in m^3/s; drain[2y], drain[2y+1]: water and
+//   sediment volume (m^3) that left through the border in row y (open border only), accumulated.
+__kernel void erosion_transport(__global const float* restrict b, __global const float* restrict d,
+                                __global const float* restrict s, __global const float* restrict fl,
+                                __global const float* restrict fr, __global const float* restrict ft,
+                                __global const float* restrict fb, __global const float* restrict w,
+                                __global float* restrict b_out, __global float* restrict d_out,
+                                __global float* restrict s_out, __global float* restrict drain, const int W,
+                                const int H, const int P, const float rain_dt, const float dt_over_area,
+                                const float inv_2lx, const float inv_2ly, const float inv_lx, const float inv_ly,
+                                const float vcap, const float kc, const float sin_min, const float inv_dramp,
+                                const float ks_dt, const float kd_dt, const float max_change,
+                                const float dry_depth, const float evap_factor, const float cell_area) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const int row = (y + 1) * P + PAD;
+#ifdef OPEN_BORDER
+  V drained_w = (V)(0.0f), drained_s = (V)(0.0f);
+#endif
+  for (int x0 = 0; x0 < W; x0 += 8) {
+    const int i = row + x0;
+    const VI xi = (VI)(x0) + LANES;
+    const VI valid = xi < W;
+
+    const V d0 = LD(d, i) + rain_dt;
+    const V sc = LD(s, i);
+    const V ol = LD(fl, i), orr = LD(fr, i), ot = LD(ft, i), ob = LD(fb, i);
+    // Inflows: the neighbours' pipes pointing here (zero from the halo).
+    const V il = LD(fr, i - 1), ir = LD(fl, i + 1), it = LD(fb, i - P), ib = LD(ft, i + P);
+
+    const V qout = (ol + orr) + (ot + ob);
+    const V qin = (il + ir) + (it + ib);
+    const V d1 = fmax(d0 + (qin - qout) * dt_over_area, 0.0f);
+
+    // Sediment moves with the water: each pipe carries its share of the donor's sediment.
+    const V sl = CARRIED(sc, ol, d0), sr = CARRIED(sc, orr, d0);
+    const V st = CARRIED(sc, ot, d0), sb = CARRIED(sc, ob, d0);
+    const V sil = CARRIED(LD(s, i - 1), il, LD(d, i - 1) + rain_dt);
+    const V sir = CARRIED(LD(s, i + 1), ir, LD(d, i + 1) + rain_dt);
+    const V sit = CARRIED(LD(s, i - P), it, LD(d, i - P) + rain_dt);
+    const V sib = CARRIED(LD(s, i + P), ib, LD(d, i + P) + rain_dt);
+    const V s1 = fmax((sc - ((sl + sr) + (st + sb))) + ((sil + sir) + (sit + sib)), 0.0f);
+
+#ifdef OPEN_BORDER
+    const V zero = (V)(0.0f);
+    drained_w += select(zero, ol, (xi == 0) & valid) + select(zero, orr, (xi == W - 1) & valid);
+    drained_s += select(zero, sl, (xi == 0) & valid) + select(zero, sr, (xi == W - 1) & valid);
+    if (y == 0) drained_w += select(zero, ot, valid), drained_s += select(zero, st, valid);
+    if (y == H - 1) drained_w += select(zero, ob, valid), drained_s += select(zero, sb, valid);
+#endif
+
+    // Velocity (m/s) from the mean flow through the cell, only where there is water to speak of,
+    // capped at half a cell per dt.
+    const V qx = 0.5f * ((il - ol) + (orr - ir));
+    const V qy = 0.5f * ((it - ot) + (ob - ib));
+    const V dm = 0.5f * (d0 + d1);
+    V u = (qx * inv_ly) / fmax(dm, dry_depth);
+    V v = (qy * inv_lx) / fmax(dm, dry_depth);
+    u = fmin(fmax(u, -vcap), vcap);
+    v = fmin(fmax(v, -vcap), vcap);
+    const V speed = select((V)(0.0f), sqrt(u * u + v * v), dm > dry_depth);
+
+    // Local slope from central differences (one-sided at the border).
+    const V bc = LD(b, i);
+    V bl = LD(b, i - 1), br = LD(b, i + 1), bt = LD(b, i - P), bb = LD(b, i + P);
+    bl = select(bl, bc, xi == 0);
+    br = select(br, bc, xi == W - 1);
+    if (y == 0) bt = bc;
+    if (y == H - 1) bb = bc;
+    const V gx = (br - bl) * inv_2lx, gy = (bb - bt) * inv_2ly;
+    const V g2 = gx * gx + gy * gy;
+    const V sin_slope = sqrt(g2 / (1.0f + g2));
+
+    // Transport capacity (m of sediment) and the exchange with the bed: delta > 0 dissolves.
+    const V cap = ((kc * fmax(sin_slope, sin_min)) * speed) * fmin(d1 * inv_dramp, 1.0f);
+    V delta = select(kd_dt * (cap - s1), ks_dt * (cap - s1), cap > s1);
+    delta = select(delta, -s1, d1 <= dry_depth);  // a dry cell deposits all it carries
+    delta = fmin(fmax(delta, -max_change), max_change);
+#ifdef HAS_WEIGHT
+    delta = delta * LD(w, i);
+#endif
+    const V b1 = bc - delta;
+    const V s2 = fmax(s1 + delta, 0.0f);
+    const V d2 = d1 * evap_factor;
+
+    ST(select((V)(0.0f), b1, valid), b_out, i);
+    ST(select((V)(0.0f), d2, valid), d_out, i);
+    ST(select((V)(0.0f), s2, valid), s_out, i);
+  }
+#ifdef OPEN_BORDER
+  const float dtw = dt_over_area * cell_area;  // = dt
+  float sw = ((drained_w.s0 + drained_w.s1) + (drained_w.s2 + drained_w.s3)) +
+             ((drained_w.s4 + drained_w.s5) + (drained_w.s6 + drained_w.s7));
+  float ss = ((drained_s.s0 + drained_s.s1) + (drained_s.s2 + drained_s.s3)) +
+             ((drained_s.s4 + drained_s.s5) + (drained_s.s6 + drained_s.s7));
+  drain[2 * y] += sw * dtw;
+  drain[2 * y + 1] += ss * cell_area;
+#endif
+}
+
+// Net thermal exchange (m) of a cell with a neighbour at talus height difference t: positive when the
+// neighbour is higher than the talus allows (material comes in), negative when this cell is. The
+// neighbour evaluates the same expression with diff negated, so the pair's exchange is exactly
+// antisymmetric.
+#define NET(diff, t) (fmax((diff) - (t), 0.0f) - fmax(-(diff) - (t), 0.0f))
+
+// Thermal erosion: material above the talus slope moves to lower neighbours (4 at distance l, 4 at
+// the diagonal), rho times the excess height per pair and sub-step. Because the transfer depends only
+// on the pair, the sender's and the receiver's sides compute the same number, so the "compute, then
+// gather" of a normalised scheme collapses into one gather pass.
+__kernel void erosion_thermal(__global const float* restrict b, __global const float* restrict w,
+                              __global float* restrict b_out, const int W, const int H, const int P,
+                              const float rho, const float tx, const float ty, const float tdiag) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const int row = (y + 1) * P + PAD;
+  const int up = y > 0, down = y < H - 1;
+  for (int x0 = 0; x0 < W; x0 += 8) {
+    const int i = row + x0;
+    const VI xi = (VI)(x0) + LANES;
+    const VI valid = xi < W;
+    const VI left = xi > 0, right = xi < W - 1;
+    const VI vup = (VI)(-up), vdown = (VI)(-down);
+    const V bc = LD(b, i);
+    const V z = (V)(0.0f);
+    V nl = select(z, NET(LD(b, i - 1) - bc, tx), left);
+    V nr = select(z, NET(LD(b, i + 1) - bc, tx), right);
+    V nt = select(z, NET(LD(b, i - P) - bc, ty), vup);
+    V nb = select(z, NET(LD(b, i + P) - bc, ty), vdown);
+    V ntl = select(z, NET(LD(b, i - P - 1) - bc, tdiag), vup & left);
+    V ntr = select(z, NET(LD(b, i - P + 1) - bc, tdiag), vup & right);
+    V nbl = select(z, NET(LD(b, i + P - 1) - bc, tdiag), vdown & left);
+    V nbr = select(z, NET(LD(b, i + P + 1) - bc, tdiag), vdown & right);
+#ifdef HAS_WEIGHT
+    // A pair exchanges material only as much as its less movable cell allows (0 = fixed).
+    const V wc = LD(w, i);
+    nl *= fmin(wc, LD(w, i - 1));
+    nr *= fmin(wc, LD(w, i + 1));
+    nt *= fmin(wc, LD(w, i - P));
+    nb *= fmin(wc, LD(w, i + P));
+    ntl *= fmin(wc, LD(w, i - P - 1));
+    ntr *= fmin(wc, LD(w, i - P + 1));
+    nbl *= fmin(wc, LD(w, i + P - 1));
+    nbr *= fmin(wc, LD(w, i + P + 1));
+#endif
+    const V net = ((nl + nr) + (nt + nb)) + ((ntl + nbr) + (ntr + nbl));
+    ST(select(z, bc + rho * net, valid), b_out, i);
+  }
+}
