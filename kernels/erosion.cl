@@ -80,10 +80,12 @@ __kernel void erosion_flux(__global const float* restrict b, __global const floa
   }
 }
 
-// Fraction of a donor's water (and so of its sediment) that one pipe carries in dt, times the
-// donor's sediment. The receiver evaluates the same expression on the same bits as the donor, so
-// what leaves one cell is exactly what enters its neighbour.
-#define CARRIED(s, f, d0) ((s) * fmin(((f) * dt_over_area) / fmax((d0), TINY), 1.0f))
+// Sediment a pipe carries in dt: the donor's sediment times the fraction f*dt/(d0*a) of its water
+// that the pipe takes, with r = (dt/a)/d0 computed once per donor. The receiver evaluates the same
+// expressions on the same bits as the donor, so what leaves one cell is exactly what enters its
+// neighbour. f*r <= 1 up to rounding because the outflows were scaled to the water present.
+#define RATIO(d0) (dt_over_area / fmax((d0), TINY))
+#define CARRIED(s, f, r) ((s) * fmin((f) * (r), 1.0f))
 
 // Water and sediment transport, velocity, erosion/deposition and evaporation; writes the new bed,
 // depth and sediment into the *_out arrays (the inputs are read by the neighbours).
@@ -122,12 +124,13 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     const V d1 = fmax(d0 + (qin - qout) * dt_over_area, 0.0f);
 
     // Sediment moves with the water: each pipe carries its share of the donor's sediment.
-    const V sl = CARRIED(sc, ol, d0), sr = CARRIED(sc, orr, d0);
-    const V st = CARRIED(sc, ot, d0), sb = CARRIED(sc, ob, d0);
-    const V sil = CARRIED(LD(s, i - 1), il, LD(d, i - 1) + rain_dt);
-    const V sir = CARRIED(LD(s, i + 1), ir, LD(d, i + 1) + rain_dt);
-    const V sit = CARRIED(LD(s, i - P), it, LD(d, i - P) + rain_dt);
-    const V sib = CARRIED(LD(s, i + P), ib, LD(d, i + P) + rain_dt);
+    const V rc = RATIO(d0);
+    const V sl = CARRIED(sc, ol, rc), sr = CARRIED(sc, orr, rc);
+    const V st = CARRIED(sc, ot, rc), sb = CARRIED(sc, ob, rc);
+    const V sil = CARRIED(LD(s, i - 1), il, RATIO(LD(d, i - 1) + rain_dt));
+    const V sir = CARRIED(LD(s, i + 1), ir, RATIO(LD(d, i + 1) + rain_dt));
+    const V sit = CARRIED(LD(s, i - P), it, RATIO(LD(d, i - P) + rain_dt));
+    const V sib = CARRIED(LD(s, i + P), ib, RATIO(LD(d, i + P) + rain_dt));
     const V s1 = fmax((sc - ((sl + sr) + (st + sb))) + ((sil + sir) + (sit + sib)), 0.0f);
 
 #ifdef OPEN_BORDER
@@ -143,8 +146,9 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     const V qx = 0.5f * ((il - ol) + (orr - ir));
     const V qy = 0.5f * ((it - ot) + (ob - ib));
     const V dm = 0.5f * (d0 + d1);
-    V u = (qx * inv_ly) / fmax(dm, dry_depth);
-    V v = (qy * inv_lx) / fmax(dm, dry_depth);
+    const V inv_dm = 1.0f / fmax(dm, dry_depth);
+    V u = (qx * inv_ly) * inv_dm;
+    V v = (qy * inv_lx) * inv_dm;
     u = fmin(fmax(u, -vcap), vcap);
     v = fmin(fmax(v, -vcap), vcap);
     const V speed = select((V)(0.0f), sqrt(u * u + v * v), dm > dry_depth);
