@@ -16,7 +16,9 @@
 // a denominator bounded away from zero.
 //
 // Build options: -DOPEN_BORDER (water and sediment drain over the grid edge), -DHAS_WEIGHT (a
-// per-cell erosion weight in [0, 1]: the brush mask, 0 on hard constraints).
+// per-cell erosion weight in [0, 1]: the brush mask, 0 on hard constraints), -DDEPOSIT_LAYER (a
+// softer deposit layer of thickness r on top of the rock: it dissolves at the full rate, rock at
+// rock_factor times it, and it slides at its own talus angle).
 #pragma OPENCL FP_CONTRACT OFF
 
 #define PAD 8
@@ -101,7 +103,9 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
                                 const float inv_2lx, const float inv_2ly, const float inv_lx, const float inv_ly,
                                 const float vcap, const float kc, const float sin_min, const float inv_dramp,
                                 const float ks_dt, const float kd_dt, const float max_change,
-                                const float dry_depth, const float evap_factor, const float cell_area) {
+                                const float dry_depth, const float evap_factor, const float cell_area,
+                                __global const float* restrict r, __global float* restrict r_out,
+                                const float rock_factor) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const int row = (y + 1) * P + PAD;
@@ -172,6 +176,16 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 #ifdef HAS_WEIGHT
     delta = delta * LD(w, i);
 #endif
+#ifdef DEPOSIT_LAYER
+    // Dissolving takes the deposit first; what is asked beyond it comes out of the harder rock at
+    // rock_factor times the rate. Deposition adds to the deposit.
+    const V rc0 = LD(r, i);
+    const V asked = delta;
+    const V from_deposit = fmin(fmax(asked, 0.0f), rc0);
+    delta = select(asked, from_deposit + (asked - from_deposit) * rock_factor, asked > 0.0f);
+    const V r1 = select(rc0 - asked, rc0 - from_deposit, asked > 0.0f);
+    ST(select((V)(0.0f), fmax(r1, 0.0f), valid), r_out, i);
+#endif
     const V b1 = bc - delta;
     const V s2 = fmax(s1 + delta, 0.0f);
     const V d2 = d1 * evap_factor;
@@ -191,11 +205,17 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 #endif
 }
 
-// Net thermal exchange (m) of a cell with a neighbour at talus height difference t: positive when the
-// neighbour is higher than the talus allows (material comes in), negative when this cell is. The
-// neighbour evaluates the same expression with diff negated, so the pair's exchange is exactly
-// antisymmetric.
-#define NET(diff, t) (fmax((diff) - (t), 0.0f) - fmax(-(diff) - (t), 0.0f))
+// Thermal exchange (m) from a higher cell to a lower one whose height difference is diff (> 0 when
+// the sender is higher): the excess over the talus height t. With a deposit layer, the sender's
+// deposit (thickness rs) also slides down to the deposit talus td, but never more than rs.
+// A cell evaluates OUT for its lower neighbours and IN (= the neighbour's OUT towards it) for its
+// higher ones; the neighbour evaluates the same expressions on the same bits with diff negated,
+// so each pair's exchange is exactly antisymmetric.
+#ifdef DEPOSIT_LAYER
+#define XFER(diff, t, td, rs) fmax(fmax((diff) - (t), 0.0f), fmin(fmax((diff) - (td), 0.0f), (rs)))
+#else
+#define XFER(diff, t, td, rs) fmax((diff) - (t), 0.0f)
+#endif
 
 // Thermal erosion: material above the talus slope moves to lower neighbours (4 at distance l, 4 at
 // the diagonal), rho times the excess height per pair and sub-step. Because the transfer depends only
@@ -203,7 +223,9 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 // gather" of a normalised scheme collapses into one gather pass.
 __kernel void erosion_thermal(__global const float* restrict b, __global const float* restrict w,
                               __global float* restrict b_out, const int W, const int H, const int P,
-                              const float rho, const float tx, const float ty, const float tdiag) {
+                              const float rho, const float tx, const float ty, const float tdiag,
+                              __global const float* restrict r, __global float* restrict r_out,
+                              const float dtx, const float dty, const float dtdiag) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const int row = (y + 1) * P + PAD;
@@ -216,27 +238,47 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
     const VI vup = (VI)(-up), vdown = (VI)(-down);
     const V bc = LD(b, i);
     const V z = (V)(0.0f);
-    V nl = select(z, NET(LD(b, i - 1) - bc, tx), left);
-    V nr = select(z, NET(LD(b, i + 1) - bc, tx), right);
-    V nt = select(z, NET(LD(b, i - P) - bc, ty), vup);
-    V nb = select(z, NET(LD(b, i + P) - bc, ty), vdown);
-    V ntl = select(z, NET(LD(b, i - P - 1) - bc, tdiag), vup & left);
-    V ntr = select(z, NET(LD(b, i - P + 1) - bc, tdiag), vup & right);
-    V nbl = select(z, NET(LD(b, i + P - 1) - bc, tdiag), vdown & left);
-    V nbr = select(z, NET(LD(b, i + P + 1) - bc, tdiag), vdown & right);
+#ifdef DEPOSIT_LAYER
+    const V rc = LD(r, i);
+#define RN(o) LD(r, i + (o))
+#else
+    const V rc = z;
+#define RN(o) z
+#endif
 #ifdef HAS_WEIGHT
     // A pair exchanges material only as much as its less movable cell allows (0 = fixed).
     const V wc = LD(w, i);
-    nl *= fmin(wc, LD(w, i - 1));
-    nr *= fmin(wc, LD(w, i + 1));
-    nt *= fmin(wc, LD(w, i - P));
-    nb *= fmin(wc, LD(w, i + P));
-    ntl *= fmin(wc, LD(w, i - P - 1));
-    ntr *= fmin(wc, LD(w, i - P + 1));
-    nbl *= fmin(wc, LD(w, i + P - 1));
-    nbr *= fmin(wc, LD(w, i + P + 1));
+#define PW(o) fmin(wc, LD(w, i + (o)))
+#else
+#define PW(o) 1.0f
 #endif
-    const V net = ((nl + nr) + (nt + nb)) + ((ntl + nbr) + (ntr + nbl));
+    // in/out for the neighbour at offset o with talus heights t (rock) and td (deposit).
+#define EXCHANGE(o, t, td, mask, in, out)                                   \
+    {                                                                       \
+      const V diff = LD(b, i + (o)) - bc;                                   \
+      in = select(z, XFER(diff, t, td, RN(o)) * PW(o), mask);               \
+      out = select(z, XFER(-diff, t, td, rc) * PW(o), mask);                \
+    }
+    V il, ol, ir, orr, it, ot, ib, ob, itl, otl, itr, otr, ibl, obl, ibr, obr;
+    EXCHANGE(-1, tx, dtx, left, il, ol)
+    EXCHANGE(1, tx, dtx, right, ir, orr)
+    EXCHANGE(-P, ty, dty, vup, it, ot)
+    EXCHANGE(P, ty, dty, vdown, ib, ob)
+    EXCHANGE(-P - 1, tdiag, dtdiag, vup & left, itl, otl)
+    EXCHANGE(-P + 1, tdiag, dtdiag, vup & right, itr, otr)
+    EXCHANGE(P - 1, tdiag, dtdiag, vdown & left, ibl, obl)
+    EXCHANGE(P + 1, tdiag, dtdiag, vdown & right, ibr, obr)
+    const V net = (((il - ol) + (ir - orr)) + ((it - ot) + (ib - ob))) +
+                  (((itl - otl) + (ibr - obr)) + ((itr - otr) + (ibl - obl)));
     ST(select(z, bc + rho * net, valid), b_out, i);
+#ifdef DEPOSIT_LAYER
+    // What slides becomes deposit on the receiver; the sender loses deposit first.
+    const V in = ((il + ir) + (it + ib)) + ((itl + ibr) + (itr + ibl));
+    const V out = ((ol + orr) + (ot + ob)) + ((otl + obr) + (otr + obl));
+    ST(select(z, fmax(rc - rho * out, 0.0f) + rho * in, valid), r_out, i);
+#endif
+#undef RN
+#undef PW
+#undef EXCHANGE
   }
 }

@@ -39,6 +39,8 @@ void validate(const ErosionParams& p) {
   check_param(p.thermal_rate, "thermal_rate", 0, 1e9);
   check_param(p.talus_deg, "talus", 0, 89.9);
   check_param(p.substep_fraction, "substep_fraction", 1e-3, 100);
+  check_param(p.rock_erodibility, "rock_erodibility", 0, 1);
+  check_param(p.deposit_talus_deg, "deposit_talus", 0, 89.9);
 }
 
 }  // namespace
@@ -76,7 +78,7 @@ struct Erosion::Impl {
   size_t n_padded = 0;
   double lx = 1, ly = 1;
   bool has_weight = false;
-  cl::Buffer b[2], d[2], s[2], f[4], w, drain;
+  cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2];
   int cur = 0;  // index of the current d/s (and b when thermal is off)
   int bcur = 0;
   cl::Kernel k_flux, k_transport, k_thermal;
@@ -118,7 +120,8 @@ struct Erosion::Impl {
 };
 
 Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& params,
-                 const std::vector<float>* weight, const std::vector<float>* water)
+                 const std::vector<float>* weight, const std::vector<float>* water,
+                 const std::vector<float>* deposit)
     : m(std::make_unique<Impl>(dev)) {
   validate(params);
   if (terrain.width < 1 || terrain.height < 1) fail(kStage, "empty heightfield");
@@ -140,6 +143,12 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       if (!(std::isfinite(v) && v >= 0.0f)) fail(kStage, "initial water depth {} is not finite and >= 0", v);
   }
 
+  if (deposit) {
+    if (!params.deposit_layer) fail(kStage, "an initial deposit needs the deposit layer enabled");
+    if (deposit->size() != n) fail(kStage, "initial deposit has {} values, the grid {}", deposit->size(), n);
+    for (float v : *deposit)
+      if (!(std::isfinite(v) && v >= 0.0f)) fail(kStage, "initial deposit thickness {} is not finite and >= 0", v);
+  }
   Impl& s = *m;
   s.p = params;
   s.W = terrain.width;
@@ -171,6 +180,11 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
     }
     for (auto& f : s.f) f = dev.buffer(bytes, CL_MEM_READ_WRITE, "erosion flux");
     s.w = dev.buffer(s.has_weight ? bytes : 4, CL_MEM_READ_ONLY, "erosion weight");
+    for (auto& r : s.r) r = dev.buffer(params.deposit_layer ? bytes : 4, CL_MEM_READ_WRITE, "erosion deposit layer");
+    if (params.deposit_layer) {
+      dev.queue().enqueueWriteBuffer(s.r[1], CL_TRUE, 0, bytes, std::vector<float>(s.n_padded, 0.0f).data());
+      s.upload(s.r[0], deposit ? *deposit : std::vector<float>(n, 0.0f));
+    }
     s.drain = dev.buffer(size_t(2) * s.H * sizeof(float), CL_MEM_READ_WRITE, "erosion drain");
 
     s.upload(s.b[0], terrain.z);
@@ -190,6 +204,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
     std::string opts;
     if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
     if (s.has_weight) opts += " -DHAS_WEIGHT";
+    if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
     s.k_flux = dev.kernel("erosion", "erosion_flux", opts);
     s.k_transport = dev.kernel("erosion", "erosion_transport", opts);
     s.k_thermal = dev.kernel("erosion", "erosion_thermal", opts);
@@ -235,6 +250,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(28, float(p.dry_depth));
       k.setArg(29, float(std::max(0.0, 1.0 - p.evaporation * h)));
       k.setArg(30, float(a));
+      k.setArg(33, float(p.deposit_layer ? p.rock_erodibility : 1.0));
     }
     {
       cl::Kernel& k = s.k_thermal;
@@ -247,6 +263,10 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(7, float(t * lx));
       k.setArg(8, float(t * ly));
       k.setArg(9, float(t * std::hypot(lx, ly)));
+      const double td = std::tan(p.deposit_talus_deg * M_PI / 180.0);
+      k.setArg(12, float(td * lx));
+      k.setArg(13, float(td * ly));
+      k.setArg(14, float(td * std::hypot(lx, ly)));
     }
   } catch (const cl::Error& e) {
     fail(kStage, "setting up the device state: {}", describe(e));
@@ -276,6 +296,8 @@ void Erosion::enqueue_steps(int n) {
           s.k_transport.setArg(8, s.b[bn]);
           s.k_transport.setArg(9, s.d[nx]);
           s.k_transport.setArg(10, s.s[nx]);
+          s.k_transport.setArg(31, s.r[bc]);
+          s.k_transport.setArg(32, s.r[bn]);
           q.enqueueNDRangeKernel(s.k_transport, cl::NullRange, global, local);
           s.cur = nx;
           s.bcur = bn;
@@ -284,6 +306,8 @@ void Erosion::enqueue_steps(int n) {
         if (thermal) {
           s.k_thermal.setArg(0, s.b[s.bcur]);
           s.k_thermal.setArg(2, s.b[1 - s.bcur]);
+          s.k_thermal.setArg(10, s.r[s.bcur]);
+          s.k_thermal.setArg(11, s.r[1 - s.bcur]);
           q.enqueueNDRangeKernel(s.k_thermal, cl::NullRange, global, local);
           s.bcur = 1 - s.bcur;
         }
@@ -338,6 +362,7 @@ ErosionState Erosion::state() {
     st.flux_r = s.download(s.f[1]);
     st.flux_t = s.download(s.f[2]);
     st.flux_b = s.download(s.f[3]);
+    if (s.p.deposit_layer) st.deposit = s.download(s.r[s.bcur]);
   } catch (const cl::Error& e) {
     fail(kStage, "reading the erosion state: {}", describe(e));
   }
@@ -393,6 +418,7 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
     std::vector<float> delta(out.size());
     for (size_t i = 0; i < delta.size(); ++i) delta[i] = out.z[i] - terrain.z[i];
     outputs->delta = field(delta);
+    if (params.deposit_layer) outputs->deposit = field(st.deposit);
     outputs->totals = sim.totals();
     outputs->substeps = sim.substeps();
     outputs->substep_dt = sim.substep_dt();

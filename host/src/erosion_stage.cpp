@@ -219,6 +219,9 @@ ErosionParams params_from(const json& o) {
   num("thermal_rate", p.thermal_rate);
   num("talus", p.talus_deg);
   num("dry_depth", p.dry_depth);
+  num("rock_erodibility", p.rock_erodibility);
+  num("deposit_talus", p.deposit_talus_deg);
+  if (o.contains("deposit_layer") && o.at("deposit_layer").is_boolean()) p.deposit_layer = o.at("deposit_layer").get<bool>();
   if (o.contains("thermal_only") && o.at("thermal_only").is_boolean()) p.thermal_only = o.at("thermal_only").get<bool>();
   if (o.contains("boundary") && o.at("boundary").is_string())
     p.boundary = o.at("boundary").get<std::string>() == "open" ? ErosionBoundary::Open : ErosionBoundary::Closed;
@@ -263,8 +266,10 @@ void run_erode(StageContext& c) {
   c.provenance["terracl:erode"] = summary.dump();
   for (const auto& [key, field] : {std::pair<const char*, Heightfield*>{"water", &out.water},
                                    {"sediment", &out.sediment},
-                                   {"delta", &out.delta}}) {
+                                   {"delta", &out.delta},
+                                   {"deposit_thickness", &out.deposit}}) {
     if (!c.has(key)) continue;
+    if (field->z.empty()) fail(c.tag, "--deposit-thickness needs --deposit-layer");
     for (const auto& [k, v] : c.provenance) field->metadata[k] = v;
     write_heightfield(*field, c.get<std::string>(key));
   }
@@ -361,6 +366,11 @@ void register_erosion_stages(StageRegistry& r) {
              opt("dry_depth", OptionType::Float, d.dry_depth, "m", "Depth below which a cell is dry (no velocity, deposits all)"),
              opt("thermal_rate", OptionType::Float, d.thermal_rate, "1/s", "Thermal erosion rate K_t (0 = off)"),
              opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
+             opt("deposit_layer", OptionType::Bool, false, "",
+                 "Track a softer deposit layer on the rock (own talus, rock dissolves slower)"),
+             opt("rock_erodibility", OptionType::Float, d.rock_erodibility, "",
+                 "With --deposit-layer: rock dissolves at this fraction of the deposit's rate (0..1)"),
+             opt("deposit_talus", OptionType::Float, d.deposit_talus_deg, "deg", "With --deposit-layer: talus angle of the deposit"),
              opt("boundary", OptionType::Enum, "closed", "", "closed: nothing leaves; open: water and sediment drain over the edge",
               {"closed", "open"}),
              opt("region", OptionType::Path, nullptr, "", "Brush mask raster (PNG grey 0..1, or float); erosion only where painted"),
@@ -370,6 +380,8 @@ void register_erosion_stages(StageRegistry& r) {
              opt("water", OptionType::OutputPath, nullptr, "", "Write the final water depth (m), e.g. water.exr"),
              opt("sediment", OptionType::OutputPath, nullptr, "", "Write the final suspended sediment (m), e.g. sediment.exr"),
              opt("delta", OptionType::OutputPath, nullptr, "", "Write the bed change (m, + = deposition), e.g. delta.exr"),
+             opt("deposit_thickness", OptionType::OutputPath, nullptr, "",
+                 "With --deposit-layer: write the deposit thickness (m), e.g. deposit.exr"),
          },
          run_erode});
 }

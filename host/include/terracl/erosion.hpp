@@ -37,7 +37,11 @@ struct ErosionParams {
   double dry_depth = 1e-4;     ///< m, d_min: below it a cell has no velocity and deposits all it carries
   double thermal_rate = 0.0;   ///< 1/s, K_t: fraction of the excess above talus moved per second
                                ///< (capped at 1/12 per sub-step for monotone behaviour)
-  double talus_deg = 35.0;     ///< deg, talus (angle of repose)
+  double talus_deg = 35.0;     ///< deg, talus (angle of repose) of the rock (of all material
+                               ///< without a deposit layer)
+  bool deposit_layer = false;  ///< track a softer deposit layer on top of the rock
+  double rock_erodibility = 0.3;   ///< with a deposit layer: rock dissolves at this fraction of K_s
+  double deposit_talus_deg = 30.0; ///< deg, with a deposit layer: talus of the deposit
   bool thermal_only = false;   ///< no water at all: only thermal erosion
   ErosionBoundary boundary = ErosionBoundary::Closed;
   double substep_fraction = 0.5;  ///< sub-steps are at most this fraction of the stability limit
@@ -54,6 +58,7 @@ double erosion_stability_limit(const ErosionParams& p, double lx, double ly);
 struct ErosionState {
   int width = 0, height = 0;
   std::vector<float> bed, water, sediment, flux_l, flux_r, flux_t, flux_b;
+  std::vector<float> deposit;  ///< deposit layer thickness (m); empty without a deposit layer
 };
 
 /// Totals in double precision, summed on the host: volumes in m^3.
@@ -71,9 +76,11 @@ class Erosion {
  public:
   /// `terrain` must be finite; `weight` (optional, width*height values in [0, 1]) scales erosion,
   /// deposition and thermal transfer per cell: 0 keeps a cell's bed fixed (hard constraints, outside
-  /// of a brush). `water` (optional) is the initial depth in m (finite, >= 0).
+  /// of a brush). `water` (optional) is the initial depth in m (finite, >= 0); `deposit` (optional,
+  /// needs params.deposit_layer) the initial deposit thickness in m (finite, >= 0), part of `terrain`.
   Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& params,
-          const std::vector<float>* weight = nullptr, const std::vector<float>* water = nullptr);
+          const std::vector<float>* weight = nullptr, const std::vector<float>* water = nullptr,
+          const std::vector<float>* deposit = nullptr);
   ~Erosion();
   Erosion(const Erosion&) = delete;
   Erosion& operator=(const Erosion&) = delete;
@@ -107,6 +114,7 @@ class Erosion {
 /// Optional extra outputs of erode().
 struct ErosionOutputs {
   Heightfield water, sediment, delta;  ///< depth (m), suspended sediment (m), bed change (m, + = deposit)
+  Heightfield deposit;                 ///< deposit layer thickness (m), only with a deposit layer
   ErosionTotals totals;
   int substeps = 1;
   double substep_dt = 0;
