@@ -24,6 +24,17 @@
 #define PAD 8
 #define TINY 1e-30f
 
+// Work split: dimension 0 is the row, dimension 1 a chunk of XCHUNK cells of it (a multiple of 8,
+// build option): the whole row per work-item on CPUs (PoCL's fastest form for stencils), a few
+// vectors per work-item on GPUs, which need many more work-items than there are rows.
+#ifdef XCHUNK
+#define X_BEGIN ((int)get_global_id(1) * XCHUNK)
+#define X_END min(W, X_BEGIN + XCHUNK)
+#else
+#define X_BEGIN 0
+#define X_END W
+#endif
+
 typedef float8 V;
 typedef int8 VI;
 
@@ -44,7 +55,7 @@ __kernel void erosion_flux(__global const float* restrict b, __global const floa
   const int y = get_global_id(0);
   if (y >= H) return;
   const int row = (y + 1) * P + PAD;
-  for (int x0 = 0; x0 < W; x0 += 8) {
+  for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
     const int i = row + x0;
     const VI xi = (VI)(x0) + LANES;
     const V bc = LD(b, i);
@@ -91,8 +102,9 @@ __kernel void erosion_flux(__global const float* restrict b, __global const floa
 
 // Water and sediment transport, velocity, erosion/deposition and evaporation; writes the new bed,
 // depth and sediment into the *_out arrays (the inputs are read by the neighbours).
-//   s, d in metres (volume per cell area); fluxes in m^3/s; drain[2y], drain[2y+1]: water and
-//   sediment volume (m^3) that left through the border in row y (open border only), accumulated.
+//   s, d in metres (volume per cell area); fluxes in m^3/s; drain[2k], drain[2k+1] with
+//   k = y * get_global_size(1) + get_global_id(1): water and sediment volume (m^3) that left through
+//   the border in this work-item's part of row y (open border only), accumulated.
 __kernel void erosion_transport(__global const float* restrict b, __global const float* restrict d,
                                 __global const float* restrict s, __global const float* restrict fl,
                                 __global const float* restrict fr, __global const float* restrict ft,
@@ -112,7 +124,7 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 #ifdef OPEN_BORDER
   V drained_w = (V)(0.0f), drained_s = (V)(0.0f);
 #endif
-  for (int x0 = 0; x0 < W; x0 += 8) {
+  for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
     const int i = row + x0;
     const VI xi = (VI)(x0) + LANES;
     const VI valid = xi < W;
@@ -200,8 +212,9 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
              ((drained_w.s4 + drained_w.s5) + (drained_w.s6 + drained_w.s7));
   float ss = ((drained_s.s0 + drained_s.s1) + (drained_s.s2 + drained_s.s3)) +
              ((drained_s.s4 + drained_s.s5) + (drained_s.s6 + drained_s.s7));
-  drain[2 * y] += sw * dtw;
-  drain[2 * y + 1] += ss * cell_area;
+  const int k = y * (int)get_global_size(1) + (int)get_global_id(1);
+  drain[2 * k] += sw * dtw;
+  drain[2 * k + 1] += ss * cell_area;
 #endif
 }
 
@@ -230,7 +243,7 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
   if (y >= H) return;
   const int row = (y + 1) * P + PAD;
   const int up = y > 0, down = y < H - 1;
-  for (int x0 = 0; x0 < W; x0 += 8) {
+  for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
     const int i = row + x0;
     const VI xi = (VI)(x0) + LANES;
     const VI valid = xi < W;

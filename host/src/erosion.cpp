@@ -15,7 +15,6 @@ namespace {
 
 constexpr int kPad = 8;  // pad columns on the left; must match PAD in kernels/erosion.cl
 constexpr const char* kStage = "erode";
-constexpr size_t kRowsPerGroup = 4;  // one work-item per row
 
 void check_param(double v, const char* name, double lo, double hi = INFINITY) {
   if (!std::isfinite(v) || v < lo || v > hi)
@@ -79,6 +78,8 @@ struct Erosion::Impl {
   double lx = 1, ly = 1;
   bool has_weight = false;
   cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2];
+  size_t chunks = 1;        // work-items per row (global size of dimension 1)
+  size_t local_rows = 4, local_chunks = 1;
   int cur = 0;  // index of the current d/s (and b when thermal is off)
   int bcur = 0;
   cl::Kernel k_flux, k_transport, k_thermal;
@@ -111,9 +112,9 @@ struct Erosion::Impl {
   /// Adds the per-row border drain accumulated on the device to the double totals and resets it.
   void collect_drain() {
     if (p.boundary != ErosionBoundary::Open || p.thermal_only) return;
-    std::vector<float> rows(size_t(2) * H);
+    std::vector<float> rows(size_t(2) * H * chunks);
     dev.queue().enqueueReadBuffer(drain, CL_TRUE, 0, rows.size() * 4, rows.data());
-    for (int y = 0; y < H; ++y) drained[0] += rows[2 * y], drained[1] += rows[2 * y + 1];
+    for (size_t k = 0; k < rows.size() / 2; ++k) drained[0] += rows[2 * k], drained[1] += rows[2 * k + 1];
     const float zero = 0.0f;
     dev.queue().enqueueFillBuffer(drain, zero, 0, rows.size() * 4);
   }
@@ -170,6 +171,19 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
   if (m_substeps > 1000000) fail(kStage, "dt = {} s needs {} sub-steps (limit {} s); use a smaller dt", dt, m_substeps, dt_max);
   m_dt_sub = dt / m_substeps;
 
+  // Work split (see XCHUNK in kernels/erosion.cl).
+  int chunk = params.cells_per_item;
+  if (chunk < 0) fail(kStage, "cells_per_item must be >= 0, got {}", chunk);
+  if (chunk == 0) chunk = dev.info().type == "GPU" ? 32 : 0;
+  chunk = int(round_up(size_t(chunk), 8));
+  std::string split_opts;
+  if (chunk > 0 && chunk < s.W) {
+    s.local_rows = 1;
+    s.local_chunks = 16;
+    s.chunks = round_up((size_t(s.W) + chunk - 1) / chunk, s.local_chunks);
+    split_opts = fmt::format(" -DXCHUNK={}", chunk);
+  }
+
   const size_t bytes = s.n_padded * sizeof(float);
   const std::vector<std::string> names{"bed", "water", "sediment"};
   try {
@@ -185,7 +199,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       dev.queue().enqueueWriteBuffer(s.r[1], CL_TRUE, 0, bytes, std::vector<float>(s.n_padded, 0.0f).data());
       s.upload(s.r[0], deposit ? *deposit : std::vector<float>(n, 0.0f));
     }
-    s.drain = dev.buffer(size_t(2) * s.H * sizeof(float), CL_MEM_READ_WRITE, "erosion drain");
+    s.drain = dev.buffer(size_t(2) * s.H * s.chunks * sizeof(float), CL_MEM_READ_WRITE, "erosion drain");
 
     s.upload(s.b[0], terrain.z);
     const std::vector<float> zeros(n, 0.0f);
@@ -198,10 +212,10 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
     }
     for (auto& f : s.f) dev.queue().enqueueWriteBuffer(f, CL_TRUE, 0, bytes, padded_zero.data());
     if (s.has_weight) s.upload(s.w, *weight);
-    std::vector<float> drain0(size_t(2) * s.H, 0.0f);
+    std::vector<float> drain0(size_t(2) * s.H * s.chunks, 0.0f);
     dev.queue().enqueueWriteBuffer(s.drain, CL_TRUE, 0, drain0.size() * 4, drain0.data());
 
-    std::string opts;
+    std::string opts = split_opts;
     if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
     if (s.has_weight) opts += " -DHAS_WEIGHT";
     if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
@@ -279,8 +293,8 @@ void Erosion::enqueue_steps(int n) {
   Impl& s = *m;
   const bool thermal = s.p.thermal_rate > 0;
   // A fixed local size: PoCL compiles one work-group function per local size, and NullRange would
-  // let it pick a different one for every grid height.
-  const cl::NDRange global(round_up(size_t(s.H), kRowsPerGroup)), local(kRowsPerGroup);
+  // let it pick a different one for every grid height. CPUs: 4 rows per group; GPUs: 16 chunks.
+  const cl::NDRange global(round_up(size_t(s.H), s.local_rows), s.chunks), local(s.local_rows, s.local_chunks);
   auto& q = s.dev.queue();
   try {
     for (int step = 0; step < n; ++step) {

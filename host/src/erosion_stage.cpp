@@ -222,6 +222,8 @@ ErosionParams params_from(const json& o) {
   num("rock_erodibility", p.rock_erodibility);
   num("deposit_talus", p.deposit_talus_deg);
   if (o.contains("deposit_layer") && o.at("deposit_layer").is_boolean()) p.deposit_layer = o.at("deposit_layer").get<bool>();
+  if (o.contains("cells_per_item") && o.at("cells_per_item").is_number_integer())
+    p.cells_per_item = o.at("cells_per_item").get<int>();
   if (o.contains("thermal_only") && o.at("thermal_only").is_boolean()) p.thermal_only = o.at("thermal_only").get<bool>();
   if (o.contains("boundary") && o.at("boundary").is_string())
     p.boundary = o.at("boundary").get<std::string>() == "open" ? ErosionBoundary::Open : ErosionBoundary::Closed;
@@ -389,7 +391,7 @@ void register_erosion_stages(StageRegistry& r) {
 void register_erosion_benches(BenchRegistry& r) {
   r.add({"erode",
          "Erosion steps on a synthetic NxN terrain (30 m cells); ms per step and steps/s (median). "
-         "--set thermal_only=true|boundary=open|steps=K|<any erode option>=v",
+         "--set thermal_only=true|boundary=open|steps=K|cells_per_item=N|<any erode option>=v",
          run_bench});
 }
 

@@ -45,6 +45,8 @@ struct ErosionParams {
   bool thermal_only = false;   ///< no water at all: only thermal erosion
   ErosionBoundary boundary = ErosionBoundary::Closed;
   double substep_fraction = 0.5;  ///< sub-steps are at most this fraction of the stability limit
+  int cells_per_item = 0;  ///< cells of a row per work-item (multiple of 8); 0 = automatic: the whole
+                           ///< row on CPUs, 32 on GPUs. Results are bitwise the same for any value.
 
   /// The defaults of the `erode` stage (carve gullies on the bundled SRTM tiles).
   static ErosionParams defaults();
