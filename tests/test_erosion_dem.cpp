@@ -188,6 +188,15 @@ TEST(ErosionCli, BadArgumentsAreClearErrors) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.out.find("/points/0"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.path("o.tif"))) << "no output after a failure";
+  // Nodata cells are rejected with a hint, never eroded into NaN.
+  Heightfield holes = read_heightfield(in);
+  holes.at(5, 5) = NAN;
+  write_heightfield(holes, tmp.path("holes.exr"));
+  r = test::run_cli(fmt::format("erode {} -o {} --steps 5", tmp.path("holes.exr"), tmp.path("o.tif")));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.out.find("fill-nodata"), std::string::npos) << r.out;
+  r = test::run_cli(fmt::format("erode {} -o {} --steps 5 --fill-nodata -q", tmp.path("holes.exr"), tmp.path("o.tif")));
+  EXPECT_EQ(r.exit_code, 0) << r.out;
 }
 
 TEST(ErosionCli, RegionBrushAndKeptConstraints) {
@@ -228,4 +237,60 @@ TEST(ErosionCli, BenchPrintsStepsPerSecond) {
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("ms/step"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("steps/s"), std::string::npos) << r.out;
+}
+
+TEST(ErosionBrush, RegionWeightHasSmoothEdge) {
+  test::TempDir tmp;
+  Heightfield grid(40, 10, 0.0f);
+  Heightfield mask(20, 5, 0.0f);  // half the size: resampled bilinearly
+  for (int y = 0; y < 5; ++y)
+    for (int x = 0; x < 10; ++x) mask.at(x, y) = 1.0f;
+  WriteOptions wo;
+  wo.zmin = 0.0;
+  wo.zmax = 1.0;
+  write_heightfield(mask, tmp.path("m.png"), wo);
+  const auto w = read_region_weight(tmp.path("m.png"), grid, 2.0);
+  ASSERT_EQ(w.size(), grid.size());
+  const int y = 5;
+  EXPECT_NEAR(w[size_t(y) * 40 + 0], 1.0, 1e-3);
+  EXPECT_NEAR(w[size_t(y) * 40 + 39], 0.0, 1e-3);
+  for (int x = 1; x < 40; ++x) EXPECT_LE(w[size_t(y) * 40 + x], w[size_t(y) * 40 + x - 1] + 1e-6f) << x;
+  int partial = 0;
+  for (int x = 0; x < 40; ++x) partial += w[size_t(y) * 40 + x] > 0.05f && w[size_t(y) * 40 + x] < 0.95f;
+  EXPECT_GE(partial, 4) << "a feathered edge spans several cells";
+  // Without feathering the edge is as sharp as the (resampled) mask.
+  const auto sharp = read_region_weight(tmp.path("m.png"), grid, 0.0);
+  partial = 0;
+  for (int x = 0; x < 40; ++x) partial += sharp[size_t(y) * 40 + x] > 0.05f && sharp[size_t(y) * 40 + x] < 0.95f;
+  EXPECT_LE(partial, 2);
+}
+
+TEST(ErosionBrush, ConstraintsInPixelsAndGeoreferencedAgree) {
+  test::TempDir tmp;
+  Heightfield grid(30, 20, 0.0f);
+  grid.georef.geotransform = {1000.0, 10.0, 0.0, 5000.0, 0.0, -10.0};
+  grid.georef.has_geotransform = true;
+  std::ofstream(tmp.path("px.json")) << R"({"polygons": [{"points": [[3, 4], [12, 4], [12, 9], [3, 9]]}],
+                                            "polylines": [{"points": [[20, 2], [20, 15]], "width": 3}],
+                                            "points": [[25, 18]]})";
+  // Cell (c, r) has its centre at x = 1000 + 10 (c + 0.5), y = 5000 - 10 (r + 0.5).
+  std::ofstream(tmp.path("geo.json")) << R"({"units": "georeferenced",
+      "polygons": [{"points": [[1035, 4955], [1125, 4955], [1125, 4905], [1035, 4905]]}],
+      "polylines": [{"points": [[1205, 4975], [1205, 4845]], "width": 3}],
+      "points": [{"x": 1255, "y": 4815}]})";
+  const auto a = read_fixed_cells(tmp.path("px.json"), grid);
+  const auto b = read_fixed_cells(tmp.path("geo.json"), grid);
+  EXPECT_EQ(a, b);
+  EXPECT_TRUE(a[size_t(6) * 30 + 7]) << "inside the polygon";
+  EXPECT_FALSE(a[size_t(15) * 30 + 5]) << "outside everything";
+  EXPECT_TRUE(a[size_t(10) * 30 + 21]) << "within the polyline's width";
+  EXPECT_FALSE(a[size_t(10) * 30 + 23]);
+  EXPECT_TRUE(a[size_t(18) * 30 + 25]) << "the point";
+  std::ofstream(tmp.path("bad.json")) << R"({"polygons": [{"points": [[1, 1], [2, "x"], [3, 3]]}]})";
+  try {
+    read_fixed_cells(tmp.path("bad.json"), grid);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/polygons/0/points/1"), std::string::npos) << e.what();
+  }
 }
