@@ -240,6 +240,7 @@ void run_erode(StageContext& c) {
   if (c.has("time")) {
     const double t = c.get<double>("time");
     if (!(t > 0)) fail(c.tag, "--time must be positive, got {} s", t);
+    if (t / dt > 1e8) fail(c.tag, "--time {} s is {:.3g} steps of {} s; more than 1e8 steps is not a sensible run", t, t / dt, dt);
     steps = int(std::ceil(t / dt - 1e-9));
   }
   if (steps < 0) fail(c.tag, "--steps must be >= 0, got {}", steps);
