@@ -185,7 +185,6 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
   }
 
   const size_t bytes = s.n_padded * sizeof(float);
-  const std::vector<std::string> names{"bed", "water", "sediment"};
   try {
     for (int k = 0; k < 2; ++k) {
       s.b[k] = dev.buffer(bytes, CL_MEM_READ_WRITE, "erosion bed");
