@@ -54,8 +54,8 @@ ErosionParams ErosionParams::defaults() {
   p.damping = 0.5;
   p.capacity = 20.0;
   p.dissolve = 0.015;
-  p.deposit = 0.002;
-  p.min_sin_slope = 0.02;
+  p.deposit = 0.001;
+  p.min_sin_slope = 0.05;
   p.depth_ramp = 5.0;
   p.max_change = 0.5;
   p.thermal_rate = 0.05;
