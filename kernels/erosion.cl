@@ -198,8 +198,11 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     const V r1 = select(rc0 - asked, rc0 - from_deposit, asked > 0.0f);
     ST(select((V)(0.0f), fmax(r1, 0.0f), valid), r_out, i);
 #endif
+    // The sediment receives what the bed actually lost after rounding (bc - b1 is exact when the
+    // change is small against the bed), not the nominal delta: a change below half an ulp of a
+    // 1000 m bed would otherwise vanish from the bed but still appear in the sediment.
     const V b1 = bc - delta;
-    const V s2 = fmax(s1 + delta, 0.0f);
+    const V s2 = fmax(s1 + (bc - b1), 0.0f);
     const V d2 = d1 * evap_factor;
 
     ST(select((V)(0.0f), b1, valid), b_out, i);
