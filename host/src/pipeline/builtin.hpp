@@ -6,5 +6,7 @@
 namespace terracl {
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
+void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
+void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
 }  // namespace terracl

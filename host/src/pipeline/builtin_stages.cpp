@@ -6,6 +6,7 @@ StageRegistry& StageRegistry::instance() {
   static StageRegistry r = [] {
     StageRegistry reg;
     register_core_stages(reg);
+    register_analysis_stages(reg);
     register_erosion_stages(reg);
     return reg;
   }();
@@ -16,6 +17,7 @@ BenchRegistry& BenchRegistry::instance() {
   static BenchRegistry r = [] {
     BenchRegistry reg;
     register_core_benches(reg);
+    register_analysis_benches(reg);
     register_erosion_benches(reg);
     return reg;
   }();
