@@ -18,6 +18,9 @@ bool g_bar_open = false;
 
 void on_sigint(int) {
   if (g_interrupted.exchange(true)) std::_Exit(130);  // a second Ctrl-C stops at once
+  // write(2) is async-signal-safe; stdio is not.
+  static const char msg[] = "\nterracl: Ctrl-C: stopping at the next safe point (Ctrl-C again to quit at once)\n";
+  [[maybe_unused]] const auto n = ::write(STDERR_FILENO, msg, sizeof msg - 1);
 }
 
 }  // namespace

@@ -165,7 +165,18 @@ void Pipeline::set(const std::string& assignment) {
     if (st.tag != tag) continue;
     for (const auto& o : st.info->options) {
       if (o.name != option) continue;
-      st.options[option] = option_from_text(o, value);
+      const json v = option_from_text(o, value);
+      // Check the value now, so that the error names the --set that brought it (files are
+      // checked by validate(): an earlier stage may write them).
+      StageInfo one{st.type, "", DataKind::None, DataKind::None, {o}, nullptr};
+      if (o.type == OptionType::Path) one.options[0].type = OptionType::String;
+      one.options[0].required = false;
+      try {
+        resolve_options(one, json{{option, v}}, st.where);
+      } catch (const Error& e) {
+        throw UsageError("run", fmt::format("--set {}: {}", assignment, bare_message(e)));
+      }
+      st.options[option] = v;
       m_validated = false;
       return;
     }
