@@ -103,7 +103,7 @@ void register_io_stages(StageRegistry& r) {
   StageInfo read{"read",
                  "Read a heightfield (any raster terracl reads) or a gradient field (two-channel .exr); format from the extension.",
                  DataKind::None,
-                 DataKind::Heightfield,
+                 DataKind::Any,  // what the file holds; check_read tells which
                  {{"filename", OptionType::Path, nullptr, "", "Input file (.tif .hgt .asc .png .exr .r16 .raw ...)", {}, true},
                   {"fill_nodata", OptionType::Bool, false, "", "Fill nodata cells by harmonic interpolation after reading"},
                   {"zmin", OptionType::Float, nullptr, "m", "PNG/RAW16 input: elevation of code 0 (default: from the sidecar)"},

@@ -222,9 +222,10 @@ std::string stages_markdown() {
   md << "# terracl stages\n\nGenerated from the stage table by `terracl stages --markdown`; do not edit.\n"
         "Each stage runs as `terracl <stage> [IN] -o OUT [--option value ...]` or as "
         "`{\"type\": \"<stage>\", ...}` in a pipeline. Options are `snake_case` in JSON and `--kebab-case` on "
-        "the command line; values with a unit also accept another unit of the same kind (\"2 km\").\n";
+        "the command line; values with a unit also accept another unit of the same kind (\"2 km\"). "
+        "Pipelines (`terracl run`) are described in [pipelines.md](pipelines.md).\n";
   for (const auto& s : StageRegistry::instance().all()) {
-    const bool passes = s.output == DataKind::None || s.output == DataKind::Any;
+    const bool passes = s.input != DataKind::None && (s.output == DataKind::None || s.output == DataKind::Any);
     md << "\n## " << s.name << "\n\n" << s.description << "\n\nInput: " << data_kind_name(s.input)
        << "; output: " << (passes ? "its input, unchanged" : data_kind_name(s.output))
        << (s.cli ? "" : "; pipeline only") << ".\n\n";
