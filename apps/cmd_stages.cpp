@@ -47,6 +47,12 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       sub->add_flag("--" + kebab(o.name) + ",!--no-" + kebab(o.name), a->flags[o.name], help);
     } else {
       auto* opt = sub->add_option("--" + kebab(o.name), a->values[o.name], help);
+      opt->type_name(o.type == OptionType::Int     ? "INT"
+                     : o.type == OptionType::Float ? (o.unit.empty() ? "NUMBER" : "NUMBER[" + o.unit + "]")
+                     : o.type == OptionType::Enum  ? "CHOICE"
+                     : o.type == OptionType::Path || o.type == OptionType::OutputPath ? "FILE"
+                     : o.type == OptionType::Json  ? "JSON"
+                                                   : "TEXT");
       if (o.required) opt->required();
     }
   }

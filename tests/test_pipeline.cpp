@@ -302,3 +302,34 @@ TEST(Pipeline, ReadsAFileWrittenEarlierInThePipeline) {
   ASSERT_EQ(a.z.size(), b.z.size());
   for (size_t i = 0; i < a.z.size(); ++i) ASSERT_EQ(a.z[i], b.z[i]);
 }
+
+TEST(Pipeline, CropKeepsValuesAndGeoreferencing) {
+  test::TempDir dir;
+  Pipeline p = Pipeline::parse(
+      json::array({crop(), json{{"type", "crop"}, {"x", 10}, {"y", 20}, {"width", 50}, {"height", "30 cells"}}, dir.path("c.tif")}), "t",
+      "t.json");
+  p.validate();
+  RunReport r;
+  p.run({}, r);
+  const Heightfield a = read_heightfield(crop()), c = read_heightfield(dir.path("c.tif"));
+  ASSERT_EQ(c.width, 50);
+  ASSERT_EQ(c.height, 30);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 50; ++x) ASSERT_EQ(c.at(x, y), a.at(x + 10, y + 20));
+  // GDAL's own numbers for this window: origin moves by 10 and 20 cells of 3 arc-seconds.
+  EXPECT_NEAR(c.georef.geotransform[0], a.georef.geotransform[0] + 10 * a.georef.geotransform[1], 1e-12);
+  EXPECT_NEAR(c.georef.geotransform[3], a.georef.geotransform[3] + 20 * a.georef.geotransform[5], 1e-12);
+  EXPECT_NEAR(c.georef.cell_y, a.georef.cell_y, 1e-3 * a.georef.cell_y);
+  // A window outside the raster is a clear error naming the stage.
+  Pipeline bad = Pipeline::parse(json::array({crop(), json{{"type", "crop"}, {"x", 100}, {"width", 50}}, dir.path("d.tif")}), "t", "t.json");
+  bad.validate();
+  try {
+    bad.run({}, r);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("crop: window x 100..149, y 0..95 does not fit in the 128 x 96 raster"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("(pipeline stage /1, tag 'crop')"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.path("d.tif")));
+}

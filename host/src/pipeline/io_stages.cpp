@@ -99,6 +99,8 @@ void run_write(StageContext& c) {
 
 }  // namespace
 
+void register_crop_stage(StageRegistry& r);  // crop_stage.cpp
+
 void register_io_stages(StageRegistry& r) {
   StageInfo read{"read",
                  "Read a heightfield (any raster terracl reads) or a gradient field (two-channel .exr); format from the extension.",
@@ -127,6 +129,7 @@ void register_io_stages(StageRegistry& r) {
                   false,
                   check_write};
   r.add(std::move(write));
+  register_crop_stage(r);
 }
 
 }  // namespace terracl
