@@ -333,3 +333,20 @@ TEST(Pipeline, CropKeepsValuesAndGeoreferencing) {
   }
   EXPECT_FALSE(fs::exists(dir.path("d.tif")));
 }
+
+// The main job's pipeline (scripts/demo.sh) must stay valid as stages change: file names in it are
+// relative to the repository root, where demo.sh runs it.
+TEST(Pipeline, DemoPipelineValidates) {
+  const fs::path before = fs::current_path();
+  fs::current_path(TERRACL_SOURCE_DIR);
+  try {
+    Pipeline p = Pipeline::load("data/pipelines/demo.json");
+    p.validate();
+    EXPECT_EQ(p.name(), "demo");
+    EXPECT_GE(p.outputs().size(), 3u);
+    EXPECT_EQ(p.resolved_path().rfind("out/", 0), 0u) << p.resolved_path();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << e.what();
+  }
+  fs::current_path(before);
+}

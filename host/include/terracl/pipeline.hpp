@@ -56,7 +56,8 @@ struct RunOptions {
 
 class Pipeline {
  public:
-  /// Parses a pipeline document: a JSON array of stages, or an object with a "pipeline" array.
+  /// Parses a pipeline document: a JSON array of stages, or an object with a "pipeline" array (and
+  /// optionally a "description" text and "terracl" run information, both ignored).
   /// `name` names the resolved file; `source` prefixes error messages (usually the file name).
   static Pipeline parse(const json& doc, const std::string& name, const std::string& source,
                         const StageRegistry& registry = StageRegistry::instance());

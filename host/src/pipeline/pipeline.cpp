@@ -61,8 +61,9 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
   std::string prefix;
   if (doc.is_object()) {
     for (auto& [key, value] : doc.items())
-      if (key != "pipeline" && key != "terracl")
-        p.error(fmt::format("/{}: unknown key; a pipeline object has \"pipeline\" (the stages) and \"terracl\" (run information)", key));
+      if (key != "pipeline" && key != "terracl" && key != "description")
+        p.error(fmt::format("/{}: unknown key; a pipeline object has \"pipeline\" (the stages), \"description\" (text) and "
+                            "\"terracl\" (run information)", key));
     if (!doc.contains("pipeline")) p.error("expected a JSON array of stages, or an object with a \"pipeline\" array");
     stages = &doc.at("pipeline");
     prefix = "/pipeline";
