@@ -86,8 +86,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     RunOptions ro;
     ro.device = []() -> Device& { return device(); };
     const bool bar_labels = !json_progress();
+    // One bar line for the whole run, relabelled per stage; the table below gives the times.
     ro.progress = [bar_labels](const std::string& tag, size_t i, size_t n) {
-      finish_progress();
       return make_progress(bar_labels ? fmt::format("{}/{} {}", i + 1, n, tag) : tag);
     };
     RunReport report;

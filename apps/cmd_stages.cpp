@@ -97,7 +97,12 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
     }
     StageContext ctx{data, resolved, [] () -> Device& { return device(); }, make_progress(s.name), s.name, provenance()};
     ctx.provenance["terracl:stages"] = json::array({json{{"type", s.name}, {"options", resolved}}}).dump();
-    s.run(ctx);
+    try {
+      s.run(ctx);
+    } catch (const Cancelled&) {
+      finish_progress();
+      throw Error(s.name, "cancelled by Ctrl-C; no output was written");
+    }
     finish_progress();
     if (a->output.empty()) return;
     if (data.current == DataKind::Gradient || (s.output == DataKind::Gradient && data.gradient)) {

@@ -55,7 +55,7 @@ Progress make_progress(const std::string& stage) {
     if (f < 1.0 && now - *last < std::chrono::milliseconds(100)) return !interrupted();
     *last = now;
     const int width = 30, filled = int(f * width + 0.5);
-    std::fprintf(stderr, "\r%-12s [%s%s] %3d%% %-30.30s", stage.c_str(), std::string(filled, '#').c_str(),
+    std::fprintf(stderr, "\r%-20.20s [%s%s] %3d%% %-30.30s", stage.c_str(), std::string(filled, '#').c_str(),
                  std::string(width - filled, '.').c_str(), int(f * 100 + 0.5), msg.c_str());
     std::fflush(stderr);
     g_bar_open = true;
