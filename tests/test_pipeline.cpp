@@ -70,6 +70,12 @@ StageRegistry kind_registry() {
              }
              c.data.height = std::move(h);
            }});
+  // Like metrics or render: writes a file of its own and passes the heightfield on.
+  reg.add({"test_report", "Writes the mean elevation as JSON (test only).", DataKind::Heightfield, DataKind::None,
+           {{"json", OptionType::OutputPath, nullptr, "", "Report file", {}, true}},
+           [](StageContext& c) {
+             write_text_file_atomic(c.get<std::string>("json"), json{{"mean", compute_stats(c.height()).mean}}.dump());
+           }});
   return reg;
 }
 
@@ -169,6 +175,8 @@ TEST(Pipeline, KindChangingStagesRunAndTheirOutputsReadBack) {
   const Heightfield in = read_heightfield(crop());
   const GradientField g = read_gradient(dir.path("g.exr"));
   ASSERT_EQ(g.width, in.width);
+  EXPECT_EQ(g.metadata.at("terracl:pipeline_hash"), p.hash());
+  EXPECT_EQ(json::parse(g.metadata.at("terracl:stages"))[1]["type"], "test_extract");
   EXPECT_FLOAT_EQ(g.gx[0], float((in.at(1, 0) - in.at(0, 0)) / in.georef.cell_x));
   const Heightfield h = read_heightfield(dir.path("h.tif"));
   // Integrating the row differences gives the input back up to its first column (float error).
@@ -349,4 +357,22 @@ TEST(Pipeline, DemoPipelineValidates) {
     ADD_FAILURE() << e.what();
   }
   fs::current_path(before);
+}
+
+TEST(Pipeline, StagesWritingTheirOwnFilesPassTheirInputOn) {
+  test::TempDir dir;
+  const StageRegistry reg = kind_registry();
+  Pipeline p = Pipeline::parse(json::array({crop(), json{{"type", "test_report"}, {"json", dir.path("reports/r.json")}}, dir.path("h.exr")}),
+                               "t", "t.json", reg);
+  p.validate();
+  EXPECT_EQ(p.stages()[1].output, DataKind::Heightfield);
+  EXPECT_EQ(p.outputs(), (std::vector<std::string>{dir.path("reports/r.json"), dir.path("h.exr")}));
+  EXPECT_EQ(p.resolved_path(), dir.path("reports/t.resolved.json"));
+  RunReport r;
+  p.run({}, r);
+  EXPECT_EQ(r.stages[1].outputs, std::vector<std::string>{dir.path("reports/r.json")});
+  const Heightfield in = read_heightfield(crop()), out = read_heightfield(dir.path("h.exr"));
+  EXPECT_EQ(in.z, out.z);
+  std::ifstream rep(dir.path("reports/r.json"));
+  EXPECT_NEAR(json::parse(rep)["mean"].get<double>(), compute_stats(in).mean, 1e-9);
 }
