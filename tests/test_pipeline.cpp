@@ -294,6 +294,7 @@ TEST(Pipeline, CancelStopsBetweenStagesWithoutPartialFiles) {
   EXPECT_TRUE(fs::exists(dir.path("a.tif")));
   EXPECT_FALSE(fs::exists(dir.path("b.exr")));
   EXPECT_FALSE(fs::exists(dir.path("c.png")));
+  EXPECT_FALSE(fs::exists(dir.path("t.resolved.json"))) << "a stopped run must not claim to be complete";
   for (const auto& e : fs::directory_iterator(dir.dir()))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }

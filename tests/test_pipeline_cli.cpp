@@ -221,6 +221,7 @@ TEST(RunCli, CtrlCStopsCleanly) {
   EXPECT_NE(all.find("no partial file was left"), std::string::npos) << all;
   EXPECT_FALSE(fs::exists(dir.path("out/t11.exr"))) << "the run went on after Ctrl-C\n" << all;
   EXPECT_FALSE(has_temporary(dir.dir()));
+  EXPECT_FALSE(fs::exists(dir.path("out/c.resolved.json")));
   // Whatever was written is complete.
   for (int i = 0; i < 12; ++i)
     if (fs::exists(dir.path("out/t" + std::to_string(i) + ".exr")))

@@ -50,7 +50,7 @@ struct RunOptions {
   /// The runner also reports 0 and 1 around each stage, so a callback that returns false (Ctrl-C)
   /// stops the run between stages with Cancelled.
   std::function<Progress(const std::string& tag, size_t index, size_t count)> progress;
-  /// Write `<first output folder>/<name>.resolved.json` before running.
+  /// Write `<first output folder>/<name>.resolved.json` when the run completes.
   bool write_resolved = true;
 };
 

@@ -65,12 +65,6 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
     };
   }
 
-  if (options.write_resolved) {
-    report.resolved_path = resolved_path();
-    make_parent_folder(report.resolved_path);
-    write_text_file_atomic(report.resolved_path, resolved_text());
-  }
-
   StageData data;
   json chain = json::array();  // the stages behind the current data, for provenance
   for (size_t i = 0; i < m_stages.size(); ++i) {
@@ -114,6 +108,13 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
     report_progress(progress, st.tag, 1.0, "done");
   }
   report.running.clear();
+  // Written last, so that a resolved file beside outputs always describes a complete run of them
+  // (a stopped run leaves the previous one in place).
+  if (options.write_resolved) {
+    report.resolved_path = resolved_path();
+    make_parent_folder(report.resolved_path);
+    write_text_file_atomic(report.resolved_path, resolved_text());
+  }
   report.seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
 }
 
