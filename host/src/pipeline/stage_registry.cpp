@@ -238,7 +238,9 @@ std::string stages_markdown() {
       std::string type = option_type_name(o.type);
       if (o.type == OptionType::Enum) type = fmt::format("{}", fmt::join(o.choices, " \\| "));
       std::string def = o.required ? "(required)" : o.default_value.is_null() ? "" : o.default_value.dump();
-      md << "| `" << o.name << "` | " << type << " | " << def << " | " << o.unit << " | " << o.help << " |\n";
+      std::string help = o.help;  // a '|' would end the table cell
+      for (size_t i = help.find('|'); i != std::string::npos; i = help.find('|', i + 2)) help.insert(i, "\\");
+      md << "| `" << o.name << "` | " << type << " | " << def << " | " << o.unit << " | " << help << " |\n";
     }
   }
   return md.str();
