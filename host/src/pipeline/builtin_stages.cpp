@@ -7,6 +7,7 @@ StageRegistry& StageRegistry::instance() {
     StageRegistry reg;
     register_io_stages(reg);
     register_core_stages(reg);
+    register_analysis_stages(reg);
     return reg;
   }();
   return r;
@@ -16,6 +17,7 @@ BenchRegistry& BenchRegistry::instance() {
   static BenchRegistry r = [] {
     BenchRegistry reg;
     register_core_benches(reg);
+    register_analysis_benches(reg);
     return reg;
   }();
   return r;
