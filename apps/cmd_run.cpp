@@ -65,11 +65,12 @@ void print_report(const Pipeline& p, const RunReport& r) {
 CommandRegistrar reg(40, [](CLI::App& app) {
   auto a = std::make_shared<RunArgs>();
   auto* sub = app.add_subcommand("run", "Run a JSON pipeline of stages (see docs/pipelines.md)");
-  sub->add_option("pipeline", a->file, "Pipeline file: a JSON array of stages")->required();
+  sub->add_option("pipeline", a->file, "Pipeline file: a JSON array of stages")->required()->type_name("FILE");
   sub->add_flag("--validate", a->validate,
                 "Check the whole pipeline (stages, options, types, units, files, data kinds) and run nothing");
   sub->add_flag("--print-resolved", a->print_resolved, "Print the fully resolved pipeline and run nothing");
   sub->add_option("--set", a->sets, "Override an option: TAG.OPTION=VALUE (repeatable; the tag defaults to the stage type)")
+      ->type_name("TAG.OPTION=VALUE")
       ->allow_extra_args(false);
   sub->callback([a] {
     Pipeline p = Pipeline::load(a->file);
