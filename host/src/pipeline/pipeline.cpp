@@ -44,7 +44,11 @@ std::string option_names(const StageInfo& s) {
 std::string bare_message(const Error& e) { return std::string(e.what()).substr(e.stage().size() + 2); }
 
 // Two spellings of one file ("out/a.tif", "./out/../out/a.tif") are the same output.
-std::string same_file_key(const std::string& p) { return fs::weakly_canonical(fs::absolute(p)).string(); }
+std::string same_file_key(const std::string& p) {
+  std::error_code ec;
+  const fs::path c = fs::weakly_canonical(fs::absolute(p), ec);
+  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
+}
 
 }  // namespace
 
