@@ -1,13 +1,12 @@
 // `terracl run pipeline.json [--validate] [--set TAG.OPTION=VALUE ...]`: runs a JSON pipeline and
 // prints what it wrote with per-stage times (docs/pipelines.md).
-#include "cli.hpp"
-
-#include <terracl/error.hpp>
-#include <terracl/pipeline.hpp>
-
 #include <fmt/format.h>
 
 #include <filesystem>
+#include <terracl/error.hpp>
+#include <terracl/pipeline.hpp>
+
+#include "cli.hpp"
 
 namespace terracl::cli {
 namespace {
@@ -31,8 +30,8 @@ std::string human_size(const std::string& path) {
 bool json_progress() { return !globals().quiet && globals().progress == "json"; }
 
 void print_validation(const Pipeline& p) {
-  fmt::print("{}: valid pipeline, {} stage{}, hash {}\n", p.source(), p.stages().size(), p.stages().size() == 1 ? "" : "s",
-             p.hash());
+  fmt::print("{}: valid pipeline, {} stage{}, hash {}\n", p.source(), p.stages().size(),
+             p.stages().size() == 1 ? "" : "s", p.hash());
   fmt::print("  {:<6} {:<18} {:<14} {:<34} {}\n", "path", "tag", "type", "data", "writes");
   for (const auto& st : p.stages()) {
     const std::string data = fmt::format("{} -> {}", data_kind_name(st.input), data_kind_name(st.output));
@@ -44,14 +43,20 @@ void print_validation(const Pipeline& p) {
 void print_report(const Pipeline& p, const RunReport& r) {
   if (json_progress()) {
     json stages = json::array();
-    for (const auto& s : r.stages) stages.push_back({{"tag", s.tag}, {"type", s.type}, {"seconds", s.seconds}, {"outputs", s.outputs}});
-    fmt::print("{}\n", json{{"event", "done"}, {"pipeline", p.source()}, {"pipeline_hash", p.hash()}, {"seconds", r.seconds},
-                            {"stages", stages}, {"outputs", r.outputs()}, {"resolved", r.resolved_path}}
+    for (const auto& s : r.stages)
+      stages.push_back({{"tag", s.tag}, {"type", s.type}, {"seconds", s.seconds}, {"outputs", s.outputs}});
+    fmt::print("{}\n", json{{"event", "done"},
+                            {"pipeline", p.source()},
+                            {"pipeline_hash", p.hash()},
+                            {"seconds", r.seconds},
+                            {"stages", stages},
+                            {"outputs", r.outputs()},
+                            {"resolved", r.resolved_path}}
                            .dump());
     return;
   }
-  fmt::print("{}: {} stage{} in {:.2f} s (pipeline hash {})\n", p.source(), r.stages.size(), r.stages.size() == 1 ? "" : "s",
-             r.seconds, p.hash());
+  fmt::print("{}: {} stage{} in {:.2f} s (pipeline hash {})\n", p.source(), r.stages.size(),
+             r.stages.size() == 1 ? "" : "s", r.seconds, p.hash());
   fmt::print("  {:>2}  {:<18} {:<14} {:>9}  {}\n", "#", "tag", "type", "time", "wrote");
   for (size_t i = 0; i < r.stages.size(); ++i) {
     const StageRun& s = r.stages[i];
@@ -69,7 +74,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_flag("--validate", a->validate,
                 "Check the whole pipeline (stages, options, types, units, files, data kinds) and run nothing");
   sub->add_flag("--print-resolved", a->print_resolved, "Print the fully resolved pipeline and run nothing");
-  sub->add_option("--set", a->sets, "Override an option: TAG.OPTION=VALUE (repeatable; the tag defaults to the stage type)")
+  sub->add_option("--set", a->sets,
+                  "Override an option: TAG.OPTION=VALUE (repeatable; the tag defaults to the stage type)")
       ->type_name("TAG.OPTION=VALUE")
       ->allow_extra_args(false);
   sub->callback([a] {
@@ -97,9 +103,10 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     } catch (const Cancelled&) {
       finish_progress();
       const auto done = report.outputs();
-      throw Error("run", fmt::format("cancelled by Ctrl-C during stage '{}'; no partial file was left; {}", report.running,
-                                     done.empty() ? std::string("nothing was written")
-                                                  : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
+      throw Error("run",
+                  fmt::format("cancelled by Ctrl-C during stage '{}'; no partial file was left; {}", report.running,
+                              done.empty() ? std::string("nothing was written")
+                                           : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
     }
     finish_progress();
     print_report(p, report);

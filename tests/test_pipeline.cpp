@@ -1,15 +1,14 @@
 // Pipelines through the library API: parsing and shorthands, tags, overrides, validation errors
 // with JSON paths (data-kind chaining checked with two test-only stages on a local registry), a
 // real run on a crop with provenance, cancellation, and the bit-for-bit re-run of the resolved file.
-#include "test_helpers.hpp"
-
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/pipeline.hpp>
 
-#include <filesystem>
-#include <fstream>
-#include <sstream>
+#include "test_helpers.hpp"
 
 using namespace terracl;
 namespace fs = std::filesystem;
@@ -42,7 +41,11 @@ StageRegistry kind_registry() {
   StageRegistry reg;
   reg.add(*StageRegistry::instance().find("read"));
   reg.add(*StageRegistry::instance().find("write"));
-  reg.add({"test_extract", "Forward differences (test only).", DataKind::Heightfield, DataKind::Gradient, {},
+  reg.add({"test_extract",
+           "Forward differences (test only).",
+           DataKind::Heightfield,
+           DataKind::Gradient,
+           {},
            [](StageContext& c) {
              const Heightfield& h = c.height();
              GradientField g(h.width, h.height);
@@ -55,7 +58,10 @@ StageRegistry kind_registry() {
                }
              c.data.gradient = std::move(g);
            }});
-  reg.add({"test_integrate", "Row-wise running sum of gx (test only).", DataKind::Gradient, DataKind::Heightfield,
+  reg.add({"test_integrate",
+           "Row-wise running sum of gx (test only).",
+           DataKind::Gradient,
+           DataKind::Heightfield,
            {{"base", OptionType::Float, 0.0, "m", "Elevation of the first column"}},
            [](StageContext& c) {
              const GradientField& g = c.gradient();
@@ -71,7 +77,10 @@ StageRegistry kind_registry() {
              c.data.height = std::move(h);
            }});
   // Like metrics or render: writes a file of its own and passes the heightfield on.
-  reg.add({"test_report", "Writes the mean elevation as JSON (test only).", DataKind::Heightfield, DataKind::None,
+  reg.add({"test_report",
+           "Writes the mean elevation as JSON (test only).",
+           DataKind::Heightfield,
+           DataKind::None,
            {{"json", OptionType::OutputPath, nullptr, "", "Report file", {}, true}},
            [](StageContext& c) {
              write_text_file_atomic(c.get<std::string>("json"), json{{"mean", compute_stats(c.height()).mean}}.dump());
@@ -82,7 +91,8 @@ StageRegistry kind_registry() {
 }  // namespace
 
 TEST(Pipeline, ShorthandsExpandAndTagsDefaultToTheType) {
-  const json doc = json::parse(R"(["in.tif", "fill_nodata", "a.tif", {"filename": "b.exr"}, {"type": "write", "tag": "last", "filename": "c.png"}])");
+  const json doc = json::parse(
+      R"(["in.tif", "fill_nodata", "a.tif", {"filename": "b.exr"}, {"type": "write", "tag": "last", "filename": "c.png"}])");
   const Pipeline p = Pipeline::parse(doc, "t", "t.json");
   ASSERT_EQ(p.stages().size(), 5u);
   const char* types[] = {"read", "fill_nodata", "write", "write", "write"};
@@ -100,11 +110,14 @@ TEST(Pipeline, ShorthandsExpandAndTagsDefaultToTheType) {
 }
 
 TEST(Pipeline, DuplicateTagsAreRefused) {
-  EXPECT_NE(validation_error(json::parse(R"([{"type":"read","tag":"x","filename":"a.tif"}, {"type":"write","tag":"x","filename":"b.tif"}])"))
+  EXPECT_NE(validation_error(
+                json::parse(
+                    R"([{"type":"read","tag":"x","filename":"a.tif"}, {"type":"write","tag":"x","filename":"b.tif"}])"))
                 .find("/1/tag: tag 'x' is already used by /0"),
             std::string::npos);
   // An explicit tag may not take the automatic tag of another stage.
-  EXPECT_NE(validation_error(json::parse(R"(["a.tif", {"type":"write","tag":"write1","filename":"b.tif"}, "c.tif", "d.tif"])"))
+  EXPECT_NE(validation_error(
+                json::parse(R"(["a.tif", {"type":"write","tag":"write1","filename":"b.tif"}, "c.tif", "d.tif"])"))
                 .find("tag 'write1' is also the automatic tag"),
             std::string::npos);
 }
@@ -118,12 +131,17 @@ TEST(Pipeline, ValidationErrorsNameTheJsonPath) {
       {"[]", "t.json: /: the pipeline is empty"},
       {R"({"stages": []})", "/stages: unknown key"},
       {R"([")" + c + R"(", {"type": "erodee"}, "o.tif"])", "/1/type: unknown stage 'erodee'"},
-      {R"([{"type": "read", "filename": ")" + c + R"(", "fill_nodata": "yes"}, "o.tif"])", "/0/fill_nodata: expected true or false"},
-      {R"([{"type": "read", "filename": ")" + c + R"(", "colour": 1}, "o.tif"])", "/0/colour: stage 'read' has no option 'colour'"},
+      {R"([{"type": "read", "filename": ")" + c + R"(", "fill_nodata": "yes"}, "o.tif"])",
+       "/0/fill_nodata: expected true or false"},
+      {R"([{"type": "read", "filename": ")" + c + R"(", "colour": 1}, "o.tif"])",
+       "/0/colour: stage 'read' has no option 'colour'"},
       {R"(["no/such/file.tif", "o.tif"])", "/0/filename: input file no/such/file.tif does not exist"},
-      {R"([")" + c + R"(", {"type": "write", "filename": "o.png", "zmax": "3 parsec"}])", "/1/zmax: unknown unit 'parsec'"},
-      {R"([")" + c + R"(", {"type": "write", "filename": "o.png", "zmax": "3 s"}])", "/1/zmax: unit 's' is not a length unit"},
-      {R"([{"type": "write", "filename": "o.tif"}])", "/0: stage 'write' (write) needs a heightfield or gradient as input, but nothing comes before it"},
+      {R"([")" + c + R"(", {"type": "write", "filename": "o.png", "zmax": "3 parsec"}])",
+       "/1/zmax: unknown unit 'parsec'"},
+      {R"([")" + c + R"(", {"type": "write", "filename": "o.png", "zmax": "3 s"}])",
+       "/1/zmax: unit 's' is not a length unit"},
+      {R"([{"type": "write", "filename": "o.tif"}])",
+       "/0: stage 'write' (write) needs a heightfield or gradient as input, but nothing comes before it"},
       {R"([")" + c + R"("])", "the pipeline writes nothing"},
       {R"([")" + c + R"(", "o.xyz"])", "/1/filename: o.xyz: cannot write a heightfield with this extension"},
       {R"([")" + c + R"(", "o.tif", "./o.tif"])", "/2/filename: ./o.tif is also written by /1/filename"},
@@ -144,10 +162,12 @@ TEST(Pipeline, DataKindsMustChain) {
   const StageRegistry reg = kind_registry();
   const std::string c = crop(), out = dir.path("g.exr");
   // A reconstruct-like stage fed a heightfield.
-  EXPECT_NE(validation_error(json::array({c, "test_integrate", out}), reg)
-                .find("/1: stage 'test_integrate' (test_integrate) needs a gradient as input, but the stage before it ('read') "
-                      "produces a heightfield"),
-            std::string::npos);
+  EXPECT_NE(
+      validation_error(json::array({c, "test_integrate", out}), reg)
+          .find(
+              "/1: stage 'test_integrate' (test_integrate) needs a gradient as input, but the stage before it ('read') "
+              "produces a heightfield"),
+      std::string::npos);
   // An extract-like stage followed by a heightfield-only format.
   EXPECT_NE(validation_error(json::array({c, "test_extract", dir.path("g.png")}), reg)
                 .find("/2/filename: " + dir.path("g.png") + ": a gradient is written as .exr"),
@@ -155,18 +175,19 @@ TEST(Pipeline, DataKindsMustChain) {
   // A gradient file read from disk is a gradient: a heightfield stage after it is refused.
   GradientField g(8, 6);
   write_gradient(g, dir.path("in_g.exr"));
-  EXPECT_NE(validation_error(json::array({dir.path("in_g.exr"), "fill_nodata", dir.path("o.tif")}))
-                .find("/1: stage 'fill_nodata' (fill_nodata) needs a heightfield as input, but the stage before it ('read') "
-                      "produces a gradient"),
-            std::string::npos);
+  EXPECT_NE(
+      validation_error(json::array({dir.path("in_g.exr"), "fill_nodata", dir.path("o.tif")}))
+          .find("/1: stage 'fill_nodata' (fill_nodata) needs a heightfield as input, but the stage before it ('read') "
+                "produces a gradient"),
+      std::string::npos);
   EXPECT_EQ(validation_error(json::array({c, "test_extract", out, "test_integrate", dir.path("h.tif")}), reg), "");
 }
 
 TEST(Pipeline, KindChangingStagesRunAndTheirOutputsReadBack) {
   test::TempDir dir;
   const StageRegistry reg = kind_registry();
-  const json doc = json::array({crop(), "test_extract", dir.path("g.exr"), json{{"type", "test_integrate"}, {"base", "1 km"}},
-                                dir.path("h.tif")});
+  const json doc = json::array({crop(), "test_extract", dir.path("g.exr"),
+                                json{{"type", "test_integrate"}, {"base", "1 km"}}, dir.path("h.tif")});
   Pipeline p = Pipeline::parse(doc, "kinds", "kinds.json", reg);
   p.validate();
   EXPECT_EQ(p.stages()[3].options.at("base").get<double>(), 1000.0);
@@ -181,7 +202,8 @@ TEST(Pipeline, KindChangingStagesRunAndTheirOutputsReadBack) {
   const Heightfield h = read_heightfield(dir.path("h.tif"));
   // Integrating the row differences gives the input back up to its first column (float error).
   for (int y = 0; y < in.height; y += 17)
-    for (int x = 0; x < in.width; x += 13) EXPECT_NEAR(h.at(x, y) - 1000.0, in.at(x, y) - in.at(0, y), 1e-2) << x << "," << y;
+    for (int x = 0; x < in.width; x += 13)
+      EXPECT_NEAR(h.at(x, y) - 1000.0, in.at(x, y) - in.at(0, y), 1e-2) << x << "," << y;
 }
 
 TEST(Pipeline, OverridesApplyAndAreChecked) {
@@ -219,8 +241,8 @@ TEST(Pipeline, RunsOnACropWithProvenance) {
     for (int x = 60; x < 75; ++x) holed.at(x, y) = NAN;
   write_heightfield(holed, dir.path("holed.tif"));
   const std::string out = dir.path("out/filled.tif");
-  Pipeline p = Pipeline::parse(json::array({dir.path("holed.tif"), "fill_nodata", out, dir.path("out/filled.r16")}), "fill",
-                               "fill.json");
+  Pipeline p = Pipeline::parse(json::array({dir.path("holed.tif"), "fill_nodata", out, dir.path("out/filled.r16")}),
+                               "fill", "fill.json");
   p.validate();
   RunReport r;
   p.run({}, r);
@@ -255,14 +277,16 @@ TEST(Pipeline, RunsOnACropWithProvenance) {
 
 TEST(Pipeline, ResolvedPipelineRerunsBitForBit) {
   test::TempDir dir;
-  const json doc = json::parse(R"([")" + crop() + R"(", "fill_nodata", ")" + dir.path("o/a.tif") + R"(", ")" + dir.path("o/a.exr") +
-                               R"(", {"filename": ")" + dir.path("o/a.png") + R"(", "zmin": "0.3 km", "zmax": 1200}])");
+  const json doc =
+      json::parse(R"([")" + crop() + R"(", "fill_nodata", ")" + dir.path("o/a.tif") + R"(", ")" + dir.path("o/a.exr") +
+                  R"(", {"filename": ")" + dir.path("o/a.png") + R"(", "zmin": "0.3 km", "zmax": 1200}])");
   Pipeline p = Pipeline::parse(doc, "demo", "demo.json");
   p.validate();
   RunReport r1;
   p.run({}, r1);
   std::map<std::string, std::string> first;
-  for (const auto& f : {"o/a.tif", "o/a.exr", "o/a.png", "o/a.png.json", "o/demo.resolved.json"}) first[f] = file_bytes(dir.path(f));
+  for (const auto& f : {"o/a.tif", "o/a.exr", "o/a.png", "o/a.png.json", "o/demo.resolved.json"})
+    first[f] = file_bytes(dir.path(f));
 
   Pipeline again = Pipeline::load(r1.resolved_path);
   EXPECT_EQ(again.name(), "demo");
@@ -280,7 +304,8 @@ TEST(Pipeline, ResolvedPipelineRerunsBitForBit) {
 
 TEST(Pipeline, CancelStopsBetweenStagesWithoutPartialFiles) {
   test::TempDir dir;
-  Pipeline p = Pipeline::parse(json::array({crop(), dir.path("a.tif"), dir.path("b.exr"), dir.path("c.png")}), "t", "t.json");
+  Pipeline p =
+      Pipeline::parse(json::array({crop(), dir.path("a.tif"), dir.path("b.exr"), dir.path("c.png")}), "t", "t.json");
   p.validate();
   RunOptions ro;
   // Like Ctrl-C pressed during write1: the next progress callback (write2's start) says stop.
@@ -301,9 +326,10 @@ TEST(Pipeline, CancelStopsBetweenStagesWithoutPartialFiles) {
 
 TEST(Pipeline, ReadsAFileWrittenEarlierInThePipeline) {
   test::TempDir dir;
-  Pipeline p = Pipeline::parse(
-      json::array({crop(), dir.path("mid.tif"), json{{"type", "read"}, {"filename", dir.path("mid.tif")}}, dir.path("end.exr")}), "t",
-      "t.json");
+  Pipeline p =
+      Pipeline::parse(json::array({crop(), dir.path("mid.tif"),
+                                   json{{"type", "read"}, {"filename", dir.path("mid.tif")}}, dir.path("end.exr")}),
+                      "t", "t.json");
   p.validate();
   RunReport r;
   p.run({}, r);
@@ -315,8 +341,9 @@ TEST(Pipeline, ReadsAFileWrittenEarlierInThePipeline) {
 TEST(Pipeline, CropKeepsValuesAndGeoreferencing) {
   test::TempDir dir;
   Pipeline p = Pipeline::parse(
-      json::array({crop(), json{{"type", "crop"}, {"x", 10}, {"y", 20}, {"width", 50}, {"height", "30 cells"}}, dir.path("c.tif")}), "t",
-      "t.json");
+      json::array({crop(), json{{"type", "crop"}, {"x", 10}, {"y", 20}, {"width", 50}, {"height", "30 cells"}},
+                   dir.path("c.tif")}),
+      "t", "t.json");
   p.validate();
   RunReport r;
   p.run({}, r);
@@ -330,13 +357,15 @@ TEST(Pipeline, CropKeepsValuesAndGeoreferencing) {
   EXPECT_NEAR(c.georef.geotransform[3], a.georef.geotransform[3] + 20 * a.georef.geotransform[5], 1e-12);
   EXPECT_NEAR(c.georef.cell_y, a.georef.cell_y, 1e-3 * a.georef.cell_y);
   // A window outside the raster is a clear error naming the stage.
-  Pipeline bad = Pipeline::parse(json::array({crop(), json{{"type", "crop"}, {"x", 100}, {"width", 50}}, dir.path("d.tif")}), "t", "t.json");
+  Pipeline bad = Pipeline::parse(
+      json::array({crop(), json{{"type", "crop"}, {"x", 100}, {"width", 50}}, dir.path("d.tif")}), "t", "t.json");
   bad.validate();
   try {
     bad.run({}, r);
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("crop: window x 100..149, y 0..95 does not fit in the 128 x 96 raster"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("crop: window x 100..149, y 0..95 does not fit in the 128 x 96 raster"),
+              std::string::npos)
         << e.what();
     EXPECT_NE(std::string(e.what()).find("(pipeline stage /1, tag 'crop')"), std::string::npos) << e.what();
   }
@@ -370,8 +399,9 @@ TEST(Pipeline, DemoPipelineRunsEndToEnd) {
 TEST(Pipeline, StagesWritingTheirOwnFilesPassTheirInputOn) {
   test::TempDir dir;
   const StageRegistry reg = kind_registry();
-  Pipeline p = Pipeline::parse(json::array({crop(), json{{"type", "test_report"}, {"json", dir.path("reports/r.json")}}, dir.path("h.exr")}),
-                               "t", "t.json", reg);
+  Pipeline p = Pipeline::parse(
+      json::array({crop(), json{{"type", "test_report"}, {"json", dir.path("reports/r.json")}}, dir.path("h.exr")}),
+      "t", "t.json", reg);
   p.validate();
   EXPECT_EQ(p.stages()[1].output, DataKind::Heightfield);
   EXPECT_EQ(p.outputs(), (std::vector<std::string>{dir.path("reports/r.json"), dir.path("h.exr")}));

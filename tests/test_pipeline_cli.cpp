@@ -1,10 +1,8 @@
 // `terracl run`, `terracl stages` and the stage subcommands, run as a user runs them: exit codes,
 // messages naming the JSON path, overrides, progress JSON lines, Ctrl-C, and docs/stages.md being
 // the built CLI's stage table.
-#include "test_helpers.hpp"
-
-#include <terracl/io.hpp>
-#include <terracl/stage.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <csignal>
 #include <filesystem>
@@ -12,8 +10,10 @@
 #include <map>
 #include <set>
 #include <sstream>
-#include <sys/wait.h>
-#include <unistd.h>
+#include <terracl/io.hpp>
+#include <terracl/stage.hpp>
+
+#include "test_helpers.hpp"
 
 using namespace terracl;
 namespace fs = std::filesystem;
@@ -48,7 +48,8 @@ bool has_temporary(const fs::path& dir) {
 TEST(RunCli, ValidPipelineRunsEndToEndAndPrintsWhatItWrote) {
   test::TempDir dir;
   const std::string p = write_pipeline(
-      dir, "crop.json", json::array({crop(), "fill_nodata", dir.path("out/c.tif"), dir.path("out/c.exr"), dir.path("out/c.png")}));
+      dir, "crop.json",
+      json::array({crop(), "fill_nodata", dir.path("out/c.tif"), dir.path("out/c.exr"), dir.path("out/c.png")}));
   const auto r = test::run_cli("run " + q(p));
   ASSERT_EQ(r.exit_code, 0) << r.out;
   for (const auto& f : {"out/c.tif", "out/c.exr", "out/c.png", "out/c.png.json", "out/crop.resolved.json"})
@@ -73,21 +74,27 @@ TEST(RunCli, InvalidPipelinesFailAtValidateWithTheJsonPath) {
   };
   const std::vector<Case> cases = {
       {json::array({crop(), json{{"type", "no_such_stage"}}, out}), "/1/type: unknown stage 'no_such_stage'"},
-      {json::array({json{{"type", "read"}, {"filename", crop()}, {"fill_nodata", 1.5}}, out}), "/0/fill_nodata: expected true or false"},
-      {json::array({dir.path("missing.tif"), out}), "/0/filename: input file " + dir.path("missing.tif") + " does not exist"},
-      {json::array({crop(), json{{"type", "write"}, {"filename", dir.path("o.png")}, {"zmax", "2 furlongs"}}}), "/1/zmax: unknown unit 'furlongs'"},
+      {json::array({json{{"type", "read"}, {"filename", crop()}, {"fill_nodata", 1.5}}, out}),
+       "/0/fill_nodata: expected true or false"},
+      {json::array({dir.path("missing.tif"), out}),
+       "/0/filename: input file " + dir.path("missing.tif") + " does not exist"},
+      {json::array({crop(), json{{"type", "write"}, {"filename", dir.path("o.png")}, {"zmax", "2 furlongs"}}}),
+       "/1/zmax: unknown unit 'furlongs'"},
       {json::array(), "/: the pipeline is empty"},
       {json::array({dir.path("g.exr"), "fill_nodata", out}),
-       "/1: stage 'fill_nodata' (fill_nodata) needs a heightfield as input, but the stage before it ('read') produces a gradient"},
+       "/1: stage 'fill_nodata' (fill_nodata) needs a heightfield as input, but the stage before it ('read') produces "
+       "a gradient"},
       {json::array({dir.path("g.exr"), out}), "/1/filename: " + out + ": a gradient is written as .exr"},
-      {json::array({json{{"type", "write"}, {"filename", out}}}), "/0: stage 'write' (write) needs a heightfield or gradient as input"},
+      {json::array({json{{"type", "write"}, {"filename", out}}}),
+       "/0: stage 'write' (write) needs a heightfield or gradient as input"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     const std::string p = write_pipeline(dir, "bad" + std::to_string(i) + ".json", cases[i].doc);
     const auto r = test::run_cli("run --validate " + q(p));
     EXPECT_EQ(r.exit_code, 2) << cases[i].doc.dump() << "\n" << r.out;
     EXPECT_NE(r.out.find("terracl ERROR: pipeline: " + p + ": " + cases[i].expected), std::string::npos)
-        << cases[i].doc.dump() << "\n" << r.out;
+        << cases[i].doc.dump() << "\n"
+        << r.out;
   }
   EXPECT_FALSE(fs::exists(out));
   // Not JSON at all: the parser's line and column.
@@ -138,10 +145,12 @@ TEST(RunCli, SetOverridesApply) {
 TEST(RunCli, ResolvedPipelineRerunsToTheSameBytes) {
   test::TempDir dir;
   const std::string p = write_pipeline(
-      dir, "r.json", json::array({crop(), "fill_nodata", dir.path("o/r.tif"), dir.path("o/r.exr"), dir.path("o/r.r16")}));
+      dir, "r.json",
+      json::array({crop(), "fill_nodata", dir.path("o/r.tif"), dir.path("o/r.exr"), dir.path("o/r.r16")}));
   ASSERT_EQ(test::run_cli("run -q " + q(p)).exit_code, 0);
   std::map<std::string, std::string> first;
-  for (const auto& f : {"o/r.tif", "o/r.exr", "o/r.r16", "o/r.r16.json", "o/r.resolved.json"}) first[f] = file_text(dir.path(f));
+  for (const auto& f : {"o/r.tif", "o/r.exr", "o/r.r16", "o/r.r16.json", "o/r.resolved.json"})
+    first[f] = file_text(dir.path(f));
   sleep(1);  // a timestamp in any output would now differ
   const auto again = test::run_cli("run -q " + q(dir.path("o/r.resolved.json")));
   ASSERT_EQ(again.exit_code, 0) << again.out;
@@ -231,9 +240,9 @@ TEST(RunCli, CtrlCStopsCleanly) {
 TEST(RunCli, UsageErrorsExitTwo) {
   test::TempDir dir;
   const std::vector<std::string> bad = {
-      "run",                                               // no pipeline file
-      "run " + q(dir.path("none.json")),                   // missing pipeline file
-      "fill_nodata",                                       // no input
+      "run",                                                       // no pipeline file
+      "run " + q(dir.path("none.json")),                           // missing pipeline file
+      "fill_nodata",                                               // no input
       "fill_nodata " + q(crop()) + " -o " + q(dir.path("x.xyz")),  // unwritable extension
       "fill_nodata " + q(crop()) + " -o " + q(dir.path("x.tif")) + " --no-such-option 3",
       "stages --no-such-flag",
@@ -252,7 +261,8 @@ TEST(StagesDoc, MatchesTheStageTable) {
   const std::string doc = file_text(test::data_path("../docs/stages.md"));
   EXPECT_TRUE(r.out == doc) << "docs/stages.md is out of date: run scripts/gen-docs.sh and commit it";
   // Every stage of the table has its section.
-  for (const auto& s : StageRegistry::instance().all()) EXPECT_NE(doc.find("\n## " + s.name + "\n"), std::string::npos) << s.name;
+  for (const auto& s : StageRegistry::instance().all())
+    EXPECT_NE(doc.find("\n## " + s.name + "\n"), std::string::npos) << s.name;
 }
 
 TEST(StagesCli, HelpShowsTheOptionsFromTheTable) {

@@ -9,19 +9,18 @@
 /// tag; `set("TAG.OPTION=VALUE")` overrides options; `validate()` resolves every option (defaults,
 /// types, units, files) and checks that the data kinds chain; `run()` executes it. Errors name the
 /// pipeline file and the JSON path of the offending value ("demo.json: /2/steps: ...").
-#include <terracl/stage.hpp>
-
 #include <functional>
 #include <string>
+#include <terracl/stage.hpp>
 #include <vector>
 
 namespace terracl {
 
 struct PipelineStage {
   std::string type;
-  std::string tag;       ///< unique; defaults to the type, or type + occurrence (write1, write2) when repeated
-  std::string where;     ///< JSON path of the stage in the pipeline file ("/2")
-  json options;          ///< as written (plus overrides); fully resolved after validate()
+  std::string tag;    ///< unique; defaults to the type, or type + occurrence (write1, write2) when repeated
+  std::string where;  ///< JSON path of the stage in the pipeline file ("/2")
+  json options;       ///< as written (plus overrides); fully resolved after validate()
   const StageInfo* info = nullptr;
   DataKind input = DataKind::None;   ///< after validate(): the kind this stage receives
   DataKind output = DataKind::None;  ///< after validate(): the kind it hands to the next stage

@@ -1,8 +1,8 @@
 // `crop`: a window of a heightfield, keeping its georeferencing. Demos and tests use it to run
 // heavy stages (amplify, erode) on a part of a tile.
-#include "pipeline/builtin.hpp"
-
 #include <terracl/error.hpp>
+
+#include "pipeline/builtin.hpp"
 
 namespace terracl {
 namespace {
@@ -13,7 +13,8 @@ void run_crop(StageContext& c) {
   const int w = c.has("width") ? c.get<int>("width") : h.width - x0;
   const int ht = c.has("height") ? c.get<int>("height") : h.height - y0;
   if (x0 < 0 || y0 < 0 || w < 1 || ht < 1 || x0 + w > h.width || y0 + ht > h.height)
-    fail(c.tag, "window x {}..{}, y {}..{} does not fit in the {} x {} raster (x and y start at 0; width and height >= 1)", x0,
+    fail(c.tag,
+         "window x {}..{}, y {}..{} does not fit in the {} x {} raster (x and y start at 0; width and height >= 1)", x0,
          x0 + w - 1, y0, y0 + ht - 1, h.width, h.height);
   Heightfield out(w, ht);
   for (int y = 0; y < ht; ++y)

@@ -1,11 +1,10 @@
 // The pipeline's reader and writer stages (`"in.tif"` and `"out.exr"` in a pipeline are shorthands
 // for them). Pipeline-only: on the command line, `terracl convert` and every stage's IN/-o do this.
-#include "pipeline/builtin.hpp"
-
+#include <filesystem>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
-#include <filesystem>
+#include "pipeline/builtin.hpp"
 
 namespace terracl {
 namespace {
@@ -16,16 +15,20 @@ void drop_terracl_keys(Metadata& md) {
   for (auto it = md.begin(); it != md.end();) it = it->first.rfind("terracl:", 0) == 0 ? md.erase(it) : std::next(it);
 }
 
-const char* kHeightExtensions = ".tif/.tiff (GeoTIFF float32), .exr (float), .png (16-bit + JSON sidecar), .r16/.raw (RAW16 + sidecar)";
+const char* kHeightExtensions =
+    ".tif/.tiff (GeoTIFF float32), .exr (float), .png (16-bit + JSON sidecar), .r16/.raw (RAW16 + sidecar)";
 
 DataKind check_read(const json& o, DataKind, const std::string& where) {
   const std::string f = o.at("filename").get<std::string>();
   if (format_from_extension(f) == FileFormat::Unknown)
-    fail("pipeline", "{}/filename: {}: unknown raster extension; terracl reads .tif .tiff .hgt .asc .png .exr .r16 .raw "
-         "and other GDAL rasters", where, f);
+    fail("pipeline",
+         "{}/filename: {}: unknown raster extension; terracl reads .tif .tiff .hgt .asc .png .exr .r16 .raw "
+         "and other GDAL rasters",
+         where, f);
   const bool quantised = format_from_extension(f) == FileFormat::PNG || format_from_extension(f) == FileFormat::RAW16;
   for (const char* k : {"zmin", "zmax"})
-    if (!o.at(k).is_null() && !quantised) fail("pipeline", "{}/{}: only PNG and RAW16 inputs take a vertical range", where, k);
+    if (!o.at(k).is_null() && !quantised)
+      fail("pipeline", "{}/{}: only PNG and RAW16 inputs take a vertical range", where, k);
   if (std::filesystem::exists(f) && is_gradient_file(f)) return DataKind::Gradient;
   return DataKind::Heightfield;
 }
@@ -56,8 +59,8 @@ DataKind check_write(const json& o, DataKind input, const std::string& where) {
   const FileFormat fmt = format_from_extension(f);
   if (input == DataKind::Gradient && fmt != FileFormat::EXR)
     fail("pipeline", "{}/filename: {}: a gradient is written as .exr (two float channels)", where, f);
-  if (input == DataKind::Heightfield && fmt != FileFormat::GeoTIFF && fmt != FileFormat::EXR && fmt != FileFormat::PNG &&
-      fmt != FileFormat::RAW16)
+  if (input == DataKind::Heightfield && fmt != FileFormat::GeoTIFF && fmt != FileFormat::EXR &&
+      fmt != FileFormat::PNG && fmt != FileFormat::RAW16)
     fail("pipeline", "{}/filename: {}: cannot write a heightfield with this extension; terracl writes {}", where, f,
          kHeightExtensions);
   const bool quantised = fmt == FileFormat::PNG || fmt == FileFormat::RAW16;
@@ -65,7 +68,8 @@ DataKind check_write(const json& o, DataKind input, const std::string& where) {
     if (!o.at(k).is_null() && (!quantised || input != DataKind::Heightfield))
       fail("pipeline", "{}/{}: only PNG16 and RAW16 heightfield outputs take a vertical range", where, k);
   if (!o.at("zmin").is_null() && !o.at("zmax").is_null() && !(o.at("zmax").get<double>() > o.at("zmin").get<double>()))
-    fail("pipeline", "{}/zmax: must be above zmin ({} <= {})", where, o.at("zmax").get<double>(), o.at("zmin").get<double>());
+    fail("pipeline", "{}/zmax: must be above zmin ({} <= {})", where, o.at("zmax").get<double>(),
+         o.at("zmin").get<double>());
   return input;
 }
 
@@ -102,32 +106,44 @@ void run_write(StageContext& c) {
 void register_crop_stage(StageRegistry& r);  // crop_stage.cpp
 
 void register_io_stages(StageRegistry& r) {
-  StageInfo read{"read",
-                 "Read a heightfield (any raster terracl reads) or a gradient field (two-channel .exr); format from the extension.",
-                 DataKind::None,
-                 DataKind::Any,  // what the file holds; check_read tells which
-                 {{"filename", OptionType::Path, nullptr, "", "Input file (.tif .hgt .asc .png .exr .r16 .raw ...)", {}, true},
-                  {"fill_nodata", OptionType::Bool, false, "", "Fill nodata cells by harmonic interpolation after reading"},
-                  {"zmin", OptionType::Float, nullptr, "m", "PNG/RAW16 input: elevation of code 0 (default: from the sidecar)"},
-                  {"zmax", OptionType::Float, nullptr, "m", "PNG/RAW16 input: elevation of the largest code (default: from the sidecar)"},
-                  {"width", OptionType::Int, nullptr, "cells", "RAW16 input: width (default: from the sidecar)"},
-                  {"height", OptionType::Int, nullptr, "cells", "RAW16 input: height (default: from the sidecar)"},
-                  {"cell_size", OptionType::Float, nullptr, "m", "Cell size for inputs without georeferencing"}},
-                 run_read,
-                 false,
-                 check_read};
+  StageInfo read{
+      "read",
+      "Read a heightfield (any raster terracl reads) or a gradient field (two-channel .exr); format from the "
+      "extension.",
+      DataKind::None,
+      DataKind::Any,  // what the file holds; check_read tells which
+      {{"filename", OptionType::Path, nullptr, "", "Input file (.tif .hgt .asc .png .exr .r16 .raw ...)", {}, true},
+       {"fill_nodata", OptionType::Bool, false, "", "Fill nodata cells by harmonic interpolation after reading"},
+       {"zmin", OptionType::Float, nullptr, "m", "PNG/RAW16 input: elevation of code 0 (default: from the sidecar)"},
+       {"zmax", OptionType::Float, nullptr, "m",
+        "PNG/RAW16 input: elevation of the largest code (default: from the sidecar)"},
+       {"width", OptionType::Int, nullptr, "cells", "RAW16 input: width (default: from the sidecar)"},
+       {"height", OptionType::Int, nullptr, "cells", "RAW16 input: height (default: from the sidecar)"},
+       {"cell_size", OptionType::Float, nullptr, "m", "Cell size for inputs without georeferencing"}},
+      run_read,
+      false,
+      check_read};
   r.add(std::move(read));
 
-  StageInfo write{"write",
-                  "Write the current heightfield (.tif .exr .png .r16 .raw) or gradient field (.exr) with provenance; format from the extension.",
-                  DataKind::Any,
-                  DataKind::Any,
-                  {{"filename", OptionType::OutputPath, nullptr, "", "Output file (written atomically; its folder is created)", {}, true},
-                   {"zmin", OptionType::Float, nullptr, "m", "PNG16/RAW16 output: elevation of code 0 (default: data minimum)"},
-                   {"zmax", OptionType::Float, nullptr, "m", "PNG16/RAW16 output: elevation of code 65535 (default: data maximum)"}},
-                  run_write,
-                  false,
-                  check_write};
+  StageInfo write{
+      "write",
+      "Write the current heightfield (.tif .exr .png .r16 .raw) or gradient field (.exr) with provenance; format from "
+      "the extension.",
+      DataKind::Any,
+      DataKind::Any,
+      {{"filename",
+        OptionType::OutputPath,
+        nullptr,
+        "",
+        "Output file (written atomically; its folder is created)",
+        {},
+        true},
+       {"zmin", OptionType::Float, nullptr, "m", "PNG16/RAW16 output: elevation of code 0 (default: data minimum)"},
+       {"zmax", OptionType::Float, nullptr, "m",
+        "PNG16/RAW16 output: elevation of code 65535 (default: data maximum)"}},
+      run_write,
+      false,
+      check_write};
   r.add(std::move(write));
   register_crop_stage(r);
 }

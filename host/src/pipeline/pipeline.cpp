@@ -1,11 +1,6 @@
 // Pipeline parsing, overrides and validation. Everything that can be checked without running is
 // checked here, so that `terracl run --validate` catches a typo before a long run starts; every
 // error names the pipeline file and the JSON path of the value at fault.
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/pipeline.hpp>
-#include <terracl/version.hpp>
-
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -15,6 +10,10 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/version.hpp>
 
 namespace terracl {
 namespace fs = std::filesystem;
@@ -66,17 +65,21 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
   if (doc.is_object()) {
     for (auto& [key, value] : doc.items())
       if (key != "pipeline" && key != "terracl" && key != "description")
-        p.error(fmt::format("/{}: unknown key; a pipeline object has \"pipeline\" (the stages), \"description\" (text) and "
-                            "\"terracl\" (run information)", key));
+        p.error(
+            fmt::format("/{}: unknown key; a pipeline object has \"pipeline\" (the stages), \"description\" (text) and "
+                        "\"terracl\" (run information)",
+                        key));
     if (!doc.contains("pipeline")) p.error("expected a JSON array of stages, or an object with a \"pipeline\" array");
     stages = &doc.at("pipeline");
     prefix = "/pipeline";
   }
   if (!stages->is_array())
-    p.error(fmt::format("{}: expected a JSON array of stages, got {}", prefix.empty() ? "/" : prefix, stages->type_name()));
+    p.error(
+        fmt::format("{}: expected a JSON array of stages, got {}", prefix.empty() ? "/" : prefix, stages->type_name()));
   if (stages->empty())
-    p.error(fmt::format("{}: the pipeline is empty; it needs at least a reader and a writer, e.g. [\"in.tif\", \"out.exr\"]",
-                        prefix.empty() ? "/" : prefix));
+    p.error(fmt::format(
+        "{}: the pipeline is empty; it needs at least a reader and a writer, e.g. [\"in.tif\", \"out.exr\"]",
+        prefix.empty() ? "/" : prefix));
 
   for (size_t i = 0; i < stages->size(); ++i) {
     const json& e = stages->at(i);
@@ -97,7 +100,8 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
       }
     } else if (e.is_object()) {
       if (e.contains("type")) {
-        if (!e.at("type").is_string()) p.error(fmt::format("{}/type: expected a stage name, got {}", st.where, e.at("type").dump()));
+        if (!e.at("type").is_string())
+          p.error(fmt::format("{}/type: expected a stage name, got {}", st.where, e.at("type").dump()));
         st.type = e.at("type").get<std::string>();
         if (!registry.find(st.type))
           p.error(fmt::format("{}/type: unknown stage '{}' (stages: {})", st.where, st.type, stage_names(registry)));
@@ -126,7 +130,8 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
   std::map<std::string, std::string> owner;  // tag -> where
   for (const auto& st : p.m_stages) {
     if (st.tag.empty()) continue;
-    if (owner.count(st.tag)) p.error(fmt::format("{}/tag: tag '{}' is already used by {}", st.where, st.tag, owner[st.tag]));
+    if (owner.count(st.tag))
+      p.error(fmt::format("{}/tag: tag '{}' is already used by {}", st.where, st.tag, owner[st.tag]));
     owner[st.tag] = st.where;
   }
   std::map<std::string, int> untagged, seen;
@@ -136,8 +141,8 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
     if (!st.tag.empty()) continue;
     st.tag = untagged[st.type] > 1 ? fmt::format("{}{}", st.type, ++seen[st.type]) : st.type;
     if (owner.count(st.tag))
-      p.error(fmt::format("{}/tag: tag '{}' is also the automatic tag of the stage at {}; choose another tag", owner[st.tag],
-                          st.tag, st.where));
+      p.error(fmt::format("{}/tag: tag '{}' is also the automatic tag of the stage at {}; choose another tag",
+                          owner[st.tag], st.tag, st.where));
     owner[st.tag] = st.where;
   }
   return p;
@@ -145,7 +150,8 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
 
 Pipeline Pipeline::load(const std::string& path, const StageRegistry& registry) {
   std::ifstream in(path);
-  if (!in || fs::is_directory(path)) throw UsageError("pipeline", fmt::format("{}: cannot read the pipeline file", path));
+  if (!in || fs::is_directory(path))
+    throw UsageError("pipeline", fmt::format("{}: cannot read the pipeline file", path));
   json doc;
   try {
     doc = json::parse(in);
@@ -195,11 +201,11 @@ void Pipeline::set(const std::string& assignment) {
 
 void Pipeline::validate() {
   DataKind current = DataKind::None;
-  std::string producer;  // tag of the stage that produced `current`
-  std::vector<std::string> pending;                    // files written by earlier stages
-  std::map<std::string, DataKind> pending_kind;        // what they hold
-  std::map<std::string, std::string> written_by;       // same_file_key -> where
-  std::map<std::string, std::string> inputs;           // same_file_key -> where (files read)
+  std::string producer;                           // tag of the stage that produced `current`
+  std::vector<std::string> pending;               // files written by earlier stages
+  std::map<std::string, DataKind> pending_kind;   // what they hold
+  std::map<std::string, std::string> written_by;  // same_file_key -> where
+  std::map<std::string, std::string> inputs;      // same_file_key -> where (files read)
 
   for (auto& st : m_stages) {
     const StageInfo& info = *st.info;
@@ -215,10 +221,10 @@ void Pipeline::validate() {
     if (need != DataKind::None) {
       const bool ok = need == DataKind::Any ? current != DataKind::None : current == need;
       if (!ok) {
-        const std::string before =
-            current == DataKind::None
-                ? "nothing comes before it (start with a reader: a file name or {\"type\": \"read\", \"filename\": ...})"
-                : fmt::format("the stage before it ('{}') produces a {}", producer, data_kind_name(current));
+        const std::string before = current == DataKind::None ? "nothing comes before it (start with a reader: a file "
+                                                               "name or {\"type\": \"read\", \"filename\": ...})"
+                                                             : fmt::format("the stage before it ('{}') produces a {}",
+                                                                           producer, data_kind_name(current));
         error(fmt::format("{}: stage '{}' ({}) needs a {} as input, but {}", st.where, st.tag, st.type,
                           data_kind_name(need), before));
       }
@@ -269,7 +275,9 @@ void Pipeline::validate() {
     producer = st.tag;
   }
   if (pending.empty())
-    error("the pipeline writes nothing: add an output file name (e.g. \"out.tif\") or a {\"type\": \"write\", \"filename\": ...} stage");
+    error(
+        "the pipeline writes nothing: add an output file name (e.g. \"out.tif\") or a {\"type\": \"write\", "
+        "\"filename\": ...} stage");
   m_validated = true;
 }
 

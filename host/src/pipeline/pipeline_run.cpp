@@ -1,17 +1,16 @@
 // Running a validated pipeline: one StageData flows through the stages; every stage gets the
 // provenance of the chain that produced its input, so that each output names the terracl version,
 // the pipeline hash and the options of every stage behind it.
-#include <terracl/cl.hpp>
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/pipeline.hpp>
-#include <terracl/version.hpp>
-
 #include <fmt/format.h>
 
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <terracl/cl.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/version.hpp>
 
 namespace terracl {
 namespace fs = std::filesystem;
@@ -31,7 +30,8 @@ std::string Pipeline::resolved_text() const {
     stages.push_back(o);
   }
   nlohmann::ordered_json doc;
-  doc["terracl"] = {{"version", version()}, {"pipeline_hash", p.hash()},
+  doc["terracl"] = {{"version", version()},
+                    {"pipeline_hash", p.hash()},
                     {"note", "fully resolved pipeline; re-run it with `terracl run` to reproduce the outputs"}};
   doc["pipeline"] = stages;
   return doc.dump(2) + "\n";
@@ -87,16 +87,18 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
     } catch (const Cancelled&) {
       throw;
     } catch (const Error& e) {
-      throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}')", std::string(e.what()).substr(e.stage().size() + 2),
-                                         st.where, st.tag));
+      throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}')",
+                                         std::string(e.what()).substr(e.stage().size() + 2), st.where, st.tag));
     } catch (const cl::Error& e) {
       throw Error(st.tag, fmt::format("opencl: {} (pipeline stage {})", describe(e), st.where));
     }
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
     data.current = st.output;
-    if (st.output == DataKind::Heightfield && !data.height) fail(st.tag, "produced no heightfield (pipeline stage {})", st.where);
-    if (st.output == DataKind::Gradient && !data.gradient) fail(st.tag, "produced no gradient (pipeline stage {})", st.where);
+    if (st.output == DataKind::Heightfield && !data.height)
+      fail(st.tag, "produced no heightfield (pipeline stage {})", st.where);
+    if (st.output == DataKind::Gradient && !data.gradient)
+      fail(st.tag, "produced no gradient (pipeline stage {})", st.where);
     if (st.type != "write") {
       json set = json::object();
       for (auto& [k, v] : st.options.items())
