@@ -5,10 +5,12 @@ namespace terracl {
 StageRegistry& StageRegistry::instance() {
   static StageRegistry r = [] {
     StageRegistry reg;
+    register_io_stages(reg);
     register_core_stages(reg);
     register_reconstruct_stages(reg);
     register_edit_stages(reg);
     register_analysis_stages(reg);
+    register_erosion_stages(reg);
     return reg;
   }();
   return r;
@@ -21,6 +23,7 @@ BenchRegistry& BenchRegistry::instance() {
     register_reconstruct_benches(reg);
     register_edit_benches(reg);
     register_analysis_benches(reg);
+    register_erosion_benches(reg);
     return reg;
   }();
   return r;
