@@ -627,10 +627,39 @@ __kernel void galerkin0(__global const float* g, const int W, const int H, const
   if (j >= Hc) return;
   const int Pc = Wc + 2;
   const size_t Nc = (size_t)Pc * (Hc + 2);
+  // The stencil of a window without hard cells or border: the same formula with every state 1.
+  float reg_D, reg_WE, reg_WS, reg_WSE, reg_WSW;
+  {
+#define cell_state(g, x, y, W, H) 1
+    const int bx = 0, by = 0;
+    GALERKIN0_STATES;
+#undef cell_state
+    GALERKIN0_LOADS;
+    reg_D = GALERKIN_D;
+    reg_WE = GALERKIN_WE;
+    reg_WS = GALERKIN_WS;
+    reg_WSE = GALERKIN_WSE;
+    reg_WSW = GALERKIN_WSW;
+  }
   for (int i = 0; i < Wc; ++i) {
     const int bx = 2 * i, by = 2 * j;
     const size_t o = GI(i, j, Pc);
     if (bx >= 2 && by >= 2 && bx + 2 < W && by + 2 < H) {
+      // Most windows (78 % with 1 % hard cells) hold no hard cell: the standard stencil.
+      int any_hard = 0;
+      for (int b = -2; b <= 2; ++b) {
+        __global const float* gr = g + (size_t)(by + b) * W + bx - 2;
+        any_hard |= isnan(gr[0]) | isnan(gr[1]) | isnan(gr[2]) | isnan(gr[3]) | isnan(gr[4]);
+      }
+      if (!any_hard) {
+        stc[o] = reg_D;
+        stc[Nc + o] = reg_WE;
+        stc[2 * Nc + o] = reg_WS;
+        stc[3 * Nc + o] = reg_WSE;
+        stc[4 * Nc + o] = reg_WSW;
+        stc[5 * Nc + o] = 0.0f;
+        continue;
+      }
 #define cell_state cell_state_in
       GALERKIN0_STATES;
 #undef cell_state

@@ -59,3 +59,27 @@ for out, parts in exprs.items():
     for i, p in enumerate(parts):
         print(f"    {'+ ' if i else '  '}{p} \\")
     print("  )")
+
+# Level 0 (5-point, hard cells = NaN in g) straight from a 5x5 window of cell states cs_a_b
+# (0 absent, 1 free, 2 hard): the D A D edge-form stencil, with everything in registers.
+def v(a, b):
+    return name("cs", a, b)
+
+print("#define GALERKIN0_STATES \\")
+for b in range(-2, 3):
+    for a in range(-2, 3):
+        print(f"  const int {v(a, b)} = cell_state(g, bx + ({a}), by + ({b}), W, H); \\")
+print("  (void)0")
+print("#define GALERKIN0_LOADS \\")
+for acc, x, y in sorted(used, key=lambda t: (t[0], t[2], t[1])):
+    if acc == "WE":
+        e = f"({v(x, y)} == 1 && {v(x + 1, y)} == 1) ? wx : 0.0f"
+    elif acc == "WS":
+        e = f"({v(x, y)} == 1 && {v(x, y + 1)} == 1) ? wy : 0.0f"
+    elif acc == "S":
+        e = (f"{v(x, y)} == 1 ? wx * (float)(({v(x - 1, y)} == 2) + ({v(x + 1, y)} == 2)) + "
+             f"wy * (float)(({v(x, y - 1)} == 2) + ({v(x, y + 1)} == 2)) : 0.0f")
+    else:
+        e = "0.0f"
+    print(f"  const float {name(acc, x, y)} = {e}; \\")
+print("  (void)0")

@@ -2,6 +2,8 @@
 // values scattered into the solution buffer), runs the multigrid launcher and reads the result.
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
+
+#include "row_launch.hpp"
 #include <terracl/reconstruct.hpp>
 
 #include "multigrid/multigrid.hpp"
@@ -104,7 +106,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       init.setArg(4, W);
       init.setArg(5, H);
       init.setArg(6, float(m));
-      q.enqueueNDRangeKernel(init, cl::NullRange, cl::NDRange(size_t(H)), cl::NullRange);
+      launch_rows(d, init, size_t(H));
       peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
       q.finish();  // releases the gradient and warm-start buffers before the hierarchy is built
     }
@@ -116,7 +118,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       k.setArg(1, W);
       k.setArg(2, H);
       k.setArg(3, rows);
-      q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(H)), cl::NullRange);
+      launch_rows(d, k, size_t(H));
       std::vector<float> rs(static_cast<size_t>(H));
       q.enqueueReadBuffer(rows, CL_TRUE, 0, rs.size() * sizeof(float), rs.data());
       double s = 0;
@@ -128,7 +130,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
         sh.setArg(1, W);
         sh.setArg(2, H);
         sh.setArg(3, float(mean));
-        q.enqueueNDRangeKernel(sh, cl::NullRange, cl::NDRange(size_t(H)), cl::NullRange);
+        launch_rows(d, sh, size_t(H));
       }
     }
     const double t_setup0 = now_ms() - t0;

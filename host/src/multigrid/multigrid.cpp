@@ -1,6 +1,7 @@
 // Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
 // docs/reconstruct.md for the design choices and measurements.
 #include "multigrid/multigrid.hpp"
+#include "row_launch.hpp"
 
 #include <terracl/error.hpp>
 
@@ -345,9 +346,7 @@ class Solver {
     if (n == 0) return;
     const bool prof = profiling();
     const double t = prof ? now_ms() : 0;
-    static const size_t ls = std::getenv("TERRACL_LS") ? std::atoi(std::getenv("TERRACL_LS")) : 0;
-    if (ls) m_q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(n, ls)), cl::NDRange(ls));
-    else m_q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NullRange);
+    launch_rows(m_d, k, n);
     if (prof) {
       m_q.finish();
       std::string name = k.getInfo<CL_KERNEL_FUNCTION_NAME>();

@@ -1,0 +1,18 @@
+#pragma once
+// One work-item per row launches with a fixed local size: PoCL compiles a kernel once per
+// (kernel, local size), so letting the runtime pick a local size from each grid size would
+// recompile (28-180 ms) for every new grid size. The global size is rounded up; kernels
+// return early for rows past the end.
+#include <terracl/device.hpp>
+
+namespace terracl {
+
+inline size_t row_local_size(Device& d) { return d.info().type == "GPU" ? 64 : 4; }
+
+inline void launch_rows(Device& d, cl::Kernel& k, size_t rows) {
+  if (rows == 0) return;
+  const size_t ls = row_local_size(d);
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(rows, ls)), cl::NDRange(ls));
+}
+
+}  // namespace terracl
