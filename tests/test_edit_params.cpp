@@ -129,3 +129,21 @@ TEST(EditParams, CliRunsAScriptWithPreviewAndGradientImage) {
   const GradientField g = read_gradient_image(tmp.path("g.png"));
   EXPECT_EQ(g.width, 32);
 }
+
+TEST(EditParams, PipelineRunsTheEditStage) {
+  test::TempDir tmp;
+  write_text_file_atomic(tmp.path("s.json"),
+                         R"({"units": "cells", "operations": [{"op": "mesa", "center": [20, 20], "radius": 6, "elevation": 900, "height": 200}]})");
+  const json pipeline = json::array({test::data_path("crops/frontrange_64.asc"), json{{"type", "edit"}, {"script", tmp.path("s.json")}},
+                                     tmp.path("out.tif")});
+  write_text_file_atomic(tmp.path("p.json"), pipeline.dump());
+  const auto r = test::run_cli(fmt::format("-q run {}", tmp.path("p.json")));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield h = read_heightfield(tmp.path("out.tif"));
+  EXPECT_EQ(h.at(20, 20), 900.0f);
+  const json bad = json::array({test::data_path("crops/frontrange_64.asc"), json{{"type", "edit"}}, tmp.path("o2.tif")});
+  write_text_file_atomic(tmp.path("bad.json"), bad.dump());
+  const auto b = test::run_cli(fmt::format("-q run {}", tmp.path("bad.json")));
+  EXPECT_NE(b.exit_code, 0);
+  EXPECT_NE(b.out.find("script"), std::string::npos) << b.out;
+}
