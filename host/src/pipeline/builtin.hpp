@@ -6,4 +6,6 @@
 namespace terracl {
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
+void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp
+void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_stage.cpp
 }  // namespace terracl

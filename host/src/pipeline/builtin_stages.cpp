@@ -6,6 +6,7 @@ StageRegistry& StageRegistry::instance() {
   static StageRegistry r = [] {
     StageRegistry reg;
     register_core_stages(reg);
+    register_amplify_stages(reg);
     return reg;
   }();
   return r;
@@ -15,6 +16,7 @@ BenchRegistry& BenchRegistry::instance() {
   static BenchRegistry r = [] {
     BenchRegistry reg;
     register_core_benches(reg);
+    register_amplify_benches(reg);
     return reg;
   }();
   return r;
