@@ -54,7 +54,7 @@ Heightfield crop(const Heightfield& h, int x0, int y0, int w, int ht) {
 }
 
 void print_row(const std::string& name, int f, const std::string& method, const AmplifyMetrics& m, double secs) {
-  fmt::print("| {:<26} | x{:<3} | {:<22} | {:8.2f} | {:6.2f} | {:5.2f} | {:5.2f} | {:5.2f} | {:7.3f} | {:6.2f} |\n",
+  fmt::print("| {:<26} | x{:<3} | {:<22} | {:8.2f} | {:6.2f} | {:5.3f} | {:5.3f} | {:5.3f} | {:7.3f} | {:6.2f} |\n",
              name, f, method, m.rmse, m.psnr, m.hf_ratio, m.roughness_ratio, m.slope_ratio, m.lr_consistency, secs);
 }
 

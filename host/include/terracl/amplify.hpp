@@ -93,6 +93,9 @@ struct Dictionary {
   double cell_x = 0, cell_y = 0;  ///< cell size (m) of the exemplar H was taken from
   MatrixF high;          ///< P^2 x N
   MatrixF low;           ///< (P/f)^2 x N, unit-norm columns, masked to the low-resolution disc
+  /// Gain applied to the synthesized detail (output minus bicubic of the input), calibrated on the
+  /// exemplar: blending overlapping patches averages uncorrelated detail away.
+  float detail_gain = 1.0f;
   std::string description;
   int atoms() const { return int(high.cols()); }
   int low_patch() const { return patch / factor; }
@@ -117,6 +120,10 @@ struct LearnOptions {
   int max_patches = 60000;    ///< random subset of training patches (0 = all)
   unsigned seed = 1;
   int threads = 0;
+  /// Calibrate the detail gain by a split-exemplar test (learn on one half, amplify the other's
+  /// block means, compare roughness) at this output patch spacing.
+  bool calibrate = true;
+  int calibration_spacing = 8;
 };
 /// Builds a multi-resolution dictionary (H, L) from exemplars at the high resolution.
 /// Throws when an exemplar is smaller than a patch or P is not a multiple of f.
@@ -171,6 +178,7 @@ struct AmplifyOptions {
   int checks = 512;
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;
+  float detail_gain = -1;  ///< < 0: the dictionary's calibrated gain
   int threads = 0;
 };
 
@@ -182,6 +190,13 @@ Heightfield amplify(const Heightfield& low, const Dictionary& dict, const Amplif
 /// (block means when the exemplar is finer), then amplifies. Throws on mismatched cell sizes.
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
                                    const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress = {});
+/// Detail gain that makes the roughness of an amplified half of `exemplar` match the truth:
+/// learns on one half, amplifies the block means of the other (clamped to [0.5, 2]; 1 when the
+/// exemplar is too small to split).
+double calibrate_detail_gain(const Heightfield& exemplar, const LearnOptions& o);
+/// z minus its (f+1) x (f+1) box mean (relief finer than one input cell), and its RMS.
+std::vector<double> highpass(const Heightfield& h, int f);
+double roughness(const Heightfield& h, int f);
 /// Spatialised style: amplifies with each dictionary and blends by `mask` (values in [0, 1] at the
 /// input resolution, 1 selects dicts[1]), smoothed over `blend_cells` input cells.
 Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dictionary*>& dicts, const Heightfield& mask,
@@ -191,6 +206,8 @@ Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dicti
 Heightfield block_mean(const Heightfield& h, int f);
 /// Bicubic (Catmull-Rom) upsampling by f with cell-centre alignment (the baseline).
 Heightfield bicubic_upsample(const Heightfield& h, int f);
+/// out += scale * bicubic_upsample(low, f), without a full-size temporary.
+void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale);
 /// Makes every f x f block mean of `high` equal the corresponding cell of `low`: a few smooth
 /// (bicubic back-projection) passes, then an exact constant shift per block.
 void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4);

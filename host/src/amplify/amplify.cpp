@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -125,6 +126,12 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         }
       report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
     }
+  const float gain = o.detail_gain < 0 ? d.detail_gain : o.detail_gain;
+  if (gain != 1.f) {
+    // out = bicubic + gain (out - bicubic)
+    for (auto& v : out.z) v *= gain;
+    add_bicubic(out, low, f, 1.f - gain);
+  }
   if (o.bias_correction) correct_block_means(out, low, f);
   return out;
 }
@@ -182,6 +189,48 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     cur = amplify_step(cur, *dict, o, index.get(), scaled_progress(pk, 0.5, 1));
   }
   return cur;
+}
+
+double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
+  const int f = o.factor;
+  // Split along the longer axis; each half must hold several patches.
+  const bool wide = ex.width >= ex.height;
+  const int half = (wide ? ex.width : ex.height) / 2;
+  const int other = wide ? ex.height : ex.width;
+  if (half < 4 * o.patch || other < 4 * o.patch) return 1.0;
+  auto crop = [&](int x0, int y0, int w, int h) {
+    Heightfield c(w, h);
+    c.georef = ex.georef;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) c.at(x, y) = ex.at(x0 + x, y0 + y);
+    return c;
+  };
+  const int bw = (wide ? half : ex.width) / f * f, bh = (wide ? ex.height : half) / f * f;
+  const Heightfield a = wide ? crop(0, 0, half, ex.height) : crop(0, 0, ex.width, half);
+  const Heightfield b = wide ? crop(ex.width - bw, 0, bw, bh) : crop(0, ex.height - bh, bw, bh);
+  const Dictionary d = learn_dictionary({a}, o);
+  const Heightfield low = block_mean(b, f);
+  AmplifyOptions ao;
+  ao.factor = f;
+  ao.spacing = o.calibration_spacing;
+  ao.sparsity = o.sparsity;
+  ao.detail_gain = 1;
+  ao.bias_correction = false;
+  ao.threads = o.threads;
+  const Heightfield out = amplify(low, d, ao);
+  // The roughness high-pass is linear: hp(bicubic + g detail) = hp(bicubic) + g hp(detail); solve
+  // |hp(bicubic) + g hp(detail)| = |hp(truth)| for g.
+  const Heightfield bic = bicubic_upsample(low, f);
+  const auto hb = highpass(bic, f), ho = highpass(out, f), ht = highpass(b, f);
+  double aa = 0, ab = 0, bb = 0, tt = 0;
+  for (size_t i = 0; i < hb.size(); ++i) {
+    const double det = ho[i] - hb[i];
+    aa += hb[i] * hb[i], ab += hb[i] * det, bb += det * det, tt += ht[i] * ht[i];
+  }
+  if (!(bb > 0)) return 1.0;
+  const double disc = ab * ab - bb * (aa - tt);
+  const double g = disc > 0 ? (-ab + std::sqrt(disc)) / bb : 1.0;
+  return std::clamp(g, 0.5, 2.0);
 }
 
 Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dictionary*>& dicts, const Heightfield& mask,

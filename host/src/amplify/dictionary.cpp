@@ -90,6 +90,7 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   put<int32_t>(out, d.constrained ? 1 : 0);
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
+  put<float>(out, d.detail_gain);
   put<uint32_t>(out, uint32_t(d.description.size()));
   out += d.description;
   for (Eigen::Index i = 0; i < d.high.size(); ++i) put<float>(out, d.high.data()[i]);
@@ -120,8 +121,10 @@ Dictionary load_dictionary(const std::string& path) {
   d.constrained = (r.get<int32_t>("flags") & 1) != 0;
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
+  d.detail_gain = r.get<float>("detail gain");
   if (d.patch < 2 || d.patch > 256 || d.factor < 1 || d.factor > 16 || d.patch % d.factor != 0 || atoms < 1 ||
-      atoms > 50'000'000 || d.sparsity < 1 || !(d.cell_x >= 0) || !(d.cell_y >= 0))
+      atoms > 50'000'000 || d.sparsity < 1 || !(d.cell_x >= 0) || !(d.cell_y >= 0) ||
+      !(d.detail_gain > 0 && d.detail_gain < 100))
     fail("dictionary", "{}: corrupt header (patch {}, factor {}, atoms {}, sparsity {})", path, d.patch, d.factor, atoms,
          d.sparsity);
   const uint32_t dlen = r.get<uint32_t>("description length");
@@ -245,6 +248,13 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   for (size_t i = 0; i < good.size(); ++i) {
     d.high.col(Eigen::Index(i)) = H.col(good[i]);
     d.low.col(Eigen::Index(i)) = L.col(good[i]);
+  }
+  if (o.calibrate && f > 1) {
+    report_progress(progress, "dictionary", 0.95, "calibrating the detail gain");
+    LearnOptions c = o;
+    c.calibrate = false;
+    c.max_patches = o.max_patches / 2;
+    d.detail_gain = float(calibrate_detail_gain(exemplars[0], c));
   }
   report_progress(progress, "dictionary", 1.0, fmt::format("{} atoms", d.atoms()));
   return d;

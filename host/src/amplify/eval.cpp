@@ -55,26 +55,35 @@ double energy_above(const Heightfield& h, int f) {
   return e;
 }
 
-// RMS of z minus its (f+1) x (f+1) box mean: relief at scales finer than one input cell.
-double roughness(const Heightfield& h, int f) {
+double rmse(const std::vector<float>& a, const std::vector<float>& b);
+
+}  // namespace
+
+std::vector<double> highpass(const Heightfield& h, int f) {
   const int r = (f + 1) / 2;
-  std::vector<double> t(h.z.size());
+  std::vector<double> t(h.z.size()), out(h.z.size());
   for (int y = 0; y < h.height; ++y)
     for (int x = 0; x < h.width; ++x) {
       double s = 0;
       for (int u = -r; u <= r; ++u) s += h.at(clampi(x + u, h.width), y);
       t[size_t(y) * h.width + x] = s / (2 * r + 1);
     }
-  double acc = 0;
   for (int y = 0; y < h.height; ++y)
     for (int x = 0; x < h.width; ++x) {
       double s = 0;
       for (int v = -r; v <= r; ++v) s += t[size_t(clampi(y + v, h.height)) * h.width + x];
-      const double d = h.at(x, y) - s / (2 * r + 1);
-      acc += d * d;
+      out[size_t(y) * h.width + x] = h.at(x, y) - s / (2 * r + 1);
     }
-  return std::sqrt(acc / double(h.z.size()));
+  return out;
 }
+
+double roughness(const Heightfield& h, int f) {
+  double acc = 0;
+  for (double d : highpass(h, f)) acc += d * d;
+  return std::sqrt(acc / double(std::max<size_t>(1, h.z.size())));
+}
+
+namespace {
 
 double rmse(const std::vector<float>& a, const std::vector<float>& b) {
   double acc = 0;

@@ -38,7 +38,7 @@ CubicTable cubic_table(int f) {
 inline int clampi(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
 
 // out(X, Y) (+)= bicubic(low)(X, Y) for every output cell, row by row (no full-size temporary).
-void bicubic_into(const Heightfield& low, int f, Heightfield& out, bool add) {
+void bicubic_into(const Heightfield& low, int f, Heightfield& out, bool add, float scale = 1.f) {
   const CubicTable t = cubic_table(f);
   const int w = low.width, h = low.height, W = out.width;
   parallel_for(size_t(out.height), 0, [&](size_t y0, size_t y1) {
@@ -55,7 +55,7 @@ void bicubic_into(const Heightfield& low, int f, Heightfield& out, bool add) {
         const int px = X % f, bx = X / f + t.base[px];
         float s = 0;
         for (int j = 0; j < 4; ++j) s += t.w[px][j] * row[size_t(clampi(bx + j, w))];
-        o[X] = add ? o[X] + s : s;
+        o[X] = add ? o[X] + scale * s : scale * s;
       }
     }
   });
@@ -92,6 +92,8 @@ Heightfield bicubic_upsample(const Heightfield& h, int f) {
   bicubic_into(h, f, out, false);
   return out;
 }
+
+void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale) { bicubic_into(low, f, out, true, scale); }
 
 void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes) {
   if (high.width != low.width * f || high.height != low.height * f)
