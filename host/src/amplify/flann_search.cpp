@@ -54,8 +54,10 @@ AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks)
       m_impl->points[j * K + k] = D(Eigen::Index(k), Eigen::Index(j));
       m_impl->points[(N + j) * K + k] = -D(Eigen::Index(k), Eigen::Index(j));
     }
+  // Unlimited checks visit every leaf: one tree is then exact and FLANN warns about more.
+  if (checks < 0) m_trees = 1;
   flann::Matrix<float> data(m_impl->points.data(), 2 * N, K);
-  m_impl->index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeIndexParams(trees));
+  m_impl->index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeIndexParams(m_trees));
   m_impl->index->buildIndex();
 }
 

@@ -54,7 +54,7 @@ SparseCodes batch_omp(const MatrixF& D, const MatrixF& X, int sparsity, int thre
             const float a = std::fabs(alpha[j]);
             if (a > best && std::find(I.begin(), I.end(), j) == I.end()) best = a, kk = j;
           }
-          if (kk < 0 || best <= 1e-7f * std::sqrt(float(energy))) break;
+          if (kk < 0 || best <= 1e-5f * std::sqrt(float(energy))) break;
           if (full_gram) Gcols.col(k) = G.col(kk);
           else Gcols.col(k).noalias() = D.transpose() * D.col(kk);
           if (k == 0) {
@@ -79,7 +79,7 @@ SparseCodes batch_omp(const MatrixF& D, const MatrixF& X, int sparsity, int thre
             codes.coef[(c0 + c) * sparsity + i] = float(gamma[i]);
           }
           // Residual energy |x|^2 - alpha0_I . gamma: stop once the signal is represented exactly.
-          if (energy - rhs.dot(gamma) <= 1e-10 * energy) break;
+          if (energy - rhs.dot(gamma) <= 1e-6 * energy) break;
           alpha = alpha0 - Gcols.leftCols(a) * gamma.cast<float>();
         }
       }
