@@ -39,6 +39,8 @@ struct EvalArgs {
   LearnOptions learn;
   AmplifyOptions amp;
   bool header = false;
+  int recall_samples = 0;
+  std::vector<int> recall_checks{16, 32, 128, 512};
 };
 
 Heightfield crop(const Heightfield& h, int x0, int y0, int w, int ht) {
@@ -126,6 +128,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--checks", va->amp.checks, "FLANN checks")->capture_default_str();
   ev->add_option("--trees", va->amp.trees, "FLANN trees")->capture_default_str();
   ev->add_flag("--header", va->header, "Print the table header first");
+  ev->add_option("--recall", va->recall_samples, "Also measure FLANN recall against exact search on this many queries");
+  ev->add_option("--recall-checks", va->recall_checks, "FLANN checks values for --recall")->capture_default_str();
   ev->callback([va] {
     const Heightfield h = read_heightfield(va->input, filled());
     const int f = va->factor, half = h.width / 2;
@@ -154,6 +158,20 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     o.bias_correction = false;
     const Heightfield raw = amplify_from_exemplars(low, {west}, va->learn, o);
     print_row(name, f, label + " no-corr", evaluate_amplification(raw, truth, low, f), 0);
+    if (va->recall_samples > 0) {
+      // The first step's dictionary and queries: the input's low-resolution disc patches.
+      LearnOptions l = va->learn;
+      l.calibrate = false;
+      const Heightfield ex = block_mean(west, f / 4);
+      const Dictionary d = learn_dictionary({ex}, l);
+      const MatrixF q = extract_patches(block_mean(truth, f), d.low_patch(), 1);
+      for (int checks : va->recall_checks) {
+        const RecallReport r = measure_recall(d.low, q, o.trees, checks, va->recall_samples);
+        fmt::print("# {} x{}: FLANN {} trees, checks {:4}: recall {:5.1f} % over {} queries, {:.3f} ms/query "
+                   "(exact scan of {} atoms: {:.3f} ms/query)\n", name, f, o.trees, checks, 100 * r.recall, r.samples,
+                   r.ms_per_query_flann, d.atoms(), r.ms_per_query_exact);
+      }
+    }
   });
 });
 

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sys/resource.h>
 #include <filesystem>
 #include <sstream>
 
@@ -97,7 +98,7 @@ void register_amplify_stages(StageRegistry& r) {
              {"sparsity", OptionType::Int, 1, "", "Atoms per patch", {}},
              {"search", OptionType::Enum, "auto", "", "Atom search for sparsity 1", {"auto", "flann", "exact", "omp"}},
              {"trees", OptionType::Int, 4, "", "FLANN kd-trees", {}},
-             {"checks", OptionType::Int, 512, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
+             {"checks", OptionType::Int, 16, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
              {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
@@ -118,6 +119,8 @@ void register_amplify_benches(BenchRegistry& r) {
            LearnOptions l;
            l.method = a.extra.value("method", std::string("complete"));
            l.atoms = a.extra.value("atoms", 1024);
+           l.iterations = a.extra.value("iterations", l.iterations);
+           l.max_patches = a.extra.value("max_patches", l.max_patches);
            using clock = std::chrono::steady_clock;
            auto t0 = clock::now();
            const Dictionary d = learn_dictionary({full}, l);
@@ -132,7 +135,8 @@ void register_amplify_benches(BenchRegistry& r) {
            AmplifyOptions o;
            o.factor = factor;
            o.search = a.extra.value("search", std::string("auto"));
-           o.checks = a.extra.value("checks", 512);
+           o.checks = a.extra.value("checks", 16);
+           o.trees = a.extra.value("trees", 4);
            std::vector<double> times;
            Heightfield out;
            for (int k = 0; k < a.repeats; ++k) {
@@ -143,8 +147,11 @@ void register_amplify_benches(BenchRegistry& r) {
            std::sort(times.begin(), times.end());
            fmt::print("amplify: {}x{} -> {}x{} (x{}), dictionary {} atoms ({}, learned in {:.2f} s)\n", in.width, in.height,
                       out.width, out.height, factor, d.atoms(), l.method, learn_s);
-           fmt::print("amplify: median {:.3f} s, min {:.3f} s over {} runs\n", times[times.size() / 2], times.front(),
-                      times.size());
+           rusage ru{};
+           getrusage(RUSAGE_SELF, &ru);
+           fmt::print("amplify: median {:.3f} s, min {:.3f} s over {} runs (search {}, trees {}, checks {}); peak RSS {:.0f} MiB, "
+                      "output {:.0f} MiB\n", times[times.size() / 2], times.front(), times.size(), o.search, o.trees, o.checks,
+                      ru.ru_maxrss / 1024.0, out.size() * 4.0 / (1 << 20));
          }});
 }
 
