@@ -33,6 +33,12 @@ struct EncodeArgs {
   std::vector<int> sparsity{1, 2, 8};
 };
 
+struct SketchArgs {
+  std::string input, output, dictionary;
+  double zmin = 0, zmax = 1000, cell = 100, smooth = 2;
+  AmplifyOptions amp;
+};
+
 struct EvalArgs {
   std::string input;
   int factor = 4;
@@ -108,6 +114,36 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       const EncodeReport r = encode_report(h, s, ea->atoms, ea->patch, ea->iterations);
       fmt::print("| {:8} | {:5.1f} % | {:9.2f} | {:8.2f} |\n", s, 100 * r.rho, r.psnr, r.rmse);
     }
+  });
+
+  auto sa = std::make_shared<SketchArgs>();
+  sa->amp.factor = 16;
+  auto* sk = dict->add_subcommand("sketch", "Synthesize a terrain from a coarse painted sketch (grey PNG) with a dictionary");
+  sk->add_option("input", sa->input, "Sketch image (8/16-bit grey PNG or any raster)")->required();
+  sk->add_option("-o,--output", sa->output, "Output heightfield")->required();
+  sk->add_option("--dictionary", sa->dictionary, "Dictionary (.tdic)")->required();
+  sk->add_option("--zmin", sa->zmin, "Elevation of black (m)")->capture_default_str();
+  sk->add_option("--zmax", sa->zmax, "Elevation of white (m)")->capture_default_str();
+  sk->add_option("--cell", sa->cell, "Sketch cell size (m)")->capture_default_str();
+  sk->add_option("--smooth", sa->smooth, "Tent filter width applied to the sketch (cells)")->capture_default_str();
+  sk->add_option("--factor", sa->amp.factor, "Amplification factor (4, 16, 64, 256)")->capture_default_str();
+  sk->callback([sa] {
+    ReadOptions r;
+    r.zmin = sa->zmin;
+    r.zmax = sa->zmax;
+    r.cell_size = sa->cell;
+    Heightfield s = read_heightfield(sa->input, r);
+    if (!s.georef.has_geotransform) {
+      // A local metric grid, so that GeoTIFF/ASCII outputs keep the cell size.
+      s.georef.geotransform = {0.0, sa->cell, 0.0, 0.0, 0.0, -sa->cell};
+      s.georef.has_geotransform = true;
+      s.georef.cell_x = s.georef.cell_y = sa->cell;
+    }
+    const Dictionary d = load_dictionary(sa->dictionary);
+    Heightfield out = synthesize_from_sketch(s, d, sa->smooth, sa->amp, make_progress("sketch"));
+    finish_progress();
+    for (const auto& [k, v] : provenance()) out.metadata[k] = v;
+    write_heightfield(out, sa->output);
   });
 
   auto va = std::make_shared<EvalArgs>();

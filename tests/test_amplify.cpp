@@ -50,10 +50,10 @@ Heightfield crop_of(const Heightfield& h, int x0, int y0, int w, int ht) {
   return c;
 }
 
-Heightfield rough_terrain(int w, int h, double cell, unsigned seed) {
+Heightfield rough_terrain(int w, int h, double cell, unsigned seed, float noise = 6.f) {
   Heightfield t = test::smooth_terrain(w, h, cell, 40.0, seed);
   std::mt19937 rng(seed);
-  std::normal_distribution<float> g(0.f, 6.f);
+  std::normal_distribution<float> g(0.f, noise);
   for (auto& v : t.z) v += g(rng);
   return t;
 }
@@ -332,4 +332,26 @@ TEST(AmplifyEncode, HigherSparsityGivesHigherPsnr) {
   EXPECT_GT(a.psnr, 20.0);
   EXPECT_GT(b.rho, a.rho);
   EXPECT_NEAR(a.rho, (64.0 * 32 + a.patches * 4 + 1) / h.size(), 1e-12);
+}
+
+TEST(AmplifyStyles, MaskSelectsTheDictionaryAndBlendsSmoothly) {
+  const Dictionary gentle = learn_dictionary({rough_terrain(64, 64, 5.0, 1, 0.5f)}, small_learn());
+  const Dictionary rugged = learn_dictionary({rough_terrain(64, 64, 5.0, 2, 12.f)}, small_learn());
+  const Heightfield low = block_mean(rough_terrain(128, 64, 5.0, 3, 3.f), 4);
+  Heightfield mask(low.width, low.height, 0.f);
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = mask.width / 2; x < mask.width; ++x) mask.at(x, y) = 1.f;
+  AmplifyOptions o;
+  const Heightfield out = amplify_styles(low, {&gentle, &rugged}, mask, 4.0, o);
+  auto half_roughness = [&](int x0, int x1) {
+    Heightfield c(x1 - x0, out.height);
+    for (int y = 0; y < out.height; ++y)
+      for (int x = x0; x < x1; ++x) c.at(x - x0, y) = out.at(x, y);
+    return roughness(c, 4);
+  };
+  EXPECT_GT(half_roughness(80, 128), 2.0 * half_roughness(0, 48));
+  const Heightfield m = block_mean(out, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-2f);
+  Heightfield wrong(3, 3);
+  EXPECT_THROW(amplify_styles(low, {&gentle, &rugged}, wrong, 4.0, o), Error);
 }

@@ -67,3 +67,24 @@ TEST(AmplifyCli, EncodeReportsRhoAndPsnr) {
   EXPECT_NE(r.out.find("| sparsity | rho"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("|        2 |"), std::string::npos) << r.out;
 }
+
+TEST(AmplifyCli, SketchSynthesis) {
+  test::TempDir tmp;
+  Heightfield sketch(24, 20, 0.f);
+  for (int y = 6; y < 14; ++y)
+    for (int x = 6; x < 18; ++x) sketch.at(x, y) = 1000.f;  // a painted plateau
+  write_heightfield(sketch, tmp.path("sketch.png"));
+  const auto learn = test::run_cli("dictionary learn " + test::data_path("crops/presidential_128x96.tif") + " -o " +
+                                   tmp.path("d.tdic") + " --method complete");
+  ASSERT_EQ(learn.exit_code, 0) << learn.out;
+  const auto r = test::run_cli("dictionary sketch " + tmp.path("sketch.png") + " -o " + tmp.path("out.tif") + " --dictionary " +
+                               tmp.path("d.tdic") + " --zmin 0 --zmax 1000 --cell 200 --factor 4");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield out = read_heightfield(tmp.path("out.tif"));
+  EXPECT_EQ(out.width, 96);
+  EXPECT_EQ(out.height, 80);
+  EXPECT_NEAR(out.georef.cell_x, 50.0, 1e-6);
+  EXPECT_EQ(out.count_nodata(), 0u);
+  EXPECT_GT(out.at(48, 40), 800.f);  // plateau centre stays high
+  EXPECT_LT(out.at(4, 4), 200.f);    // the plain stays low
+}

@@ -202,6 +202,13 @@ double roughness(const Heightfield& h, int f);
 Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dictionary*>& dicts, const Heightfield& mask,
                            double blend_cells, const AmplifyOptions& o, const Progress& progress = {});
 
+/// Terrain synthesis from a coarse painted sketch (elevations already in metres): the sketch is
+/// smoothed by a tent filter `smooth_cells` wide, then amplified.
+Heightfield synthesize_from_sketch(const Heightfield& sketch, const Dictionary& d, double smooth_cells,
+                                   const AmplifyOptions& o, const Progress& progress = {});
+/// In-place tent filter (two separable box passes of radius r, clamped borders).
+void smooth_tent(Heightfield& h, int r);
+
 /// f x f block means (the input is cropped to a multiple of f). Georef resampled by 1/f.
 Heightfield block_mean(const Heightfield& h, int f);
 /// Bicubic (Catmull-Rom) upsampling by f with cell-centre alignment (the baseline).

@@ -233,18 +233,7 @@ double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
   return std::clamp(g, 0.5, 2.0);
 }
 
-Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dictionary*>& dicts, const Heightfield& mask,
-                           double blend_cells, const AmplifyOptions& o, const Progress& progress) {
-  if (dicts.size() != 2) fail("amplify", "style blending takes exactly two dictionaries (got {})", dicts.size());
-  if (mask.width != low.width || mask.height != low.height)
-    fail("amplify", "style mask is {}x{} but the input is {}x{}", mask.width, mask.height, low.width, low.height);
-  require_finite(mask, "amplify", "style mask");
-  const Heightfield a = amplify(low, *dicts[0], o, scaled_progress(progress, 0, 0.45));
-  const Heightfield b = amplify(low, *dicts[1], o, scaled_progress(progress, 0.45, 0.9));
-  // Smooth the mask (separable box, applied twice ~ a tent) so styles blend across its edge.
-  Heightfield m = mask;
-  for (auto& v : m.z) v = std::clamp(v, 0.f, 1.f);
-  const int r = std::max(0, int(std::lround(blend_cells / 2)));
+void smooth_tent(Heightfield& m, int r) {
   for (int pass = 0; pass < 2 && r > 0; ++pass) {
     Heightfield t = m;
     for (int y = 0; y < m.height; ++y)
@@ -260,6 +249,30 @@ Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dicti
         m.at(x, y) = float(s / (2 * r + 1));
       }
   }
+}
+
+Heightfield synthesize_from_sketch(const Heightfield& sketch, const Dictionary& d, double smooth_cells,
+                                   const AmplifyOptions& o, const Progress& progress) {
+  require_finite(sketch, "sketch", "sketch");
+  // Painted sketches are piecewise flat with hard edges; a tent filter turns the edges into slopes
+  // the low-resolution atoms can match (flat areas match no atom and stay flat).
+  Heightfield s = sketch;
+  smooth_tent(s, std::max(0, int(std::lround(smooth_cells / 2))));
+  return amplify(s, d, o, progress);
+}
+
+Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dictionary*>& dicts, const Heightfield& mask,
+                           double blend_cells, const AmplifyOptions& o, const Progress& progress) {
+  if (dicts.size() != 2) fail("amplify", "style blending takes exactly two dictionaries (got {})", dicts.size());
+  if (mask.width != low.width || mask.height != low.height)
+    fail("amplify", "style mask is {}x{} but the input is {}x{}", mask.width, mask.height, low.width, low.height);
+  require_finite(mask, "amplify", "style mask");
+  const Heightfield a = amplify(low, *dicts[0], o, scaled_progress(progress, 0, 0.45));
+  const Heightfield b = amplify(low, *dicts[1], o, scaled_progress(progress, 0.45, 0.9));
+  // Smooth the mask (a tent) so styles blend across its edge.
+  Heightfield m = mask;
+  for (auto& v : m.z) v = std::clamp(v, 0.f, 1.f);
+  smooth_tent(m, std::max(0, int(std::lround(blend_cells / 2))));
   const Heightfield mh = bicubic_upsample(m, o.factor);
   Heightfield out = a;
   for (size_t i = 0; i < out.z.size(); ++i) {
