@@ -46,7 +46,7 @@ struct EvalArgs {
   AmplifyOptions amp;
   bool header = false;
   int recall_samples = 0;
-  std::vector<int> recall_checks{16, 32, 128, 512};
+  std::vector<int> recall_checks{8, 32, 128, 512};
 };
 
 Heightfield crop(const Heightfield& h, int x0, int y0, int w, int ht) {

@@ -174,8 +174,8 @@ struct AmplifyOptions {
   int spacing = 8;         ///< spacing of output patches (high-resolution cells, multiple of 4)
   int sparsity = 1;
   std::string search = "auto";  ///< auto | flann | exact | omp (auto: flann for s=1 and > 4096 atoms)
-  int trees = 4;
-  int checks = 16;
+  int trees = 2;
+  int checks = 8;
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;
   float detail_gain = -1;  ///< < 0: the dictionary's calibrated gain

@@ -42,6 +42,7 @@ AmplifyOptions amplify_options(const StageContext& c) {
   o.checks = c.get<int>("checks");
   o.tile = c.get<int>("tile");
   o.bias_correction = c.get<bool>("bias_correction");
+  o.detail_gain = float(c.get<double>("detail_gain"));
   return o;
 }
 
@@ -97,9 +98,10 @@ void register_amplify_stages(StageRegistry& r) {
              {"spacing", OptionType::Int, 8, "cells", "Spacing of output patches (multiple of 4, <= patch)", {}},
              {"sparsity", OptionType::Int, 1, "", "Atoms per patch", {}},
              {"search", OptionType::Enum, "auto", "", "Atom search for sparsity 1", {"auto", "flann", "exact", "omp"}},
-             {"trees", OptionType::Int, 4, "", "FLANN kd-trees", {}},
-             {"checks", OptionType::Int, 16, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
+             {"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}},
+             {"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
              {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
+             {"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}},
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
              {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
@@ -135,8 +137,8 @@ void register_amplify_benches(BenchRegistry& r) {
            AmplifyOptions o;
            o.factor = factor;
            o.search = a.extra.value("search", std::string("auto"));
-           o.checks = a.extra.value("checks", 16);
-           o.trees = a.extra.value("trees", 4);
+           o.checks = a.extra.value("checks", 8);
+           o.trees = a.extra.value("trees", 2);
            std::vector<double> times;
            Heightfield out;
            for (int k = 0; k < a.repeats; ++k) {
