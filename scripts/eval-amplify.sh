@@ -22,6 +22,10 @@ for dem in data/dem/*.hgt data/dem/*.asc; do
 done
 if [[ $BENCH == 1 ]]; then
   echo
+  # complete dictionary (every exemplar patch, FLANN) and a learned one (256 constrained atoms, exact scan)
+  learned=(--set method=constrained --set atoms=256 --set max_patches=20000)
   $T bench amplify --size 1201 --repeats 3 --set factor=4
+  $T bench amplify --size 1201 --repeats 3 --set factor=4 "${learned[@]}"
   $T bench amplify --size 32 --repeats 3 --set factor=256
+  $T bench amplify --size 32 --repeats 3 --set factor=256 "${learned[@]}"
 fi
