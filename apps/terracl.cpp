@@ -46,7 +46,18 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("terracl ") + terracl::version());
   app.require_subcommand(1);
   app.fallthrough();
-  app.add_option("--device", g.device, "OpenCL device: index or name substring (see `terracl devices`)");
+  app.add_option("--device", g.device, "OpenCL device: index or name substring (see `terracl devices`)")
+      ->check(CLI::Validator(
+          [](std::string& spec) -> std::string {
+            // Checked up front so that every command, not only those that open the device, refuses it.
+            try {
+              (void)Device::open(spec);
+            } catch (const std::exception& e) {
+              return e.what();
+            }
+            return {};
+          },
+          "DEVICE"));
   app.add_flag("-q,--quiet", g.quiet, "Print no progress");
   app.add_flag("-v,--verbose", g.verbose, "Name the device and print more detail");
   app.add_option("--progress", g.progress, "Progress display")->check(CLI::IsMember({"auto", "bar", "json", "none"}));

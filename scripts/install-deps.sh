@@ -11,6 +11,7 @@ PACKAGES=(
   libflann-dev liblz4-dev
   libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libbenchmark-dev
+  libtinygltf-dev
 )
 
 missing=()

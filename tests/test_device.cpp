@@ -4,6 +4,8 @@
 #include <terracl/error.hpp>
 
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 
 using namespace terracl;
 
@@ -63,6 +65,21 @@ TEST(Device, BuildFailurePrintsLog) {
   }
 }
 
+TEST(Device, CompileErrorCarriesFileOptionsAndLog) {
+  Device& d = test::device();
+  const std::string bad = "__kernel void broken(__global float* x) { x[0] = undeclared_variable_q; }\n";
+  try {
+    d.program_from_source("broken_test", bad, "-DTERRACL_TEST_OPTION=1");
+    FAIL() << "expected a build failure";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("broken_test"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("-DTERRACL_TEST_OPTION=1"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("undeclared_variable_q"), std::string::npos) << "build log missing: " << msg;
+    EXPECT_NE(msg.find("CL_BUILD_PROGRAM_FAILURE"), std::string::npos) << msg;
+  }
+}
+
 TEST(Device, AllocationBeyondLimitIsClearError) {
   Device& d = test::device();
   try {
@@ -83,4 +100,53 @@ TEST(Device, ClErrorNames) {
   EXPECT_STREQ(cl_error_name(CL_INVALID_KERNEL_NAME), "CL_INVALID_KERNEL_NAME");
   cl::Error e(CL_OUT_OF_RESOURCES, "clEnqueueNDRangeKernel");
   EXPECT_EQ(describe(e), "clEnqueueNDRangeKernel: CL_OUT_OF_RESOURCES (-5)");
+}
+
+TEST(Device, ProgramBinaryCacheOnDisk) {
+  test::TempDir tmp;
+  const char* old = std::getenv("XDG_CACHE_HOME");
+  const std::string saved = old ? old : "";
+  setenv("XDG_CACHE_HOME", tmp.dir().c_str(), 1);
+  unsetenv("TERRACL_NO_CACHE");
+  {
+    auto d = Device::open();
+    d->program("raster");
+  }
+  const auto dir = tmp.dir() / "terracl";
+  ASSERT_TRUE(std::filesystem::exists(dir));
+  size_t n = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir)) n += e.path().extension() == ".bin";
+  EXPECT_EQ(n, 1u);
+  {
+    // A second device object loads the binary and its kernels still compute correctly.
+    auto d = Device::open();
+    cl::Kernel k = d->kernel("raster", "fill_value");
+    cl::Buffer b = d->buffer(64 * 4, CL_MEM_READ_WRITE, "b");
+    k.setArg(0, b);
+    k.setArg(1, 7.5f);
+    k.setArg(2, 64);
+    d->queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(64));
+    std::vector<float> out(64);
+    d->queue().enqueueReadBuffer(b, CL_TRUE, 0, 256, out.data());
+    for (float v : out) ASSERT_EQ(v, 7.5f);
+  }
+  // Corrupt the cached binary: the next build must ignore it and rebuild, not fail.
+  for (auto& e : std::filesystem::directory_iterator(dir)) std::ofstream(e.path(), std::ios::binary) << "garbage";
+  {
+    auto d = Device::open();
+    EXPECT_NO_THROW(d->program("raster"));
+  }
+  // TERRACL_NO_CACHE=1 writes nothing.
+  std::filesystem::remove_all(dir);
+  setenv("TERRACL_NO_CACHE", "1", 1);
+  {
+    auto d = Device::open();
+    d->program("raster");
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir));
+  unsetenv("TERRACL_NO_CACHE");
+  if (old)
+    setenv("XDG_CACHE_HOME", saved.c_str(), 1);
+  else
+    unsetenv("XDG_CACHE_HOME");
 }

@@ -54,6 +54,9 @@ class Device {
   /// ($XDG_CACHE_HOME/terracl or ~/.cache/terracl; TERRACL_NO_CACHE=1 disables the disk cache).
   /// A build failure throws with the file, the options and the full build log.
   cl::Program& program(const std::string& file, const std::string& options = "");
+  /// Same as program() for source that is not embedded (user kernels, tests); `name` labels errors
+  /// and cache entries.
+  cl::Program& program_from_source(const std::string& name, const std::string& source, const std::string& options = "");
   /// A new kernel object (kernels are not thread-safe to share across argument sets).
   cl::Kernel kernel(const std::string& file, const std::string& name, const std::string& options = "");
 

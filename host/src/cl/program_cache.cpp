@@ -68,12 +68,16 @@ std::vector<std::string> kernel_files() {
 }
 
 cl::Program& Device::program(const std::string& file, const std::string& extra_options) {
+  return program_from_source(file, kernel_source(file), extra_options);
+}
+
+cl::Program& Device::program_from_source(const std::string& file, const std::string& src,
+                                         const std::string& extra_options) {
   std::lock_guard<std::mutex> lock(m_mutex);
   const std::string options = extra_options.empty() ? kBaseOptions : std::string(kBaseOptions) + " " + extra_options;
-  const std::string mem_key = file + "\n" + options;
+  const std::string mem_key = file + "\n" + options + "\n" + std::to_string(fnv1a(src));
   if (auto it = m_programs.find(mem_key); it != m_programs.end()) return it->second;
 
-  const std::string& src = kernel_source(file);
   uint64_t h = fnv1a(src);
   for (const std::string& part : {options, m_info.platform, m_info.name, m_info.driver_version, m_info.device_version})
     h = fnv1a("\x1f" + part, h);

@@ -11,6 +11,7 @@
 #include <ogr_spatialref.h>
 
 #include <cmath>
+#include <fmt/format.h>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -97,7 +98,9 @@ Heightfield read_gdal(const std::string& path) {
     for (char** p = md; *p; ++p) {
       std::string kv(*p);
       auto eq = kv.find('=');
-      if (eq != std::string::npos && kv.rfind("terracl:", 0) == 0) out.metadata[kv.substr(0, eq)] = kv.substr(eq + 1);
+      // GDAL treats ':' as a key/value separator, so keys are stored as terracl_<name>.
+      if (eq != std::string::npos && kv.rfind("terracl_", 0) == 0)
+        out.metadata["terracl:" + kv.substr(8, eq - 8)] = kv.substr(eq + 1);
     }
   }
   return out;
@@ -138,10 +141,15 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path) {
     }
   }
   band->SetUnitType(g.vertical_units.c_str());
-  for (const auto& [k, v] : h.metadata) ds->SetMetadataItem(k.c_str(), v.c_str());
+  for (const auto& [k, v] : h.metadata) {
+    std::string key = k;
+    for (char& c : key)
+      if (c == ':') c = '_';  // GDAL would split "terracl:x" at the colon
+    ds->SetMetadataItem(key.c_str(), v.c_str());
+  }
   ds->SetMetadataItem("TIFFTAG_SOFTWARE", ("terracl " + std::string(h.metadata.count("terracl:version") ? h.metadata.at("terracl:version") : "")).c_str());
-  ds->SetMetadataItem("terracl:cell_x", std::to_string(g.cell_x).c_str());
-  ds->SetMetadataItem("terracl:cell_y", std::to_string(g.cell_y).c_str());
+  ds->SetMetadataItem("terracl_cell_x", fmt::format("{:.17g}", g.cell_x).c_str());
+  ds->SetMetadataItem("terracl_cell_y", fmt::format("{:.17g}", g.cell_y).c_str());
   if (band->RasterIO(GF_Write, 0, 0, h.width, h.height, const_cast<float*>(src->data()), h.width, h.height, GDT_Float32,
                      0, 0) != CE_None)
     fail("io", "writing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());

@@ -8,4 +8,7 @@ void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
 void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp
 void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_stage.cpp
+void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
+void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
+void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
 }  // namespace terracl

@@ -7,6 +7,8 @@ StageRegistry& StageRegistry::instance() {
     StageRegistry reg;
     register_core_stages(reg);
     register_amplify_stages(reg);
+    register_analysis_stages(reg);
+    register_erosion_stages(reg);
     return reg;
   }();
   return r;
@@ -17,6 +19,8 @@ BenchRegistry& BenchRegistry::instance() {
     BenchRegistry reg;
     register_core_benches(reg);
     register_amplify_benches(reg);
+    register_analysis_benches(reg);
+    register_erosion_benches(reg);
     return reg;
   }();
   return r;

@@ -1,0 +1,115 @@
+// `terracl metrics|sketch|render|mesh IN ...`: the analysis stages write files of their own (a
+// report, a picture, a mesh), so `-o` names that file instead of an output heightfield. The
+// options come from the stage table, so the CLI and pipelines accept the same names.
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <map>
+#include <terracl/analysis.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/stage.hpp>
+
+#include "cli.hpp"
+
+namespace terracl::cli {
+namespace {
+
+std::string kebab(std::string s) {
+  for (char& c : s)
+    if (c == '_') c = '-';
+  return s;
+}
+
+json to_json(const OptionSpec& o, const std::string& text) {
+  char* end = nullptr;
+  if (o.type == OptionType::Int) {
+    const long long v = std::strtoll(text.c_str(), &end, 10);
+    if (!text.empty() && *end == '\0') return v;
+  } else if (o.type == OptionType::Float) {
+    const double v = std::strtod(text.c_str(), &end);
+    if (!text.empty() && *end == '\0') return v;
+  }
+  return text;
+}
+
+struct Args {
+  std::string input;
+  bool fill_nodata = false;
+  std::map<std::string, std::string> values;
+  std::map<std::string, bool> flags;
+};
+
+/// One subcommand for stage `name`; `-o` maps to option `output_option` ("" for none).
+void add_command(CLI::App& app, const std::string& name, const std::string& output_option, const std::string& help) {
+  const StageInfo* sp = StageRegistry::instance().find(name);
+  if (!sp) return;
+  auto a = std::make_shared<Args>();
+  auto* sub = app.add_subcommand(name, help.empty() ? sp->description : help);
+  sub->add_option("input", a->input, "Input raster")->required();
+  sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first (harmonic)");
+  for (const auto& o : sp->options) {
+    std::string text = o.help;
+    if (!o.unit.empty()) text += fmt::format(" [{}]", o.unit);
+    if (o.type == OptionType::Enum) text += fmt::format(" ({})", fmt::join(o.choices, "|"));
+    if (!o.default_value.is_null()) text += fmt::format(" (default {})", o.default_value.dump());
+    std::string flag = "--" + kebab(o.name);
+    if (o.name == output_option) flag = "-o,--output," + flag;
+    if (o.type == OptionType::Bool) {
+      sub->add_flag(flag + ",!--no-" + kebab(o.name), a->flags[o.name], text);
+    } else {
+      auto* opt = sub->add_option(flag, a->values[o.name], text);
+      if (o.required && name != "metrics") opt->required();
+    }
+  }
+  sub->callback([a, sp, sub, name] {
+    const StageInfo& s = *sp;
+    json opts = json::object();
+    for (const auto& o : s.options) {
+      const std::string flag = "--" + kebab(o.name);
+      if (o.type == OptionType::Bool) {
+        if (sub->count(flag) || sub->count("--no-" + kebab(o.name))) opts[o.name] = a->flags[o.name];
+      } else if (sub->count(flag)) {
+        opts[o.name] = to_json(o, a->values[o.name]);
+      }
+    }
+    ReadOptions ro;
+    ro.fill_nodata = a->fill_nodata;
+    if (name == "metrics") {
+      // The report goes to stdout; --json also writes it as a file.
+      const Heightfield h = read_heightfield(a->input, ro);
+      json report = analysis::terrain_metrics(h, make_progress(name));
+      finish_progress();
+      fmt::print("{}", analysis::format_metrics(report));
+      if (opts.contains("json")) {
+        report["provenance"] = provenance();
+        write_text_file_atomic(opts["json"].get<std::string>(), report.dump(2) + "\n");
+      }
+      return;
+    }
+    json resolved;
+    try {
+      resolved = resolve_options(s, opts, s.name);
+    } catch (const Error& e) {
+      throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
+    }
+    StageData data;
+    data.height = read_heightfield(a->input, ro);
+    data.current = DataKind::Heightfield;
+    StageContext ctx{data, resolved, []() -> Device& { return device(); }, make_progress(s.name), s.name, provenance()};
+    s.run(ctx);
+    finish_progress();
+  });
+}
+
+CommandRegistrar reg(40, [](CLI::App& app) {
+  add_command(app, "metrics", "",
+              "Realism statistics of a terrain (slope, curvature, spectral slope, hypsometry, drainage, fill and "
+              "breach volumes); --json writes the report");
+  add_command(app, "sketch", "file", "");
+  add_command(app, "render", "file", "");
+  add_command(app, "mesh", "file", "");
+});
+
+}  // namespace
+}  // namespace terracl::cli

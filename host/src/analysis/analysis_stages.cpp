@@ -1,0 +1,333 @@
+// Stage and benchmark registration for analysis, previews and export. `metrics`, `sketch`,
+// `render` and `mesh` write their own files (option `file` / `json`) and pass the heightfield
+// through unchanged, so they can sit anywhere in a pipeline; their CLI commands are hand-written
+// (apps/cmd_analysis.cpp) because `-o` names the picture / mesh / report, not a heightfield.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <random>
+#include <terracl/analysis.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
+#include <terracl/render.hpp>
+
+#include "pipeline/builtin.hpp"
+
+namespace terracl {
+
+namespace {
+
+void run_metrics(StageContext& c) {
+  const json report = analysis::terrain_metrics(c.height(), c.progress);
+  json out = report;
+  out["provenance"] = c.provenance;
+  if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), out.dump(2) + "\n");
+}
+
+void run_sketch(StageContext& c) {
+  analysis::SketchOptions o;
+  o.river_fraction = c.get<double>("river_fraction");
+  o.ridge_fraction = c.get<double>("ridge_fraction");
+  o.window = int(c.get<int64_t>("window"));
+  o.prominence_m = c.has("prominence") ? c.get<double>("prominence") : -1.0;
+  o.smooth_cells = c.get<double>("smooth");
+  o.simplify_cells = c.get<double>("simplify");
+  o.patch = int(c.get<int64_t>("patch"));
+  const Heightfield& h = c.height();
+  const analysis::Sketch s = analysis::extract_sketch(h, o, c.progress);
+  render::Image img;
+  img.width = s.width;
+  img.height = s.height;
+  img.pixels = s.rgb;
+  render::write_image(img, c.get<std::string>("file"));
+  if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), analysis::sketch_to_json(s, h).dump(1) + "\n");
+}
+
+void run_render(StageContext& c) {
+  render::Options o;
+  o.mode = render::mode_from_name(c.get<std::string>("mode"));
+  o.azimuth_deg = c.get<double>("azimuth");
+  o.altitude_deg = c.get<double>("altitude");
+  o.z_factor = c.get<double>("z_factor");
+  o.slope_max_deg = c.get<double>("slope_max");
+  if (c.has("ramp")) o.ramp = render::ColorRamp::load(c.get<std::string>("ramp"));
+  const Heightfield& h = c.height();
+  const render::Image img =
+      c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
+  render::write_image(img, c.get<std::string>("file"));
+}
+
+void run_mesh(StageContext& c) {
+  const Heightfield& h = c.height();
+  const mesh::Mesh m = c.has("max_error") ? mesh::triangulate_simplified(h, c.get<double>("max_error"), c.progress)
+                                          : mesh::triangulate_full(h);
+  mesh::write_mesh(m, c.get<std::string>("file"));
+}
+
+void run_drainage(StageContext& c) {
+  Heightfield& h = c.height();
+  Heightfield out = h;
+  const bool dinf = c.get<std::string>("method") == "dinf";
+  const std::vector<double>* cells;
+  double area = 1;
+  analysis::D8Result d8;
+  analysis::DinfResult di;
+  if (dinf) {
+    di = analysis::dinf_flow(h, c.progress);
+    cells = &di.cells;
+    area = di.cell_area_m2;
+  } else {
+    d8 = analysis::d8_flow(h, c.progress);
+    cells = &d8.cells;
+    area = d8.cell_area_m2;
+  }
+  const bool as_cells = c.get<std::string>("units") == "cells";
+  for (size_t i = 0; i < out.size(); ++i)
+    out.z[i] = std::isnan(h.z[i]) ? NAN : float((*cells)[i] * (as_cells ? 1.0 : area));
+  out.georef.vertical_units = as_cells ? "cells" : "m2";
+  out.metadata["terracl:quantity"] = dinf ? "D-infinity drainage area" : "D8 drainage area";
+  h = std::move(out);
+}
+
+}  // namespace
+
+void register_analysis_stages(StageRegistry& r) {
+  const auto H = DataKind::Heightfield;
+  r.add({"metrics",
+         "Realism statistics (slope, curvature, spectrum, hypsometry, drainage, fill and breach volumes) as a "
+         "JSON report; passes the heightfield through.",
+         H,
+         H,
+         {{"json", OptionType::OutputPath, nullptr, "", "JSON report to write", {}, true}},
+         run_metrics,
+         false});
+  r.add({"sketch",
+         "Extract rivers, ridges, peaks and basins as a sketch picture (R ridges, G rivers, B peak/basin "
+         "elevation squares) and polylines JSON; passes the heightfield through.",
+         H,
+         H,
+         {{"file", OptionType::OutputPath, nullptr, "", "Sketch picture (.png)", {}, true},
+          {"json", OptionType::OutputPath, nullptr, "", "Polylines/points JSON (docs/analysis.md)", {}, false},
+          {"river_fraction",
+           OptionType::Float,
+           0.002,
+           "",
+           "River threshold: D8 accumulation as a fraction of the cells",
+           {},
+           false},
+          {"ridge_fraction",
+           OptionType::Float,
+           0.002,
+           "",
+           "Ridge threshold on the inverted terrain, as a fraction of the cells",
+           {},
+           false},
+          {"window", OptionType::Int, 15, "cells", "Peak/basin max/min filter size", {}, false},
+          {"prominence",
+           OptionType::Float,
+           nullptr,
+           "m",
+           "Peak/basin relief threshold in the window (default 10 % of the relief)",
+           {},
+           false},
+          {"smooth",
+           OptionType::Float,
+           0.0,
+           "cells",
+           "Gaussian blur sigma before extraction (coarser sketches)",
+           {},
+           false},
+          {"simplify", OptionType::Float, 0.5, "cells", "Douglas-Peucker tolerance of the polylines", {}, false},
+          {"patch", OptionType::Int, 15, "cells", "Size of the peak/basin squares in the picture", {}, false}},
+         run_sketch,
+         false});
+  r.add({"render",
+         "Write a preview picture (8-bit RGB PNG): hillshade (gdaldem's Horn method), colour relief, slope or "
+         "shaded relief; passes the heightfield through.",
+         H,
+         H,
+         {{"file", OptionType::OutputPath, nullptr, "", "Picture to write (.png)", {}, true},
+          {"mode",
+           OptionType::Enum,
+           "hillshade",
+           "",
+           "What to draw",
+           {"hillshade", "relief", "slope", "shaded-relief"},
+           false},
+          {"azimuth", OptionType::Float, 315.0, "deg", "Sun azimuth, clockwise from north", {}, false},
+          {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
+          {"z_factor", OptionType::Float, 1.0, "", "Vertical exaggeration", {}, false},
+          {"ramp",
+           OptionType::Path,
+           nullptr,
+           "",
+           "Colour ramp in gdaldem color-relief format (default: hypsometric tints)",
+           {},
+           false},
+          {"slope_max", OptionType::Float, 60.0, "deg", "Slope mode: this slope and steeper are black", {}, false},
+          {"backend",
+           OptionType::Enum,
+           "device",
+           "",
+           "Shade with kernels/render.cl on the OpenCL device, or with the host reference code",
+           {"device", "host"},
+           false}},
+         run_render,
+         false});
+  r.add({"mesh",
+         "Export a triangle mesh in metres (.glb, .gltf or .obj), optionally simplified within a vertical "
+         "error; passes the heightfield through.",
+         H,
+         H,
+         {{"file", OptionType::OutputPath, nullptr, "", "Mesh file (.glb, .gltf or .obj)", {}, true},
+          {"max_error",
+           OptionType::Float,
+           nullptr,
+           "m",
+           "Simplify so that no cell is further than this from the mesh (default: full grid)",
+           {},
+           false}},
+         run_mesh,
+         false});
+  r.add({"fill_depressions",
+         "Priority-Flood depression filling (Barnes et al. 2014); --epsilon gives every flat a drainage gradient.",
+         H,
+         H,
+         {{"epsilon",
+           OptionType::Bool,
+           false,
+           "",
+           "Raise flats by the smallest float steps so that every cell drains",
+           {},
+           false}},
+         [](StageContext& c) {
+           Heightfield& h = c.height();
+           h = analysis::priority_flood_fill(h, c.get<bool>("epsilon"), c.progress).filled;
+         }});
+  r.add({"breach",
+         "Complete depression breaching (Lindsay 2016): carve channels from every pit to its outlet.",
+         H,
+         H,
+         {{"raise_pits",
+           OptionType::Bool,
+           true,
+           "",
+           "Raise single-cell pits to their lowest neighbour first",
+           {},
+           false}},
+         [](StageContext& c) {
+           Heightfield& h = c.height();
+           h = analysis::breach_depressions(h, c.get<bool>("raise_pits"), c.progress).breached;
+         }});
+  r.add({"drainage",
+         "Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells.",
+         H,
+         H,
+         {{"method", OptionType::Enum, "d8", "", "Flow routing", {"d8", "dinf"}, false},
+          {"units", OptionType::Enum, "m2", "", "Drainage area in square metres or in cells", {"m2", "cells"}, false}},
+         run_drainage});
+}
+
+namespace {
+
+/// Deterministic fBm value noise with many closed depressions (a hard case for fill and breach).
+Heightfield bench_terrain(int n) {
+  Heightfield h(n, n, 0.f);
+  h.georef.cell_x = h.georef.cell_y = 30.0;
+  std::mt19937 rng(7);
+  double amp = 400, total = 0;
+  for (int period = n / 2; period >= 2; period /= 2) {
+    const int g = n / period + 2;
+    std::vector<float> lattice(size_t(g) * g);
+    std::uniform_real_distribution<float> u(-1.f, 1.f);
+    for (float& v : lattice) v = u(rng);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const double fx = double(x) / period, fy = double(y) / period;
+        const int ix = int(fx), iy = int(fy);
+        const double tx = fx - ix, ty = fy - iy;
+        const double sx = tx * tx * (3 - 2 * tx), sy = ty * ty * (3 - 2 * ty);
+        const double a = lattice[size_t(iy) * g + ix], b = lattice[size_t(iy) * g + ix + 1];
+        const double c = lattice[size_t(iy + 1) * g + ix], d = lattice[size_t(iy + 1) * g + ix + 1];
+        h.at(x, y) += float(amp * ((a + (b - a) * sx) * (1 - sy) + (c + (d - c) * sx) * sy));
+      }
+    total += amp;
+    amp *= 0.5;
+  }
+  for (float& v : h.z) v += float(total);
+  return h;
+}
+
+}  // namespace
+
+void register_analysis_benches(BenchRegistry& r) {
+  r.add({"analysis",
+         "Fill, epsilon fill, breach, D8 and D-inf accumulation, hillshade, mesh on an N x N grid (median "
+         "seconds); --set dem=FILE uses the top-left N x N of a real DEM",
+         [](const BenchArgs& a) {
+           Heightfield h;
+           std::string source = "synthetic fBm value noise, 30 m cells";
+           if (a.extra.contains("dem")) {
+             const std::string path = a.extra["dem"].get<std::string>();
+             Heightfield full = read_heightfield(path);
+             const int n = std::min({a.size, full.width, full.height});
+             h = Heightfield(n, n);
+             h.georef = full.georef;
+             for (int y = 0; y < n; ++y)
+               for (int x = 0; x < n; ++x) h.at(x, y) = full.at(x, y);
+             source = fmt::format("{} (top-left {} x {})", path, n, n);
+           } else {
+             h = bench_terrain(a.size);
+           }
+           fmt::print("analysis bench: {} x {} cells, {}; median of {} runs\n", h.width, h.height, source, a.repeats);
+           // Wall-clock median and the process CPU time of the same runs (the CPU time is less
+           // sensitive to other processes on a shared machine).
+           auto time = [&](const char* what, int repeats, auto&& f, auto&& note) {
+             std::vector<double> wall;
+             const std::clock_t c0 = std::clock();
+             for (int r = 0; r < repeats; ++r) {
+               const auto a = std::chrono::steady_clock::now();
+               f();
+               wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count());
+             }
+             const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC / repeats;
+             std::sort(wall.begin(), wall.end());
+             fmt::print("  {:<22} {:8.4f} s (cpu {:.4f} s)   {}\n", what, wall[wall.size() / 2], cpu, note());
+           };
+           const int n = a.repeats;
+           analysis::FillResult f;
+           time(
+               "fill (Priority-Flood)", n, [&] { f = analysis::priority_flood_fill(h, false); },
+               [&] { return fmt::format("volume {:.4g} m3, {} cells", f.volume_m3, f.cells_raised); });
+           time(
+               "fill epsilon", n, [&] { f = analysis::priority_flood_fill(h, true); }, [] { return std::string(); });
+           analysis::BreachResult b;
+           time(
+               "breach (Lindsay)", n, [&] { b = analysis::breach_depressions(h); },
+               [&] { return fmt::format("b {:.4g} m3, b-bar {:.4f} m", b.volume_m3, b.mean_depth_m); });
+           analysis::D8Result d8;
+           time(
+               "D8 accumulation", n, [&] { d8 = analysis::d8_flow(h); },
+               [&] {
+                 return fmt::format("incl. epsilon fill; outflow {} of {} cells", d8.outflow_cells, d8.valid_cells);
+               });
+           analysis::DinfResult di;
+           time(
+               "D-inf accumulation", n, [&] { di = analysis::dinf_flow(h); },
+               [&] { return fmt::format("outflow {:.8g}", di.outflow_cells); });
+           time(
+               "hillshade", n, [&] { (void)render::hillshade(h); }, [] { return std::string(); });
+           mesh::Mesh m;
+           time(
+               "mesh simplify 1 m", n, [&] { m = mesh::triangulate_simplified(h, 1.0); },
+               [&] { return fmt::format("{} triangles", m.triangle_count()); });
+           time(
+               "metrics (all)", std::max(1, n / 3), [&] { (void)analysis::terrain_metrics(h); },
+               [] { return std::string(); });
+         }});
+}
+
+}  // namespace terracl

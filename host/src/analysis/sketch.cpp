@@ -1,0 +1,264 @@
+// Sketch extraction as in the terrain-GAN literature (Guerin et al. 2017; "Interactive adversarial
+// terrain erosion", section on sketches): rivers are cells whose D8 accumulation exceeds a
+// threshold, ridges the same on the inverted terrain, peaks and basins come from max/min filters
+// with a relief threshold. The D8 network above a threshold is a tree of one-cell-wide paths, so it
+// is already the skeleton the paper obtains by thinning a thresholded image; we trace it into
+// polylines (split at confluences) and draw those.
+#include <algorithm>
+#include <numeric>
+#include <terracl/error.hpp>
+
+#include "analysis/grid.hpp"
+
+namespace terracl::analysis {
+
+using json = nlohmann::json;
+using namespace detail;
+
+namespace {
+
+Heightfield gaussian_blur(const Heightfield& h, double sigma) {
+  const int r = std::max(1, int(std::ceil(3 * sigma)));
+  std::vector<double> k(2 * r + 1);
+  for (int i = -r; i <= r; ++i) k[i + r] = std::exp(-0.5 * i * i / (sigma * sigma));
+  Heightfield tmp = h, out = h;
+  auto pass = [&](const Heightfield& src, Heightfield& dst, int dx, int dy) {
+    for (int y = 0; y < src.height; ++y)
+      for (int x = 0; x < src.width; ++x) {
+        if (std::isnan(src.at(x, y))) continue;
+        double s = 0, ws = 0;
+        for (int i = -r; i <= r; ++i) {
+          const int xx = x + i * dx, yy = y + i * dy;
+          if (xx < 0 || yy < 0 || xx >= src.width || yy >= src.height) continue;
+          const float v = src.at(xx, yy);
+          if (std::isnan(v)) continue;
+          s += k[i + r] * v;
+          ws += k[i + r];
+        }
+        dst.at(x, y) = float(s / ws);
+      }
+  };
+  pass(h, tmp, 1, 0);
+  pass(tmp, out, 0, 1);
+  return out;
+}
+
+/// Douglas-Peucker on the (x, y) coordinates.
+void simplify(const std::vector<Sketch::Point>& in, double tol, std::vector<Sketch::Point>& out) {
+  if (in.size() <= 2 || tol <= 0) {
+    out = in;
+    return;
+  }
+  std::vector<uint8_t> keep(in.size(), 0);
+  keep.front() = keep.back() = 1;
+  std::vector<std::pair<size_t, size_t>> todo{{0, in.size() - 1}};
+  while (!todo.empty()) {
+    auto [a, b] = todo.back();
+    todo.pop_back();
+    const double ax = in[a].x, ay = in[a].y, dx = in[b].x - ax, dy = in[b].y - ay;
+    const double len = std::hypot(dx, dy);
+    double worst = -1;
+    size_t wi = a;
+    for (size_t i = a + 1; i < b; ++i) {
+      const double d =
+          len > 0 ? std::abs(dx * (in[i].y - ay) - dy * (in[i].x - ax)) / len : std::hypot(in[i].x - ax, in[i].y - ay);
+      if (d > worst) worst = d, wi = i;
+    }
+    if (worst > tol) {
+      keep[wi] = 1;
+      todo.push_back({a, wi});
+      todo.push_back({wi, b});
+    }
+  }
+  out.clear();
+  for (size_t i = 0; i < in.size(); ++i)
+    if (keep[i]) out.push_back(in[i]);
+}
+
+/// Traces the D8 network above `threshold` cells into polylines split at confluences; marks the
+/// network cells in `mask`.
+std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Heightfield& original, double threshold,
+                                        double simplify_tol, std::vector<uint8_t>& mask) {
+  const D8Result d8 = d8_flow(surface);
+  const size_t n = surface.size();
+  const int w = surface.width;
+  mask.assign(n, 0);
+  for (size_t i = 0; i < n; ++i)
+    if (d8.dir[i] != kNoFlow && d8.cells[i] >= threshold) mask[i] = 1;
+  std::vector<uint8_t> donors(n, 0);
+  auto receiver = [&](size_t i) -> ptrdiff_t {
+    const uint8_t d = d8.dir[i];
+    if (d >= 8) return -1;
+    return ptrdiff_t(i) + ptrdiff_t(kDy[d]) * w + kDx[d];
+  };
+  for (size_t i = 0; i < n; ++i)
+    if (mask[i]) {
+      const ptrdiff_t j = receiver(i);
+      if (j >= 0) donors[size_t(j)]++;
+    }
+  std::vector<Sketch::Line> lines;
+  std::vector<Sketch::Point> pts;
+  for (size_t i = 0; i < n; ++i) {
+    // A segment starts at a channel head (no network donor) or just below a confluence.
+    if (!mask[i] || donors[i] == 1) continue;
+    pts.clear();
+    size_t c = i;
+    while (true) {
+      pts.push_back({double(c % w), double(c / w), double(original.z[c])});
+      const ptrdiff_t j = receiver(c);
+      if (j < 0) break;
+      c = size_t(j);
+      if (donors[c] != 1) {  // confluence: end here, it starts its own segment
+        pts.push_back({double(c % w), double(c / w), double(original.z[c])});
+        break;
+      }
+    }
+    if (pts.size() < 2) continue;
+    Sketch::Line line;
+    simplify(pts, simplify_tol, line.points);
+    const size_t last = size_t(pts.back().y) * w + size_t(pts.back().x);
+    line.drainage_area_m2 = d8.area_m2(last);
+    lines.push_back(std::move(line));
+  }
+  return lines;
+}
+
+/// Moving max (sign +1) or min (sign -1) over a window x window square, ignoring nodata.
+std::vector<float> extremum_filter(const Heightfield& h, int window, float sign) {
+  const int r = window / 2;
+  std::vector<float> tmp(h.size(), NAN), out(h.size(), NAN);
+  auto better = [&](float a, float b) { return std::isnan(b) || (!std::isnan(a) && sign * a > sign * b) ? a : b; };
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      float m = NAN;
+      for (int i = std::max(0, x - r); i <= std::min(h.width - 1, x + r); ++i) m = better(h.at(i, y), m);
+      tmp[size_t(y) * h.width + x] = m;
+    }
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      float m = NAN;
+      for (int j = std::max(0, y - r); j <= std::min(h.height - 1, y + r); ++j)
+        m = better(tmp[size_t(j) * h.width + x], m);
+      out[size_t(y) * h.width + x] = m;
+    }
+  return out;
+}
+
+std::vector<Sketch::Extremum> find_extrema(const Heightfield& surface, const Heightfield& original,
+                                           const std::vector<float>& fmax, const std::vector<float>& fmin, bool peaks,
+                                           int window, double prominence) {
+  struct Cand {
+    float z;
+    size_t i;
+  };
+  std::vector<Cand> cand;
+  const int w = surface.width;
+  for (int y = 1; y < surface.height - 1; ++y)
+    for (int x = 1; x < w - 1; ++x) {
+      const size_t i = size_t(y) * w + x;
+      const float z = surface.z[i];
+      if (std::isnan(z)) continue;
+      if (z != (peaks ? fmax[i] : fmin[i])) continue;
+      if (double(fmax[i]) - double(fmin[i]) < prominence) continue;
+      cand.push_back({z, i});
+    }
+  // Highest peaks (lowest basins) first; index order breaks ties; suppress others in the window.
+  std::sort(cand.begin(), cand.end(), [&](const Cand& a, const Cand& b) {
+    if (a.z != b.z) return peaks ? a.z > b.z : a.z < b.z;
+    return a.i < b.i;
+  });
+  std::vector<Sketch::Extremum> out;
+  const int r = window / 2;
+  for (const Cand& c : cand) {
+    const int x = int(c.i % w), y = int(c.i / w);
+    bool near = false;
+    for (const auto& e : out) near = near || (std::abs(int(e.p.x) - x) <= r && std::abs(int(e.p.y) - y) <= r);
+    if (near) continue;
+    out.push_back({{double(x), double(y), double(original.z[c.i])}, double(fmax[c.i]) - double(fmin[c.i])});
+  }
+  return out;
+}
+
+}  // namespace
+
+Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt, const Progress& progress) {
+  const char* stage = "sketch";
+  require_indexable(h, stage);
+  if (opt.window < 3) fail(stage, "window must be at least 3 cells, got {}", opt.window);
+  if (opt.river_fraction <= 0 || opt.ridge_fraction <= 0 || opt.river_fraction > 1 || opt.ridge_fraction > 1)
+    fail(stage, "river/ridge fractions must be in (0, 1]");
+  const HeightStats st = compute_stats(h);
+  if (st.valid == 0) fail(stage, "the heightfield has no valid cell");
+  Heightfield surface = opt.smooth_cells > 0 ? gaussian_blur(h, opt.smooth_cells) : h;
+  Sketch s;
+  s.width = h.width;
+  s.height = h.height;
+  const double valid = double(st.valid);
+  std::vector<uint8_t> river_mask, ridge_mask;
+  s.rivers = trace_network(surface, h, std::max<double>(opt.min_cells, opt.river_fraction * valid), opt.simplify_cells,
+                           river_mask);
+  report_progress(progress, stage, 0.4, "rivers");
+  Heightfield inverted = surface;
+  for (float& v : inverted.z) v = -v;
+  s.ridges = trace_network(inverted, h, std::max<double>(opt.min_cells, opt.ridge_fraction * valid), opt.simplify_cells,
+                           ridge_mask);
+  report_progress(progress, stage, 0.8, "ridges");
+  const int window = opt.window | 1;
+  const std::vector<float> fmax = extremum_filter(surface, window, 1.f), fmin = extremum_filter(surface, window, -1.f);
+  const double prom = opt.prominence_m >= 0 ? opt.prominence_m : 0.1 * (st.max - st.min);
+  s.peaks = find_extrema(surface, h, fmax, fmin, true, window, std::max(prom, 1e-9));
+  s.basins = find_extrema(surface, h, fmax, fmin, false, window, std::max(prom, 1e-9));
+
+  const size_t n = h.size();
+  s.rgb.assign(3 * n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (ridge_mask[i]) s.rgb[3 * i + 0] = 255;
+    if (river_mask[i]) s.rgb[3 * i + 1] = 255;
+  }
+  const double range = st.max > st.min ? st.max - st.min : 1.0;
+  const int pr = std::max(0, opt.patch / 2);
+  auto stamp = [&](const Sketch::Extremum& e) {
+    const uint8_t v = uint8_t(std::clamp(1.0 + 254.0 * (e.p.z - st.min) / range, 1.0, 255.0));
+    for (int y = int(e.p.y) - pr; y <= int(e.p.y) + pr; ++y)
+      for (int x = int(e.p.x) - pr; x <= int(e.p.x) + pr; ++x)
+        if (x >= 0 && y >= 0 && x < h.width && y < h.height) s.rgb[3 * (size_t(y) * h.width + x) + 2] = v;
+  };
+  for (const auto& e : s.basins) stamp(e);
+  for (const auto& e : s.peaks) stamp(e);  // peaks drawn last: they win where squares overlap
+  report_progress(progress, stage, 1.0, "peaks and basins");
+  return s;
+}
+
+json sketch_to_json(const Sketch& s, const Heightfield& h) {
+  auto line_json = [](const std::vector<Sketch::Line>& lines) {
+    json a = json::array();
+    for (const auto& l : lines) {
+      json pts = json::array();
+      for (const auto& p : l.points) pts.push_back({p.x, p.y, p.z});
+      a.push_back({{"points", pts}, {"drainage_area_m2", l.drainage_area_m2}});
+    }
+    return a;
+  };
+  auto point_json = [](const std::vector<Sketch::Extremum>& v) {
+    json a = json::array();
+    for (const auto& e : v) a.push_back({{"x", e.p.x}, {"y", e.p.y}, {"z", e.p.z}, {"relief_m", e.relief_m}});
+    return a;
+  };
+  json j;
+  j["format"] = "terracl-sketch";
+  j["version"] = 1;
+  j["width"] = s.width;
+  j["height"] = s.height;
+  j["cell_x_m"] = h.georef.cell_x;
+  j["cell_y_m"] = h.georef.cell_y;
+  j["coordinates"] = "pixel: x = column, y = row of the cell centre (row 0 north); z = elevation in m";
+  if (h.georef.has_geotransform) j["geotransform"] = h.georef.geotransform;
+  if (!h.georef.crs_wkt.empty()) j["crs_wkt"] = h.georef.crs_wkt;
+  j["rivers"] = line_json(s.rivers);
+  j["ridges"] = line_json(s.ridges);
+  j["peaks"] = point_json(s.peaks);
+  j["basins"] = point_json(s.basins);
+  return j;
+}
+
+}  // namespace terracl::analysis

@@ -1,0 +1,319 @@
+// Heightfield meshes. The simplified mesh is a right-triangulated irregular network (RTIN): the
+// square is split recursively at hypotenuse midpoints, which keeps the mesh crack-free as long as
+// both triangles sharing a hypotenuse take the same decision (they read the same error entry) and
+// a parent splits whenever a child must (errors are propagated upwards). Unlike Martini, whose
+// error is only the midpoint's deviation, we store the largest vertical deviation of every grid
+// point inside the triangle from its plane, so --max-error is a guarantee.
+#include <fmt/format.h>
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
+
+namespace terracl::mesh {
+
+namespace {
+
+struct VertexMap {
+  const Heightfield& h;
+  std::vector<int64_t> index;  ///< grid cell -> vertex, -1 when not used yet
+  Mesh& m;
+  VertexMap(const Heightfield& hf, Mesh& mesh) : h(hf), index(hf.size(), -1), m(mesh) {}
+  uint32_t get(int x, int y) {
+    int64_t& v = index[size_t(y) * h.width + x];
+    if (v < 0) {
+      v = int64_t(m.positions.size() / 3);
+      m.positions.push_back(float(x * h.georef.cell_x));
+      m.positions.push_back(h.at(x, y));
+      m.positions.push_back(float(y * h.georef.cell_y));
+    }
+    return uint32_t(v);
+  }
+};
+
+void check_input(const Heightfield& h) {
+  if (h.width < 2 || h.height < 2) fail("mesh", "a mesh needs at least 2 x 2 cells, got {} x {}", h.width, h.height);
+  if (h.size() >= (size_t(1) << 31)) fail("mesh", "grid too large for 32-bit indices");
+}
+
+}  // namespace
+
+Mesh triangulate_full(const Heightfield& h) {
+  check_input(h);
+  Mesh m;
+  VertexMap vm(h, m);
+  for (int y = 0; y + 1 < h.height; ++y)
+    for (int x = 0; x + 1 < h.width; ++x) {
+      if (std::isnan(h.at(x, y)) || std::isnan(h.at(x + 1, y)) || std::isnan(h.at(x, y + 1)) ||
+          std::isnan(h.at(x + 1, y + 1)))
+        continue;
+      const uint32_t a = vm.get(x, y), b = vm.get(x + 1, y), c = vm.get(x, y + 1), d = vm.get(x + 1, y + 1);
+      // Counter-clockwise seen from +Y with X east and Z south: (a, c, b) and (b, c, d).
+      m.indices.insert(m.indices.end(), {a, c, b, b, c, d});
+    }
+  if (m.indices.empty()) fail("mesh", "no 2 x 2 block of valid cells to triangulate");
+  return m;
+}
+
+Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Progress& progress) {
+  check_input(h);
+  if (!(max_error_m >= 0)) fail("mesh", "max_error must be >= 0 m, got {}", max_error_m);
+  int tile = 1;
+  while (tile < std::max(h.width, h.height) - 1) tile *= 2;
+  const int size = tile + 1;
+  auto valid = [&](int x, int y) { return x < h.width && y < h.height && !std::isnan(h.at(x, y)); };
+  auto zat = [&](int x, int y) { return double(h.at(x, y)); };
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> errors(size_t(size) * size, 0.f);
+
+  // Triangles are numbered like a binary heap (id 2, 3 are the two halves of the square; the
+  // children of id are 2 id and 2 id + 1); finer triangles have larger ids, so walking the ids
+  // downwards finishes every child before its parent. The finest level stored here has unit
+  // area (hypotenuse 2); its halves, the unit half-squares, need no error of their own.
+  const int64_t num_triangles = int64_t(tile) * tile * 2 - 2;
+  const int64_t num_parents = num_triangles - int64_t(tile) * tile;
+  int64_t reported = 0;
+  for (int64_t i = num_triangles - 1; i >= 0; --i) {
+    int64_t id = i + 2;
+    int ax = 0, ay = 0, bx = 0, by = 0, cx = 0, cy = 0;
+    if (id & 1) {
+      bx = by = cx = tile;
+    } else {
+      ax = ay = cy = tile;
+    }
+    while ((id >>= 1) > 1) {
+      const int mx = (ax + bx) >> 1, my = (ay + by) >> 1;
+      if (id & 1) {
+        bx = ax, by = ay, ax = cx, ay = cy;
+      } else {
+        ax = bx, ay = by, bx = cx, by = cy;
+      }
+      cx = mx, cy = my;
+    }
+    const int mx = (ax + bx) >> 1, my = (ay + by) >> 1;
+    float err = 0.f;
+    if (!valid(ax, ay) || !valid(bx, by) || !valid(cx, cy)) {
+      err = inf;
+    } else {
+      // Plane through a, b, c: z = za + p (x - ax) + q (y - ay).
+      const double za = zat(ax, ay), zb = zat(bx, by), zc = zat(cx, cy);
+      const double ux = bx - ax, uy = by - ay, vx = cx - ax, vy = cy - ay;
+      const double det = ux * vy - uy * vx;
+      const double p = ((zb - za) * vy - (zc - za) * uy) / det, q = ((zc - za) * ux - (zb - za) * vx) / det;
+      const int x0 = std::min({ax, bx, cx}), x1 = std::max({ax, bx, cx});
+      const int y0 = std::min({ay, by, cy}), y1 = std::max({ay, by, cy});
+      double e = 0;
+      for (int y = y0; y <= y1 && e != HUGE_VAL; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          // Inside test with integer edge functions (edges included).
+          const long e0 = long(bx - ax) * (y - ay) - long(by - ay) * (x - ax);
+          const long e1 = long(cx - bx) * (y - by) - long(cy - by) * (x - bx);
+          const long e2 = long(ax - cx) * (y - cy) - long(ay - cy) * (x - cx);
+          if (!((e0 >= 0 && e1 >= 0 && e2 >= 0) || (e0 <= 0 && e1 <= 0 && e2 <= 0))) continue;
+          if (!valid(x, y)) {
+            e = HUGE_VAL;
+            break;
+          }
+          e = std::max(e, std::abs(zat(x, y) - (za + p * (x - ax) + q * (y - ay))));
+        }
+      err = e == HUGE_VAL ? inf : float(e);
+    }
+    const size_t mi = size_t(my) * size + mx;
+    errors[mi] = std::max(errors[mi], err);
+    if (i < num_parents) {
+      // Children's midpoints (only when the children are themselves parents).
+      const size_t l = size_t((ay + cy) >> 1) * size + ((ax + cx) >> 1);
+      const size_t r = size_t((by + cy) >> 1) * size + ((bx + cx) >> 1);
+      errors[mi] = std::max({errors[mi], errors[l], errors[r]});
+    }
+    if (++reported % (1 << 18) == 0)
+      report_progress(progress, "mesh", double(reported) / double(num_triangles) * 0.9, "errors");
+  }
+
+  Mesh m;
+  VertexMap vm(h, m);
+  const float limit = float(max_error_m);
+  // Explicit stack instead of recursion: (a, b, c) with the right angle at c.
+  struct Tri {
+    int ax, ay, bx, by, cx, cy;
+  };
+  std::vector<Tri> stack{{0, 0, tile, tile, tile, 0}, {tile, tile, 0, 0, 0, tile}};
+  while (!stack.empty()) {
+    const Tri t = stack.back();
+    stack.pop_back();
+    const int mx = (t.ax + t.bx) >> 1, my = (t.ay + t.by) >> 1;
+    if (std::abs(t.ax - t.cx) + std::abs(t.ay - t.cy) > 1 && errors[size_t(my) * size + mx] > limit) {
+      stack.push_back({t.cx, t.cy, t.ax, t.ay, mx, my});
+      stack.push_back({t.bx, t.by, t.cx, t.cy, mx, my});
+      continue;
+    }
+    if (!valid(t.ax, t.ay) || !valid(t.bx, t.by) || !valid(t.cx, t.cy)) continue;
+    uint32_t a = vm.get(t.ax, t.ay), b = vm.get(t.bx, t.by), c = vm.get(t.cx, t.cy);
+    // Counter-clockwise seen from +Y (X east, Z south) means clockwise in (x, row) coordinates.
+    const long cross = long(t.bx - t.ax) * (t.cy - t.ay) - long(t.by - t.ay) * (t.cx - t.ax);
+    if (cross > 0) std::swap(b, c);
+    m.indices.insert(m.indices.end(), {a, b, c});
+  }
+  if (m.indices.empty()) fail("mesh", "no valid triangle to write");
+  report_progress(progress, "mesh", 1.0, "triangles");
+  return m;
+}
+
+namespace {
+
+/// Unit vertex normals: area-weighted sums of the adjacent faces' normals (smooth shading in
+/// viewers; without normals glTF viewers must shade flat facets).
+std::vector<float> vertex_normals(const Mesh& m) {
+  std::vector<double> acc(m.positions.size(), 0.0);
+  for (size_t t = 0; t < m.triangle_count(); ++t) {
+    const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
+    double u[3], v[3];
+    for (int k = 0; k < 3; ++k) {
+      u[k] = double(m.positions[3 * b + k]) - m.positions[3 * a + k];
+      v[k] = double(m.positions[3 * c + k]) - m.positions[3 * a + k];
+    }
+    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    for (uint32_t i : {a, b, c})
+      for (int k = 0; k < 3; ++k) acc[3 * i + k] += n[k];
+  }
+  std::vector<float> out(acc.size());
+  for (size_t i = 0; i < acc.size(); i += 3) {
+    const double len = std::sqrt(acc[i] * acc[i] + acc[i + 1] * acc[i + 1] + acc[i + 2] * acc[i + 2]);
+    for (int k = 0; k < 3; ++k) out[i + k] = len > 0 ? float(acc[i + k] / len) : (k == 1 ? 1.f : 0.f);
+  }
+  return out;
+}
+
+void write_obj(const Mesh& m, const std::string& path) {
+  write_atomically(path, [&](const std::string& tmp) {
+    FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) fail("mesh", "cannot write {}", path);
+    std::string buf;
+    buf.reserve(1 << 20);
+    auto flush = [&] {
+      if (std::fwrite(buf.data(), 1, buf.size(), f) != buf.size()) {
+        std::fclose(f);
+        fail("mesh", "cannot write {} (disk full?)", path);
+      }
+      buf.clear();
+    };
+    buf += fmt::format("# terracl heightfield mesh: metres, Y up, X east, Z south\n# {} vertices, {} triangles\n",
+                       m.vertex_count(), m.triangle_count());
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", m.positions[3 * v], m.positions[3 * v + 1],
+                     m.positions[3 * v + 2]);
+      if (buf.size() > (1 << 20)) flush();
+    }
+    const std::vector<float> normals = vertex_normals(m);
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      fmt::format_to(std::back_inserter(buf), "vn {} {} {}\n", normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]);
+      if (buf.size() > (1 << 20)) flush();
+    }
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+      const uint32_t a = m.indices[3 * t] + 1, b = m.indices[3 * t + 1] + 1, c = m.indices[3 * t + 2] + 1;
+      fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", a, a, b, b, c, c);
+      if (buf.size() > (1 << 20)) flush();
+    }
+    flush();
+    if (std::fclose(f) != 0) fail("mesh", "cannot write {}", path);
+  });
+}
+
+void write_gltf(const Mesh& m, const std::string& path, bool binary) {
+  tinygltf::Model model;
+  tinygltf::Buffer buffer;
+  const size_t pos_bytes = m.positions.size() * sizeof(float), idx_bytes = m.indices.size() * sizeof(uint32_t);
+  const std::vector<float> normals = vertex_normals(m);
+  buffer.data.resize(2 * pos_bytes + idx_bytes);
+  std::memcpy(buffer.data.data(), m.positions.data(), pos_bytes);
+  std::memcpy(buffer.data.data() + pos_bytes, m.indices.data(), idx_bytes);
+  std::memcpy(buffer.data.data() + pos_bytes + idx_bytes, normals.data(), pos_bytes);
+  model.buffers.push_back(std::move(buffer));
+
+  tinygltf::BufferView pos_view;
+  pos_view.buffer = 0;
+  pos_view.byteOffset = 0;
+  pos_view.byteLength = pos_bytes;
+  pos_view.target = TINYGLTF_TARGET_ARRAY_BUFFER;
+  tinygltf::BufferView idx_view;
+  idx_view.buffer = 0;
+  idx_view.byteOffset = pos_bytes;
+  idx_view.byteLength = idx_bytes;
+  idx_view.target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
+  tinygltf::BufferView nrm_view = pos_view;
+  nrm_view.byteOffset = pos_bytes + idx_bytes;
+  model.bufferViews = {pos_view, idx_view, nrm_view};
+
+  tinygltf::Accessor pos;
+  pos.bufferView = 0;
+  pos.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  pos.count = m.vertex_count();
+  pos.type = TINYGLTF_TYPE_VEC3;
+  pos.minValues = {INFINITY, INFINITY, INFINITY};
+  pos.maxValues = {-INFINITY, -INFINITY, -INFINITY};
+  for (size_t v = 0; v < m.vertex_count(); ++v)
+    for (int c = 0; c < 3; ++c) {
+      pos.minValues[c] = std::min(pos.minValues[c], double(m.positions[3 * v + c]));
+      pos.maxValues[c] = std::max(pos.maxValues[c], double(m.positions[3 * v + c]));
+    }
+  tinygltf::Accessor idx;
+  idx.bufferView = 1;
+  idx.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  idx.count = m.indices.size();
+  idx.type = TINYGLTF_TYPE_SCALAR;
+  tinygltf::Accessor nrm;
+  nrm.bufferView = 2;
+  nrm.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  nrm.count = m.vertex_count();
+  nrm.type = TINYGLTF_TYPE_VEC3;
+  model.accessors = {pos, idx, nrm};
+
+  tinygltf::Primitive prim;
+  prim.attributes["POSITION"] = 0;
+  prim.attributes["NORMAL"] = 2;
+  prim.indices = 1;
+  prim.mode = TINYGLTF_MODE_TRIANGLES;
+  tinygltf::Mesh mesh;
+  mesh.name = "terrain";
+  mesh.primitives.push_back(prim);
+  model.meshes.push_back(mesh);
+  tinygltf::Node node;
+  node.mesh = 0;
+  node.name = "terrain";
+  model.nodes.push_back(node);
+  tinygltf::Scene scene;
+  scene.nodes.push_back(0);
+  model.scenes.push_back(scene);
+  model.defaultScene = 0;
+  model.asset.version = "2.0";
+  model.asset.generator = "terracl";
+
+  write_atomically(path, [&](const std::string& tmp) {
+    tinygltf::TinyGLTF writer;
+    if (!writer.WriteGltfSceneToFile(&model, tmp, true, true, !binary, binary))
+      fail("mesh", "tinygltf could not write {}", path);
+  });
+}
+
+}  // namespace
+
+void write_mesh(const Mesh& m, const std::string& path) {
+  std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext == ".obj")
+    write_obj(m, path);
+  else if (ext == ".glb")
+    write_gltf(m, path, true);
+  else if (ext == ".gltf")
+    write_gltf(m, path, false);
+  else
+    fail("mesh", "{}: unknown mesh format '{}' (expected .glb, .gltf or .obj)", path, ext);
+}
+
+}  // namespace terracl::mesh

@@ -1,0 +1,157 @@
+// Sketch extraction and the metrics / sketch commands as a user runs them.
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <terracl/analysis.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include "test_helpers.hpp"
+
+using namespace terracl;
+using namespace terracl::analysis;
+using nlohmann::json;
+
+namespace {
+
+/// A V-shaped valley along column 20 falling south, with a Gaussian hill on its east flank.
+Heightfield valley_with_hill() {
+  Heightfield h(41, 41);
+  h.georef.cell_x = h.georef.cell_y = 10;
+  for (int y = 0; y < 41; ++y)
+    for (int x = 0; x < 41; ++x)
+      h.at(x, y) = float(500 + 8.0 * std::abs(x - 20) - 2.0 * y +
+                         150.0 * std::exp(-((x - 31) * (x - 31) + (y - 15) * (y - 15)) / 18.0));
+  return h;
+}
+
+json read_json(const std::string& path) {
+  std::ifstream f(path);
+  return json::parse(f);
+}
+
+}  // namespace
+
+TEST(AnalysisSketch, ValleyRiverAndHillPeak) {
+  const Heightfield h = valley_with_hill();
+  SketchOptions o;
+  o.window = 9;
+  o.prominence_m = 50;
+  o.simplify_cells = 0;
+  const Sketch s = extract_sketch(h, o);
+  // The main river runs down column 20 to the south border and drains most of the grid.
+  const Sketch::Line* main = nullptr;
+  for (const auto& l : s.rivers)
+    if (!main || l.drainage_area_m2 > main->drainage_area_m2) main = &l;
+  ASSERT_NE(main, nullptr);
+  EXPECT_EQ(main->points.back().y, 40.0);
+  EXPECT_EQ(main->points.back().x, 20.0);
+  EXPECT_GT(main->drainage_area_m2, 0.3 * h.size() * 100.0);
+  for (const auto& p : main->points) EXPECT_EQ(p.x, 20.0);
+  for (size_t k = 1; k < main->points.size(); ++k) EXPECT_LT(main->points[k].z, main->points[k - 1].z);  // downstream
+  // Exactly one peak, on the hill's top, and its square in the blue channel.
+  ASSERT_EQ(s.peaks.size(), 1u);
+  EXPECT_EQ(s.peaks[0].p.x, 31.0);
+  EXPECT_EQ(s.peaks[0].p.y, 15.0);
+  EXPECT_GT(s.peaks[0].relief_m, 50.0);
+  EXPECT_GT(s.rgb[3 * (15 * 41 + 31) + 2], 0);
+  EXPECT_EQ(s.rgb[3 * (15 * 41 + 31 - 10) + 2], 0);  // outside the 15-cell square
+  // The river cells are green, the ridge network red, and they do not overlap on the valley floor.
+  EXPECT_EQ(s.rgb[3 * (30 * 41 + 20) + 1], 255);
+  EXPECT_EQ(s.rgb[3 * (30 * 41 + 20) + 0], 0);
+  EXPECT_FALSE(s.ridges.empty());
+  EXPECT_TRUE(s.basins.empty());  // the valley drains: no closed low
+
+  const json j = sketch_to_json(s, h);
+  EXPECT_EQ(j["format"], "terracl-sketch");
+  EXPECT_EQ(j["version"], 1);
+  EXPECT_EQ(j["rivers"].size(), s.rivers.size());
+  EXPECT_EQ(j["peaks"][0]["x"], 31.0);
+  EXPECT_EQ(j["rivers"][0]["points"][0].size(), 3u);
+
+  // Simplification keeps the end points and drops the collinear ones.
+  o.simplify_cells = 0.5;
+  const Sketch simple = extract_sketch(h, o);
+  size_t before = 0, after = 0;
+  for (const auto& l : s.rivers) before += l.points.size();
+  for (const auto& l : simple.rivers) after += l.points.size();
+  EXPECT_LT(after, before);
+  EXPECT_THROW(extract_sketch(h, SketchOptions{0.002, 0.002, 8, 1}), Error);
+}
+
+TEST(AnalysisCli, MetricsPrintsAndWritesJsonReport) {
+  test::TempDir tmp;
+  const std::string in = test::data_path("crops/frontrange_64.asc");
+  const auto r = test::run_cli("-q metrics " + in + " --json " + tmp.path("m.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("b-bar"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("hypsometric integral"), std::string::npos);
+  const json m = read_json(tmp.path("m.json"));
+  for (const char* key :
+       {"slope_deg", "laplacian_per_m", "spectral_slope", "hypsometric_integral", "fill", "breach", "drainage"})
+    EXPECT_TRUE(m.contains(key)) << key;
+  EXPECT_EQ(m["drainage"]["outflow_cells"].get<double>(), 64.0 * 64.0);
+  EXPECT_GE(m["breach"]["b_bar_m"].get<double>(), 0.0);
+  EXPECT_TRUE(m.contains("provenance"));
+  const auto missing = test::run_cli("-q metrics " + tmp.path("nope.tif"));
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.out.find("nope.tif"), std::string::npos) << missing.out;
+}
+
+TEST(AnalysisCli, SketchWritesPictureAndPolylines) {
+  test::TempDir tmp;
+  const std::string in = test::data_path("crops/presidential_128x96.tif");
+  const auto r = test::run_cli("-q sketch " + in + " -o " + tmp.path("s.png") + " --json " + tmp.path("s.json") +
+                               " --smooth 1 --window 9");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  auto img = OIIO::ImageInput::open(tmp.path("s.png"));
+  ASSERT_TRUE(img);
+  EXPECT_EQ(img->spec().width, 128);
+  EXPECT_EQ(img->spec().height, 96);
+  EXPECT_EQ(img->spec().nchannels, 3);
+  const json j = read_json(tmp.path("s.json"));
+  EXPECT_EQ(j["format"], "terracl-sketch");
+  EXPECT_GT(j["rivers"].size(), 0u);
+  EXPECT_GT(j["ridges"].size(), 0u);
+  for (const auto& l : j["rivers"])
+    for (const auto& p : l["points"]) {
+      ASSERT_GE(p[0].get<double>(), 0);
+      ASSERT_LT(p[0].get<double>(), 128);
+      ASSERT_GE(p[1].get<double>(), 0);
+      ASSERT_LT(p[1].get<double>(), 96);
+    }
+  const auto bad = test::run_cli("-q sketch " + in + " -o " + tmp.path("t.png") + " --window 1");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.out.find("window"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path("t.png")));
+}
+
+TEST(AnalysisCli, FillBreachAndDrainageStages) {
+  test::TempDir tmp;
+  const std::string in = test::data_path("crops/frontrange_64.asc");
+  const Heightfield h = read_heightfield(in);
+  auto r = test::run_cli("-q breach " + in + " -o " + tmp.path("b.tif"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield b = read_heightfield(tmp.path("b.tif"));
+  EXPECT_EQ(priority_flood_fill(b).cells_raised, 0u);  // drains everywhere
+  EXPECT_DOUBLE_EQ(b.georef.cell_x, h.georef.cell_x);  // georeferencing kept
+  r = test::run_cli("-q fill_depressions " + in + " -o " + tmp.path("f.tif") + " --epsilon");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield f = read_heightfield(tmp.path("f.tif"));
+  EXPECT_EQ(f.z, priority_flood_fill(h, true).filled.z);
+  r = test::run_cli("-q drainage " + in + " -o " + tmp.path("a.tif") + " --method dinf --units cells");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield a = read_heightfield(tmp.path("a.tif"));
+  const DinfResult di = dinf_flow(h);
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a.z[i], di.cells[i], 1e-3 * di.cells[i]);
+  r = test::run_cli("-q drainage " + in + " -o " + tmp.path("m2.tif"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield m2 = read_heightfield(tmp.path("m2.tif"));
+  const D8Result d8 = d8_flow(h);
+  for (size_t i = 0; i < m2.size(); ++i) ASSERT_NEAR(m2.z[i], d8.area_m2(i), 1e-6 * d8.area_m2(i));
+  r = test::run_cli("-q drainage " + in + " -o " + tmp.path("x.tif") + " --method mfd");
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("mfd"), std::string::npos) << r.out;
+}
