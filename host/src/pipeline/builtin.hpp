@@ -4,6 +4,7 @@
 #include <terracl/stage.hpp>
 
 namespace terracl {
+void register_io_stages(StageRegistry& r);       // host/src/pipeline/io_stages.cpp (read, write, crop)
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
 void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp

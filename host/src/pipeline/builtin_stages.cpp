@@ -5,6 +5,7 @@ namespace terracl {
 StageRegistry& StageRegistry::instance() {
   static StageRegistry r = [] {
     StageRegistry reg;
+    register_io_stages(reg);
     register_core_stages(reg);
     register_amplify_stages(reg);
     register_analysis_stages(reg);
