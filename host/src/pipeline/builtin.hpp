@@ -11,6 +11,8 @@ void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct_st
 void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct_stages.cpp
 void register_edit_stages(StageRegistry& r);   // host/src/edit/edit_stage.cpp
 void register_edit_benches(BenchRegistry& r);  // host/src/edit/edit_stage.cpp
+void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp
+void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_stage.cpp
 void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp

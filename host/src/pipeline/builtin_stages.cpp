@@ -9,6 +9,7 @@ StageRegistry& StageRegistry::instance() {
     register_core_stages(reg);
     register_reconstruct_stages(reg);
     register_edit_stages(reg);
+    register_amplify_stages(reg);
     register_analysis_stages(reg);
     register_erosion_stages(reg);
     return reg;
@@ -22,6 +23,7 @@ BenchRegistry& BenchRegistry::instance() {
     register_core_benches(reg);
     register_reconstruct_benches(reg);
     register_edit_benches(reg);
+    register_amplify_benches(reg);
     register_analysis_benches(reg);
     register_erosion_benches(reg);
     return reg;
