@@ -104,6 +104,7 @@ void run_write(StageContext& c) {
 }  // namespace
 
 void register_crop_stage(StageRegistry& r);  // crop_stage.cpp
+void register_downsample_stage(StageRegistry& r);  // downsample_stage.cpp
 
 void register_io_stages(StageRegistry& r) {
   StageInfo read{
@@ -146,6 +147,7 @@ void register_io_stages(StageRegistry& r) {
       check_write};
   r.add(std::move(write));
   register_crop_stage(r);
+  register_downsample_stage(r);
 }
 
 }  // namespace terracl
