@@ -33,12 +33,10 @@ std::map<std::string, ProfileEntry>& profile() {
   static std::map<std::string, ProfileEntry> p;
   return p;
 }
-struct ProfilePrinter {
-  ~ProfilePrinter() {
-    for (auto& [k, v] : profile())
-      std::fprintf(stderr, "%-22s %9.2f ms %5d calls %8.2f ns/item\n", k.c_str(), v.ms, v.calls, 1e6 * v.ms / v.items);
-  }
-} g_printer;
+void print_profile() {
+  for (auto& [k, v] : profile())
+    std::fprintf(stderr, "%-22s %9.2f ms %5d calls %8.2f ns/item\n", k.c_str(), v.ms, v.calls, 1e6 * v.ms / v.items);
+}
 
 struct Level {
   int W = 0, H = 0;
@@ -254,7 +252,8 @@ class Solver {
   SolveStats run_cycles() {
     const double b = norm(true);
     auto rel = [&](double r) { return b > 0 ? r / b : 0.0; };
-    double r = rel(norm(false));
+    // A cold start (free cells at the reference level) is the trivial guess itself: ratio 1.
+    double r = m_o.initial ? rel(norm(false)) : (b > 0 ? 1.0 : 0.0);
     m_stats.residuals.push_back(r);
     if (r <= m_o.tolerance) {
       m_stats.converged = true;
@@ -380,7 +379,9 @@ SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baselin
   if (o.cycle == Cycle::Cascade) return s.cascade();
   s.build();
   s.stats().setup_ms = now_ms() - t0;
-  return s.run_cycles();
+  SolveStats st = s.run_cycles();
+  if (profiling()) print_profile();
+  return st;
 }
 
 }  // namespace terracl::mg
