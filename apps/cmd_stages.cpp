@@ -20,32 +20,6 @@ std::string kebab(std::string s) {
   return s;
 }
 
-/// CLI text to a JSON value of the option's type; validation (resolve_options) reports errors.
-json to_json(const OptionSpec& o, const std::string& text) {
-  switch (o.type) {
-    case OptionType::Int: {
-      char* end = nullptr;
-      long long v = std::strtoll(text.c_str(), &end, 10);
-      if (end && *end == '\0' && !text.empty()) return v;
-      return text;
-    }
-    case OptionType::Float: {
-      char* end = nullptr;
-      double v = std::strtod(text.c_str(), &end);
-      if (end && *end == '\0' && !text.empty()) return v;
-      return text;
-    }
-    case OptionType::Json:
-      try {
-        return json::parse(text);
-      } catch (const json::exception&) {
-        return text;
-      }
-    default:
-      return text;
-  }
-}
-
 struct StageArgs {
   std::string input, output;
   bool fill_nodata = false;
@@ -59,7 +33,10 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   auto* in = sub->add_option("input", a->input,
                              s.input == DataKind::Gradient ? "Input gradient field (.exr)" : "Input raster");
   if (s.input != DataKind::None) in->required();
-  sub->add_option("-o,--output", a->output, "Output file (format from the extension)")->required();
+  // A stage that passes its input on (it reports, or writes files of its own) needs no -o.
+  const bool passes = s.output == DataKind::None || s.output == DataKind::Any;
+  auto* out = sub->add_option("-o,--output", a->output, "Output file (format from the extension)");
+  if (!passes) out->required();
   if (s.input == DataKind::Heightfield) sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first");
   for (const auto& o : s.options) {
     std::string help = o.help;
@@ -70,6 +47,12 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       sub->add_flag("--" + kebab(o.name) + ",!--no-" + kebab(o.name), a->flags[o.name], help);
     } else {
       auto* opt = sub->add_option("--" + kebab(o.name), a->values[o.name], help);
+      opt->type_name(o.type == OptionType::Int     ? "INT"
+                     : o.type == OptionType::Float ? (o.unit.empty() ? "NUMBER" : "NUMBER[" + o.unit + "]")
+                     : o.type == OptionType::Enum  ? "CHOICE"
+                     : o.type == OptionType::Path || o.type == OptionType::OutputPath ? "FILE"
+                     : o.type == OptionType::Json  ? "JSON"
+                                                   : "TEXT");
       if (o.required) opt->required();
     }
   }
@@ -82,12 +65,21 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       if (o.type == OptionType::Bool) {
         if (sub->count(flag) || sub->count("--no-" + kebab(o.name))) opts[o.name] = a->flags[o.name];
       } else if (sub->count(flag)) {
-        opts[o.name] = to_json(o, a->values[o.name]);
+        opts[o.name] = option_from_text(o, a->values[o.name]);
       }
     }
     json resolved;
     try {
       resolved = resolve_options(s, opts, s.name);
+      // Refuse an output we could not write before spending time on the stage.
+      if (!a->output.empty()) {
+        const FileFormat f = format_from_extension(a->output);
+        const bool gradient_out = s.output == DataKind::Gradient;
+        if (gradient_out ? f != FileFormat::EXR
+                         : (f != FileFormat::GeoTIFF && f != FileFormat::EXR && f != FileFormat::PNG && f != FileFormat::RAW16))
+          fail(s.name, "-o {}: cannot write a {} with this extension; use {}", a->output, gradient_out ? "gradient" : "heightfield",
+               gradient_out ? ".exr" : ".tif, .exr, .png or .r16");
+      }
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }
@@ -105,8 +97,14 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
     }
     StageContext ctx{data, resolved, [] () -> Device& { return device(); }, make_progress(s.name), s.name, provenance()};
     ctx.provenance["terracl:stages"] = json::array({json{{"type", s.name}, {"options", resolved}}}).dump();
-    s.run(ctx);
+    try {
+      s.run(ctx);
+    } catch (const Cancelled&) {
+      finish_progress();
+      throw Error(s.name, "cancelled by Ctrl-C; no output was written");
+    }
     finish_progress();
+    if (a->output.empty()) return;
     if (data.current == DataKind::Gradient || (s.output == DataKind::Gradient && data.gradient)) {
       GradientField& g = *data.gradient;
       for (const auto& [k, v] : ctx.provenance) g.metadata[k] = v;
@@ -133,7 +131,8 @@ CommandRegistrar reg(50, [](CLI::App& app) {
       fmt::print("{}", stages_markdown());
       return;
     }
-    for (const auto& s : StageRegistry::instance().all()) fmt::print("{:<16} {}\n", s.name, s.description);
+    for (const auto& s : StageRegistry::instance().all())
+      fmt::print("{:<16} {}{}\n", s.name, s.description, s.cli ? "" : " (pipeline only)");
   });
   for (const auto& s : StageRegistry::instance().all())
     if (s.cli) add_stage_command(app, s);

@@ -18,6 +18,9 @@ bool g_bar_open = false;
 
 void on_sigint(int) {
   if (g_interrupted.exchange(true)) std::_Exit(130);  // a second Ctrl-C stops at once
+  // write(2) is async-signal-safe; stdio is not.
+  static const char msg[] = "\nterracl: Ctrl-C: stopping at the next safe point (Ctrl-C again to quit at once)\n";
+  [[maybe_unused]] const auto n = ::write(STDERR_FILENO, msg, sizeof msg - 1);
 }
 
 }  // namespace
@@ -52,7 +55,7 @@ Progress make_progress(const std::string& stage) {
     if (f < 1.0 && now - *last < std::chrono::milliseconds(100)) return !interrupted();
     *last = now;
     const int width = 30, filled = int(f * width + 0.5);
-    std::fprintf(stderr, "\r%-12s [%s%s] %3d%% %-30.30s", stage.c_str(), std::string(filled, '#').c_str(),
+    std::fprintf(stderr, "\r%-20.20s [%s%s] %3d%% %-30.30s", stage.c_str(), std::string(filled, '#').c_str(),
                  std::string(width - filled, '.').c_str(), int(f * 100 + 0.5), msg.c_str());
     std::fflush(stderr);
     g_bar_open = true;

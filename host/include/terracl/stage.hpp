@@ -27,12 +27,17 @@ struct OptionSpec {
   json default_value;          ///< null: no default (optional unless `required`)
   std::string unit;            ///< "m", "m/s", "deg", "cells", ... ("" when unitless)
   std::string help;
-  std::vector<std::string> choices;  ///< for Enum
+  std::vector<std::string> choices = {};  ///< for Enum
   bool required = false;
 };
 
 /// What a stage consumes from the previous one and produces for the next.
-enum class DataKind { None, Heightfield, Gradient };
+/// As an input, None means the stage starts a new chain (a reader or a generator) and Any means a
+/// heightfield or a gradient (a writer). As an output, None and Any both mean the stage passes its
+/// input on unchanged (it may still write files of its own through OutputPath options).
+enum class DataKind { None, Heightfield, Gradient, Any };
+/// "heightfield", "gradient", "nothing", "heightfield or gradient".
+const char* data_kind_name(DataKind k);
 
 /// The values flowing through a pipeline.
 struct StageData {
@@ -66,6 +71,11 @@ struct StageInfo {
   std::function<void(StageContext&)> run;
   /// When false the stage is a pipeline-only stage with no auto-generated CLI subcommand.
   bool cli = true;
+  /// Optional extra validation at `--validate` time, after the options are resolved: receives the
+  /// resolved options, the kind the previous stage produces and the stage's JSON path; throws a
+  /// clear error (naming `where`) or returns the kind the stage will produce (for stages whose
+  /// output depends on their options, e.g. a reader of a gradient .exr).
+  std::function<DataKind(const json& options, DataKind input, const std::string& where)> check = nullptr;
 };
 
 class StageRegistry {
@@ -81,8 +91,14 @@ class StageRegistry {
 
 /// Validates `options` of `stage` (unknown names, types, enum choices, units, required options,
 /// input files existing) and returns them with defaults filled in. Error messages name `where`
-/// (a JSON path such as "/2/steps").
-json resolve_options(const StageInfo& stage, const json& options, const std::string& where);
+/// (a JSON path such as "/2/steps"). Input files listed in `pending_outputs` (written by an
+/// earlier stage of the same pipeline) need not exist yet.
+json resolve_options(const StageInfo& stage, const json& options, const std::string& where,
+                     const std::vector<std::string>& pending_outputs = {});
+
+/// Command-line text ("12", "2 km", "true", "[1,2]") to a JSON value for option `o`; values that do
+/// not parse as the option's type stay strings so that resolve_options reports them clearly.
+json option_from_text(const OptionSpec& o, const std::string& text);
 
 /// Converts a value with a unit ("5 km", "30 deg", 12) to `unit`; throws naming `where`.
 double convert_unit(const json& value, const std::string& unit, const std::string& where);

@@ -39,6 +39,9 @@ void set_attributes(ImageSpec& spec, const Georef& g, const Metadata& md) {
   spec.attribute("terracl:units", g.vertical_units);
   for (const auto& [k, v] : md) spec.attribute(k, v);
   spec.attribute("Software", "terracl");
+  // Without a DateTime, the EXR writer stamps the wall-clock time (capDate), so the same input
+  // would give different bytes on every run (DESIGN: determinism).
+  if (!md.count("DateTime")) spec.attribute("DateTime", "");
 }
 
 void write_image(const std::string& tmp_path, const ImageSpec& spec, TypeDesc type, const void* data) {

@@ -4,10 +4,16 @@
 #include <terracl/stage.hpp>
 
 namespace terracl {
+void register_io_stages(StageRegistry& r);       // host/src/pipeline/io_stages.cpp (read, write, crop)
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
-void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
-void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct_stages.cpp
 void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct_stages.cpp
+void register_edit_stages(StageRegistry& r);   // host/src/edit/edit_stage.cpp
+void register_edit_benches(BenchRegistry& r);  // host/src/edit/edit_stage.cpp
+void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp
+void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_stage.cpp
+void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
+void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
+void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
 }  // namespace terracl

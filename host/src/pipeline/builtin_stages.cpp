@@ -5,9 +5,13 @@ namespace terracl {
 StageRegistry& StageRegistry::instance() {
   static StageRegistry r = [] {
     StageRegistry reg;
+    register_io_stages(reg);
     register_core_stages(reg);
-    register_analysis_stages(reg);
     register_reconstruct_stages(reg);
+    register_edit_stages(reg);
+    register_amplify_stages(reg);
+    register_analysis_stages(reg);
+    register_erosion_stages(reg);
     return reg;
   }();
   return r;
@@ -17,8 +21,11 @@ BenchRegistry& BenchRegistry::instance() {
   static BenchRegistry r = [] {
     BenchRegistry reg;
     register_core_benches(reg);
-    register_analysis_benches(reg);
     register_reconstruct_benches(reg);
+    register_edit_benches(reg);
+    register_amplify_benches(reg);
+    register_analysis_benches(reg);
+    register_erosion_benches(reg);
     return reg;
   }();
   return r;

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -24,6 +25,16 @@ const char* option_type_name(OptionType t) {
     case OptionType::OutputPath: return "output file";
     case OptionType::Enum: return "enum";
     case OptionType::Json: return "json";
+  }
+  return "?";
+}
+
+const char* data_kind_name(DataKind k) {
+  switch (k) {
+    case DataKind::None: return "nothing";
+    case DataKind::Heightfield: return "heightfield";
+    case DataKind::Gradient: return "gradient";
+    case DataKind::Any: return "heightfield or gradient";
   }
   return "?";
 }
@@ -101,7 +112,37 @@ double convert_unit(const json& value, const std::string& unit, const std::strin
   return v * from->second.to_si / to->second.to_si;
 }
 
-json resolve_options(const StageInfo& stage, const json& options, const std::string& where) {
+json option_from_text(const OptionSpec& o, const std::string& text) {
+  switch (o.type) {
+    case OptionType::Int: {
+      char* end = nullptr;
+      const long long v = std::strtoll(text.c_str(), &end, 10);
+      if (!text.empty() && end && *end == '\0') return v;
+      return text;
+    }
+    case OptionType::Float: {
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (!text.empty() && end && *end == '\0') return v;
+      return text;
+    }
+    case OptionType::Bool:
+      if (text == "true" || text == "1" || text == "yes" || text == "on") return true;
+      if (text == "false" || text == "0" || text == "no" || text == "off") return false;
+      return text;
+    case OptionType::Json:
+      try {
+        return json::parse(text);
+      } catch (const json::exception&) {
+        return text;
+      }
+    default:
+      return text;
+  }
+}
+
+json resolve_options(const StageInfo& stage, const json& options, const std::string& where,
+                     const std::vector<std::string>& pending_outputs) {
   if (!options.is_object()) fail("pipeline", "{}: stage options must be a JSON object", where);
   json out = json::object();
   for (auto& [key, value] : options.items()) {
@@ -152,7 +193,9 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
         if (!v.is_string() || v.get<std::string>().empty())
           fail("pipeline", "{}: expected a file name, got {}", path, v.dump());
         const std::string p = v.get<std::string>();
-        if (p.rfind("flat:", 0) != 0 && !std::filesystem::exists(p)) fail("pipeline", "{}: input file {} does not exist", path, p);
+        const bool pending = std::find(pending_outputs.begin(), pending_outputs.end(), p) != pending_outputs.end();
+        if (p.rfind("flat:", 0) != 0 && !pending && !std::filesystem::exists(p))
+          fail("pipeline", "{}: input file {} does not exist", path, p);
         break;
       }
       case OptionType::OutputPath:
@@ -179,13 +222,13 @@ std::string stages_markdown() {
   md << "# terracl stages\n\nGenerated from the stage table by `terracl stages --markdown`; do not edit.\n"
         "Each stage runs as `terracl <stage> [IN] -o OUT [--option value ...]` or as "
         "`{\"type\": \"<stage>\", ...}` in a pipeline. Options are `snake_case` in JSON and `--kebab-case` on "
-        "the command line; values with a unit also accept another unit of the same kind (\"2 km\").\n";
-  auto kind = [](DataKind k) {
-    return k == DataKind::Heightfield ? "heightfield" : k == DataKind::Gradient ? "gradient" : "nothing";
-  };
+        "the command line; values with a unit also accept another unit of the same kind (\"2 km\"). "
+        "Pipelines (`terracl run`) are described in [pipelines.md](pipelines.md).\n";
   for (const auto& s : StageRegistry::instance().all()) {
-    md << "\n## " << s.name << "\n\n" << s.description << "\n\nInput: " << kind(s.input)
-       << "; output: " << kind(s.output) << ".\n\n";
+    const bool passes = s.input != DataKind::None && (s.output == DataKind::None || s.output == DataKind::Any);
+    md << "\n## " << s.name << "\n\n" << s.description << "\n\nInput: " << data_kind_name(s.input)
+       << "; output: " << (passes ? "its input, unchanged" : data_kind_name(s.output))
+       << (s.cli ? "" : "; pipeline only") << ".\n\n";
     if (s.options.empty()) {
       md << "No options.\n";
       continue;
@@ -195,7 +238,9 @@ std::string stages_markdown() {
       std::string type = option_type_name(o.type);
       if (o.type == OptionType::Enum) type = fmt::format("{}", fmt::join(o.choices, " \\| "));
       std::string def = o.required ? "(required)" : o.default_value.is_null() ? "" : o.default_value.dump();
-      md << "| `" << o.name << "` | " << type << " | " << def << " | " << o.unit << " | " << o.help << " |\n";
+      std::string help = o.help;  // a '|' would end the table cell
+      for (size_t i = help.find('|'); i != std::string::npos; i = help.find('|', i + 2)) help.insert(i, "\\");
+      md << "| `" << o.name << "` | " << type << " | " << def << " | " << o.unit << " | " << help << " |\n";
     }
   }
   return md.str();

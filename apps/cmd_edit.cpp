@@ -1,0 +1,105 @@
+// `terracl edit BASE --script edits.json -o out.tif [--preview out.png]`: gradient-domain authoring.
+#include "cli.hpp"
+
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+#include <terracl/gradient.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+
+#include <fmt/format.h>
+
+#include <filesystem>
+
+namespace terracl::cli {
+namespace {
+
+struct EditArgs {
+  std::string base, script, output, preview, report, gradient_out, gradient_image;
+  bool validate = false, list = false;
+};
+
+CommandRegistrar reg(40, [](CLI::App& app) {
+  auto a = std::make_shared<EditArgs>();
+  auto* sub = app.add_subcommand("edit", "Apply a JSON edit script to a terrain (docs/authoring.md) and reconstruct it");
+  sub->add_option("base", a->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE] (metres)");
+  sub->add_option("--script", a->script, "Edit script (JSON)");
+  sub->add_option("-o,--output", a->output, "Output heightfield (.tif, .exr, .png, ...)");
+  sub->add_option("--preview", a->preview, "Also write a shaded-relief preview PNG (render module)");
+  sub->add_option("--report", a->report, "Write per-operation timings and solver figures (JSON)");
+  sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr)");
+  sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
+  sub->add_flag("--validate", a->validate, "Check the script against BASE and exit");
+  sub->add_flag("--list", a->list, "List the operations and exit");
+  sub->callback([a] {
+    if (a->list) {
+      for (const auto& [name, summary] : edit_operations()) fmt::print("{:<16} {}\n", name, summary);
+      return;
+    }
+    if (a->script.empty()) throw UsageError("edit", "needs --script edits.json");
+    const nlohmann::json script = read_edit_script(a->script);
+    if (a->base.empty() && script.is_object() && script.contains("base")) {
+      if (!script["base"].is_string()) throw UsageError("edit", fmt::format("{}: /base must be a string", a->script));
+      // A script's own base names files relative to the script.
+      a->base = resolve_path(script["base"].get<std::string>(), std::filesystem::path(a->script).parent_path().string());
+    }
+    if (a->base.empty())
+      throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE]), or \"base\" in the script");
+    if (a->output.empty() && !a->validate) throw UsageError("edit", "needs -o OUTPUT");
+    Heightfield base;
+    if (auto flat = parse_flat_spec(a->base)) {
+      base = std::move(*flat);
+    } else {
+      if (!std::filesystem::exists(a->base)) throw UsageError("edit", fmt::format("base terrain '{}' not found", a->base));
+      base = read_heightfield(a->base);
+      if (base.count_nodata()) {
+        if (!globals().quiet) fmt::print(stderr, "edit: filling {} nodata cells of {} harmonically\n", base.count_nodata(), a->base);
+        fill_nodata_harmonic(base);
+      }
+    }
+    EditOptions o;
+    o.progress = make_progress("edit");
+    o.base_dir = std::filesystem::path(a->script).parent_path().string();
+    EditSession s(device(), base, o);
+    if (a->validate) {
+      s.validate(script);
+      fmt::print("{}: valid for a {}x{} base\n", a->script, base.width, base.height);
+      return;
+    }
+    s.apply(script);
+    Heightfield h = s.height();
+    finish_progress();
+    h.georef = base.georef;
+    h.metadata = base.metadata;
+    for (const auto& [k, v] : provenance()) h.metadata[k] = v;
+    h.metadata["terracl:edit_script"] = a->script;
+    write_heightfield(h, a->output);
+    if (!a->preview.empty()) {
+      render::Options ro;
+      ro.mode = render::Mode::ShadedRelief;
+      render::write_image(render::render(h, ro, device()), a->preview);
+    }
+    if (!a->gradient_out.empty() || !a->gradient_image.empty()) {
+      GradientField g = s.gradient();
+      if (!a->gradient_out.empty()) write_gradient(g, a->gradient_out);
+      if (!a->gradient_image.empty()) write_gradient_image(g, a->gradient_image);
+    }
+    const nlohmann::json rep = s.report();
+    if (!a->report.empty()) write_text_file_atomic(a->report, rep.dump(2) + "\n");
+    if (!globals().quiet) {
+      double ops_ms = 0;
+      for (const auto& e : rep["operations"]) ops_ms += e.value("ms", 0.0);
+      const auto& ls = rep.contains("last_solve") ? rep["last_solve"] : nlohmann::json::object();
+      fmt::print("edit: {} operations in {:.1f} ms, {} hard cells, reconstruction {} cycles {:.1f} ms -> {}\n",
+                 rep["operations"].size(), ops_ms, rep["hard_cells"].get<size_t>(), ls.value("cycles", 0),
+                 ls.value("total_ms", 0.0), a->output);
+      for (const auto& e : rep["operations"])
+        if (e.contains("curl_rms_before"))
+          fmt::print("edit: regularize (operation {}): curl RMS {:.3g} -> {:.3g} 1/m\n", e["index"].get<int>(),
+                     e["curl_rms_before"].get<double>(), e["curl_rms_after"].get<double>());
+    }
+  });
+});
+
+}  // namespace
+}  // namespace terracl::cli

@@ -1,0 +1,245 @@
+#pragma once
+/// Sparse-dictionary terrain amplification (Guérin et al. 2016, "Sparse representation of terrains
+/// for procedural modeling", sections 4-5) with the block-mean bias correction of the gradient
+/// paper (section 5.3).
+///
+/// Vocabulary: a *patch* is a P x P window of a heightfield; its *support* is the inscribed disc
+/// and its blending weight g(r) = (1 - r^2)^3 (r = distance to the centre / radius). The patch
+/// vector has its mean over the disc removed. A dictionary D (K x N) holds N atoms as columns.
+/// A multi-resolution dictionary holds H (high resolution, P x P) and L (the block mean of each H
+/// atom, P/f x P/f, masked to its disc and L2-normalised); H is scaled by the same factor so that a
+/// coefficient found on L carries over to H.
+#include <terracl/heightfield.hpp>
+#include <terracl/progress.hpp>
+
+#include <Eigen/Dense>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace terracl {
+
+using MatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic>;
+using VectorF = Eigen::Matrix<float, Eigen::Dynamic, 1>;
+
+// ---------------------------------------------------------------- patches (patches.cpp)
+
+/// Disc weight g(r) = (1 - r^2)^3 for r < 1, else 0 (C1 at r = 1).
+double disc_weight(double r);
+/// P x P weights g(|p - c| / (P/2)) with the centre c at ((P-1)/2, (P-1)/2), row-major.
+std::vector<float> patch_weights(int size);
+/// 1 inside the disc support (weight > 0), 0 outside, row-major P x P.
+std::vector<float> patch_mask(int size);
+
+/// Patches of `h` (size x size windows at top-left positions (x, y) = k * stride, clamped so the
+/// last one touches the border) as columns of a size^2 x n matrix, each with its disc mean
+/// removed and masked to the disc. `means` receives the removed means.
+MatrixF extract_patches(const Heightfield& h, int size, int stride, std::vector<float>* means = nullptr,
+                        std::vector<std::pair<int, int>>* positions = nullptr);
+
+/// Weighted blend of patches (section 4.1): f = sum g_i (z_i + patch_i) / sum g_i over the
+/// positions given by `positions` (top-left corners). Cells no patch covers are NaN.
+Heightfield blend_patches(int width, int height, int size, const MatrixF& patches, const std::vector<float>& means,
+                          const std::vector<std::pair<int, int>>& positions);
+
+// ---------------------------------------------------------------- OMP (omp.cpp)
+
+/// Sparse codes of n signals with at most `sparsity` atoms each: entry j of signal i is
+/// (index[i*s + j], coef[i*s + j]); unused entries have index -1 and coefficient 0.
+struct SparseCodes {
+  int sparsity = 0;
+  std::vector<int32_t> index;
+  std::vector<float> coef;
+  size_t count() const { return sparsity ? index.size() / size_t(sparsity) : 0; }
+};
+
+/// Batch-OMP (Rubinstein et al. 2008): Gram matrix G = D^T D precomputed, the active set grown by
+/// Cholesky updates. Columns of D must have unit L2 norm. Parallel over signals (`threads` 0 =
+/// hardware concurrency). Stops early for a signal when its residual vanishes.
+SparseCodes batch_omp(const MatrixF& D, const MatrixF& X, int sparsity, int threads = 0);
+
+/// D * codes (K x n), the reconstruction of the coded signals.
+MatrixF decode(const MatrixF& D, const SparseCodes& codes);
+
+// ---------------------------------------------------------------- K-SVD (ksvd.cpp)
+
+struct KsvdOptions {
+  int atoms = 256;
+  int sparsity = 2;
+  int iterations = 10;
+  /// Problem 2 of the paper: every atom is a (normalised) training signal.
+  bool constrained = false;
+  unsigned seed = 1;
+  int threads = 0;
+};
+struct KsvdResult {
+  MatrixF D;                 ///< K x N, unit-norm columns
+  std::vector<int> source;   ///< constrained: training column of each atom; else -1
+  std::vector<double> rmse;  ///< RMS representation error after each iteration's atom update
+};
+/// K-SVD (Aharon et al. 2006) on the columns of F (zero-mean signals), or its constrained variant
+/// where the replacement atom is searched among the training signals.
+KsvdResult learn_ksvd(const MatrixF& F, const KsvdOptions& o, const Progress& progress = {});
+
+// ---------------------------------------------------------------- dictionaries (dictionary.cpp)
+
+struct Dictionary {
+  int patch = 16;        ///< P: high-resolution patch size (cells)
+  int factor = 4;        ///< f: resolution ratio between H and L (1: single resolution)
+  int sparsity = 1;      ///< sparsity the dictionary was learned for
+  bool constrained = false;
+  double cell_x = 0, cell_y = 0;  ///< cell size (m) of the exemplar H was taken from
+  MatrixF high;          ///< P^2 x N
+  MatrixF low;           ///< (P/f)^2 x N, unit-norm columns, masked to the low-resolution disc
+  /// Gain applied to the synthesized detail (output minus bicubic of the input), calibrated on the
+  /// exemplar: blending overlapping patches averages uncorrelated detail away.
+  float detail_gain = 1.0f;
+  std::string description;
+  int atoms() const { return int(high.cols()); }
+  int low_patch() const { return patch / factor; }
+};
+
+/// Writes the documented .tdic format (docs/amplify.md) atomically.
+void save_dictionary(const Dictionary& d, const std::string& path);
+/// Reads a .tdic file; throws a clear error naming the file for a truncated, corrupt (checksum)
+/// or inconsistent file.
+Dictionary load_dictionary(const std::string& path);
+
+struct LearnOptions {
+  int patch = 16;
+  int factor = 4;
+  int atoms = 1024;
+  int sparsity = 1;
+  int iterations = 6;
+  /// "constrained" (atoms are real exemplar patches; the default), "ksvd", or "complete"
+  /// (every training patch is an atom).
+  std::string method = "constrained";
+  int stride = 2;             ///< spacing of training patches in exemplar cells
+  int max_patches = 60000;    ///< random subset of training patches (0 = all)
+  unsigned seed = 1;
+  int threads = 0;
+  /// Calibrate the detail gain by a split-exemplar test (learn on one half, amplify the other's
+  /// block means, compare roughness) at this output patch spacing.
+  bool calibrate = true;
+  int calibration_spacing = 8;
+};
+/// Builds a multi-resolution dictionary (H, L) from exemplars at the high resolution.
+/// Throws when an exemplar is smaller than a patch or P is not a multiple of f.
+Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const LearnOptions& o,
+                            const Progress& progress = {});
+
+// ---------------------------------------------------------------- atom search (flann_search.cpp)
+
+/// Best single atom (s = 1) for zero-mean queries over unit-norm atoms: the nearest neighbour of
+/// q/|q| among {+d, -d}; coefficient <q, d>.
+struct AtomMatch {
+  std::vector<int32_t> index;
+  std::vector<float> coef;
+};
+/// Exact scan (one GEMM per block of queries).
+AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads = 0);
+
+/// FLANN randomized kd-tree forest over {+d, -d}. `checks` < 0 means unlimited (exact).
+class AtomIndex {
+ public:
+  AtomIndex(const MatrixF& D, int trees = 4, int checks = 512);
+  ~AtomIndex();
+  AtomIndex(const AtomIndex&) = delete;
+  AtomIndex& operator=(const AtomIndex&) = delete;
+  AtomMatch search(const MatrixF& Q, int threads = 0) const;
+  int trees() const { return m_trees; }
+  int checks() const { return m_checks; }
+
+ private:
+  struct Impl;
+  Impl* m_impl;
+  const MatrixF& m_atoms;
+  int m_trees, m_checks;
+};
+
+struct RecallReport {
+  int samples = 0;
+  double recall = 0;            ///< fraction of queries where FLANN picks the exact best atom
+  double ms_per_query_flann = 0, ms_per_query_exact = 0;
+};
+/// Compares FLANN with the exact scan on `samples` columns of Q (chosen evenly).
+RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples = 2000);
+
+// ---------------------------------------------------------------- amplification (amplify.cpp)
+
+struct AmplifyOptions {
+  int factor = 4;          ///< total factor: 4, 16, 64, 256 (x4 steps)
+  int spacing = 8;         ///< spacing of output patches (high-resolution cells, multiple of 4)
+  int sparsity = 1;
+  std::string search = "auto";  ///< auto | flann | exact | omp (auto: flann for s=1 and > 4096 atoms)
+  int trees = 2;
+  int checks = 8;
+  int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
+  bool bias_correction = true;
+  float detail_gain = -1;  ///< < 0: the dictionary's calibrated gain
+  int threads = 0;
+};
+
+/// One or more x4 steps with the dictionary (the same one at every step). The output is
+/// georeferenced at the finer cell size and its f x f block means equal the input (correction).
+Heightfield amplify(const Heightfield& low, const Dictionary& dict, const AmplifyOptions& o,
+                    const Progress& progress = {});
+/// Learns a dictionary per step from the exemplars brought to that step's output cell size
+/// (block means when the exemplar is finer), then amplifies. Throws on mismatched cell sizes.
+Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
+                                   const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress = {});
+/// Detail gain that makes the roughness of an amplified half of `exemplar` match the truth:
+/// learns on one half, amplifies the block means of the other (clamped to [0.5, 2]; 1 when the
+/// exemplar is too small to split).
+double calibrate_detail_gain(const Heightfield& exemplar, const LearnOptions& o);
+/// z minus its (f+1) x (f+1) box mean (relief finer than one input cell), and its RMS.
+std::vector<double> highpass(const Heightfield& h, int f);
+double roughness(const Heightfield& h, int f);
+/// Spatialised style: amplifies with each dictionary and blends by `mask` (values in [0, 1] at the
+/// input resolution, 1 selects dicts[1]), smoothed over `blend_cells` input cells.
+Heightfield amplify_styles(const Heightfield& low, const std::vector<const Dictionary*>& dicts, const Heightfield& mask,
+                           double blend_cells, const AmplifyOptions& o, const Progress& progress = {});
+
+/// Terrain synthesis from a coarse painted sketch (elevations already in metres): the sketch is
+/// smoothed by a tent filter `smooth_cells` wide, then amplified.
+Heightfield synthesize_from_sketch(const Heightfield& sketch, const Dictionary& d, double smooth_cells,
+                                   const AmplifyOptions& o, const Progress& progress = {});
+/// In-place tent filter (two separable box passes of radius r, clamped borders).
+void smooth_tent(Heightfield& h, int r);
+
+/// f x f block means (the input is cropped to a multiple of f). Georef resampled by 1/f.
+Heightfield block_mean(const Heightfield& h, int f);
+/// Bicubic (Catmull-Rom) upsampling by f with cell-centre alignment (the baseline).
+Heightfield bicubic_upsample(const Heightfield& h, int f);
+/// out += scale * bicubic_upsample(low, f), without a full-size temporary.
+void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale);
+/// Makes every f x f block mean of `high` equal the corresponding cell of `low`: a few smooth
+/// (bicubic back-projection) passes, then an exact constant shift per block.
+void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4);
+
+// ---------------------------------------------------------------- evaluation (eval.cpp)
+
+struct AmplifyMetrics {
+  double rmse = 0, psnr = 0;
+  double hf_ratio = 0;         ///< spectral energy above the low-resolution Nyquist, output / truth
+  double roughness_ratio = 0;  ///< RMS of z - box(f+1) mean, output / truth
+  double slope_ratio = 0;      ///< mean slope (deg), output / truth
+  double lr_consistency = 0;   ///< RMSE between the output's f x f block means and the input (m)
+};
+AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield& truth, const Heightfield& low, int f);
+
+/// Compression report (section 5.1): learn N atoms of P x P patches spaced P/2 on `h`, encode with
+/// sparsity s and reconstruct. rho = (K N + n (2 s + 2) + 1) / (w h).
+struct EncodeReport {
+  int sparsity = 0, atoms = 0, patch = 0, patches = 0;
+  double rho = 0, psnr = 0, rmse = 0;
+};
+EncodeReport encode_report(const Heightfield& h, int sparsity, int atoms, int patch, int iterations = 8,
+                           const Progress& progress = {});
+
+/// Parallel for over [0, n) in contiguous chunks (threads 0 = hardware concurrency).
+void parallel_for(size_t n, int threads, const std::function<void(size_t begin, size_t end)>& body);
+
+}  // namespace terracl

@@ -1,0 +1,85 @@
+#pragma once
+/// Gradient-domain authoring with JSON edit scripts (docs/authoring.md).
+///
+/// A script is {"units": "m" | "cells", "seed": 1, "operations": [{"op": "crest", ...}, ...]} (or just
+/// the array of operations). Operations edit the gradient field (tensors, noise, landform curves,
+/// copy-paste) and add hard elevation constraints (crest, cliff, river, mesa, freeze, fit); the
+/// terrain is the multigrid reconstruction of the edited field under the constraints. Coordinates
+/// are metres from the centre of cell (0, 0), x east (columns), y south (rows); angles are degrees
+/// counter-clockwise from east on a north-up map. Bad operations or parameters throw
+/// terracl::Error("edit", "<JSON path>: <what was expected>") before anything runs.
+#include <terracl/device.hpp>
+#include <terracl/heightfield.hpp>
+#include <terracl/progress.hpp>
+#include <terracl/reconstruct.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace terracl {
+
+namespace edit {
+class EditState;
+}
+
+struct EditOptions {
+  SolverOptions solver;   ///< initial/progress are managed by the session
+  Progress progress;
+  std::string base_dir;   ///< folder for relative file names in the script (copy_paste, fit)
+};
+
+/// "flat:WIDTHxHEIGHT[@CELLSIZE]" -> a zero heightfield (cell size in metres, default 1); nullopt
+/// when `spec` does not start with "flat:"; throws on a malformed spec.
+std::optional<Heightfield> parse_flat_spec(const std::string& spec);
+
+/// `path` when it exists, else `base_dir`/`path` when that exists, else `path`.
+std::string resolve_path(const std::string& path, const std::string& base_dir);
+
+/// Reads a script file; malformed JSON is an error naming the file, line and column.
+nlohmann::json read_edit_script(const std::string& path);
+
+/// An interactive editing session: a base terrain, operations applied in order, and the
+/// reconstruction warm-started from the previous solution.
+class EditSession {
+ public:
+  EditSession(Device& d, const Heightfield& base, EditOptions o = {});
+  ~EditSession();
+  EditSession(const EditSession&) = delete;
+  EditSession& operator=(const EditSession&) = delete;
+
+  /// Validates every operation of `script` (throwing with JSON paths), then runs them.
+  void apply(const nlohmann::json& script);
+  /// Validates without running.
+  void validate(const nlohmann::json& script) const;
+  /// The current terrain (reconstructs when an operation changed anything).
+  const Heightfield& height();
+  /// Reconstructs now (warm: from the previous solution, else from scratch), returning the
+  /// solver's figures.
+  const ReconstructResult& solve(bool warm = true);
+  GradientField gradient();
+  size_t hard_cells() const;
+  /// Per-operation log: op, index, milliseconds and operation-specific figures.
+  const nlohmann::json& log() const;
+  /// Log plus the last solve's figures.
+  nlohmann::json report() const;
+
+ private:
+  std::unique_ptr<edit::EditState> m_state;
+  EditOptions m_options;
+};
+
+/// Name and one-line summary of every edit operation.
+std::vector<std::pair<std::string, std::string>> edit_operations();
+
+/// Gradient image (paper section 3): a two-channel PNG with (r, g) = 2^(p-1) (1 + g/m), clamped to
+/// [0, 2^p - 1], p = 16 bits, m = the largest |component| (stored in the sidecar "<file>.json" with
+/// the cell size). Decoding error is at most m / 2^(p-1) per component.
+void write_gradient_image(const GradientField& g, const std::string& path);
+GradientField read_gradient_image(const std::string& path);
+
+}  // namespace terracl

@@ -1,0 +1,142 @@
+#pragma once
+/// Hydraulic (virtual-pipe) and thermal erosion on the OpenCL device (kernels/erosion.cl).
+///
+/// State per cell, float32 structure-of-arrays: bed elevation b (m), water depth d (m), suspended
+/// sediment s (m of material per cell area), outflow fluxes fL fR fT fB of the four virtual pipes
+/// (m^3/s). Per sub-step: rain -> fluxes -> water and sediment transport + velocity -> erosion and
+/// deposition -> evaporation -> thermal erosion. With a closed border water and solid (bed +
+/// suspended sediment) are conserved to round-off; with an open border what leaves is counted.
+/// See docs/erosion.md for the model and the parameters.
+#include <terracl/device.hpp>
+#include <terracl/heightfield.hpp>
+#include <terracl/progress.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace terracl {
+
+enum class ErosionBoundary { Closed, Open };
+
+/// Parameters in SI units. Defaults carve visible gullies on 30-100 m DEMs in a few hundred steps.
+struct ErosionParams {
+  double dt = 0.0;             ///< s, time step; 0 = automatic (half the stability limit). A dt above
+                               ///< that is split into equal sub-steps automatically.
+  double rain = 0.0;           ///< m/s of rain added uniformly to every cell
+  double evaporation = 0.0;    ///< 1/s, water depth decays as d *= (1 - evaporation*dt)
+  double gravity = 9.81;       ///< m/s^2
+  double pipe_area = 0.0;      ///< m^2, cross-section A of a virtual pipe; 0 = cell area
+  double damping = 0.0;        ///< 1/s, k_f: semi-implicit damping of the pipe fluxes
+  double capacity = 0.0;       ///< s, K_c: capacity (m) per (m/s of speed x sine of slope)
+  double dissolve = 0.0;       ///< 1/s, K_s: rate of picking up (C - s)
+  double deposit = 0.0;        ///< 1/s, K_d: rate of settling (s - C)
+  double min_sin_slope = 0.0;  ///< lower bound of sin(slope) in the capacity, so flats still carry
+  double depth_ramp = 0.0;     ///< m, K_dmax: capacity ramps up linearly with depth until this depth
+  double max_change = 0.0;     ///< m, cap on the bed change of one cell in one sub-step
+  double dry_depth = 1e-4;     ///< m, d_min: below it a cell has no velocity and deposits all it carries
+  double thermal_rate = 0.0;   ///< 1/s, K_t: fraction of the excess above talus moved per second
+                               ///< (capped at 1/12 per sub-step for monotone behaviour)
+  double talus_deg = 35.0;     ///< deg, talus (angle of repose) of the rock (of all material
+                               ///< without a deposit layer)
+  bool deposit_layer = false;  ///< track a softer deposit layer on top of the rock
+  double rock_erodibility = 0.3;   ///< with a deposit layer: rock dissolves at this fraction of K_s
+  double deposit_talus_deg = 30.0; ///< deg, with a deposit layer: talus of the deposit
+  bool thermal_only = false;   ///< no water at all: only thermal erosion
+  ErosionBoundary boundary = ErosionBoundary::Closed;
+  double substep_fraction = 0.5;  ///< sub-steps are at most this fraction of the stability limit
+  int cells_per_item = 0;  ///< cells of a row per work-item (multiple of 8); 0 = automatic: the whole
+                           ///< row on CPUs, 32 on GPUs. Results are bitwise the same for any value.
+
+  /// The defaults of the `erode` stage (carve gullies on the bundled SRTM tiles).
+  static ErosionParams defaults();
+};
+
+/// Stability limit (s) of the pipe model for a cell of lx x ly metres:
+/// dt_max = sqrt(a / (g * (A/lx + A/ly))), i.e. sqrt(l*a / (2*A*g)) for square cells.
+double erosion_stability_limit(const ErosionParams& p, double lx, double ly);
+
+/// The host copy of the state (row-major width x height, no halo).
+struct ErosionState {
+  int width = 0, height = 0;
+  std::vector<float> bed, water, sediment, flux_l, flux_r, flux_t, flux_b;
+  std::vector<float> deposit;  ///< deposit layer thickness (m); empty without a deposit layer
+};
+
+/// Totals in double precision, summed on the host: volumes in m^3.
+struct ErosionTotals {
+  double water = 0;          ///< sum of d * cell area
+  double solid = 0;          ///< sum of (b + s) * cell area (bed + suspended sediment)
+  double sediment = 0;       ///< sum of s * cell area
+  double drained_water = 0;  ///< water that left through an open border since the start
+  double drained_sediment = 0;
+  double rained = 0;         ///< rain added since the start
+};
+
+/// A running simulation on one device. Not thread-safe.
+class Erosion {
+ public:
+  /// `terrain` must be finite; `weight` (optional, width*height values in [0, 1]) scales erosion,
+  /// deposition and thermal transfer per cell: 0 keeps a cell's bed fixed (hard constraints, outside
+  /// of a brush). `water` (optional) is the initial depth in m (finite, >= 0); `deposit` (optional,
+  /// needs params.deposit_layer) the initial deposit thickness in m (finite, >= 0), part of `terrain`.
+  Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& params,
+          const std::vector<float>* weight = nullptr, const std::vector<float>* water = nullptr,
+          const std::vector<float>* deposit = nullptr);
+  ~Erosion();
+  Erosion(const Erosion&) = delete;
+  Erosion& operator=(const Erosion&) = delete;
+
+  /// Enqueues `n` steps (each `substeps()` sub-steps) without waiting for them.
+  void enqueue_steps(int n);
+  /// Runs `n` steps, reporting progress (fraction of n) and honouring cancellation.
+  void run(int n, const Progress& progress = {}, const std::string& stage = "erode");
+  /// Waits for the queue.
+  void finish();
+
+  ErosionState state();
+  ErosionTotals totals();
+  /// The current bed as a heightfield with the input's georef and metadata.
+  Heightfield bed();
+
+  int substeps() const { return m_substeps; }
+  double substep_dt() const { return m_dt_sub; }  ///< s
+  double step_dt() const { return m_dt_sub * m_substeps; }  ///< s
+  double stability_limit() const { return m_dt_limit; }    ///< s
+  long long steps_done() const { return m_steps; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m;
+  int m_substeps = 1;
+  double m_dt_sub = 0, m_dt_limit = 0;
+  long long m_steps = 0;
+};
+
+/// Optional extra outputs of erode().
+struct ErosionOutputs {
+  Heightfield water, sediment, delta;  ///< depth (m), suspended sediment (m), bed change (m, + = deposit)
+  Heightfield deposit;                 ///< deposit layer thickness (m), only with a deposit layer
+  ErosionTotals totals;
+  int substeps = 1;
+  double substep_dt = 0;
+};
+
+/// Runs `steps` steps on `terrain` and returns the eroded bed. `weight` as for Erosion.
+Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& params, int steps,
+                  const std::vector<float>* weight = nullptr, ErosionOutputs* outputs = nullptr,
+                  const Progress& progress = {});
+
+/// Minimal reader of hard constraints for `--keep-constraints`: a JSON object with "points"
+/// ([{"x", "y"[, "z"]}]), "polygons" ([{"points": [[x, y], ...]}] or {"vertices": ...}) and
+/// "polylines" ([{"points": [[x, y], ...], "width": cells}]); coordinates in pixels (column, row;
+/// cell centres at integers) unless "units": "georeferenced". Returns a width*height mask, 1 = fixed.
+/// Errors name the file and the JSON path.
+std::vector<unsigned char> read_fixed_cells(const std::string& path, const Heightfield& grid);
+
+/// Brush weight from a mask raster (any format read_heightfield reads; values scaled so the mask's
+/// maximum is 1, resampled bilinearly when its size differs), blurred with a Gaussian of `feather`
+/// cells for a smooth edge.
+std::vector<float> read_region_weight(const std::string& path, const Heightfield& grid, double feather);
+
+}  // namespace terracl

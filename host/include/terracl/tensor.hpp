@@ -1,0 +1,92 @@
+#pragma once
+/// Skeleton primitives and tensor fields for gradient-domain authoring (kernels/tensor.cl).
+///
+/// The composite tensor field A(p) = I + sum_i mu_i alpha(d_i(p)/r_i) T_i(p, u(p)) acts on a gradient
+/// by matrix multiplication, g' = A g. alpha(t) = (1 - t^2)^3 on [0, 1], 0 beyond: C2, alpha(0) = 1,
+/// alpha(1) = 0. d_i is the (optionally anisotropic) distance to primitive i, r_i its radius of
+/// influence, u(p) the unit direction from p to the closest point of the primitive.
+/// Positions are metres in the grid frame: cell (x, y) is at (x * cell_x, y * cell_y), x east,
+/// y south. Gradients live on the staggered grid of GradientField.
+#include <terracl/device.hpp>
+#include <terracl/heightfield.hpp>
+
+#include <array>
+#include <vector>
+
+namespace terracl {
+
+struct Vec2 {
+  double x = 0, y = 0;
+};
+
+enum class PrimitiveShape { Point, Polyline, Disc, Polygon };
+
+/// What T_i is. Directional: the constant R(2 theta) = [[cos 2t, sin 2t], [sin 2t, -cos 2t]], so a
+/// full-weight region gives D(theta, mu) = I + mu R(2 theta). Scale: T = I (mu = factor - 1 scales
+/// slopes). Tangent / Closest: R(2 theta) with theta the angle of the stroke's tangent or of u(p),
+/// rotated by `angle`.
+enum class TensorKind { Directional, Scale, Tangent, Closest };
+
+/// Cross-section profile P(d) for profile gradients (landform curves); a = amplitude (metres).
+/// Round: a alpha(d/r). Sharp: a (1 - d/r)^3. Step: a smootherstep((s/r + 1)/2) across the signed
+/// distance s (a fault of throw a). Drop: -a smootherstep(s/r) for s >= 0 (a cliff face / rim).
+enum class Profile { Round, Sharp, Step, Drop };
+
+struct Primitive {
+  PrimitiveShape shape = PrimitiveShape::Point;
+  std::vector<Vec2> points;         ///< metres; 1 for point/disc (centre), >= 2 polyline, >= 3 polygon
+  std::vector<double> amplitude;    ///< per-vertex profile amplitude factor (empty: all 1)
+  double disc_radius = 0;           ///< metres (disc)
+  double radius = 0;                ///< radius of influence r (metres) beyond the shape
+  double strength = 1;              ///< mu
+  TensorKind tensor = TensorKind::Directional;
+  double angle = 0;                 ///< radians (directional theta, or rotation of aligned tensors)
+  /// Anisotropic distance: offsets along the direction `aniso_angle` count 1x, across it `aniso_ratio`x.
+  double aniso_ratio = 1, aniso_angle = 0;
+  Profile profile = Profile::Round;
+  double profile_amplitude = 0;     ///< metres
+};
+
+/// alpha(t) = (1 - t^2)^3 for 0 <= t < 1, else 0 (host copy of the kernel's function).
+double alpha(double t);
+/// D(theta, mu) = I + mu [[cos 2t, sin 2t], [sin 2t, -cos 2t]] as {a00, a01, a10, a11}.
+std::array<double, 4> directional_tensor(double theta, double mu);
+
+/// Cells [x0, x0+w) x [y0, y0+h) of a grid.
+struct Box {
+  int x0 = 0, y0 = 0, w = 0, h = 0;
+  bool empty() const { return w <= 0 || h <= 0; }
+};
+/// Cells that the primitives can influence (plus a margin of one cell), clipped to the grid.
+Box primitives_box(const std::vector<Primitive>& prims, int width, int height, double cell_x, double cell_y);
+Box full_box(int width, int height);
+
+/// A gradient field resident on the device, with scratch buffers for the authoring kernels.
+struct GradientBuffers {
+  int width = 0, height = 0;
+  double cell_x = 1, cell_y = 1;
+  cl::Buffer gx, gy;      ///< the field
+  cl::Buffer tx, ty;      ///< scratch of the same size (zero outside what an operation uses)
+  cl::Buffer mask;        ///< scratch weight field (cells)
+  cl::Buffer nv, nx, ny;  ///< noise values and derivatives at the cells (allocated by noise_gradient)
+  size_t cells() const { return size_t(width) * size_t(height); }
+
+  static GradientBuffers upload(Device& d, const GradientField& g);
+  /// Copies the field back into `g` (which keeps its georef/metadata; size must match).
+  void download(Device& d, GradientField& g) const;
+  /// Zeroes rows [box.y0 - 1, box.y0 + box.h] of the scratch buffers tx, ty.
+  void clear_scratch(Device& d, const Box& box);
+};
+
+/// g = A g for the composite tensor field of `prims` (A = I outside every support).
+void apply_tensor_field(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims);
+/// g += A t where t is the scratch field (tx, ty), over `box` (noise layers oriented by tensors).
+void add_tensor_field_of_scratch(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box);
+/// mask = max_i alpha(d_i/r_i) over `box` (1 - that when `invert`); cells outside `box` untouched.
+void primitive_weight(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box, bool invert);
+/// g += the staggered (discrete) gradient of P = sum_i P_i(d_i), evaluated at the cell centres of the
+/// primitives' box: exactly curl-free, so reconstruction reproduces P; profiles superpose additively.
+/// Uses the mask scratch buffer.
+void add_profile_gradient(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims);
+
+}  // namespace terracl

@@ -1,0 +1,160 @@
+// The `amplify` stage and the `amplify` benchmark.
+#include "pipeline/builtin.hpp"
+
+#include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <sys/resource.h>
+#include <filesystem>
+#include <sstream>
+
+namespace terracl {
+
+namespace {
+
+ReadOptions filled() {
+  ReadOptions r;
+  r.fill_nodata = true;
+  return r;
+}
+
+std::vector<std::string> split_list(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+AmplifyOptions amplify_options(const StageContext& c) {
+  AmplifyOptions o;
+  o.factor = c.get<int>("factor");
+  o.spacing = c.get<int>("spacing");
+  o.sparsity = c.get<int>("sparsity");
+  o.search = c.get<std::string>("search");
+  o.trees = c.get<int>("trees");
+  o.checks = c.get<int>("checks");
+  o.tile = c.get<int>("tile");
+  o.bias_correction = c.get<bool>("bias_correction");
+  o.detail_gain = float(c.get<double>("detail_gain"));
+  return o;
+}
+
+void run_amplify(StageContext& c) {
+  Heightfield& low = c.height();
+  const AmplifyOptions o = amplify_options(c);
+  const bool has_ex = c.has("exemplar"), has_dict = c.has("dictionary");
+  if (has_ex == has_dict) throw UsageError("amplify", "give exactly one of --exemplar FILE[,FILE...] or --dictionary FILE");
+  Heightfield out;
+  if (c.has("style_mask")) {
+    if (!has_dict || !c.has("style_dictionary"))
+      throw UsageError("amplify", "--style-mask needs --dictionary (mask 0) and --style-dictionary (mask 1)");
+    const Dictionary a = load_dictionary(c.get<std::string>("dictionary"));
+    const Dictionary b = load_dictionary(c.get<std::string>("style_dictionary"));
+    const Heightfield mask = read_heightfield(c.get<std::string>("style_mask"));
+    out = amplify_styles(low, {&a, &b}, mask, c.get<double>("style_blend"), o, c.progress);
+  } else if (has_dict) {
+    const Dictionary d = load_dictionary(c.get<std::string>("dictionary"));
+    out = amplify(low, d, o, c.progress);
+  } else {
+    std::vector<Heightfield> ex;
+    for (const auto& f : split_list(c.get<std::string>("exemplar"))) {
+      if (!std::filesystem::exists(f)) throw UsageError("amplify", fmt::format("--exemplar: file {} does not exist", f));
+      ex.push_back(read_heightfield(f, filled()));
+    }
+    if (ex.empty()) throw UsageError("amplify", "--exemplar: no file given");
+    LearnOptions l;
+    l.patch = c.get<int>("patch");
+    l.atoms = c.get<int>("atoms");
+    l.sparsity = o.sparsity;
+    l.method = c.get<std::string>("method");
+    out = amplify_from_exemplars(low, ex, l, o, c.progress);
+  }
+  out.metadata["amplify_factor"] = std::to_string(o.factor);
+  low = std::move(out);
+}
+
+}  // namespace
+
+void register_amplify_stages(StageRegistry& r) {
+  r.add({"amplify",
+         "Amplify a heightfield by 4, 16, 64 or 256 with a multi-resolution sparse dictionary (from exemplars or a "
+         ".tdic file); block means of the output match the input.",
+         DataKind::Heightfield,
+         DataKind::Heightfield,
+         {
+             {"factor", OptionType::Int, 4, "", "Total amplification factor (power of 4)", {}},
+             {"exemplar", OptionType::String, nullptr, "", "High-resolution exemplar file(s), comma-separated", {}},
+             {"dictionary", OptionType::Path, nullptr, "", "Dictionary file (.tdic) from `terracl dictionary learn`", {}},
+             {"patch", OptionType::Int, 16, "cells", "Patch size P at the output resolution (with --exemplar)", {}},
+             {"atoms", OptionType::Int, 1024, "", "Dictionary atoms (with --exemplar, constrained/ksvd)", {}},
+             {"method", OptionType::Enum, "complete", "", "Learning method with --exemplar", {"complete", "constrained", "ksvd"}},
+             {"spacing", OptionType::Int, 8, "cells", "Spacing of output patches (multiple of 4, <= patch)", {}},
+             {"sparsity", OptionType::Int, 1, "", "Atoms per patch", {}},
+             {"search", OptionType::Enum, "auto", "", "Atom search for sparsity 1", {"auto", "flann", "exact", "omp"}},
+             {"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}},
+             {"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
+             {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
+             {"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}},
+             {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
+             {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
+             {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
+             {"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}},
+         },
+         run_amplify});
+}
+
+void register_amplify_benches(BenchRegistry& r) {
+  r.add({"amplify",
+         "Amplify a DEM (--set dem=FILE, default data/dem/N44W072.hgt) cropped/averaged to --size, by --set factor=4 "
+         "with a dictionary learned from the DEM itself",
+         [](const BenchArgs& a) {
+           const std::string dem = a.extra.value("dem", std::string("data/dem/N44W072.hgt"));
+           const int factor = a.extra.value("factor", 4);
+           Heightfield full = read_heightfield(dem, filled());
+           LearnOptions l;
+           l.method = a.extra.value("method", std::string("complete"));
+           l.atoms = a.extra.value("atoms", 1024);
+           l.iterations = a.extra.value("iterations", l.iterations);
+           l.max_patches = a.extra.value("max_patches", l.max_patches);
+           using clock = std::chrono::steady_clock;
+           auto t0 = clock::now();
+           const Dictionary d = learn_dictionary({full}, l);
+           const double learn_s = std::chrono::duration<double>(clock::now() - t0).count();
+           // Input: block means of the DEM so that --size cells cover as much of it as possible.
+           int b = std::max(1, std::min(full.width, full.height) / a.size);
+           Heightfield low = b > 1 ? block_mean(full, b) : full;
+           Heightfield in(std::min(a.size, low.width), std::min(a.size, low.height));
+           in.georef = low.georef;
+           for (int y = 0; y < in.height; ++y)
+             for (int x = 0; x < in.width; ++x) in.at(x, y) = low.at(x, y);
+           AmplifyOptions o;
+           o.factor = factor;
+           o.search = a.extra.value("search", std::string("auto"));
+           o.checks = a.extra.value("checks", 8);
+           o.trees = a.extra.value("trees", 2);
+           std::vector<double> times;
+           Heightfield out;
+           for (int k = 0; k < a.repeats; ++k) {
+             auto t1 = clock::now();
+             out = amplify(in, d, o);
+             times.push_back(std::chrono::duration<double>(clock::now() - t1).count());
+           }
+           std::sort(times.begin(), times.end());
+           fmt::print("amplify: {}x{} -> {}x{} (x{}), dictionary {} atoms ({}, learned in {:.2f} s)\n", in.width, in.height,
+                      out.width, out.height, factor, d.atoms(), l.method, learn_s);
+           rusage ru{};
+           getrusage(RUSAGE_SELF, &ru);
+           fmt::print("amplify: median {:.3f} s, min {:.3f} s over {} runs (search {}, trees {}, checks {}); peak RSS {:.0f} MiB, "
+                      "output {:.0f} MiB\n", times[times.size() / 2], times.front(), times.size(), o.search, o.trees, o.checks,
+                      ru.ru_maxrss / 1024.0, out.size() * 4.0 / (1 << 20));
+         }});
+}
+
+}  // namespace terracl

@@ -1,0 +1,263 @@
+// Multi-resolution dictionaries (H, L): learning from exemplars and the .tdic file format
+// (docs/amplify.md). L is the block mean of each H atom, masked to the low-resolution disc; both are
+// divided by |L| so that a coefficient found on L carries over to H unchanged.
+#include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <numeric>
+#include <random>
+
+namespace terracl {
+
+namespace {
+
+constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
+constexpr uint32_t kVersion = 1;
+
+uint64_t fnv1a(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// Little-endian writers/readers (the format is little-endian on every host).
+template <typename T>
+void put(std::string& out, T v) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if constexpr (sizeof(T) > 1) {
+    const uint16_t probe = 1;
+    if (*reinterpret_cast<const unsigned char*>(&probe) == 0) std::reverse(b, b + sizeof(T));
+  }
+  out.append(reinterpret_cast<const char*>(b), sizeof(T));
+}
+
+struct Reader {
+  const std::string& data;
+  const std::string& path;
+  size_t pos = 0;
+  template <typename T>
+  T get(const char* what) {
+    if (pos + sizeof(T) > data.size())
+      fail("dictionary", "{}: truncated file (reading {} at byte {} of {})", path, what, pos, data.size());
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, data.data() + pos, sizeof(T));
+    if constexpr (sizeof(T) > 1) {
+      const uint16_t probe = 1;
+      if (*reinterpret_cast<const unsigned char*>(&probe) == 0) std::reverse(b, b + sizeof(T));
+    }
+    pos += sizeof(T);
+    T v;
+    std::memcpy(&v, b, sizeof(T));
+    return v;
+  }
+};
+
+// Block mean by f of a P x P column-major-free (row-major) patch vector, masked to the low disc.
+VectorF downsample_atom(const VectorF& h, int P, int f, const std::vector<float>& low_mask) {
+  const int p = P / f;
+  VectorF l(p * p);
+  for (int y = 0; y < p; ++y)
+    for (int x = 0; x < p; ++x) {
+      double s = 0;
+      for (int v = 0; v < f; ++v)
+        for (int u = 0; u < f; ++u) s += h[(y * f + v) * P + x * f + u];
+      l[y * p + x] = float(low_mask[y * p + x] * s / (f * f));
+    }
+  return l;
+}
+
+}  // namespace
+
+void save_dictionary(const Dictionary& d, const std::string& path) {
+  std::string out;
+  out.append(kMagic, 4);
+  put<uint32_t>(out, kVersion);
+  put<int32_t>(out, d.patch);
+  put<int32_t>(out, d.factor);
+  put<int32_t>(out, d.atoms());
+  put<int32_t>(out, d.sparsity);
+  put<int32_t>(out, d.constrained ? 1 : 0);
+  put<double>(out, d.cell_x);
+  put<double>(out, d.cell_y);
+  put<float>(out, d.detail_gain);
+  put<uint32_t>(out, uint32_t(d.description.size()));
+  out += d.description;
+  for (Eigen::Index i = 0; i < d.high.size(); ++i) put<float>(out, d.high.data()[i]);
+  for (Eigen::Index i = 0; i < d.low.size(); ++i) put<float>(out, d.low.data()[i]);
+  put<uint64_t>(out, fnv1a(out));
+  write_atomically(path, [&](const std::string& tmp) {
+    std::ofstream f(tmp, std::ios::binary);
+    if (!f) fail("dictionary", "cannot write {}", path);
+    f.write(out.data(), std::streamsize(out.size()));
+    if (!f) fail("dictionary", "write error on {}", path);
+  });
+}
+
+Dictionary load_dictionary(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) fail("dictionary", "cannot open {}", path);
+  const std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (data.size() < 4 || std::memcmp(data.data(), kMagic, 4) != 0)
+    fail("dictionary", "{}: not a terracl dictionary (no TDIC signature)", path);
+  Reader r{data, path, 4};
+  const uint32_t version = r.get<uint32_t>("version");
+  if (version != kVersion) fail("dictionary", "{}: format version {} is not supported (expected {})", path, version, kVersion);
+  Dictionary d;
+  d.patch = r.get<int32_t>("patch size");
+  d.factor = r.get<int32_t>("factor");
+  const int32_t atoms = r.get<int32_t>("atom count");
+  d.sparsity = r.get<int32_t>("sparsity");
+  d.constrained = (r.get<int32_t>("flags") & 1) != 0;
+  d.cell_x = r.get<double>("cell_x");
+  d.cell_y = r.get<double>("cell_y");
+  d.detail_gain = r.get<float>("detail gain");
+  if (d.patch < 2 || d.patch > 256 || d.factor < 1 || d.factor > 16 || d.patch % d.factor != 0 || atoms < 1 ||
+      atoms > 50'000'000 || d.sparsity < 1 || !(d.cell_x >= 0) || !(d.cell_y >= 0) ||
+      !(d.detail_gain > 0 && d.detail_gain < 100))
+    fail("dictionary", "{}: corrupt header (patch {}, factor {}, atoms {}, sparsity {})", path, d.patch, d.factor, atoms,
+         d.sparsity);
+  const uint32_t dlen = r.get<uint32_t>("description length");
+  if (dlen > data.size() - r.pos) fail("dictionary", "{}: corrupt header (description length {})", path, dlen);
+  d.description = data.substr(r.pos, dlen);
+  r.pos += dlen;
+  const size_t K = size_t(d.patch) * d.patch, k = size_t(d.low_patch()) * d.low_patch();
+  const size_t need = (K + k) * size_t(atoms) * 4 + 8;
+  if (data.size() - r.pos != need)
+    fail("dictionary", "{}: size {} bytes does not match its header ({} atoms of {}x{} need {} more bytes after byte {}); "
+         "truncated or corrupt file", path, data.size(), atoms, d.patch, d.patch, need, r.pos);
+  const uint64_t stored = [&] {
+    Reader t{data, path, data.size() - 8};
+    return t.get<uint64_t>("checksum");
+  }();
+  if (fnv1a(data.substr(0, data.size() - 8)) != stored) fail("dictionary", "{}: checksum mismatch (corrupt file)", path);
+  d.high.resize(Eigen::Index(K), atoms);
+  d.low.resize(Eigen::Index(k), atoms);
+  for (Eigen::Index i = 0; i < d.high.size(); ++i) d.high.data()[i] = r.get<float>("atoms");
+  for (Eigen::Index i = 0; i < d.low.size(); ++i) d.low.data()[i] = r.get<float>("atoms");
+  if (!d.high.allFinite() || !d.low.allFinite()) fail("dictionary", "{}: atoms contain NaN or Inf (corrupt file)", path);
+  return d;
+}
+
+Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const LearnOptions& o, const Progress& progress) {
+  const int P = o.patch, f = o.factor;
+  if (exemplars.empty()) fail("dictionary", "no exemplar given");
+  if (f < 1 || P < 4 || P % f != 0 || P / f < 2)
+    fail("dictionary", "patch size {} must be a multiple of the factor {} with at least 2 low-resolution cells", P, f);
+  if (o.stride < 1) fail("dictionary", "stride must be >= 1");
+  const auto& g0 = exemplars[0].georef;
+  for (size_t e = 0; e < exemplars.size(); ++e) {
+    const auto& h = exemplars[e];
+    if (h.width < P || h.height < P)
+      fail("dictionary", "exemplar {} ({}x{} cells) is smaller than one {}x{} patch", e + 1, h.width, h.height, P, P);
+    require_finite(h, "dictionary", fmt::format("exemplar {}", e + 1));
+    const auto& g = h.georef;
+    if (std::fabs(g.cell_x / g0.cell_x - 1) > 0.05 || std::fabs(g.cell_y / g0.cell_y - 1) > 0.05)
+      fail("dictionary", "mismatched cell sizes: exemplar {} has {:.3f} x {:.3f} m cells, exemplar 1 has {:.3f} x {:.3f} m",
+           e + 1, g.cell_x, g.cell_y, g0.cell_x, g0.cell_y);
+  }
+  const int p = P / f;
+  const auto low_mask = patch_mask(p);
+  double lmsum = 0;
+  for (float m : low_mask) lmsum += m;
+
+  // Training patches: full P x P squares minus the mean over the low-resolution disc, so that the
+  // block mean of an H vector is exactly its L vector on the disc.
+  std::vector<std::pair<int, std::pair<int, int>>> where;
+  for (size_t e = 0; e < exemplars.size(); ++e)
+    for (int y = 0; y + P <= exemplars[e].height; y += o.stride)
+      for (int x = 0; x + P <= exemplars[e].width; x += o.stride) where.push_back({int(e), {x, y}});
+  std::mt19937 rng(o.seed);
+  if (o.max_patches > 0 && where.size() > size_t(o.max_patches)) {
+    std::shuffle(where.begin(), where.end(), rng);
+    where.resize(size_t(o.max_patches));
+  }
+  MatrixF F(P * P, Eigen::Index(where.size()));
+  std::vector<char> keep(where.size(), 0);
+  parallel_for(where.size(), o.threads, [&](size_t b, size_t e) {
+    VectorF v(P * P);
+    for (size_t i = b; i < e; ++i) {
+      const auto& h = exemplars[where[i].first];
+      const auto [x0, y0] = where[i].second;
+      for (int y = 0; y < P; ++y)
+        for (int x = 0; x < P; ++x) v[y * P + x] = h.at(x0 + x, y0 + y);
+      const VectorF l = downsample_atom(v, P, f, low_mask);
+      const float z = float(l.sum() / lmsum);
+      v.array() -= z;
+      F.col(Eigen::Index(i)) = v;
+      keep[i] = (l.array() - z * Eigen::Map<const VectorF>(low_mask.data(), p * p).array()).matrix().norm() > 1e-4f;
+    }
+  });
+  // Flat patches carry no shape to match; drop them.
+  std::vector<Eigen::Index> cols;
+  for (size_t i = 0; i < keep.size(); ++i)
+    if (keep[i]) cols.push_back(Eigen::Index(i));
+  if (cols.empty()) fail("dictionary", "the exemplars are flat: no patch has relief to learn from");
+  MatrixF T(P * P, Eigen::Index(cols.size()));
+  for (size_t i = 0; i < cols.size(); ++i) T.col(Eigen::Index(i)) = F.col(cols[i]);
+  F.resize(0, 0);
+
+  MatrixF H;
+  if (o.method == "complete") {
+    H = T;
+    for (Eigen::Index j = 0; j < H.cols(); ++j) H.col(j).normalize();
+  } else if (o.method == "ksvd" || o.method == "constrained") {
+    KsvdOptions k;
+    k.atoms = o.atoms;
+    k.sparsity = o.sparsity;
+    k.iterations = o.iterations;
+    k.constrained = o.method == "constrained";
+    k.seed = o.seed;
+    k.threads = o.threads;
+    H = learn_ksvd(T, k, scaled_progress(progress, 0.0, 0.95)).D;
+  } else {
+    fail("dictionary", "unknown learning method '{}' (constrained, ksvd or complete)", o.method);
+  }
+
+  Dictionary d;
+  d.patch = P;
+  d.factor = f;
+  d.sparsity = o.sparsity;
+  d.constrained = o.method != "ksvd";
+  d.cell_x = g0.cell_x;
+  d.cell_y = g0.cell_y;
+  d.description = fmt::format("{} dictionary, {} training patches", o.method, T.cols());
+  std::vector<Eigen::Index> good;
+  MatrixF L(p * p, H.cols());
+  for (Eigen::Index j = 0; j < H.cols(); ++j) {
+    L.col(j) = downsample_atom(H.col(j), P, f, low_mask);
+    const float n = L.col(j).norm();
+    if (n > 1e-6f) {
+      L.col(j) /= n;
+      H.col(j) /= n;
+      good.push_back(j);
+    }
+  }
+  d.high.resize(P * P, Eigen::Index(good.size()));
+  d.low.resize(p * p, Eigen::Index(good.size()));
+  for (size_t i = 0; i < good.size(); ++i) {
+    d.high.col(Eigen::Index(i)) = H.col(good[i]);
+    d.low.col(Eigen::Index(i)) = L.col(good[i]);
+  }
+  if (o.calibrate && f > 1) {
+    report_progress(progress, "dictionary", 0.95, "calibrating the detail gain");
+    LearnOptions c = o;
+    c.calibrate = false;
+    c.max_patches = o.max_patches / 2;
+    d.detail_gain = float(calibrate_detail_gain(exemplars[0], c));
+  }
+  report_progress(progress, "dictionary", 1.0, fmt::format("{} atoms", d.atoms()));
+  return d;
+}
+
+}  // namespace terracl

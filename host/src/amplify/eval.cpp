@@ -1,0 +1,156 @@
+// Measures for amplification (scripts/eval-amplify.sh) and the compression report of section 5.1.
+#include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
+
+#include <unsupported/Eigen/FFT>
+
+#include <cmath>
+#include <complex>
+
+namespace terracl {
+
+namespace {
+
+inline int clampi(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
+
+// Energy of the spectrum outside the low-resolution passband |fx|, |fy| <= 1 / (2 f) (cycles per
+// cell), after removing the least-squares plane and applying a Hann window so that the tile's
+// borders do not leak energy into high frequencies.
+double energy_above(const Heightfield& h, int f) {
+  const int w = h.width, ht = h.height;
+  // Plane fit z ~ a + b x + c y (x, y centred, so the normal equations are diagonal).
+  double sz = 0, sxz = 0, syz = 0, sxx = 0, syy = 0;
+  const double cx = 0.5 * (w - 1), cy = 0.5 * (ht - 1);
+  for (int y = 0; y < ht; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double z = h.at(x, y), dx = x - cx, dy = y - cy;
+      sz += z, sxz += dx * z, syz += dy * z, sxx += dx * dx, syy += dy * dy;
+    }
+  const double a = sz / (double(w) * ht), b = sxx > 0 ? sxz / sxx : 0, c = syy > 0 ? syz / syy : 0;
+  std::vector<std::complex<double>> grid(size_t(w) * ht);
+  for (int y = 0; y < ht; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double win = (0.5 - 0.5 * std::cos(2 * M_PI * (x + 0.5) / w)) * (0.5 - 0.5 * std::cos(2 * M_PI * (y + 0.5) / ht));
+      grid[size_t(y) * w + x] = win * (h.at(x, y) - a - b * (x - cx) - c * (y - cy));
+    }
+  Eigen::FFT<double> fft;
+  std::vector<std::complex<double>> in, out;
+  for (int y = 0; y < ht; ++y) {
+    in.assign(grid.begin() + size_t(y) * w, grid.begin() + size_t(y + 1) * w);
+    fft.fwd(out, in);
+    std::copy(out.begin(), out.end(), grid.begin() + size_t(y) * w);
+  }
+  in.resize(size_t(ht));
+  double e = 0;
+  const double nyq = 0.5 / f;
+  for (int x = 0; x < w; ++x) {
+    for (int y = 0; y < ht; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
+    fft.fwd(out, in);
+    const double fx = std::fabs(double(x <= w / 2 ? x : x - w) / w);
+    for (int y = 0; y < ht; ++y) {
+      const double fy = std::fabs(double(y <= ht / 2 ? y : y - ht) / ht);
+      if (fx > nyq || fy > nyq) e += std::norm(out[size_t(y)]);
+    }
+  }
+  return e;
+}
+
+double rmse(const std::vector<float>& a, const std::vector<float>& b);
+
+}  // namespace
+
+std::vector<double> highpass(const Heightfield& h, int f) {
+  const int r = (f + 1) / 2;
+  std::vector<double> t(h.z.size()), out(h.z.size());
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      double s = 0;
+      for (int u = -r; u <= r; ++u) s += h.at(clampi(x + u, h.width), y);
+      t[size_t(y) * h.width + x] = s / (2 * r + 1);
+    }
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      double s = 0;
+      for (int v = -r; v <= r; ++v) s += t[size_t(clampi(y + v, h.height)) * h.width + x];
+      out[size_t(y) * h.width + x] = h.at(x, y) - s / (2 * r + 1);
+    }
+  return out;
+}
+
+double roughness(const Heightfield& h, int f) {
+  double acc = 0;
+  for (double d : highpass(h, f)) acc += d * d;
+  return std::sqrt(acc / double(std::max<size_t>(1, h.z.size())));
+}
+
+namespace {
+
+double rmse(const std::vector<float>& a, const std::vector<float>& b) {
+  double acc = 0;
+  for (size_t i = 0; i < a.size(); ++i) acc += double(a[i] - b[i]) * (a[i] - b[i]);
+  return std::sqrt(acc / double(a.size()));
+}
+
+}  // namespace
+
+AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield& truth, const Heightfield& low, int f) {
+  if (out.width != truth.width || out.height != truth.height)
+    fail("eval", "output {}x{} and truth {}x{} differ in size", out.width, out.height, truth.width, truth.height);
+  if (low.width * f != truth.width || low.height * f != truth.height)
+    fail("eval", "input {}x{} times {} is not the truth's {}x{}", low.width, low.height, f, truth.width, truth.height);
+  AmplifyMetrics m;
+  m.rmse = rmse(out.z, truth.z);
+  const HeightStats ts = compute_stats(truth);
+  m.psnr = 20 * std::log10((ts.max - ts.min) / std::max(1e-12, m.rmse));
+  m.hf_ratio = energy_above(out, f) / std::max(1e-30, energy_above(truth, f));
+  m.roughness_ratio = roughness(out, f) / std::max(1e-30, roughness(truth, f));
+  m.slope_ratio = compute_stats(out).mean_slope_deg / std::max(1e-30, ts.mean_slope_deg);
+  m.lr_consistency = rmse(block_mean(out, f).z, low.z);
+  return m;
+}
+
+EncodeReport encode_report(const Heightfield& h, int sparsity, int atoms, int patch, int iterations,
+                           const Progress& progress) {
+  require_finite(h, "dictionary", "input");
+  if (patch < 4 || patch % 2) fail("dictionary", "patch size must be even and >= 4 (got {})", patch);
+  // Patches spaced P/2 (the paper's t0 = n K / 4); a P/4 mirror margin lets the discs cover the corners.
+  const int pad = patch / 4;
+  Heightfield g(h.width + 2 * pad, h.height + 2 * pad);
+  g.georef = h.georef;
+  auto mirror = [](int i, int n) {
+    if (i < 0) i = -i;
+    if (i >= n) i = 2 * n - 2 - i;
+    return clampi(i, n);
+  };
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x) g.at(x, y) = h.at(mirror(x - pad, h.width), mirror(y - pad, h.height));
+  std::vector<float> means;
+  std::vector<std::pair<int, int>> pos;
+  const MatrixF F = extract_patches(g, patch, patch / 2, &means, &pos);
+  KsvdOptions k;
+  k.atoms = atoms;
+  k.sparsity = sparsity;
+  k.iterations = iterations;
+  const KsvdResult r = learn_ksvd(F, k, scaled_progress(progress, 0, 0.9));
+  const SparseCodes codes = batch_omp(r.D, F, sparsity);
+  const Heightfield rec = blend_patches(g.width, g.height, patch, decode(r.D, codes), means, pos);
+  double acc = 0;
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      const double d = rec.at(x + pad, y + pad) - h.at(x, y);
+      acc += d * d;
+    }
+  EncodeReport e;
+  e.sparsity = sparsity;
+  e.atoms = int(r.D.cols());
+  e.patch = patch;
+  e.patches = int(F.cols());
+  e.rmse = std::sqrt(acc / double(h.size()));
+  const HeightStats st = compute_stats(h);
+  e.psnr = 20 * std::log10((st.max - st.min) / std::max(1e-12, e.rmse));
+  e.rho = (double(patch) * patch * e.atoms + double(e.patches) * (2 * sparsity + 2) + 1) / double(h.size());
+  report_progress(progress, "dictionary", 1.0, "encoded");
+  return e;
+}
+
+}  // namespace terracl

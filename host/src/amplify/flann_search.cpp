@@ -1,0 +1,136 @@
+// Single-atom search (s = 1). For unit-norm zero-mean atoms, max |<q, d>| over d is the nearest
+// neighbour of q/|q| among {+d, -d}: |q^ - d|^2 = 2 - 2 <q^, d>. A FLANN randomized kd-tree forest
+// answers that approximately, far faster than the exact scan for large (complete) dictionaries.
+#include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
+
+#include <flann/flann.hpp>
+
+#include <chrono>
+#include <cmath>
+
+namespace terracl {
+
+AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads) {
+  if (D.rows() != Q.rows()) fail("amplify", "query length {} differs from atom length {}", Q.rows(), D.rows());
+  const size_t n = size_t(Q.cols());
+  AtomMatch m;
+  m.index.assign(n, -1);
+  m.coef.assign(n, 0.f);
+  constexpr size_t kBlock = 256;
+  const size_t blocks = (n + kBlock - 1) / kBlock;
+  parallel_for(blocks, threads, [&](size_t b0, size_t b1) {
+    for (size_t b = b0; b < b1; ++b) {
+      const size_t c0 = b * kBlock, cn = std::min(kBlock, n - c0);
+      const MatrixF A = D.transpose() * Q.middleCols(Eigen::Index(c0), Eigen::Index(cn));
+      for (size_t c = 0; c < cn; ++c) {
+        Eigen::Index k;
+        A.col(Eigen::Index(c)).cwiseAbs().maxCoeff(&k);
+        const float a = A(k, Eigen::Index(c));
+        if (a != 0.f) {
+          m.index[c0 + c] = int32_t(k);
+          m.coef[c0 + c] = a;
+        }
+      }
+    }
+  });
+  return m;
+}
+
+struct AtomIndex::Impl {
+  std::vector<float> points;  // 2N x K row-major: +d then -d
+  std::unique_ptr<flann::Index<flann::L2<float>>> index;
+};
+
+AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks)
+    : m_impl(new Impl), m_atoms(D), m_trees(trees), m_checks(checks) {
+  if (trees < 1) fail("amplify", "FLANN trees must be >= 1 (got {})", trees);
+  if (checks == 0) fail("amplify", "FLANN checks must be > 0, or negative for unlimited");
+  const size_t N = size_t(D.cols()), K = size_t(D.rows());
+  if (N == 0) fail("amplify", "empty dictionary");
+  m_impl->points.resize(2 * N * K);
+  for (size_t j = 0; j < N; ++j)
+    for (size_t k = 0; k < K; ++k) {
+      m_impl->points[j * K + k] = D(Eigen::Index(k), Eigen::Index(j));
+      m_impl->points[(N + j) * K + k] = -D(Eigen::Index(k), Eigen::Index(j));
+    }
+  // Unlimited checks visit every leaf: one tree is then exact and FLANN warns about more.
+  if (checks < 0) m_trees = 1;
+  flann::Matrix<float> data(m_impl->points.data(), 2 * N, K);
+  m_impl->index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeIndexParams(m_trees));
+  m_impl->index->buildIndex();
+}
+
+AtomIndex::~AtomIndex() { delete m_impl; }
+
+AtomMatch AtomIndex::search(const MatrixF& Q, int threads) const {
+  const size_t n = size_t(Q.cols()), K = size_t(Q.rows()), N = size_t(m_atoms.cols());
+  if (K != size_t(m_atoms.rows())) fail("amplify", "query length {} differs from atom length {}", K, m_atoms.rows());
+  AtomMatch m;
+  m.index.assign(n, -1);
+  m.coef.assign(n, 0.f);
+  flann::SearchParams params(m_checks < 0 ? flann::FLANN_CHECKS_UNLIMITED : m_checks);
+  params.cores = 1;  // parallelism is ours (one FLANN call per thread chunk)
+  constexpr size_t kBlock = 512;
+  const size_t blocks = (n + kBlock - 1) / kBlock;
+  parallel_for(blocks, threads, [&](size_t b0, size_t b1) {
+    std::vector<float> q(kBlock * K);
+    std::vector<size_t> idx(kBlock);
+    std::vector<float> dist(kBlock);
+    std::vector<size_t> live;
+    for (size_t b = b0; b < b1; ++b) {
+      const size_t c0 = b * kBlock, cn = std::min(kBlock, n - c0);
+      live.clear();
+      for (size_t c = 0; c < cn; ++c) {
+        const auto col = Q.col(Eigen::Index(c0 + c));
+        const float nrm = col.norm();
+        if (!(nrm > 0)) continue;
+        for (size_t k = 0; k < K; ++k) q[live.size() * K + k] = col[Eigen::Index(k)] / nrm;
+        live.push_back(c);
+      }
+      if (live.empty()) continue;
+      flann::Matrix<float> qm(q.data(), live.size(), K);
+      flann::Matrix<size_t> im(idx.data(), live.size(), 1);
+      flann::Matrix<float> dm(dist.data(), live.size(), 1);
+      m_impl->index->knnSearch(qm, im, dm, 1, params);
+      for (size_t i = 0; i < live.size(); ++i) {
+        const size_t c = live[i];
+        const size_t a = idx[i] % N;
+        m.index[c0 + c] = int32_t(a);
+        m.coef[c0 + c] = m_atoms.col(Eigen::Index(a)).dot(Q.col(Eigen::Index(c0 + c)));
+      }
+    }
+  });
+  return m;
+}
+
+RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples) {
+  RecallReport r;
+  const Eigen::Index n = Q.cols();
+  const int m = int(std::min<Eigen::Index>(samples, n));
+  if (m == 0) return r;
+  MatrixF S(Q.rows(), m);
+  for (int i = 0; i < m; ++i) S.col(i) = Q.col(Eigen::Index(double(i) * n / m));
+  AtomIndex index(D, trees, checks);
+  using clock = std::chrono::steady_clock;
+  auto t0 = clock::now();
+  const AtomMatch a = index.search(S, 1);
+  auto t1 = clock::now();
+  const AtomMatch e = exact_atom_search(D, S, 1);
+  auto t2 = clock::now();
+  int same = 0, live = 0;
+  for (int i = 0; i < m; ++i) {
+    if (e.index[i] < 0) continue;
+    ++live;
+    // Ties (duplicate atoms) count as agreement when the correlations are equal.
+    if (a.index[i] == e.index[i] || std::fabs(std::fabs(a.coef[i]) - std::fabs(e.coef[i])) <= 1e-6f * std::fabs(e.coef[i]))
+      ++same;
+  }
+  r.samples = live;
+  r.recall = live ? double(same) / live : 1.0;
+  r.ms_per_query_flann = std::chrono::duration<double, std::milli>(t1 - t0).count() / m;
+  r.ms_per_query_exact = std::chrono::duration<double, std::milli>(t2 - t1).count() / m;
+  return r;
+}
+
+}  // namespace terracl

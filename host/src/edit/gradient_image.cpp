@@ -1,0 +1,84 @@
+// Gradient images (paper section 3): two 16-bit channels (r, g) = 2^(p-1) (1 + g/m), so that image
+// tools can process gradients. m and the cell size travel in the JSON sidecar "<file>.json".
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <OpenImageIO/imageio.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+
+namespace terracl {
+
+namespace {
+constexpr int kBits = 16;
+constexpr double kHalf = 32768.0;  // 2^(p-1)
+}  // namespace
+
+void write_gradient_image(const GradientField& g, const std::string& path) {
+  if (g.width < 1 || g.height < 1) fail("gradient-image", "empty gradient field");
+  double m = 0;
+  for (size_t i = 0; i < g.size(); ++i) {
+    if (!std::isfinite(g.gx[i]) || !std::isfinite(g.gy[i])) fail("gradient-image", "the gradient has NaN/Inf values");
+    m = std::max({m, double(std::abs(g.gx[i])), double(std::abs(g.gy[i]))});
+  }
+  if (m == 0) m = 1;  // a flat field: any scale decodes to 0
+  std::vector<uint16_t> px(g.size() * 2);
+  auto enc = [&](float v) {
+    const double c = std::round(kHalf * (1.0 + double(v) / m));
+    return uint16_t(std::clamp(c, 0.0, 65535.0));
+  };
+  for (size_t i = 0; i < g.size(); ++i) px[2 * i] = enc(g.gx[i]), px[2 * i + 1] = enc(g.gy[i]);
+  nlohmann::json sc = {{"terracl", "gradient-image"}, {"bits", kBits}, {"m", m},
+                       {"width", g.width}, {"height", g.height}, {"cell_x", g.georef.cell_x},
+                       {"cell_y", g.georef.cell_y}, {"encoding", "(r, g) = 2^(p-1) (1 + g/m), staggered faces"}};
+  if (std::isfinite(g.mean_elevation)) sc["mean_elevation"] = g.mean_elevation;
+  write_atomically(path, [&](const std::string& tmp) {
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(tmp);
+    if (!out) fail("gradient-image", "{}: cannot create a PNG writer", path);
+    OIIO::ImageSpec spec(g.width, g.height, 2, OIIO::TypeDesc::UINT16);
+    spec.channelnames = {"R", "G"};
+    spec.attribute("oiio:ColorSpace", "linear");
+    spec.alpha_channel = -1;  // a PNG with 2 channels is grey + alpha: keep the values unassociated
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT16, px.data()) || !out->close())
+      fail("gradient-image", "{}: write failed: {}", path, out->geterror());
+  });
+  write_text_file_atomic(path + ".json", sc.dump(2) + "\n");
+}
+
+GradientField read_gradient_image(const std::string& path) {
+  std::ifstream sin(path + ".json");
+  if (!sin) fail("gradient-image", "{}: the sidecar {}.json with the scale m is missing", path, path);
+  nlohmann::json sc;
+  try {
+    sc = nlohmann::json::parse(sin);
+  } catch (const nlohmann::json::exception& e) {
+    fail("gradient-image", "{}.json: malformed JSON: {}", path, e.what());
+  }
+  if (!sc.contains("m") || !sc["m"].is_number() || !(sc["m"].get<double>() > 0))
+    fail("gradient-image", "{}.json: needs \"m\" > 0 (the gradient scale)", path);
+  const double m = sc["m"].get<double>();
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);  // no premultiplication of the "alpha" (g) channel
+  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path, &config);
+  if (!in) fail("gradient-image", "{}: cannot open: {}", path, OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.nchannels < 2) fail("gradient-image", "{}: expected 2 channels, has {}", path, spec.nchannels);
+  std::vector<uint16_t> px(size_t(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT16, px.data()))
+    fail("gradient-image", "{}: read failed: {}", path, in->geterror());
+  GradientField g(spec.width, spec.height);
+  g.georef.cell_x = sc.value("cell_x", 1.0);
+  g.georef.cell_y = sc.value("cell_y", 1.0);
+  if (sc.contains("mean_elevation") && sc["mean_elevation"].is_number()) g.mean_elevation = sc["mean_elevation"].get<double>();
+  for (size_t i = 0; i < g.size(); ++i) {
+    g.gx[i] = float(m * (px[i * spec.nchannels] / kHalf - 1.0));
+    g.gy[i] = float(m * (px[i * spec.nchannels + 1] / kHalf - 1.0));
+  }
+  return g;
+}
+
+}  // namespace terracl

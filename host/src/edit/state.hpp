@@ -1,0 +1,129 @@
+#pragma once
+// The state an edit script works on: the gradient field on the device, the hard elevation
+// constraints, and the last reconstruction (a cache, also the warm start of the next solve).
+#include "edit/params.hpp"
+
+#include <terracl/reconstruct.hpp>
+#include <terracl/tensor.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <functional>
+#include <optional>
+#include <vector>
+
+namespace terracl::edit {
+
+class EditState {
+ public:
+  /// `g0` is the starting gradient (its georef, metadata and mean elevation are kept);
+  /// `h0` the matching heightfield when known (becomes the first warm start).
+  EditState(Device& d, const GradientField& g0, std::optional<Heightfield> h0, SolverOptions solver);
+
+  Device& device() { return m_device; }
+  const Grid& grid() const { return m_grid; }
+  void set_unit(double metres_per_unit) { m_grid.unit = metres_per_unit; }
+  GradientBuffers& buffers() { return m_buf; }
+
+  /// Hard elevation constraints, row-major, NaN for free cells. Later constraints replace earlier
+  /// ones (elevation constraints do not superpose).
+  std::vector<float>& hard() { return m_hard; }
+  size_t hard_count() const;
+  void set_hard(size_t i, float z) { m_hard[i] = z; }
+  void clear_hard();
+
+  /// Call after every change of the gradient or of the constraints.
+  void changed() { m_stale = true; }
+  bool stale() const { return m_stale; }
+  /// Declares the cached solution consistent with the field again (after regularize).
+  void mark_fresh() { m_stale = false; }
+  /// The current terrain: reconstructs (warm-started from the last solution) when stale.
+  const Heightfield& height();
+  /// Reconstructs now, even when not stale; warm: start from the last solution.
+  const Heightfield& solve(bool warm = true);
+  const ReconstructResult& last_solve() const { return m_last; }
+  int solves() const { return m_solves; }
+
+  /// The gradient field on the host (georef, metadata and mean elevation of the start).
+  GradientField download();
+  void upload(const GradientField& g);
+  /// Mean elevation reconstruction keeps when no cell is hard.
+  void set_mean(double m) { m_template.mean_elevation = m; }
+
+  /// Per-operation log (JSON objects), written into the edit report.
+  nlohmann::json& log() { return m_log; }
+
+ private:
+  Device& m_device;
+  Grid m_grid;
+  GradientBuffers m_buf;
+  GradientField m_template;
+  std::vector<float> m_hard;
+  std::optional<Heightfield> m_solution;
+  bool m_stale = true;
+  SolverOptions m_solver;
+  ReconstructResult m_last;
+  int m_solves = 0;
+  nlohmann::json m_log = nlohmann::json::array();
+};
+
+/// One parsed operation, ready to run.
+using Operation = std::function<void(EditState&)>;
+
+struct OpSpec {
+  std::string name;
+  std::string summary;
+  /// Validates the parameters (throwing with their JSON path) and returns the operation.
+  std::function<Operation(Params&)> parse;
+};
+
+/// Every edit operation, in documentation order.
+const std::vector<OpSpec>& operations();
+
+// Registration, one function per module.
+void add_brush_ops(std::vector<OpSpec>& ops);      // ops_brush.cpp
+void add_curve_ops(std::vector<OpSpec>& ops);      // ops_curves.cpp
+void add_composite_ops(std::vector<OpSpec>& ops);  // ops_composite.cpp
+void add_paste_ops(std::vector<OpSpec>& ops);      // ops_paste.cpp
+void add_fit_ops(std::vector<OpSpec>& ops);        // ops_fit.cpp
+
+// ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
+
+/// A region: a disc (center + radius) or a polygon, or the whole grid.
+struct Region {
+  enum Kind { Everywhere, Disc, Polygon } kind = Everywhere;
+  Vec2 center;
+  double radius = 0;
+  std::vector<Vec2> polygon;
+};
+/// Reads "center" + "radius" (a disc), or "polygon", or neither (`allow_everywhere`).
+Region parse_region(Params& p, bool allow_everywhere);
+/// The region as a skeleton primitive (falloff `falloff` metres beyond it); Everywhere: a polygon
+/// around the grid.
+Primitive region_primitive(const Region& r, const Grid& g, double falloff);
+/// Indices of the cells whose centre lies inside the region.
+std::vector<size_t> region_cells(const Region& r, const Grid& g);
+
+/// Sets every cell whose centre lies within max(width/2, half a cell) of the polyline to the z of
+/// the nearest point of the curve (z interpolated along the curve).
+void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width);
+
+std::vector<Vec2> xy(const std::vector<Vec3>& pts);
+/// Converts a user angle (degrees counter-clockwise from east on a north-up map) to the grid frame
+/// (y south), where the kernels measure angles.
+inline double grid_angle(double user_rad) { return -user_rad; }
+
+/// RMS of the discrete curl (1/m) of a staggered gradient over the interior faces.
+double curl_rms(const GradientField& g);
+
+}  // namespace terracl::edit
+
+namespace terracl {
+struct NoiseParams;
+}
+namespace terracl::edit {
+/// Reads a noise block {type, amplitude, wavelength, octaves, lacunarity, gain, seed} and checks
+/// that it has no other keys (ops_brush.cpp).
+NoiseParams parse_noise_block(Params& p, std::optional<double> def_amp, std::optional<double> def_wavelength,
+                              const std::string& def_type);
+}  // namespace terracl::edit

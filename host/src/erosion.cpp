@@ -1,0 +1,442 @@
+// Launcher of kernels/erosion.cl: state upload with a zero halo, automatic sub-stepping, the kernel
+// sequence per sub-step (no clFinish inside a run), totals in double on the host.
+#include <terracl/erosion.hpp>
+#include <terracl/error.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace terracl {
+
+namespace {
+
+constexpr int kPad = 8;  // pad columns on the left; must match PAD in kernels/erosion.cl
+constexpr const char* kStage = "erode";
+
+void check_param(double v, const char* name, double lo, double hi = INFINITY) {
+  if (!std::isfinite(v) || v < lo || v > hi)
+    fail(kStage, "parameter {} = {} is out of range (expected a finite value in [{}, {}])", name, v, lo, hi);
+}
+
+void validate(const ErosionParams& p) {
+  check_param(p.dt, "dt", 0, 1e9);
+  check_param(p.rain, "rain", 0, 1e3);
+  check_param(p.evaporation, "evaporation", 0, 1e6);
+  check_param(p.gravity, "gravity", 1e-6, 1e6);
+  check_param(p.pipe_area, "pipe_area", 0, 1e18);
+  check_param(p.damping, "damping", 0, 1e9);
+  check_param(p.capacity, "capacity", 0, 1e9);
+  check_param(p.dissolve, "dissolve", 0, 1e9);
+  check_param(p.deposit, "deposit", 0, 1e9);
+  check_param(p.min_sin_slope, "min_sin_slope", 0, 1);
+  check_param(p.depth_ramp, "depth_ramp", 0, 1e9);
+  check_param(p.max_change, "max_change", 0, 1e9);
+  check_param(p.dry_depth, "dry_depth", 1e-9, 1e3);
+  check_param(p.thermal_rate, "thermal_rate", 0, 1e9);
+  check_param(p.talus_deg, "talus", 0, 89.9);
+  check_param(p.substep_fraction, "substep_fraction", 1e-3, 100);
+  check_param(p.rock_erodibility, "rock_erodibility", 0, 1);
+  check_param(p.deposit_talus_deg, "deposit_talus", 0, 89.9);
+}
+
+}  // namespace
+
+ErosionParams ErosionParams::defaults() {
+  // Tuned on the bundled SRTM crops (66-92 m cells): detachment-limited (dissolve << 1/dt, high
+  // capacity) so that erosion grows with discharge and carves gullies, and a slow deposit so that
+  // fine sediment stays suspended in lakes instead of filling every valley flat.
+  ErosionParams p;
+  p.rain = 0.01;
+  p.evaporation = 0.02;
+  p.damping = 0.5;
+  p.capacity = 20.0;
+  p.dissolve = 0.015;
+  p.deposit = 0.001;
+  p.min_sin_slope = 0.05;
+  p.depth_ramp = 5.0;
+  p.max_change = 0.5;
+  p.thermal_rate = 0.05;
+  p.talus_deg = 35.0;
+  return p;
+}
+
+double erosion_stability_limit(const ErosionParams& p, double lx, double ly) {
+  const double a = lx * ly;
+  const double area = p.pipe_area > 0 ? p.pipe_area : a;
+  return std::sqrt(a / (p.gravity * (area / lx + area / ly)));
+}
+
+struct Erosion::Impl {
+  Device& dev;
+  ErosionParams p;
+  Heightfield meta;  // georef and metadata of the input (no elevations)
+  int W = 0, H = 0, P = 0;
+  size_t n_padded = 0;
+  double lx = 1, ly = 1;
+  bool has_weight = false;
+  cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2];
+  size_t chunks = 1;        // work-items per row (global size of dimension 1)
+  size_t local_rows = 4, local_chunks = 1;
+  int cur = 0;  // index of the current d/s (and b when thermal is off)
+  int bcur = 0;
+  cl::Kernel k_flux, k_transport, k_thermal;
+  std::vector<double> drained{0.0, 0.0};
+  double rained = 0;
+
+  explicit Impl(Device& device) : dev(device) {}
+
+  size_t at(int x, int y) const { return size_t(y + 1) * P + kPad + x; }
+
+  std::vector<float> pad(const std::vector<float>& v) const {
+    std::vector<float> out(n_padded, 0.0f);
+    for (int y = 0; y < H; ++y) std::copy_n(v.begin() + size_t(y) * W, W, out.begin() + at(0, y));
+    return out;
+  }
+  std::vector<float> unpad(const std::vector<float>& v) const {
+    std::vector<float> out(size_t(W) * H);
+    for (int y = 0; y < H; ++y) std::copy_n(v.begin() + at(0, y), W, out.begin() + size_t(y) * W);
+    return out;
+  }
+  void upload(cl::Buffer& buf, const std::vector<float>& v) {
+    auto padded = pad(v);
+    dev.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, padded.size() * 4, padded.data());
+  }
+  std::vector<float> download(const cl::Buffer& buf) {
+    std::vector<float> padded(n_padded);
+    dev.queue().enqueueReadBuffer(buf, CL_TRUE, 0, padded.size() * 4, padded.data());
+    return unpad(padded);
+  }
+  /// Adds the per-row border drain accumulated on the device to the double totals and resets it.
+  void collect_drain() {
+    if (p.boundary != ErosionBoundary::Open || p.thermal_only) return;
+    std::vector<float> rows(size_t(2) * H * chunks);
+    dev.queue().enqueueReadBuffer(drain, CL_TRUE, 0, rows.size() * 4, rows.data());
+    for (size_t k = 0; k < rows.size() / 2; ++k) drained[0] += rows[2 * k], drained[1] += rows[2 * k + 1];
+    const float zero = 0.0f;
+    dev.queue().enqueueFillBuffer(drain, zero, 0, rows.size() * 4);
+  }
+};
+
+Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& params,
+                 const std::vector<float>* weight, const std::vector<float>* water,
+                 const std::vector<float>* deposit)
+    : m(std::make_unique<Impl>(dev)) {
+  validate(params);
+  if (terrain.width < 1 || terrain.height < 1) fail(kStage, "empty heightfield");
+  require_finite(terrain, kStage, "input heightfield");
+  for (float v : terrain.z)
+    if (std::fabs(v) > 1e7f) fail(kStage, "input elevation {} m is beyond +-1e7 m; refusing to erode it", v);
+  const double lx = terrain.georef.cell_x, ly = terrain.georef.cell_y;
+  if (!(std::isfinite(lx) && std::isfinite(ly) && lx > 0 && ly > 0))
+    fail(kStage, "cell size {} x {} m is not positive and finite", lx, ly);
+  const size_t n = terrain.size();
+  if (weight) {
+    if (weight->size() != n) fail(kStage, "weight has {} values, the grid {}", weight->size(), n);
+    for (float v : *weight)
+      if (!(v >= 0.0f && v <= 1.0f)) fail(kStage, "weight value {} is outside [0, 1]", v);
+  }
+  if (water) {
+    if (water->size() != n) fail(kStage, "initial water has {} values, the grid {}", water->size(), n);
+    for (float v : *water)
+      if (!(std::isfinite(v) && v >= 0.0f)) fail(kStage, "initial water depth {} is not finite and >= 0", v);
+  }
+
+  if (deposit) {
+    if (!params.deposit_layer) fail(kStage, "an initial deposit needs the deposit layer enabled");
+    if (deposit->size() != n) fail(kStage, "initial deposit has {} values, the grid {}", deposit->size(), n);
+    for (float v : *deposit)
+      if (!(std::isfinite(v) && v >= 0.0f)) fail(kStage, "initial deposit thickness {} is not finite and >= 0", v);
+  }
+  Impl& s = *m;
+  s.p = params;
+  s.W = terrain.width;
+  s.H = terrain.height;
+  s.P = int(round_up(size_t(s.W), 8)) + 2 * kPad;
+  s.n_padded = size_t(s.H + 2) * s.P;
+  s.lx = lx;
+  s.ly = ly;
+  s.has_weight = weight != nullptr;
+  s.meta.width = terrain.width;
+  s.meta.height = terrain.height;
+  s.meta.georef = terrain.georef;
+  s.meta.metadata = terrain.metadata;
+
+  m_dt_limit = erosion_stability_limit(params, lx, ly);
+  const double dt_max = params.substep_fraction * m_dt_limit;
+  const double dt = params.dt > 0 ? params.dt : dt_max;
+  m_substeps = std::max(1, int(std::ceil(dt / dt_max * (1.0 - 1e-12))));
+  if (m_substeps > 1000000) fail(kStage, "dt = {} s needs {} sub-steps (limit {} s); use a smaller dt", dt, m_substeps, dt_max);
+  m_dt_sub = dt / m_substeps;
+
+  // Work split (see XCHUNK in kernels/erosion.cl).
+  int chunk = params.cells_per_item;
+  if (chunk < 0) fail(kStage, "cells_per_item must be >= 0, got {}", chunk);
+  if (chunk == 0) chunk = dev.info().type == "GPU" ? 32 : 0;
+  chunk = int(round_up(size_t(chunk), 8));
+  std::string split_opts;
+  if (chunk > 0 && chunk < s.W) {
+    s.local_rows = 1;
+    s.local_chunks = 16;
+    s.chunks = round_up((size_t(s.W) + chunk - 1) / chunk, s.local_chunks);
+    split_opts = fmt::format(" -DXCHUNK={}", chunk);
+  }
+
+  const size_t bytes = s.n_padded * sizeof(float);
+  try {
+    for (int k = 0; k < 2; ++k) {
+      s.b[k] = dev.buffer(bytes, CL_MEM_READ_WRITE, "erosion bed");
+      s.d[k] = dev.buffer(bytes, CL_MEM_READ_WRITE, "erosion water");
+      s.s[k] = dev.buffer(bytes, CL_MEM_READ_WRITE, "erosion sediment");
+    }
+    for (auto& f : s.f) f = dev.buffer(bytes, CL_MEM_READ_WRITE, "erosion flux");
+    s.w = dev.buffer(s.has_weight ? bytes : 4, CL_MEM_READ_ONLY, "erosion weight");
+    for (auto& r : s.r) r = dev.buffer(params.deposit_layer ? bytes : 4, CL_MEM_READ_WRITE, "erosion deposit layer");
+    if (params.deposit_layer) {
+      dev.queue().enqueueWriteBuffer(s.r[1], CL_TRUE, 0, bytes, std::vector<float>(s.n_padded, 0.0f).data());
+      s.upload(s.r[0], deposit ? *deposit : std::vector<float>(n, 0.0f));
+    }
+    s.drain = dev.buffer(size_t(2) * s.H * s.chunks * sizeof(float), CL_MEM_READ_WRITE, "erosion drain");
+
+    s.upload(s.b[0], terrain.z);
+    const std::vector<float> zeros(n, 0.0f);
+    const std::vector<float> padded_zero(s.n_padded, 0.0f);
+    for (int k = 0; k < 2; ++k) {
+      // Pads must be zero in every buffer, including the ones written only later.
+      if (k == 1) dev.queue().enqueueWriteBuffer(s.b[1], CL_TRUE, 0, bytes, padded_zero.data());
+      s.upload(s.d[k], water && k == 0 ? *water : zeros);
+      s.upload(s.s[k], zeros);
+    }
+    for (auto& f : s.f) dev.queue().enqueueWriteBuffer(f, CL_TRUE, 0, bytes, padded_zero.data());
+    if (s.has_weight) s.upload(s.w, *weight);
+    std::vector<float> drain0(size_t(2) * s.H * s.chunks, 0.0f);
+    dev.queue().enqueueWriteBuffer(s.drain, CL_TRUE, 0, drain0.size() * 4, drain0.data());
+
+    std::string opts = split_opts;
+    if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
+    if (s.has_weight) opts += " -DHAS_WEIGHT";
+    if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
+    s.k_flux = dev.kernel("erosion", "erosion_flux", opts);
+    s.k_transport = dev.kernel("erosion", "erosion_transport", opts);
+    s.k_thermal = dev.kernel("erosion", "erosion_thermal", opts);
+
+    // Arguments that never change.
+    const ErosionParams& p = params;
+    const double h = m_dt_sub, a = lx * ly;
+    const double area = p.pipe_area > 0 ? p.pipe_area : a;
+    const float rain_dt = float(p.rain * h);
+    {
+      cl::Kernel& k = s.k_flux;
+      for (int i = 0; i < 4; ++i) k.setArg(2 + i, s.f[i]);
+      k.setArg(6, s.W);
+      k.setArg(7, s.H);
+      k.setArg(8, s.P);
+      k.setArg(9, rain_dt);
+      k.setArg(10, float(h * area * p.gravity / lx));
+      k.setArg(11, float(h * area * p.gravity / ly));
+      k.setArg(12, float(1.0 / (1.0 + h * p.damping)));
+      k.setArg(13, float(a / h));
+    }
+    {
+      cl::Kernel& k = s.k_transport;
+      for (int i = 0; i < 4; ++i) k.setArg(3 + i, s.f[i]);
+      k.setArg(7, s.w);
+      k.setArg(11, s.drain);
+      k.setArg(12, s.W);
+      k.setArg(13, s.H);
+      k.setArg(14, s.P);
+      k.setArg(15, rain_dt);
+      k.setArg(16, float(h / a));
+      k.setArg(17, float(0.5 / lx));
+      k.setArg(18, float(0.5 / ly));
+      k.setArg(19, float(1.0 / lx));
+      k.setArg(20, float(1.0 / ly));
+      k.setArg(21, float(0.5 * std::min(lx, ly) / h));
+      k.setArg(22, float(p.capacity));
+      k.setArg(23, float(p.min_sin_slope));
+      k.setArg(24, float(p.depth_ramp > 0 ? 1.0 / p.depth_ramp : 1e30));
+      k.setArg(25, float(std::min(1.0, p.dissolve * h)));
+      k.setArg(26, float(std::min(1.0, p.deposit * h)));
+      k.setArg(27, float(p.max_change));
+      k.setArg(28, float(p.dry_depth));
+      k.setArg(29, float(std::max(0.0, 1.0 - p.evaporation * h)));
+      k.setArg(30, float(a));
+      k.setArg(33, float(p.deposit_layer ? p.rock_erodibility : 1.0));
+    }
+    {
+      cl::Kernel& k = s.k_thermal;
+      k.setArg(1, s.w);
+      k.setArg(3, s.W);
+      k.setArg(4, s.H);
+      k.setArg(5, s.P);
+      const double t = std::tan(p.talus_deg * M_PI / 180.0);
+      k.setArg(6, float(std::min(p.thermal_rate * h, 1.0 / 12.0)));
+      k.setArg(7, float(t * lx));
+      k.setArg(8, float(t * ly));
+      k.setArg(9, float(t * std::hypot(lx, ly)));
+      const double td = std::tan(p.deposit_talus_deg * M_PI / 180.0);
+      k.setArg(12, float(td * lx));
+      k.setArg(13, float(td * ly));
+      k.setArg(14, float(td * std::hypot(lx, ly)));
+    }
+  } catch (const cl::Error& e) {
+    fail(kStage, "setting up the device state: {}", describe(e));
+  }
+}
+
+Erosion::~Erosion() = default;
+
+void Erosion::enqueue_steps(int n) {
+  Impl& s = *m;
+  const bool thermal = s.p.thermal_rate > 0;
+  // A fixed local size: PoCL compiles one work-group function per local size, and NullRange would
+  // let it pick a different one for every grid height. CPUs: 4 rows per group; GPUs: 16 chunks.
+  const cl::NDRange global(round_up(size_t(s.H), s.local_rows), s.chunks), local(s.local_rows, s.local_chunks);
+  auto& q = s.dev.queue();
+  try {
+    for (int step = 0; step < n; ++step) {
+      for (int sub = 0; sub < m_substeps; ++sub) {
+        if (!s.p.thermal_only) {
+          const int c = s.cur, nx = 1 - s.cur, bc = s.bcur, bn = 1 - s.bcur;
+          s.k_flux.setArg(0, s.b[bc]);
+          s.k_flux.setArg(1, s.d[c]);
+          q.enqueueNDRangeKernel(s.k_flux, cl::NullRange, global, local);
+          s.k_transport.setArg(0, s.b[bc]);
+          s.k_transport.setArg(1, s.d[c]);
+          s.k_transport.setArg(2, s.s[c]);
+          s.k_transport.setArg(8, s.b[bn]);
+          s.k_transport.setArg(9, s.d[nx]);
+          s.k_transport.setArg(10, s.s[nx]);
+          s.k_transport.setArg(31, s.r[bc]);
+          s.k_transport.setArg(32, s.r[bn]);
+          q.enqueueNDRangeKernel(s.k_transport, cl::NullRange, global, local);
+          s.cur = nx;
+          s.bcur = bn;
+          s.rained += s.p.rain * m_dt_sub * s.lx * s.ly * double(s.W) * s.H;
+        }
+        if (thermal) {
+          s.k_thermal.setArg(0, s.b[s.bcur]);
+          s.k_thermal.setArg(2, s.b[1 - s.bcur]);
+          s.k_thermal.setArg(10, s.r[s.bcur]);
+          s.k_thermal.setArg(11, s.r[1 - s.bcur]);
+          q.enqueueNDRangeKernel(s.k_thermal, cl::NullRange, global, local);
+          s.bcur = 1 - s.bcur;
+        }
+      }
+      ++m_steps;
+    }
+  } catch (const cl::Error& e) {
+    fail(kStage, "running the erosion kernels: {}", describe(e));
+  }
+}
+
+void Erosion::finish() {
+  try {
+    m->dev.queue().finish();
+  } catch (const cl::Error& e) {
+    fail(kStage, "running the erosion kernels: {}", describe(e));
+  }
+}
+
+void Erosion::run(int n, const Progress& progress, const std::string& stage) {
+  if (n < 0) fail(stage, "negative step count {}", n);
+  report_progress(progress, stage, 0.0, "eroding");
+  // Report often enough for a smooth bar (every ~0.1 s and at least every 1 % of the run), but never
+  // wait for the device after every step: each wait costs tens of microseconds on PoCL.
+  const int max_chunk = std::max(1, n / 100);
+  int chunk = 1;
+  int done = 0;
+  while (done < n) {
+    const int k = std::min(chunk, n - done);
+    const auto t0 = std::chrono::steady_clock::now();
+    enqueue_steps(k);
+    finish();
+    m->collect_drain();
+    done += k;
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (secs < 0.1) chunk = std::min(chunk * 2, max_chunk);
+    report_progress(progress, stage, double(done) / std::max(1, n), fmt::format("step {}/{}", done, n));
+  }
+}
+
+ErosionState Erosion::state() {
+  finish();
+  Impl& s = *m;
+  ErosionState st;
+  st.width = s.W;
+  st.height = s.H;
+  try {
+    st.bed = s.download(s.b[s.bcur]);
+    st.water = s.download(s.d[s.cur]);
+    st.sediment = s.download(s.s[s.cur]);
+    st.flux_l = s.download(s.f[0]);
+    st.flux_r = s.download(s.f[1]);
+    st.flux_t = s.download(s.f[2]);
+    st.flux_b = s.download(s.f[3]);
+    if (s.p.deposit_layer) st.deposit = s.download(s.r[s.bcur]);
+  } catch (const cl::Error& e) {
+    fail(kStage, "reading the erosion state: {}", describe(e));
+  }
+  return st;
+}
+
+ErosionTotals Erosion::totals() {
+  const ErosionState st = state();
+  m->collect_drain();
+  const double a = m->lx * m->ly;
+  ErosionTotals t;
+  for (size_t i = 0; i < st.bed.size(); ++i) {
+    t.water += double(st.water[i]);
+    t.sediment += double(st.sediment[i]);
+    t.solid += double(st.bed[i]) + double(st.sediment[i]);
+  }
+  t.water *= a;
+  t.sediment *= a;
+  t.solid *= a;
+  t.drained_water = m->drained[0];
+  t.drained_sediment = m->drained[1];
+  t.rained = m->rained;
+  return t;
+}
+
+Heightfield Erosion::bed() {
+  Heightfield h = m->meta;
+  finish();
+  try {
+    h.z = m->download(m->b[m->bcur]);
+  } catch (const cl::Error& e) {
+    fail(kStage, "reading the bed: {}", describe(e));
+  }
+  return h;
+}
+
+Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& params, int steps,
+                  const std::vector<float>* weight, ErosionOutputs* outputs, const Progress& progress) {
+  Erosion sim(dev, terrain, params, weight);
+  sim.run(steps, progress);
+  Heightfield out = sim.bed();
+  // The bed is finite by construction; check anyway so that no NaN ever reaches a file.
+  require_finite(out, kStage, "eroded bed");
+  if (outputs) {
+    const ErosionState st = sim.state();
+    auto field = [&](const std::vector<float>& v) {
+      Heightfield h = out;
+      h.z = v;
+      return h;
+    };
+    outputs->water = field(st.water);
+    outputs->sediment = field(st.sediment);
+    std::vector<float> delta(out.size());
+    for (size_t i = 0; i < delta.size(); ++i) delta[i] = out.z[i] - terrain.z[i];
+    outputs->delta = field(delta);
+    if (params.deposit_layer) outputs->deposit = field(st.deposit);
+    outputs->totals = sim.totals();
+    outputs->substeps = sim.substeps();
+    outputs->substep_dt = sim.substep_dt();
+  }
+  return out;
+}
+
+}  // namespace terracl

@@ -1,0 +1,399 @@
+// The `erode` stage, its brush / constraint inputs and `terracl bench erode`.
+//
+// Hard constraints: host/include/terracl/constraints.hpp does not exist yet, so read_fixed_cells is a
+// minimal reader of the constraints JSON (points, polygons, polylines) that only answers "which cells
+// are fixed"; switch to the shared ConstraintSet once it lands.
+#include "pipeline/builtin.hpp"
+
+#include <terracl/erosion.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include <sys/resource.h>
+
+namespace terracl {
+
+namespace {
+
+constexpr const char* kStage = "erode";
+
+struct Pt {
+  double x, y;
+};
+
+// Pixel coordinates (column, row; cell centres at integers) of a JSON coordinate pair.
+Pt to_pixel(const json& v, const std::string& where, bool geo, const Heightfield& g, const std::string& file) {
+  double x = 0, y = 0;
+  if (v.is_array() && v.size() >= 2 && v[0].is_number() && v[1].is_number()) {
+    x = v[0].get<double>();
+    y = v[1].get<double>();
+  } else if (v.is_object() && v.contains("x") && v.contains("y") && v["x"].is_number() && v["y"].is_number()) {
+    x = v["x"].get<double>();
+    y = v["y"].get<double>();
+  } else {
+    fail(kStage, "{}: {}: expected [x, y] or {{\"x\": .., \"y\": ..}}, got {}", file, where, v.dump());
+  }
+  if (!std::isfinite(x) || !std::isfinite(y)) fail(kStage, "{}: {}: coordinates must be finite", file, where);
+  if (geo) {
+    const auto& gt = g.georef.geotransform;
+    if (gt[2] != 0 || gt[4] != 0) fail(kStage, "{}: rotated geotransforms are not supported", file);
+    x = (x - gt[0]) / gt[1] - 0.5;
+    y = (y - gt[3]) / gt[5] - 0.5;
+  }
+  if (x < -0.5 || y < -0.5 || x > g.width - 0.5 || y > g.height - 0.5)
+    fail(kStage, "{}: {}: point ({}, {}) is outside the {}x{} grid", file, where, x, y, g.width, g.height);
+  return {x, y};
+}
+
+std::vector<Pt> point_list(const json& obj, const std::string& where, bool geo, const Heightfield& g,
+                           const std::string& file) {
+  const json* arr = nullptr;
+  std::string key;
+  for (const char* k : {"points", "vertices"})
+    if (obj.is_object() && obj.contains(k)) arr = &obj.at(k), key = k;
+  if (!arr || !arr->is_array() || arr->empty())
+    fail(kStage, "{}: {}: expected a non-empty \"points\" array", file, where);
+  std::vector<Pt> pts;
+  for (size_t i = 0; i < arr->size(); ++i)
+    pts.push_back(to_pixel((*arr)[i], fmt::format("{}/{}/{}", where, key, i), geo, g, file));
+  return pts;
+}
+
+double segment_distance(Pt p, Pt a, Pt b) {
+  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+  double t = len2 > 0 ? ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2 : 0.0;
+  t = std::clamp(t, 0.0, 1.0);
+  return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
+}
+
+}  // namespace
+
+std::vector<unsigned char> read_fixed_cells(const std::string& path, const Heightfield& g) {
+  std::ifstream in(path);
+  if (!in) fail(kStage, "cannot open constraints file {}", path);
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    fail(kStage, "{}: not valid JSON: {}", path, e.what());
+  }
+  if (!j.is_object()) fail(kStage, "{}: expected a JSON object with points/polygons/polylines", path);
+  bool geo = false;
+  if (j.contains("units")) {
+    const std::string u = j["units"].is_string() ? j["units"].get<std::string>() : "";
+    if (u == "georeferenced") geo = true;
+    else if (u != "pixels") fail(kStage, "{}: /units: expected \"pixels\" or \"georeferenced\", got {}", path, j["units"].dump());
+  }
+  std::vector<unsigned char> fixed(g.size(), 0);
+  auto mark = [&](int x, int y) {
+    if (x >= 0 && y >= 0 && x < g.width && y < g.height) fixed[size_t(y) * g.width + x] = 1;
+  };
+  auto array_of = [&](const char* key) -> const json& {
+    static const json empty = json::array();
+    if (!j.contains(key)) return empty;
+    if (!j[key].is_array()) fail(kStage, "{}: /{}: expected an array", path, key);
+    return j[key];
+  };
+  const json& points = array_of("points");
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Pt p = to_pixel(points[i], fmt::format("/points/{}", i), geo, g, path);
+    if (points[i].is_object() && points[i].contains("z") && !points[i]["z"].is_number() && points[i]["z"] != "freeze")
+      fail(kStage, "{}: /points/{}/z: expected a number or \"freeze\"", path, i);
+    mark(int(std::lround(p.x)), int(std::lround(p.y)));
+  }
+  const json& polygons = array_of("polygons");
+  for (size_t i = 0; i < polygons.size(); ++i) {
+    const auto poly = point_list(polygons[i], fmt::format("/polygons/{}", i), geo, g, path);
+    if (poly.size() < 3) fail(kStage, "{}: /polygons/{}: a polygon needs at least 3 points", path, i);
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        bool inside = false;  // even-odd rule at the cell centre
+        for (size_t a = 0, b = poly.size() - 1; a < poly.size(); b = a++) {
+          const Pt& pa = poly[a];
+          const Pt& pb = poly[b];
+          if ((pa.y > y) != (pb.y > y) && x < (pb.x - pa.x) * (y - pa.y) / (pb.y - pa.y) + pa.x) inside = !inside;
+        }
+        if (inside) mark(x, y);
+      }
+    for (const Pt& p : poly) mark(int(std::lround(p.x)), int(std::lround(p.y)));
+  }
+  const json& lines = array_of("polylines");
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const auto line = point_list(lines[i], fmt::format("/polylines/{}", i), geo, g, path);
+    double width = 1.0;
+    if (lines[i].contains("width")) {
+      if (!lines[i]["width"].is_number() || !(lines[i]["width"].get<double>() > 0))
+        fail(kStage, "{}: /polylines/{}/width: expected a positive number of cells", path, i);
+      width = lines[i]["width"].get<double>();
+    }
+    const double r = std::max(0.5, width / 2);
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        double dmin = INFINITY;
+        for (size_t k = 0; k + 1 < line.size(); ++k) dmin = std::min(dmin, segment_distance({double(x), double(y)}, line[k], line[k + 1]));
+        if (line.size() == 1) dmin = std::hypot(x - line[0].x, y - line[0].y);
+        if (dmin <= r) mark(x, y);
+      }
+  }
+  return fixed;
+}
+
+std::vector<float> read_region_weight(const std::string& path, const Heightfield& g, double feather) {
+  ReadOptions ro;
+  const FileFormat f = format_from_extension(path);
+  if (f == FileFormat::PNG || f == FileFormat::RAW16) {
+    ro.zmin = 0.0;  // grey codes 0..max map to weights 0..1
+    ro.zmax = 1.0;
+    if (f == FileFormat::RAW16) {
+      ro.width = g.width;
+      ro.height = g.height;
+    }
+  }
+  Heightfield m = read_heightfield(path, ro);
+  std::vector<float> w(g.size());
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x) {
+      // Bilinear resampling (cell centres aligned) when the mask's size differs from the grid's.
+      const double fx = m.width == g.width ? x : (x + 0.5) * m.width / g.width - 0.5;
+      const double fy = m.height == g.height ? y : (y + 0.5) * m.height / g.height - 0.5;
+      const int x0 = std::clamp(int(std::floor(fx)), 0, m.width - 1), y0 = std::clamp(int(std::floor(fy)), 0, m.height - 1);
+      const int x1 = std::min(x0 + 1, m.width - 1), y1 = std::min(y0 + 1, m.height - 1);
+      const double tx = std::clamp(fx - x0, 0.0, 1.0), ty = std::clamp(fy - y0, 0.0, 1.0);
+      auto val = [&](int xx, int yy) {
+        const float v = m.at(xx, yy);
+        return std::isfinite(v) ? std::clamp(double(v), 0.0, 1.0) : 0.0;
+      };
+      const double v = (1 - ty) * ((1 - tx) * val(x0, y0) + tx * val(x1, y0)) + ty * ((1 - tx) * val(x0, y1) + tx * val(x1, y1));
+      w[size_t(y) * g.width + x] = float(v);
+    }
+  if (feather > 0) {
+    // Separable Gaussian blur (clamped border) for the brush's smooth edge.
+    const int r = int(std::ceil(3 * feather));
+    std::vector<double> k(2 * r + 1);
+    double sum = 0;
+    for (int i = -r; i <= r; ++i) sum += k[i + r] = std::exp(-0.5 * i * i / (feather * feather));
+    for (double& v : k) v /= sum;
+    std::vector<float> tmp(w.size());
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        double acc = 0;
+        for (int i = -r; i <= r; ++i) acc += k[i + r] * w[size_t(y) * g.width + std::clamp(x + i, 0, g.width - 1)];
+        tmp[size_t(y) * g.width + x] = float(acc);
+      }
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        double acc = 0;
+        for (int i = -r; i <= r; ++i) acc += k[i + r] * tmp[size_t(std::clamp(y + i, 0, g.height - 1)) * g.width + x];
+        w[size_t(y) * g.width + x] = float(std::clamp(acc, 0.0, 1.0));
+      }
+  }
+  return w;
+}
+
+namespace {
+
+ErosionParams params_from(const json& o) {
+  ErosionParams p = ErosionParams::defaults();
+  auto num = [&](const char* k, double& v) {
+    if (o.contains(k) && !o.at(k).is_null()) v = o.at(k).get<double>();
+  };
+  num("dt", p.dt);
+  num("rain", p.rain);
+  num("evaporation", p.evaporation);
+  num("capacity", p.capacity);
+  num("dissolve", p.dissolve);
+  num("deposit", p.deposit);
+  num("min_slope", p.min_sin_slope);
+  num("depth_ramp", p.depth_ramp);
+  num("max_change", p.max_change);
+  num("damping", p.damping);
+  num("pipe_area", p.pipe_area);
+  num("thermal_rate", p.thermal_rate);
+  num("talus", p.talus_deg);
+  num("dry_depth", p.dry_depth);
+  num("rock_erodibility", p.rock_erodibility);
+  num("deposit_talus", p.deposit_talus_deg);
+  if (o.contains("deposit_layer") && o.at("deposit_layer").is_boolean()) p.deposit_layer = o.at("deposit_layer").get<bool>();
+  if (o.contains("cells_per_item") && o.at("cells_per_item").is_number_integer())
+    p.cells_per_item = o.at("cells_per_item").get<int>();
+  if (o.contains("thermal_only") && o.at("thermal_only").is_boolean()) p.thermal_only = o.at("thermal_only").get<bool>();
+  if (o.contains("boundary") && o.at("boundary").is_string())
+    p.boundary = o.at("boundary").get<std::string>() == "open" ? ErosionBoundary::Open : ErosionBoundary::Closed;
+  return p;
+}
+
+void run_erode(StageContext& c) {
+  Heightfield& h = c.height();
+  require_finite(h, c.tag, "input heightfield (use --fill-nodata)");
+  const ErosionParams p = params_from(c.options);
+  const double limit = erosion_stability_limit(p, h.georef.cell_x, h.georef.cell_y);
+  const double dt = p.dt > 0 ? p.dt : p.substep_fraction * limit;
+  int steps = c.get<int>("steps");
+  if (c.has("time")) {
+    const double t = c.get<double>("time");
+    if (!(t > 0)) fail(c.tag, "--time must be positive, got {} s", t);
+    if (t / dt > 1e8) fail(c.tag, "--time {} s is {:.3g} steps of {} s; more than 1e8 steps is not a sensible run", t, t / dt, dt);
+    steps = int(std::ceil(t / dt - 1e-9));
+  }
+  if (steps < 0) fail(c.tag, "--steps must be >= 0, got {}", steps);
+
+  std::vector<float> weight;
+  if (c.has("region")) weight = read_region_weight(c.get<std::string>("region"), h, c.get<double>("region_feather"));
+  if (c.has("keep_constraints")) {
+    const auto fixed = read_fixed_cells(c.get<std::string>("keep_constraints"), h);
+    if (weight.empty()) weight.assign(h.size(), 1.0f);
+    for (size_t i = 0; i < fixed.size(); ++i)
+      if (fixed[i]) weight[i] = 0.0f;
+  }
+  ErosionOutputs out;
+  const auto t0 = std::chrono::steady_clock::now();
+  Heightfield result = erode(c.device(), h, p, steps, weight.empty() ? nullptr : &weight, &out, c.progress);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  json summary = {{"steps", steps},
+                  {"substeps_per_step", out.substeps},
+                  {"substep_dt_s", out.substep_dt},
+                  {"simulated_time_s", steps * out.substeps * out.substep_dt},
+                  {"seconds", secs},
+                  {"water_m3", out.totals.water},
+                  {"suspended_sediment_m3", out.totals.sediment},
+                  {"drained_water_m3", out.totals.drained_water},
+                  {"drained_sediment_m3", out.totals.drained_sediment}};
+  c.provenance["terracl:erode"] = summary.dump();
+  for (const auto& [key, field] : {std::pair<const char*, Heightfield*>{"water", &out.water},
+                                   {"sediment", &out.sediment},
+                                   {"delta", &out.delta},
+                                   {"deposit_thickness", &out.deposit}}) {
+    if (!c.has(key)) continue;
+    if (field->z.empty()) fail(c.tag, "--deposit-thickness needs --deposit-layer");
+    for (const auto& [k, v] : c.provenance) field->metadata[k] = v;
+    write_heightfield(*field, c.get<std::string>(key));
+  }
+  h = std::move(result);
+  c.data.current = DataKind::Heightfield;
+}
+
+/// Synthetic benchmark terrain: a few sine ridges plus small-scale noise, 30 m cells.
+Heightfield bench_terrain(int n) {
+  Heightfield t(n, n);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      t.at(x, y) = float(800.0 + 300.0 * std::sin(6.0 * x / n) * std::cos(5.0 * y / n) + 150.0 * std::sin(23.0 * (x + 0.5 * y) / n)) + u(rng);
+  t.georef.cell_x = t.georef.cell_y = 30.0;
+  return t;
+}
+
+void run_bench(const BenchArgs& a) {
+  auto dev = Device::open(a.device);
+  json o = a.extra;
+  const ErosionParams p = params_from(o);
+  const int steps_per_run = o.contains("steps") ? o["steps"].get<int>() : 20;
+  const Heightfield t = bench_terrain(a.size);
+  Erosion sim(*dev, t, p);
+  sim.enqueue_steps(10);  // warm-up: kernel compilation, first touches
+  sim.finish();
+  auto cpu_seconds = [] {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  };
+  std::vector<double> ms;
+  const double cpu0 = cpu_seconds();
+  for (int r = 0; r < a.repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    sim.enqueue_steps(steps_per_run);
+    sim.finish();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / steps_per_run);
+  }
+  // CPU time of all threads per step: a load-independent cross-check when the machine is shared.
+  const double cpu_ms = 1000.0 * (cpu_seconds() - cpu0) / (double(a.repeats) * steps_per_run);
+  std::vector<double> sorted = ms;
+  std::sort(sorted.begin(), sorted.end());
+  const double med = sorted[sorted.size() / 2];
+  fmt::print("erode {}x{} on {}: {:.2f} ms/step, {:.1f} steps/s (median of {} runs of {} steps after 10 warm-up; "
+             "min {:.2f}, max {:.2f} ms/step; {} sub-step(s) per step{}{}); CPU time {:.2f} ms/step over all threads\n",
+             a.size, a.size, dev->info().name, med, 1000.0 / med, a.repeats, steps_per_run, sorted.front(),
+             sorted.back(), sim.substeps(), p.thermal_only ? ", thermal only" : "",
+             p.boundary == ErosionBoundary::Open ? ", open border" : "", cpu_ms);
+}
+
+}  // namespace
+
+namespace {
+OptionSpec opt(std::string name, OptionType type, json def, std::string unit, std::string help,
+               std::vector<std::string> choices = {}) {
+  OptionSpec o;
+  o.name = std::move(name);
+  o.type = type;
+  o.default_value = std::move(def);
+  o.unit = std::move(unit);
+  o.help = std::move(help);
+  o.choices = std::move(choices);
+  return o;
+}
+}  // namespace
+
+void register_erosion_stages(StageRegistry& r) {
+  const ErosionParams d = ErosionParams::defaults();
+  r.add({"erode",
+         "Hydraulic (virtual pipes) and thermal erosion on the device; mass-conserving, optional brush "
+         "region and fixed hard constraints.",
+         DataKind::Heightfield,
+         DataKind::Heightfield,
+         {
+             opt("steps", OptionType::Int, 400, "", "Number of time steps"),
+             opt("time", OptionType::Float, nullptr, "s", "Simulated time; overrides steps (steps = ceil(time / dt))"),
+             opt("dt", OptionType::Float, 0.0, "s",
+              "Time step; 0 = half the stability limit sqrt(l*a/(2*A*g)); a larger dt is split into sub-steps"),
+             opt("rain", OptionType::Float, d.rain, "m/s", "Rain added uniformly to every cell (e.g. \"36000 mm/h\")"),
+             opt("evaporation", OptionType::Float, d.evaporation, "1/s", "Evaporation rate: depth decays by (1 - rate*dt)"),
+             opt("thermal_only", OptionType::Bool, false, "", "Only thermal erosion (no water)"),
+             opt("capacity", OptionType::Float, d.capacity, "s",
+              "Sediment capacity K_c: C = K_c * max(min_slope, sin slope) * speed * min(1, depth/depth_ramp)"),
+             opt("dissolve", OptionType::Float, d.dissolve, "1/s", "Rate K_s of picking up sediment below capacity"),
+             opt("deposit", OptionType::Float, d.deposit, "1/s", "Rate K_d of depositing sediment above capacity"),
+             opt("min_slope", OptionType::Float, d.min_sin_slope, "", "Lower bound of sin(slope) in the capacity"),
+             opt("depth_ramp", OptionType::Float, d.depth_ramp, "m", "Capacity ramps up with water depth until this depth"),
+             opt("max_change", OptionType::Float, d.max_change, "m", "Largest bed change of a cell in one sub-step"),
+             opt("damping", OptionType::Float, d.damping, "1/s", "Pipe flux damping k_f (semi-implicit)"),
+             opt("pipe_area", OptionType::Float, 0.0, "m2", "Virtual pipe cross-section A; 0 = cell area"),
+             opt("dry_depth", OptionType::Float, d.dry_depth, "m", "Depth below which a cell is dry (no velocity, deposits all)"),
+             opt("thermal_rate", OptionType::Float, d.thermal_rate, "1/s", "Thermal erosion rate K_t (0 = off)"),
+             opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
+             opt("deposit_layer", OptionType::Bool, false, "",
+                 "Track a softer deposit layer on the rock (own talus, rock dissolves slower)"),
+             opt("rock_erodibility", OptionType::Float, d.rock_erodibility, "",
+                 "With --deposit-layer: rock dissolves at this fraction of the deposit's rate (0..1)"),
+             opt("deposit_talus", OptionType::Float, d.deposit_talus_deg, "deg", "With --deposit-layer: talus angle of the deposit"),
+             opt("boundary", OptionType::Enum, "closed", "", "closed: nothing leaves; open: water and sediment drain over the edge",
+              {"closed", "open"}),
+             opt("region", OptionType::Path, nullptr, "", "Brush mask raster (PNG grey 0..1, or float); erosion only where painted"),
+             opt("region_feather", OptionType::Float, 3.0, "cells", "Gaussian blur (sigma) of the region mask for a smooth edge"),
+             opt("keep_constraints", OptionType::Path, nullptr, "",
+              "Constraints JSON (points/polygons/polylines, pixels or \"units\": \"georeferenced\"): those cells stay fixed"),
+             opt("water", OptionType::OutputPath, nullptr, "", "Write the final water depth (m), e.g. water.exr"),
+             opt("sediment", OptionType::OutputPath, nullptr, "", "Write the final suspended sediment (m), e.g. sediment.exr"),
+             opt("delta", OptionType::OutputPath, nullptr, "", "Write the bed change (m, + = deposition), e.g. delta.exr"),
+             opt("deposit_thickness", OptionType::OutputPath, nullptr, "",
+                 "With --deposit-layer: write the deposit thickness (m), e.g. deposit.exr"),
+         },
+         run_erode});
+}
+
+void register_erosion_benches(BenchRegistry& r) {
+  r.add({"erode",
+         "Erosion steps on a synthetic NxN terrain (30 m cells); ms per step and steps/s (median). "
+         "--set thermal_only=true|boundary=open|steps=K|cells_per_item=N|<any erode option>=v",
+         run_bench});
+}
+
+}  // namespace terracl

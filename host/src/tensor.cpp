@@ -1,0 +1,222 @@
+// Launchers of kernels/tensor.cl. Primitives are packed 16 floats each:
+//   [0] shape  [1] first vertex  [2] vertex count  [3] radius r  [4] mu  [5] tensor kind  [6] angle
+//   [7] disc radius  [8..11] anisotropic metric M (row-major)  [12] profile  [13] profile amplitude
+// and vertices as float4 (x, y, amplitude factor, 0), all in metres.
+#include <terracl/error.hpp>
+#include <terracl/tensor.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace terracl {
+
+double alpha(double t) {
+  if (t < 0) t = -t;
+  if (t >= 1.0) return 0.0;
+  const double s = 1.0 - t * t;
+  return s * s * s;
+}
+
+std::array<double, 4> directional_tensor(double theta, double mu) {
+  const double c = std::cos(2 * theta), s = std::sin(2 * theta);
+  return {1 + mu * c, mu * s, mu * s, 1 - mu * c};
+}
+
+Box full_box(int width, int height) { return {0, 0, width, height}; }
+
+Box primitives_box(const std::vector<Primitive>& prims, int width, int height, double cell_x, double cell_y) {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const auto& p : prims) {
+    // Distances in the metric are at least min(1, ratio) times the real distance.
+    const double shrink = std::min(1.0, std::max(1e-3, p.aniso_ratio));
+    const double ext = (p.radius + (p.shape == PrimitiveShape::Disc ? p.disc_radius : 0.0)) / shrink;
+    for (const auto& v : p.points) {
+      x0 = std::min(x0, v.x - ext);
+      x1 = std::max(x1, v.x + ext);
+      y0 = std::min(y0, v.y - ext);
+      y1 = std::max(y1, v.y + ext);
+    }
+  }
+  if (x0 > x1) return {};
+  auto clampi = [](double v, int lo, int hi) { return int(std::max<double>(lo, std::min<double>(hi, v))); };
+  const int cx0 = clampi(std::floor(x0 / cell_x) - 1, 0, width), cx1 = clampi(std::ceil(x1 / cell_x) + 2, 0, width);
+  const int cy0 = clampi(std::floor(y0 / cell_y) - 1, 0, height), cy1 = clampi(std::ceil(y1 / cell_y) + 2, 0, height);
+  return {cx0, cy0, cx1 - cx0, cy1 - cy0};
+}
+
+GradientBuffers GradientBuffers::upload(Device& d, const GradientField& g) {
+  GradientBuffers b;
+  b.width = g.width;
+  b.height = g.height;
+  b.cell_x = g.georef.cell_x;
+  b.cell_y = g.georef.cell_y;
+  const size_t bytes = b.cells() * sizeof(float);
+  b.gx = d.buffer(bytes, CL_MEM_READ_WRITE, "gradient x");
+  b.gy = d.buffer(bytes, CL_MEM_READ_WRITE, "gradient y");
+  b.tx = d.buffer(bytes, CL_MEM_READ_WRITE, "scratch x");
+  b.ty = d.buffer(bytes, CL_MEM_READ_WRITE, "scratch y");
+  b.mask = d.buffer(bytes, CL_MEM_READ_WRITE, "mask");
+  auto& q = d.queue();
+  q.enqueueWriteBuffer(b.gx, CL_FALSE, 0, bytes, g.gx.data());
+  q.enqueueWriteBuffer(b.gy, CL_FALSE, 0, bytes, g.gy.data());
+  const float zero = 0.f;
+  q.enqueueFillBuffer(b.tx, zero, 0, bytes);
+  q.enqueueFillBuffer(b.ty, zero, 0, bytes);
+  q.enqueueFillBuffer(b.mask, zero, 0, bytes);
+  q.finish();
+  return b;
+}
+
+void GradientBuffers::download(Device& d, GradientField& g) const {
+  if (g.width != width || g.height != height) fail("tensor", "download: size {}x{} != {}x{}", g.width, g.height, width, height);
+  const size_t bytes = cells() * sizeof(float);
+  d.queue().enqueueReadBuffer(gx, CL_FALSE, 0, bytes, g.gx.data());
+  d.queue().enqueueReadBuffer(gy, CL_TRUE, 0, bytes, g.gy.data());
+}
+
+void GradientBuffers::clear_scratch(Device& d, const Box& box) {
+  const int r0 = std::max(0, box.y0 - 1), r1 = std::min(height, box.y0 + box.h + 1);
+  if (r1 <= r0) return;
+  const size_t off = size_t(r0) * width * sizeof(float), bytes = size_t(r1 - r0) * width * sizeof(float);
+  const float zero = 0.f;
+  d.queue().enqueueFillBuffer(tx, zero, off, bytes);
+  d.queue().enqueueFillBuffer(ty, zero, off, bytes);
+}
+
+namespace {
+
+struct Packed {
+  std::vector<float> prims;
+  std::vector<float> verts;
+};
+
+Packed pack(const std::vector<Primitive>& prims) {
+  Packed p;
+  for (const auto& pr : prims) {
+    const size_t need = pr.shape == PrimitiveShape::Polyline ? 2 : pr.shape == PrimitiveShape::Polygon ? 3 : 1;
+    if (pr.points.size() < need) fail("tensor", "primitive needs at least {} point(s), has {}", need, pr.points.size());
+    if (!pr.amplitude.empty() && pr.amplitude.size() != pr.points.size())
+      fail("tensor", "primitive has {} amplitudes for {} points", pr.amplitude.size(), pr.points.size());
+    const float first = float(p.verts.size() / 4);
+    for (size_t i = 0; i < pr.points.size(); ++i) {
+      p.verts.insert(p.verts.end(), {float(pr.points[i].x), float(pr.points[i].y),
+                                     float(pr.amplitude.empty() ? 1.0 : pr.amplitude[i]), 0.f});
+    }
+    // M = R(phi) diag(1, ratio) R(-phi): offsets along phi unchanged, across scaled by ratio.
+    const double c = std::cos(pr.aniso_angle), s = std::sin(pr.aniso_angle), k = pr.aniso_ratio;
+    const double m00 = c * c + k * s * s, m01 = c * s - k * c * s, m11 = s * s + k * c * c;
+    p.prims.insert(p.prims.end(),
+                   {float(int(pr.shape)), first, float(pr.points.size()), float(pr.radius), float(pr.strength),
+                    float(int(pr.tensor)), float(pr.angle), float(pr.disc_radius), float(m00), float(m01),
+                    float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), 0.f, 0.f});
+  }
+  if (p.verts.empty()) p.verts.assign(4, 0.f);
+  if (p.prims.empty()) p.prims.assign(16, 0.f);
+  return p;
+}
+
+struct DeviceSkeleton {
+  cl::Buffer prims, verts;
+  int count = 0;
+};
+
+DeviceSkeleton upload(Device& d, const std::vector<Primitive>& prims) {
+  Packed p = pack(prims);
+  DeviceSkeleton s;
+  s.prims = cl::Buffer(d.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, p.prims.size() * sizeof(float), p.prims.data());
+  s.verts = cl::Buffer(d.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, p.verts.size() * sizeof(float), p.verts.data());
+  s.count = int(prims.size());
+  return s;
+}
+
+void launch_rows(Device& d, cl::Kernel& k, int rows) {
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(rows)), cl::NullRange);
+}
+
+void set_common(cl::Kernel& k, int& a, const GradientBuffers& g, const Box& b) {
+  k.setArg(a++, g.width);
+  k.setArg(a++, g.height);
+  k.setArg(a++, float(g.cell_x));
+  k.setArg(a++, float(g.cell_y));
+  k.setArg(a++, b.x0);
+  k.setArg(a++, b.y0);
+  k.setArg(a++, b.w);
+  k.setArg(a++, b.h);
+}
+
+void tensor_launch(Device& d, const cl::Buffer& sx, const cl::Buffer& sy, GradientBuffers& g,
+                   const std::vector<Primitive>& prims, const Box& box, int add) {
+  const DeviceSkeleton s = upload(d, prims);
+  cl::Kernel k = d.kernel("tensor", "apply_tensor_field");
+  int a = 0;
+  k.setArg(a++, sx);
+  k.setArg(a++, sy);
+  k.setArg(a++, g.gx);
+  k.setArg(a++, g.gy);
+  set_common(k, a, g, box);
+  k.setArg(a++, s.prims);
+  k.setArg(a++, s.count);
+  k.setArg(a++, s.verts);
+  k.setArg(a++, add);
+  launch_rows(d, k, box.h);
+}
+
+}  // namespace
+
+void apply_tensor_field(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims) {
+  const Box box = primitives_box(prims, g.width, g.height, g.cell_x, g.cell_y);
+  if (box.empty()) return;
+  // The kernel reads the unmodified field around each face, so it reads a copy of the box
+  // (plus one cell) and writes the field.
+  const int x0 = std::max(0, box.x0 - 1), y0 = std::max(0, box.y0 - 1);
+  const int x1 = std::min(g.width, box.x0 + box.w + 1), y1 = std::min(g.height, box.y0 + box.h + 1);
+  const std::array<size_t, 3> origin{size_t(x0) * sizeof(float), size_t(y0), 0};
+  const std::array<size_t, 3> region{size_t(x1 - x0) * sizeof(float), size_t(y1 - y0), 1};
+  const size_t pitch = size_t(g.width) * sizeof(float);
+  auto& q = d.queue();
+  q.enqueueCopyBufferRect(g.gx, g.tx, origin, origin, region, pitch, 0, pitch, 0);
+  q.enqueueCopyBufferRect(g.gy, g.ty, origin, origin, region, pitch, 0, pitch, 0);
+  tensor_launch(d, g.tx, g.ty, g, prims, box, 0);
+}
+
+void add_tensor_field_of_scratch(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box) {
+  if (box.empty()) return;
+  tensor_launch(d, g.tx, g.ty, g, prims, box, 1);
+}
+
+void primitive_weight(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box, bool invert) {
+  if (box.empty()) return;
+  const DeviceSkeleton s = upload(d, prims);
+  cl::Kernel k = d.kernel("tensor", "primitive_weight");
+  int a = 0;
+  k.setArg(a++, g.mask);
+  set_common(k, a, g, box);
+  k.setArg(a++, s.prims);
+  k.setArg(a++, s.count);
+  k.setArg(a++, s.verts);
+  k.setArg(a++, invert ? 1 : 0);
+  launch_rows(d, k, box.h);
+}
+
+void add_profile_gradient(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims) {
+  const Box box = primitives_box(prims, g.width, g.height, g.cell_x, g.cell_y);
+  if (box.empty()) return;
+  const DeviceSkeleton s = upload(d, prims);
+  cl::Kernel k = d.kernel("tensor", "profile_potential");
+  int a = 0;
+  k.setArg(a++, g.mask);
+  set_common(k, a, g, box);
+  k.setArg(a++, s.prims);
+  k.setArg(a++, s.count);
+  k.setArg(a++, s.verts);
+  launch_rows(d, k, box.h);
+  cl::Kernel k2 = d.kernel("tensor", "add_potential_gradient");
+  a = 0;
+  k2.setArg(a++, g.gx);
+  k2.setArg(a++, g.gy);
+  k2.setArg(a++, g.mask);
+  set_common(k2, a, g, box);
+  launch_rows(d, k2, box.h);
+}
+
+}  // namespace terracl

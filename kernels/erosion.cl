@@ -1,0 +1,300 @@
+// Virtual-pipe hydraulic erosion and thermal erosion (issue 5). OpenCL C 1.2.
+//
+// Layout: every field is a float32 array with a zero halo: row pitch P (a multiple of 8), one pad
+// row above and below the grid and 8 pad columns on the left; cell (x, y) is at (y + 1) * P + 8 + x.
+// Pads are kept at zero by every kernel (stores are masked), so the outside of the grid reads as
+// "no water, no flux, no sediment" without any index clamping.
+//
+// One work-item per row with an explicit float8 x-loop: PoCL runs one row per work-item fastest, and
+// explicit vectors make every cell go through exactly the same instruction sequence, which is one
+// ingredient of the bit-exact mirror symmetry (the other is that every sum over neighbours is a
+// commutative pairing, ((L + R) + (T + B)), that a flip or a transpose maps onto itself).
+//
+// Determinism: no fast-math, FMA contraction off (a contracted a*b+c rounds differently from the
+// uncontracted one, and mirror symmetry would then depend on which side the compiler fused).
+// No NaN: fmax/fmin with the possibly-NaN operand first never propagate it, and every division has
+// a denominator bounded away from zero.
+//
+// Build options: -DOPEN_BORDER (water and sediment drain over the grid edge), -DHAS_WEIGHT (a
+// per-cell erosion weight in [0, 1]: the brush mask, 0 on hard constraints), -DDEPOSIT_LAYER (a
+// softer deposit layer of thickness r on top of the rock: it dissolves at the full rate, rock at
+// rock_factor times it, and it slides at its own talus angle).
+#pragma OPENCL FP_CONTRACT OFF
+
+#define PAD 8
+#define TINY 1e-30f
+
+// Work split: dimension 0 is the row, dimension 1 a chunk of XCHUNK cells of it (a multiple of 8,
+// build option): the whole row per work-item on CPUs (PoCL's fastest form for stencils), a few
+// vectors per work-item on GPUs, which need many more work-items than there are rows.
+#ifdef XCHUNK
+#define X_BEGIN ((int)get_global_id(1) * XCHUNK)
+#define X_END min(W, X_BEGIN + XCHUNK)
+#else
+#define X_BEGIN 0
+#define X_END W
+#endif
+
+typedef float8 V;
+typedef int8 VI;
+
+#define LD(p, i) vload8(0, (p) + (i))
+#define ST(v, p, i) vstore8((v), 0, (p) + (i))
+#define LANES ((VI)(0, 1, 2, 3, 4, 5, 6, 7))
+
+// Outflow fluxes (m^3/s) of the four virtual pipes, updated in place. Rain (rain_dt metres) is added
+// to the depth on the fly, identically here and in erosion_transport, so it needs no pass of its own.
+//   f <- max(0, f + dt*A*g*dh/l) / (1 + dt*k_f): damping written semi-implicitly, which damps for every
+//   dt instead of oscillating once the explicit coefficient exceeds 1.
+// Outflows are scaled down only when their volume over dt exceeds the water present.
+__kernel void erosion_flux(__global const float* restrict b, __global const float* restrict d,
+                           __global float* restrict fl, __global float* restrict fr,
+                           __global float* restrict ft, __global float* restrict fb, const int W, const int H,
+                           const int P, const float rain_dt, const float kx, const float ky, const float damp,
+                           const float area_over_dt) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const int row = (y + 1) * P + PAD;
+  for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
+    const int i = row + x0;
+    const VI xi = (VI)(x0) + LANES;
+    const V bc = LD(b, i);
+    const V dc = LD(d, i) + rain_dt;
+    const V hc = bc + dc;
+    V hl = LD(b, i - 1) + (LD(d, i - 1) + rain_dt);
+    V hr = LD(b, i + 1) + (LD(d, i + 1) + rain_dt);
+    V ht = LD(b, i - P) + (LD(d, i - P) + rain_dt);
+    V hb = LD(b, i + P) + (LD(d, i + P) + rain_dt);
+#ifdef OPEN_BORDER
+    // Outside the grid: bare ground at the border cell's own bed level, so the border drains.
+    hl = select(hl, bc, xi == 0);
+    hr = select(hr, bc, xi == W - 1);
+    if (y == 0) ht = bc;
+    if (y == H - 1) hb = bc;
+#endif
+    V nl = fmax(LD(fl, i) + kx * (hc - hl), 0.0f) * damp;
+    V nr = fmax(LD(fr, i) + kx * (hc - hr), 0.0f) * damp;
+    V nt = fmax(LD(ft, i) + ky * (hc - ht), 0.0f) * damp;
+    V nb = fmax(LD(fb, i) + ky * (hc - hb), 0.0f) * damp;
+#ifndef OPEN_BORDER
+    nl = select(nl, (V)(0.0f), xi == 0);
+    nr = select(nr, (V)(0.0f), xi == W - 1);
+    if (y == 0) nt = (V)(0.0f);
+    if (y == H - 1) nb = (V)(0.0f);
+#endif
+    const V out = (nl + nr) + (nt + nb);
+    const V avail = dc * area_over_dt;  // the outflow rate that empties the cell in one dt
+    const V k = select((V)(1.0f), avail / fmax(out, TINY), out > avail);
+    const VI valid = xi < W;
+    ST(select((V)(0.0f), nl * k, valid), fl, i);
+    ST(select((V)(0.0f), nr * k, valid), fr, i);
+    ST(select((V)(0.0f), nt * k, valid), ft, i);
+    ST(select((V)(0.0f), nb * k, valid), fb, i);
+  }
+}
+
+// Sediment a pipe carries in dt: the donor's sediment times the fraction f*dt/(d0*a) of its water
+// that the pipe takes, with r = (dt/a)/d0 computed once per donor. The receiver evaluates the same
+// expressions on the same bits as the donor, so what leaves one cell is exactly what enters its
+// neighbour. f*r <= 1 up to rounding because the outflows were scaled to the water present.
+#define RATIO(d0) (dt_over_area / fmax((d0), TINY))
+#define CARRIED(s, f, r) ((s) * fmin((f) * (r), 1.0f))
+
+// Water and sediment transport, velocity, erosion/deposition and evaporation; writes the new bed,
+// depth and sediment into the *_out arrays (the inputs are read by the neighbours).
+//   s, d in metres (volume per cell area); fluxes in m^3/s; drain[2k], drain[2k+1] with
+//   k = y * get_global_size(1) + get_global_id(1): water and sediment volume (m^3) that left through
+//   the border in this work-item's part of row y (open border only), accumulated.
+__kernel void erosion_transport(__global const float* restrict b, __global const float* restrict d,
+                                __global const float* restrict s, __global const float* restrict fl,
+                                __global const float* restrict fr, __global const float* restrict ft,
+                                __global const float* restrict fb, __global const float* restrict w,
+                                __global float* restrict b_out, __global float* restrict d_out,
+                                __global float* restrict s_out, __global float* restrict drain, const int W,
+                                const int H, const int P, const float rain_dt, const float dt_over_area,
+                                const float inv_2lx, const float inv_2ly, const float inv_lx, const float inv_ly,
+                                const float vcap, const float kc, const float sin_min, const float inv_dramp,
+                                const float ks_dt, const float kd_dt, const float max_change,
+                                const float dry_depth, const float evap_factor, const float cell_area,
+                                __global const float* restrict r, __global float* restrict r_out,
+                                const float rock_factor) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const int row = (y + 1) * P + PAD;
+#ifdef OPEN_BORDER
+  V drained_w = (V)(0.0f), drained_s = (V)(0.0f);
+#endif
+  for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
+    const int i = row + x0;
+    const VI xi = (VI)(x0) + LANES;
+    const VI valid = xi < W;
+
+    const V d0 = LD(d, i) + rain_dt;
+    const V sc = LD(s, i);
+    const V ol = LD(fl, i), orr = LD(fr, i), ot = LD(ft, i), ob = LD(fb, i);
+    // Inflows: the neighbours' pipes pointing here (zero from the halo).
+    const V il = LD(fr, i - 1), ir = LD(fl, i + 1), it = LD(fb, i - P), ib = LD(ft, i + P);
+
+    const V qout = (ol + orr) + (ot + ob);
+    const V qin = (il + ir) + (it + ib);
+    const V d1 = fmax(d0 + (qin - qout) * dt_over_area, 0.0f);
+
+    // Sediment moves with the water: each pipe carries its share of the donor's sediment.
+    const V rc = RATIO(d0);
+    const V sl = CARRIED(sc, ol, rc), sr = CARRIED(sc, orr, rc);
+    const V st = CARRIED(sc, ot, rc), sb = CARRIED(sc, ob, rc);
+    const V sil = CARRIED(LD(s, i - 1), il, RATIO(LD(d, i - 1) + rain_dt));
+    const V sir = CARRIED(LD(s, i + 1), ir, RATIO(LD(d, i + 1) + rain_dt));
+    const V sit = CARRIED(LD(s, i - P), it, RATIO(LD(d, i - P) + rain_dt));
+    const V sib = CARRIED(LD(s, i + P), ib, RATIO(LD(d, i + P) + rain_dt));
+    const V s1 = fmax((sc - ((sl + sr) + (st + sb))) + ((sil + sir) + (sit + sib)), 0.0f);
+
+#ifdef OPEN_BORDER
+    const V zero = (V)(0.0f);
+    drained_w += select(zero, ol, (xi == 0) & valid) + select(zero, orr, (xi == W - 1) & valid);
+    drained_s += select(zero, sl, (xi == 0) & valid) + select(zero, sr, (xi == W - 1) & valid);
+    if (y == 0) drained_w += select(zero, ot, valid), drained_s += select(zero, st, valid);
+    if (y == H - 1) drained_w += select(zero, ob, valid), drained_s += select(zero, sb, valid);
+#endif
+
+    // Velocity (m/s) from the mean flow through the cell, only where there is water to speak of,
+    // capped at half a cell per dt.
+    const V qx = 0.5f * ((il - ol) + (orr - ir));
+    const V qy = 0.5f * ((it - ot) + (ob - ib));
+    const V dm = 0.5f * (d0 + d1);
+    const V inv_dm = 1.0f / fmax(dm, dry_depth);
+    V u = (qx * inv_ly) * inv_dm;
+    V v = (qy * inv_lx) * inv_dm;
+    u = fmin(fmax(u, -vcap), vcap);
+    v = fmin(fmax(v, -vcap), vcap);
+    const V speed = select((V)(0.0f), sqrt(u * u + v * v), dm > dry_depth);
+
+    // Local slope from central differences (one-sided at the border).
+    const V bc = LD(b, i);
+    V bl = LD(b, i - 1), br = LD(b, i + 1), bt = LD(b, i - P), bb = LD(b, i + P);
+    bl = select(bl, bc, xi == 0);
+    br = select(br, bc, xi == W - 1);
+    if (y == 0) bt = bc;
+    if (y == H - 1) bb = bc;
+    const V gx = (br - bl) * inv_2lx, gy = (bb - bt) * inv_2ly;
+    const V g2 = gx * gx + gy * gy;
+    const V sin_slope = sqrt(g2 / (1.0f + g2));
+
+    // Transport capacity (m of sediment) and the exchange with the bed: delta > 0 dissolves.
+    const V cap = ((kc * fmax(sin_slope, sin_min)) * speed) * fmin(d1 * inv_dramp, 1.0f);
+    V delta = select(kd_dt * (cap - s1), ks_dt * (cap - s1), cap > s1);
+    delta = select(delta, -s1, d1 <= dry_depth);  // a dry cell deposits all it carries
+    delta = fmin(fmax(delta, -max_change), max_change);
+#ifdef HAS_WEIGHT
+    delta = delta * LD(w, i);
+#endif
+#ifdef DEPOSIT_LAYER
+    // Dissolving takes the deposit first; what is asked beyond it comes out of the harder rock at
+    // rock_factor times the rate. Deposition adds to the deposit.
+    const V rc0 = LD(r, i);
+    const V asked = delta;
+    const V from_deposit = fmin(fmax(asked, 0.0f), rc0);
+    delta = select(asked, from_deposit + (asked - from_deposit) * rock_factor, asked > 0.0f);
+    const V r1 = select(rc0 - asked, rc0 - from_deposit, asked > 0.0f);
+    ST(select((V)(0.0f), fmax(r1, 0.0f), valid), r_out, i);
+#endif
+    // The sediment receives what the bed actually lost after rounding (bc - b1 is exact when the
+    // change is small against the bed), not the nominal delta: a change below half an ulp of a
+    // 1000 m bed would otherwise vanish from the bed but still appear in the sediment.
+    const V b1 = bc - delta;
+    const V s2 = fmax(s1 + (bc - b1), 0.0f);
+    const V d2 = d1 * evap_factor;
+
+    ST(select((V)(0.0f), b1, valid), b_out, i);
+    ST(select((V)(0.0f), d2, valid), d_out, i);
+    ST(select((V)(0.0f), s2, valid), s_out, i);
+  }
+#ifdef OPEN_BORDER
+  const float dtw = dt_over_area * cell_area;  // = dt
+  float sw = ((drained_w.s0 + drained_w.s1) + (drained_w.s2 + drained_w.s3)) +
+             ((drained_w.s4 + drained_w.s5) + (drained_w.s6 + drained_w.s7));
+  float ss = ((drained_s.s0 + drained_s.s1) + (drained_s.s2 + drained_s.s3)) +
+             ((drained_s.s4 + drained_s.s5) + (drained_s.s6 + drained_s.s7));
+  const int k = y * (int)get_global_size(1) + (int)get_global_id(1);
+  drain[2 * k] += sw * dtw;
+  drain[2 * k + 1] += ss * cell_area;
+#endif
+}
+
+// Thermal exchange (m) from a higher cell to a lower one whose height difference is diff (> 0 when
+// the sender is higher): the excess over the talus height t. With a deposit layer, the sender's
+// deposit (thickness rs) also slides down to the deposit talus td, but never more than rs.
+// A cell evaluates OUT for its lower neighbours and IN (= the neighbour's OUT towards it) for its
+// higher ones; the neighbour evaluates the same expressions on the same bits with diff negated,
+// so each pair's exchange is exactly antisymmetric.
+#ifdef DEPOSIT_LAYER
+#define XFER(diff, t, td, rs) fmax(fmax((diff) - (t), 0.0f), fmin(fmax((diff) - (td), 0.0f), (rs)))
+#else
+#define XFER(diff, t, td, rs) fmax((diff) - (t), 0.0f)
+#endif
+
+// Thermal erosion: material above the talus slope moves to lower neighbours (4 at distance l, 4 at
+// the diagonal), rho times the excess height per pair and sub-step. Because the transfer depends only
+// on the pair, the sender's and the receiver's sides compute the same number, so the "compute, then
+// gather" of a normalised scheme collapses into one gather pass.
+__kernel void erosion_thermal(__global const float* restrict b, __global const float* restrict w,
+                              __global float* restrict b_out, const int W, const int H, const int P,
+                              const float rho, const float tx, const float ty, const float tdiag,
+                              __global const float* restrict r, __global float* restrict r_out,
+                              const float dtx, const float dty, const float dtdiag) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const int row = (y + 1) * P + PAD;
+  const int up = y > 0, down = y < H - 1;
+  for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
+    const int i = row + x0;
+    const VI xi = (VI)(x0) + LANES;
+    const VI valid = xi < W;
+    const VI left = xi > 0, right = xi < W - 1;
+    const VI vup = (VI)(-up), vdown = (VI)(-down);
+    const V bc = LD(b, i);
+    const V z = (V)(0.0f);
+#ifdef DEPOSIT_LAYER
+    const V rc = LD(r, i);
+#define RN(o) LD(r, i + (o))
+#else
+    const V rc = z;
+#define RN(o) z
+#endif
+#ifdef HAS_WEIGHT
+    // A pair exchanges material only as much as its less movable cell allows (0 = fixed).
+    const V wc = LD(w, i);
+#define PW(o) fmin(wc, LD(w, i + (o)))
+#else
+#define PW(o) 1.0f
+#endif
+    // in/out for the neighbour at offset o with talus heights t (rock) and td (deposit).
+#define EXCHANGE(o, t, td, mask, in, out)                                   \
+    {                                                                       \
+      const V diff = LD(b, i + (o)) - bc;                                   \
+      in = select(z, XFER(diff, t, td, RN(o)) * PW(o), mask);               \
+      out = select(z, XFER(-diff, t, td, rc) * PW(o), mask);                \
+    }
+    V il, ol, ir, orr, it, ot, ib, ob, itl, otl, itr, otr, ibl, obl, ibr, obr;
+    EXCHANGE(-1, tx, dtx, left, il, ol)
+    EXCHANGE(1, tx, dtx, right, ir, orr)
+    EXCHANGE(-P, ty, dty, vup, it, ot)
+    EXCHANGE(P, ty, dty, vdown, ib, ob)
+    EXCHANGE(-P - 1, tdiag, dtdiag, vup & left, itl, otl)
+    EXCHANGE(-P + 1, tdiag, dtdiag, vup & right, itr, otr)
+    EXCHANGE(P - 1, tdiag, dtdiag, vdown & left, ibl, obl)
+    EXCHANGE(P + 1, tdiag, dtdiag, vdown & right, ibr, obr)
+    const V net = (((il - ol) + (ir - orr)) + ((it - ot) + (ib - ob))) +
+                  (((itl - otl) + (ibr - obr)) + ((itr - otr) + (ibl - obl)));
+    ST(select(z, bc + rho * net, valid), b_out, i);
+#ifdef DEPOSIT_LAYER
+    // What slides becomes deposit on the receiver; the sender loses deposit first.
+    const V in = ((il + ir) + (it + ib)) + ((itl + ibr) + (itr + ibl));
+    const V out = ((ol + orr) + (ot + ob)) + ((otl + obr) + (otr + obl));
+    ST(select(z, fmax(rc - rho * out, 0.0f) + rho * in, valid), r_out, i);
+#endif
+#undef RN
+#undef PW
+#undef EXCHANGE
+  }
+}

@@ -1,0 +1,357 @@
+// Numerics of the sparse-dictionary amplification: OMP, K-SVD, complete dictionaries, FLANN search,
+// block-mean correction, dictionary files.
+#include "test_helpers.hpp"
+
+#include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <fstream>
+#include <random>
+
+using namespace terracl;
+
+namespace {
+
+MatrixF random_dictionary(int K, int N, unsigned seed, bool zero_mean = false) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> g;
+  MatrixF D(K, N);
+  for (int j = 0; j < N; ++j) {
+    for (int k = 0; k < K; ++k) D(k, j) = g(rng);
+    if (zero_mean) D.col(j).array() -= D.col(j).mean();
+    D.col(j).normalize();
+  }
+  return D;
+}
+
+// Textbook OMP: correlation with the residual picks the atom, a fresh QR least-squares solve on the
+// active set gives the coefficients (no Gram matrix, no Cholesky updates).
+std::pair<std::vector<int>, VectorF> reference_omp(const MatrixF& D, const VectorF& x, int s) {
+  std::vector<int> I;
+  VectorF r = x, c;
+  for (int k = 0; k < s; ++k) {
+    Eigen::Index best;
+    (D.transpose() * r).cwiseAbs().maxCoeff(&best);
+    I.push_back(int(best));
+    MatrixF A(D.rows(), Eigen::Index(I.size()));
+    for (size_t i = 0; i < I.size(); ++i) A.col(Eigen::Index(i)) = D.col(I[i]);
+    c = A.colPivHouseholderQr().solve(x);
+    r = x - A * c;
+  }
+  return {I, c};
+}
+
+Heightfield crop_of(const Heightfield& h, int x0, int y0, int w, int ht) {
+  Heightfield c(w, ht);
+  c.georef = h.georef;
+  for (int y = 0; y < ht; ++y)
+    for (int x = 0; x < w; ++x) c.at(x, y) = h.at(x0 + x, y0 + y);
+  return c;
+}
+
+Heightfield rough_terrain(int w, int h, double cell, unsigned seed, float noise = 6.f) {
+  Heightfield t = test::smooth_terrain(w, h, cell, 40.0, seed);
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> g(0.f, noise);
+  for (auto& v : t.z) v += g(rng);
+  return t;
+}
+
+LearnOptions small_learn(const std::string& method = "complete") {
+  LearnOptions l;
+  l.method = method;
+  l.atoms = 64;
+  l.iterations = 2;
+  l.max_patches = 3000;
+  l.calibrate = false;
+  return l;
+}
+
+}  // namespace
+
+TEST(AmplifyOmp, MatchesReferenceLeastSquares) {
+  const MatrixF D = random_dictionary(24, 60, 3);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> g;
+  MatrixF X(24, 40);
+  for (int i = 0; i < 40; ++i) X.col(i) = VectorF::NullaryExpr(24, [&] { return g(rng); });
+  for (int s : {1, 2, 4}) {
+    const SparseCodes c = batch_omp(D, X, s, 2);
+    for (int i = 0; i < 40; ++i) {
+      const auto [I, coef] = reference_omp(D, X.col(i), s);
+      for (int j = 0; j < s; ++j) {
+        EXPECT_EQ(c.index[size_t(i) * s + j], I[j]) << "signal " << i << " s=" << s;
+        EXPECT_NEAR(c.coef[size_t(i) * s + j], coef[j], 1e-4f * (1 + std::fabs(coef[j])));
+      }
+    }
+  }
+}
+
+TEST(AmplifyOmp, RecoversExactlySparseSignals) {
+  const MatrixF D = random_dictionary(64, 128, 7);
+  SparseCodes truth;
+  MatrixF X = MatrixF::Zero(64, 20);
+  std::mt19937 rng(9);
+  for (int i = 0; i < 20; ++i) {
+    const int a = int(rng() % 128), b = (a + 1 + int(rng() % 127)) % 128;
+    X.col(i) = 2.0f * D.col(a) - 1.5f * D.col(b);
+  }
+  const SparseCodes c = batch_omp(D, X, 2);
+  EXPECT_LT((decode(D, c) - X).norm(), 1e-4f * X.norm());
+  // A larger sparsity stops early once the residual vanishes.
+  const SparseCodes c4 = batch_omp(D, X, 4);
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(c4.index[size_t(i) * 4 + 2], -1);
+}
+
+TEST(AmplifyKsvd, ErrorDecreasesEveryIteration) {
+  const MatrixF G = random_dictionary(16, 24, 11);
+  std::mt19937 rng(13);
+  std::normal_distribution<float> g;
+  MatrixF F(16, 600);
+  for (int i = 0; i < 600; ++i)
+    F.col(i) = g(rng) * G.col(int(rng() % 24)) + g(rng) * G.col(int(rng() % 24)) + 0.01f * VectorF::NullaryExpr(16, [&] { return g(rng); });
+  for (bool constrained : {false, true}) {
+    KsvdOptions o;
+    o.atoms = 24;
+    o.sparsity = 2;
+    o.iterations = 8;
+    o.constrained = constrained;
+    const KsvdResult r = learn_ksvd(F, o);
+    ASSERT_EQ(r.rmse.size(), 8u);
+    for (size_t i = 1; i < r.rmse.size(); ++i) EXPECT_LE(r.rmse[i], r.rmse[i - 1] * 1.01) << "iteration " << i;
+    EXPECT_LT(r.rmse.back(), r.rmse.front() * (constrained ? 0.95 : 0.5));
+    for (int j = 0; j < r.D.cols(); ++j) EXPECT_NEAR(r.D.col(j).norm(), 1.0f, 1e-4f);
+  }
+}
+
+TEST(AmplifyKsvd, ConstrainedAtomsAreTrainingPatches) {
+  const Heightfield h = test::smooth_terrain(64, 64, 10.0, 200.0, 3);
+  const MatrixF F = extract_patches(h, 8, 2);
+  KsvdOptions o;
+  o.atoms = 32;
+  o.sparsity = 2;
+  o.iterations = 3;
+  o.constrained = true;
+  const KsvdResult r = learn_ksvd(F, o);
+  ASSERT_EQ(r.D.cols(), 32);
+  for (int j = 0; j < 32; ++j) {
+    ASSERT_GE(r.source[j], 0);
+    const VectorF f = F.col(r.source[j]) / F.col(r.source[j]).norm();
+    EXPECT_LT((r.D.col(j) - f).norm(), 1e-5f) << "atom " << j;
+  }
+}
+
+TEST(AmplifyPatches, CompleteDictionaryIsExactAtSparsityOne) {
+  const Heightfield h = read_heightfield(test::data_path("crops/frontrange_64.asc"));
+  std::vector<float> means;
+  std::vector<std::pair<int, int>> pos;
+  const MatrixF F = extract_patches(h, 8, 4, &means, &pos);
+  MatrixF D = F;
+  for (int j = 0; j < D.cols(); ++j) D.col(j).normalize();
+  const SparseCodes c = batch_omp(D, F, 1);
+  const Heightfield rec = blend_patches(h.width, h.height, 8, decode(D, c), means, pos);
+  size_t covered = 0;
+  double err = 0;
+  for (size_t i = 0; i < h.size(); ++i)
+    if (std::isfinite(rec.z[i])) ++covered, err = std::max(err, double(std::fabs(rec.z[i] - h.z[i])));
+  EXPECT_GT(covered, h.size() * 95 / 100);  // only the outer corners lie outside every disc
+  EXPECT_LT(err, 1e-3);
+}
+
+TEST(AmplifyPatches, WeightIsC1AndVanishesAtTheRim) {
+  EXPECT_DOUBLE_EQ(disc_weight(0), 1.0);
+  EXPECT_DOUBLE_EQ(disc_weight(1.0), 0.0);
+  EXPECT_NEAR((disc_weight(1.0) - disc_weight(1.0 - 1e-4)) / 1e-4, 0.0, 1e-6);  // zero slope at r = 1
+  EXPECT_NEAR(disc_weight(0.5), 0.421875, 1e-12);
+}
+
+TEST(AmplifyFlann, EqualsExactSearchWithUnlimitedChecks) {
+  const MatrixF D = random_dictionary(16, 700, 21, true);
+  const MatrixF Q = random_dictionary(16, 400, 22, true) * 3.0f;
+  const AtomMatch e = exact_atom_search(D, Q);
+  AtomIndex idx(D, 4, -1);
+  const AtomMatch a = idx.search(Q, 2);
+  for (int i = 0; i < 400; ++i) {
+    EXPECT_EQ(a.index[i], e.index[i]);
+    EXPECT_NEAR(a.coef[i], e.coef[i], 1e-4f);
+  }
+  const RecallReport r = measure_recall(D, Q, 4, -1, 200);
+  EXPECT_EQ(r.recall, 1.0);
+  const RecallReport few = measure_recall(D, Q, 1, 1, 200);
+  EXPECT_LT(few.recall, 1.0);  // one leaf check really is approximate
+}
+
+TEST(AmplifyCorrection, BlockMeansMatchInput) {
+  Heightfield high = rough_terrain(96, 64, 10.0, 4);
+  Heightfield low = block_mean(test::smooth_terrain(96, 64, 10.0, 300.0, 9), 4);
+  correct_block_means(high, low, 4);
+  const Heightfield m = block_mean(high, 4);
+  for (size_t i = 0; i < m.size(); ++i) EXPECT_NEAR(m.z[i], low.z[i], 1e-3f);
+}
+
+TEST(AmplifyCorrection, BicubicReproducesLinearRamps) {
+  Heightfield low(12, 10);
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 12; ++x) low.at(x, y) = 3.0f * x - 2.0f * y;
+  const Heightfield up = bicubic_upsample(low, 4);
+  // Away from the clamped border, cell-centre alignment gives z = 3 (X + 0.5)/4 - 3/2 ... exactly.
+  for (int Y = 8; Y < 32; ++Y)
+    for (int X = 8; X < 40; ++X) EXPECT_NEAR(up.at(X, Y), 3.0 * ((X + 0.5) / 4 - 0.5) - 2.0 * ((Y + 0.5) / 4 - 0.5), 1e-4);
+}
+
+TEST(AmplifyDictionary, SaveLoadRoundTrip) {
+  test::TempDir tmp;
+  const Dictionary d = learn_dictionary({rough_terrain(64, 64, 5.0, 2)}, small_learn("ksvd"));
+  save_dictionary(d, tmp.path("d.tdic"));
+  const Dictionary e = load_dictionary(tmp.path("d.tdic"));
+  EXPECT_EQ(e.patch, d.patch);
+  EXPECT_EQ(e.factor, d.factor);
+  EXPECT_EQ(e.sparsity, d.sparsity);
+  EXPECT_EQ(e.constrained, d.constrained);
+  EXPECT_EQ(e.cell_x, d.cell_x);
+  EXPECT_EQ(e.detail_gain, d.detail_gain);
+  EXPECT_EQ(e.description, d.description);
+  EXPECT_TRUE(e.high == d.high);
+  EXPECT_TRUE(e.low == d.low);
+  // L is the normalised block mean of H.
+  for (int j = 0; j < d.atoms(); ++j) EXPECT_NEAR(d.low.col(j).norm(), 1.0f, 1e-4f);
+}
+
+TEST(AmplifyDictionary, CorruptFilesGiveClearErrors) {
+  test::TempDir tmp;
+  const Dictionary d = learn_dictionary({rough_terrain(48, 48, 5.0, 2)}, small_learn());
+  save_dictionary(d, tmp.path("d.tdic"));
+  std::string bytes;
+  {
+    std::ifstream f(tmp.path("d.tdic"), std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), {});
+  }
+  auto write = [&](const std::string& name, const std::string& b) {
+    std::ofstream(tmp.path(name), std::ios::binary) << b;
+    return tmp.path(name);
+  };
+  auto message = [](const std::string& p) {
+    try {
+      load_dictionary(p);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 0x55;
+  EXPECT_NE(message(write("flip.tdic", flipped)).find("checksum"), std::string::npos);
+  EXPECT_NE(message(write("short.tdic", bytes.substr(0, bytes.size() - 100))).find("truncated"), std::string::npos);
+  EXPECT_NE(message(write("junk.tdic", "hello world")).find("not a terracl dictionary"), std::string::npos);
+  EXPECT_NE(message(tmp.path("missing.tdic")).find("cannot open"), std::string::npos);
+}
+
+TEST(AmplifyAmplify, OutputIsGeoreferencedFinerAndConsistent) {
+  const Heightfield ex = rough_terrain(96, 96, 5.0, 1);
+  const Heightfield low = block_mean(rough_terrain(96, 64, 5.0, 8), 4);  // 20 m cells
+  AmplifyOptions o;
+  const Heightfield out = amplify_from_exemplars(low, {ex}, small_learn(), o);
+  EXPECT_EQ(out.width, 96);
+  EXPECT_EQ(out.height, 64);
+  EXPECT_NEAR(out.georef.cell_x, 5.0, 1e-9);
+  EXPECT_EQ(out.count_nodata(), 0u);
+  const Heightfield m = block_mean(out, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-2f);
+  // Detail was added: the output is rougher than bicubic.
+  EXPECT_GT(roughness(out, 4), 1.3 * roughness(bicubic_upsample(low, 4), 4));
+}
+
+TEST(AmplifyAmplify, TilesGiveTheSameResultAsOneTile) {
+  const Dictionary d = learn_dictionary({rough_terrain(64, 64, 5.0, 3)}, small_learn());
+  const Heightfield low = block_mean(test::smooth_terrain(160, 136, 5.0, 300.0, 4), 4);
+  AmplifyOptions o;
+  o.tile = 4096;
+  const Heightfield a = amplify(low, d, o);
+  o.tile = 64;
+  const Heightfield b = amplify(low, d, o);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a.z[i], b.z[i], 1e-3f);
+  // Two steps (x16) with the same dictionary.
+  o.factor = 16;
+  const Heightfield c = amplify(block_mean(low, 4), d, o);
+  EXPECT_EQ(c.width, low.width / 4 * 16);
+}
+
+TEST(AmplifyAmplify, FlannAndExactSearchAgreeWhenUnlimited) {
+  LearnOptions l = small_learn();
+  const Dictionary d = learn_dictionary({rough_terrain(64, 64, 5.0, 5)}, l);
+  const Heightfield low = block_mean(test::smooth_terrain(64, 64, 5.0, 300.0, 6), 4);
+  AmplifyOptions o;
+  o.search = "exact";
+  const Heightfield a = amplify(low, d, o);
+  o.search = "flann";
+  o.checks = -1;
+  const Heightfield b = amplify(low, d, o);
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a.z[i], b.z[i], 1e-3f);
+}
+
+TEST(AmplifyErrors, BadInputsAreReported) {
+  const Heightfield ex = rough_terrain(64, 64, 5.0, 1);
+  const Heightfield low = block_mean(test::smooth_terrain(64, 64, 5.0, 300.0, 2), 4);
+  auto message = [](auto&& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  AmplifyOptions o;
+  o.factor = 8;
+  EXPECT_NE(message([&] { amplify_from_exemplars(low, {ex}, small_learn(), o); }).find("factor 8 is not supported"),
+            std::string::npos);
+  o.factor = 4;
+  EXPECT_NE(message([&] { amplify_from_exemplars(low, {rough_terrain(12, 40, 5.0, 1)}, small_learn(), o); })
+                .find("smaller than one 16x16 patch"),
+            std::string::npos);
+  Heightfield coarse = ex;
+  coarse.georef.cell_x = coarse.georef.cell_y = 7.0;  // output cells are 5 m
+  EXPECT_NE(message([&] { amplify_from_exemplars(low, {coarse}, small_learn(), o); }).find("mismatched cell sizes"),
+            std::string::npos);
+  Heightfield odd = ex;
+  odd.georef.cell_x = odd.georef.cell_y = 2.0;  // 5 m is 2.5 exemplar cells
+  EXPECT_NE(message([&] { amplify_from_exemplars(low, {odd}, small_learn(), o); }).find("mismatched cell sizes"),
+            std::string::npos);
+  EXPECT_NE(message([&] { learn_dictionary({ex, coarse}, small_learn()); }).find("mismatched cell sizes"), std::string::npos);
+  Heightfield flat(64, 64, 100.f);
+  flat.georef.cell_x = flat.georef.cell_y = 5.0;
+  EXPECT_NE(message([&] { learn_dictionary({flat}, small_learn()); }).find("flat"), std::string::npos);
+}
+
+TEST(AmplifyEncode, HigherSparsityGivesHigherPsnr) {
+  const Heightfield h = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  const EncodeReport a = encode_report(h, 1, 32, 8, 3);
+  const EncodeReport b = encode_report(h, 4, 32, 8, 3);
+  EXPECT_GT(b.psnr, a.psnr);
+  EXPECT_GT(a.psnr, 20.0);
+  EXPECT_GT(b.rho, a.rho);
+  EXPECT_NEAR(a.rho, (64.0 * 32 + a.patches * 4 + 1) / h.size(), 1e-12);
+}
+
+TEST(AmplifyStyles, MaskSelectsTheDictionaryAndBlendsSmoothly) {
+  const Dictionary gentle = learn_dictionary({rough_terrain(64, 64, 5.0, 1, 0.5f)}, small_learn());
+  const Dictionary rugged = learn_dictionary({rough_terrain(64, 64, 5.0, 2, 12.f)}, small_learn());
+  const Heightfield low = block_mean(rough_terrain(128, 64, 5.0, 3, 3.f), 4);
+  Heightfield mask(low.width, low.height, 0.f);
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = mask.width / 2; x < mask.width; ++x) mask.at(x, y) = 1.f;
+  AmplifyOptions o;
+  const Heightfield out = amplify_styles(low, {&gentle, &rugged}, mask, 4.0, o);
+  auto half_roughness = [&](int x0, int x1) {
+    Heightfield c(x1 - x0, out.height);
+    for (int y = 0; y < out.height; ++y)
+      for (int x = x0; x < x1; ++x) c.at(x - x0, y) = out.at(x, y);
+    return roughness(c, 4);
+  };
+  EXPECT_GT(half_roughness(80, 128), 2.0 * half_roughness(0, 48));
+  const Heightfield m = block_mean(out, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-2f);
+  Heightfield wrong(3, 3);
+  EXPECT_THROW(amplify_styles(low, {&gentle, &rugged}, wrong, 4.0, o), Error);
+}

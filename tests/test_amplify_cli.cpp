@@ -1,0 +1,90 @@
+// `terracl amplify` and `terracl dictionary` run as a user runs them.
+#include "test_helpers.hpp"
+
+#include <terracl/amplify.hpp>
+#include <terracl/io.hpp>
+
+#include <fstream>
+
+using namespace terracl;
+
+namespace {
+struct Files {
+  test::TempDir tmp;
+  std::string exemplar = test::data_path("crops/presidential_128x96.tif");
+  std::string low;
+  Files() {
+    low = tmp.path("low.tif");
+    write_heightfield(block_mean(read_heightfield(exemplar), 4), low);
+  }
+};
+}  // namespace
+
+TEST(AmplifyCli, LearnThenAmplifyWithDictionary) {
+  Files f;
+  const auto learn = test::run_cli("dictionary learn " + f.exemplar + " -o " + f.tmp.path("d.tdic") +
+                                   " --atoms 48 --sparsity 1 --patch 16 --iterations 2 --constrained");
+  ASSERT_EQ(learn.exit_code, 0) << learn.out;
+  EXPECT_NE(learn.out.find("48 atoms"), std::string::npos) << learn.out;
+  const auto amp = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("out.tif") + " --dictionary " + f.tmp.path("d.tdic"));
+  ASSERT_EQ(amp.exit_code, 0) << amp.out;
+  const Heightfield out = read_heightfield(f.tmp.path("out.tif"));
+  const Heightfield low = read_heightfield(f.low);
+  EXPECT_EQ(out.width, 128);
+  EXPECT_EQ(out.height, 96);
+  EXPECT_NEAR(out.georef.cell_x * 4, low.georef.cell_x, 1e-6 * low.georef.cell_x);
+  EXPECT_NEAR(out.georef.geotransform[1] * 4, low.georef.geotransform[1], 1e-12);
+  const Heightfield m = block_mean(out, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 0.05f);
+}
+
+TEST(AmplifyCli, AmplifyFromExemplarAndBadArguments) {
+  Files f;
+  const auto ok = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("a.tif") + " --exemplar " + f.exemplar +
+                                " --method complete");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  const auto bad_factor = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("b.tif") + " --exemplar " + f.exemplar + " --factor 8");
+  EXPECT_NE(bad_factor.exit_code, 0);
+  EXPECT_NE(bad_factor.out.find("factor 8 is not supported"), std::string::npos) << bad_factor.out;
+  const auto none = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("c.tif"));
+  EXPECT_NE(none.exit_code, 0);
+  EXPECT_NE(none.out.find("--exemplar"), std::string::npos) << none.out;
+  // The exemplar at the input's own resolution cannot supply 4x finer detail.
+  const auto coarse = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("d.tif") + " --exemplar " + f.low);
+  EXPECT_NE(coarse.exit_code, 0);
+  EXPECT_NE(coarse.out.find("mismatched cell sizes"), std::string::npos) << coarse.out;
+  std::ofstream(f.tmp.path("bad.tdic"), std::ios::binary) << "TDIC\x01\x00\x00\x00garbage";
+  const auto corrupt = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("e.tif") + " --dictionary " + f.tmp.path("bad.tdic"));
+  EXPECT_NE(corrupt.exit_code, 0);
+  EXPECT_NE(corrupt.out.find("bad.tdic"), std::string::npos) << corrupt.out;
+  EXPECT_FALSE(std::filesystem::exists(f.tmp.path("e.tif")));
+}
+
+TEST(AmplifyCli, EncodeReportsRhoAndPsnr) {
+  const auto r = test::run_cli("dictionary encode " + test::data_path("crops/frontrange_64.asc") +
+                               " --atoms 16 --patch 8 --iterations 2 --sparsity 1 2");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("| sparsity | rho"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("|        2 |"), std::string::npos) << r.out;
+}
+
+TEST(AmplifyCli, SketchSynthesis) {
+  test::TempDir tmp;
+  Heightfield sketch(24, 20, 0.f);
+  for (int y = 6; y < 14; ++y)
+    for (int x = 6; x < 18; ++x) sketch.at(x, y) = 1000.f;  // a painted plateau
+  write_heightfield(sketch, tmp.path("sketch.png"));
+  const auto learn = test::run_cli("dictionary learn " + test::data_path("crops/presidential_128x96.tif") + " -o " +
+                                   tmp.path("d.tdic") + " --method complete");
+  ASSERT_EQ(learn.exit_code, 0) << learn.out;
+  const auto r = test::run_cli("dictionary sketch " + tmp.path("sketch.png") + " -o " + tmp.path("out.tif") + " --dictionary " +
+                               tmp.path("d.tdic") + " --zmin 0 --zmax 1000 --cell 200 --factor 4");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield out = read_heightfield(tmp.path("out.tif"));
+  EXPECT_EQ(out.width, 96);
+  EXPECT_EQ(out.height, 80);
+  EXPECT_NEAR(out.georef.cell_x, 50.0, 1e-6);
+  EXPECT_EQ(out.count_nodata(), 0u);
+  EXPECT_GT(out.at(48, 40), 800.f);  // plateau centre stays high
+  EXPECT_LT(out.at(4, 4), 200.f);    // the plain stays low
+}
