@@ -63,6 +63,20 @@ TEST(ReconstructCli, ConstraintJsonAndItsErrors) {
   EXPECT_EQ(dir.count(), before);  // nothing half-written
 }
 
+TEST(ReconstructCli, CascadeReportShowsTheDistanceToTheConvergedSolution) {
+  test::TempDir dir;
+  const std::string dem = test::data_path("crops/presidential_128x96.tif");
+  ASSERT_EQ(test::run_cli("extract " + dem + " -o " + dir.path("g.exr") + " -q").exit_code, 0);
+  auto r = test::run_cli("reconstruct --gradient " + dir.path("g.exr") + " --cycle cascade --report " +
+                         dir.path("r.json") + " -o " + dir.path("c.tif") + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  std::ifstream in(dir.path("r.json"));
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j.at("cycle"), "cascade");
+  EXPECT_GT(j.at("converged_reference").at("max_difference_m").get<double>(), 0.0);
+  EXPECT_LT(j.at("converged_reference").at("final_relative_residual").get<double>(), 1e-5);
+}
+
 TEST(ReconstructCli, UsageErrors) {
   test::TempDir dir;
   auto none = test::run_cli("reconstruct -o " + dir.path("o.tif") + " -q");

@@ -310,6 +310,23 @@ class Solver {
       set(fuse, lv[l].r, lv[l].e, lv[l].W, lv[l].H, lv[l + 1].r, lv[l + 1].e, lv[l + 1].W, lv[l + 1].H);
       run(fuse, lv[l + 1].H);
     }
+    if (m_p.singular) {
+      // Without any hard cell the border-renormalised coarse right-hand sides are not exactly
+      // zero-mean, and Jacobi on a singular Neumann problem then drifts: project each level.
+      cl::Kernel rs = m_d.kernel("multigrid", "row_sums");
+      cl::Kernel sh = m_d.kernel("multigrid", "shift_free");
+      for (size_t l = 1; l < L; ++l) {
+        std::vector<float> rows(size_t(lv[l].H));
+        cl::Buffer rb = m_d.buffer(rows.size() * sizeof(float), CL_MEM_READ_WRITE, "cascade row sums");
+        set(rs, lv[l].r, lv[l].W, lv[l].H, rb);
+        run(rs, lv[l].H);
+        m_q.enqueueReadBuffer(rb, CL_TRUE, 0, rows.size() * sizeof(float), rows.data());
+        double sum = 0;
+        for (float v : rows) sum += v;
+        set(sh, lv[l].r, lv[l].W, lv[l].H, float(sum / (double(lv[l].W) * lv[l].H)));
+        run(sh, lv[l].H);
+      }
+    }
     const double b = norm(true);
     m_stats.residuals.push_back(b > 0 ? norm(false) / b : 0.0);
     for (size_t l = L; l-- > 0;) {
