@@ -11,33 +11,15 @@
 #include <terracl/stage.hpp>
 
 #include "cli.hpp"
+#include "stage_flags.hpp"
 
 namespace terracl::cli {
 namespace {
 
-std::string kebab(std::string s) {
-  for (char& c : s)
-    if (c == '_') c = '-';
-  return s;
-}
-
-json to_json(const OptionSpec& o, const std::string& text) {
-  char* end = nullptr;
-  if (o.type == OptionType::Int) {
-    const long long v = std::strtoll(text.c_str(), &end, 10);
-    if (!text.empty() && *end == '\0') return v;
-  } else if (o.type == OptionType::Float) {
-    const double v = std::strtod(text.c_str(), &end);
-    if (!text.empty() && *end == '\0') return v;
-  }
-  return text;
-}
-
 struct Args {
   std::string input;
   bool fill_nodata = false;
-  std::map<std::string, std::string> values;
-  std::map<std::string, bool> flags;
+  StageFlags flags;
 };
 
 /// One subcommand for stage `name`; `-o` maps to option `output_option` ("" for none).
@@ -48,31 +30,11 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
   auto* sub = app.add_subcommand(name, help.empty() ? sp->description : help);
   sub->add_option("input", a->input, "Input raster")->required();
   sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first (harmonic)");
-  for (const auto& o : sp->options) {
-    std::string text = o.help;
-    if (!o.unit.empty()) text += fmt::format(" [{}]", o.unit);
-    if (o.type == OptionType::Enum) text += fmt::format(" ({})", fmt::join(o.choices, "|"));
-    if (!o.default_value.is_null()) text += fmt::format(" (default {})", o.default_value.dump());
-    std::string flag = "--" + kebab(o.name);
-    if (o.name == output_option) flag = "-o,--output," + flag;
-    if (o.type == OptionType::Bool) {
-      sub->add_flag(flag + ",!--no-" + kebab(o.name), a->flags[o.name], text);
-    } else {
-      auto* opt = sub->add_option(flag, a->values[o.name], text);
-      if (o.required && name != "metrics") opt->required();
-    }
-  }
+  // metrics prints its report, so its file option is optional here.
+  a->flags.add(sub, *sp, output_option, name != "metrics");
   sub->callback([a, sp, sub, name] {
     const StageInfo& s = *sp;
-    json opts = json::object();
-    for (const auto& o : s.options) {
-      const std::string flag = "--" + kebab(o.name);
-      if (o.type == OptionType::Bool) {
-        if (sub->count(flag) || sub->count("--no-" + kebab(o.name))) opts[o.name] = a->flags[o.name];
-      } else if (sub->count(flag)) {
-        opts[o.name] = to_json(o, a->values[o.name]);
-      }
-    }
+    const json opts = a->flags.given(sub, s);
     ReadOptions ro;
     ro.fill_nodata = a->fill_nodata;
     if (name == "metrics") {

@@ -1,6 +1,7 @@
 // `terracl stages` and one auto-generated subcommand per stage, built from the stage table:
 // `terracl <stage> [IN] -o OUT [--option value ...]`.
 #include "cli.hpp"
+#include "stage_flags.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -14,17 +15,10 @@
 namespace terracl::cli {
 namespace {
 
-std::string kebab(std::string s) {
-  for (char& c : s)
-    if (c == '_') c = '-';
-  return s;
-}
-
 struct StageArgs {
   std::string input, output;
   bool fill_nodata = false;
-  std::map<std::string, std::string> values;
-  std::map<std::string, bool> flags;
+  StageFlags flags;
 };
 
 void add_stage_command(CLI::App& app, const StageInfo& s) {
@@ -38,36 +32,11 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   auto* out = sub->add_option("-o,--output", a->output, "Output file (format from the extension)");
   if (!passes) out->required();
   if (s.input == DataKind::Heightfield) sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first");
-  for (const auto& o : s.options) {
-    std::string help = o.help;
-    if (!o.unit.empty()) help += fmt::format(" [{}]", o.unit);
-    if (o.type == OptionType::Enum) help += fmt::format(" ({})", fmt::join(o.choices, "|"));
-    if (!o.default_value.is_null()) help += fmt::format(" (default {})", o.default_value.dump());
-    if (o.type == OptionType::Bool) {
-      sub->add_flag("--" + kebab(o.name) + ",!--no-" + kebab(o.name), a->flags[o.name], help);
-    } else {
-      auto* opt = sub->add_option("--" + kebab(o.name), a->values[o.name], help);
-      opt->type_name(o.type == OptionType::Int     ? "INT"
-                     : o.type == OptionType::Float ? (o.unit.empty() ? "NUMBER" : "NUMBER[" + o.unit + "]")
-                     : o.type == OptionType::Enum  ? "CHOICE"
-                     : o.type == OptionType::Path || o.type == OptionType::OutputPath ? "FILE"
-                     : o.type == OptionType::Json  ? "JSON"
-                                                   : "TEXT");
-      if (o.required) opt->required();
-    }
-  }
+  a->flags.add(sub, s);
   const StageInfo* sp = &s;
   sub->callback([a, sp, sub] {
     const StageInfo& s = *sp;
-    json opts = json::object();
-    for (const auto& o : s.options) {
-      const std::string flag = "--" + kebab(o.name);
-      if (o.type == OptionType::Bool) {
-        if (sub->count(flag) || sub->count("--no-" + kebab(o.name))) opts[o.name] = a->flags[o.name];
-      } else if (sub->count(flag)) {
-        opts[o.name] = option_from_text(o, a->values[o.name]);
-      }
-    }
+    const json opts = a->flags.given(sub, s);
     json resolved;
     try {
       resolved = resolve_options(s, opts, s.name);

@@ -31,6 +31,11 @@ for p in "${PIPELINES[@]}"; do
   $T run "$p" || status=1
 done
 
+# The authoring examples: edit script -> multigrid reconstruction -> shaded-relief preview.
+echo
+echo "== authoring examples (data/examples/*.json)"
+TERRACL=$T bash scripts/run-examples.sh || status=1
+
 echo
 echo "demo.sh wrote under out/:"
 find out -type f | sort | while read -r f; do

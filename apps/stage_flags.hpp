@@ -1,0 +1,30 @@
+#pragma once
+// Command-line flags generated from a stage's option table, shared by every subcommand that
+// runs a stage, so the CLI and pipelines accept the same names, types and units.
+#include <terracl/stage.hpp>
+
+#include <CLI/CLI.hpp>
+
+#include <map>
+#include <string>
+
+namespace terracl::cli {
+
+/// "fixed_mask" -> "fixed-mask".
+std::string kebab(std::string s);
+
+class StageFlags {
+ public:
+  /// Adds --kebab-name for every option of `stage` to `sub`. The option named `output_option`
+  /// (if any) is also reachable as -o/--output. Options marked required stay required unless
+  /// `enforce_required` is false.
+  void add(CLI::App* sub, const StageInfo& stage, const std::string& output_option = "", bool enforce_required = true);
+  /// The options the user gave, as JSON values of their declared types (not yet validated).
+  json given(const CLI::App* sub, const StageInfo& stage) const;
+
+ private:
+  std::map<std::string, std::string> m_values;
+  std::map<std::string, bool> m_flags;
+};
+
+}  // namespace terracl::cli
