@@ -10,6 +10,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <functional>
 
 namespace terracl {
@@ -53,6 +55,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   } else if (cin.width() && !cin.empty()) {
     vals = cin.values();
   }
+  const double t_vals = now_ms();
   size_t hard = 0;
   double hard_sum = 0;
   for (float v : vals)
@@ -134,6 +137,8 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       }
     }
     const double t_setup0 = now_ms() - t0;
+    if (std::getenv("TERRACL_MG_PROFILE"))
+      std::fprintf(stderr, "host constraints %.1f ms, upload+divergence+init %.1f ms\n", t_vals - t0, now_ms() - t_vals);
     mg::SolveStats st = mg::solve(d, p, o, baseline);
     const double t_solved = now_ms();
     q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, out.data());
