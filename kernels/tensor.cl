@@ -173,12 +173,13 @@ float4 tensor_at(__global const float* prims, int nprims, __global const float4*
     if (kind == TENSOR_SCALE) {
       T = (float4)(1.0f, 0.0f, 0.0f, 1.0f);
     } else if (kind == TENSOR_DIRECTIONAL) {
-      const float th = pr[6];
-      T = (float4)(cos(2.0f * th), sin(2.0f * th), sin(2.0f * th), -cos(2.0f * th));
+      // pr[14], pr[15] = cos, sin of 2 angle (computed once on the host, not per face).
+      T = (float4)(pr[14], pr[15], pr[15], -pr[14]);
     } else {
-      // Aligned with the stroke's tangent or with u(p); pr[6] adds a rotation (e.g. pi/2).
+      // Aligned with the stroke's tangent or with u(p); the angle (pr[14], pr[15] = its cos, sin)
+      // adds a rotation (e.g. pi/2).
       float2 u = kind == TENSOR_TANGENT ? c.tangent : c.toward;
-      const float cs = cos(pr[6]), sn = sin(pr[6]);
+      const float cs = pr[14], sn = pr[15];
       u = (float2)(cs * u.x - sn * u.y, sn * u.x + cs * u.y);
       T = dir_tensor(u);
     }

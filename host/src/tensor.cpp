@@ -1,6 +1,7 @@
 // Launchers of kernels/tensor.cl. Primitives are packed 16 floats each:
 //   [0] shape  [1] first vertex  [2] vertex count  [3] radius r  [4] mu  [5] tensor kind  [6] angle
 //   [7] disc radius  [8..11] anisotropic metric M (row-major)  [12] profile  [13] profile amplitude
+//   [14] [15] cos, sin of the tensor's rotation (2 angle for directional tensors)
 // and vertices as float4 (x, y, amplitude factor, 0), all in metres.
 #include <terracl/error.hpp>
 #include <terracl/tensor.hpp>
@@ -105,10 +106,13 @@ Packed pack(const std::vector<Primitive>& prims) {
     // M = R(phi) diag(1, ratio) R(-phi): offsets along phi unchanged, across scaled by ratio.
     const double c = std::cos(pr.aniso_angle), s = std::sin(pr.aniso_angle), k = pr.aniso_ratio;
     const double m00 = c * c + k * s * s, m01 = c * s - k * c * s, m11 = s * s + k * c * c;
+    // The tensor's rotation as cos/sin (of 2 angle for directional tensors, of the angle for the
+    // aligned ones), float-rounded like the kernel's own cos/sin would be: saves two trig calls per face.
+    const float rot = pr.tensor == TensorKind::Directional ? 2.0f * float(pr.angle) : float(pr.angle);
     p.prims.insert(p.prims.end(),
                    {float(int(pr.shape)), first, float(pr.points.size()), float(pr.radius), float(pr.strength),
                     float(int(pr.tensor)), float(pr.angle), float(pr.disc_radius), float(m00), float(m01),
-                    float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), 0.f, 0.f});
+                    float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), std::cos(rot), std::sin(rot)});
   }
   if (p.verts.empty()) p.verts.assign(4, 0.f);
   if (p.prims.empty()) p.prims.assign(16, 0.f);
