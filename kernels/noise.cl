@@ -75,15 +75,21 @@ float3 noise_sum(float2 p, float wavelength, int octaves, float lacunarity, floa
 float mask_at(__global const float* mask, int use_mask, size_t o) { return use_mask ? mask[o] : 1.0f; }
 
 // Pass 1: noise value and analytic derivatives at the cell centres [x0, x0 + bw) x [y0, y0 + bh)
-// (the caller passes the face box plus one column and row).
-__kernel void noise_cells(__global float* nv, __global float* nx, __global float* ny, const int W, const float cx,
-                          const float cy, const int x0, const int y0, const int bw, const int bh,
+// (the caller passes the face box plus one column and row). With a mask, cells none of whose faces
+// has weight on either side are skipped: noise_faces never reads them (a box is mostly outside a
+// curve's or a disc's support, and the noise sum is the whole cost).
+__kernel void noise_cells(__global float* nv, __global float* nx, __global float* ny, const int W, const int H,
+                          const float cx, const float cy, const int x0, const int y0, const int bw, const int bh,
+                          __global const float* mask, const int use_mask,
                           const float wavelength, const int octaves, const float lacunarity, const float gain,
                           const int type, const uint seed) {
   const int i = get_global_id(0), j = get_global_id(1);
   if (i >= bw || j >= bh) return;
   const int x = x0 + i, y = y0 + j;
   const size_t o = (size_t)y * W + x;
+  if (use_mask && mask[o] == 0.0f && (x == x0 || mask[o - 1] == 0.0f) && (y == y0 || mask[o - W] == 0.0f) &&
+      (x + 1 >= W || mask[o + 1] == 0.0f) && (y + 1 >= H || mask[o + W] == 0.0f))
+    return;
   const float3 n = noise_sum((float2)((float)x * cx, (float)y * cy), wavelength, octaves, lacunarity, gain, type, seed);
   nv[o] = n.x;
   nx[o] = n.y;

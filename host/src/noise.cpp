@@ -50,12 +50,15 @@ void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const B
   k.setArg(a++, g.nx);
   k.setArg(a++, g.ny);
   k.setArg(a++, g.width);
+  k.setArg(a++, g.height);
   k.setArg(a++, float(g.cell_x));
   k.setArg(a++, float(g.cell_y));
   k.setArg(a++, box.x0);
   k.setArg(a++, box.y0);
   k.setArg(a++, cw);
   k.setArg(a++, ch);
+  k.setArg(a++, g.mask);
+  k.setArg(a++, use_mask ? 1 : 0);
   k.setArg(a++, float(p.wavelength));
   k.setArg(a++, p.octaves);
   k.setArg(a++, float(p.lacunarity));
