@@ -99,6 +99,9 @@ Closest closest_point(__global const float* pr, __global const float4* verts, fl
   float side = 1.0f;
   float2 n = (float2)(0.0f, 0.0f);
   int inside = 0;
+  // Pass 1: the closest segment by squared distance only (and the crossing number); the closest
+  // point's other attributes (four square roots, divisions) are derived once, for that segment.
+  int bs = -1;
   for (int s = 0; s < nseg; ++s) {
     const float4 a4 = verts[v0 + s];
     const float4 b4 = verts[v0 + ((s + 1) % nv)];
@@ -111,30 +114,43 @@ Closest closest_point(__global const float* pr, __global const float4* verts, fl
     const float d2 = dot(d, d);
     if (d2 < best) {
       best = d2;
-      const float len = sqrt(d2);
-      const float2 tan_real = b4.xy - a4.xy;
-      const float tl = length(tan_real);
-      c.tangent = tl > 0.0f ? tan_real / tl : (float2)(1.0f, 0.0f);
-      const float2 tq = a4.xy + t * tan_real - p;
-      const float tql = length(tq);
-      c.toward = tql > 0.0f ? tq / tql : (float2)(0.0f, 0.0f);
-      c.amp = a4.z + t * (b4.z - a4.z);
-      // Side: (-ab.y, ab.x) is "right" (positive); with x east and y south that is the travel
-      // direction turned clockwise on a north-up map.
-      const float cr = ab.x * (P.y - A.y) - ab.y * (P.x - A.x);
-      side = cr >= 0.0f ? 1.0f : -1.0f;
-      const float al = sqrt(l2);
-      n = len > 0.0f ? d / len : (al > 0.0f ? (float2)(-ab.y, ab.x) / al : (float2)(0.0f, 0.0f));
-      c.dist = len;
-      c.beyond = 0.0f;
-      if (!closed) {
-        if (s == 0 && traw < 0.0f) c.beyond = -traw * al;
-        if (s == nseg - 1 && traw > 1.0f) c.beyond = (traw - 1.0f) * al;
-      }
+      bs = s;
     }
     if (closed && ((a4.y <= p.y) != (b4.y <= p.y))) {  // crossing number, real coordinates
       const float xi = a4.x + (p.y - a4.y) / (b4.y - a4.y) * (b4.x - a4.x);
       if (p.x < xi) inside ^= 1;
+    }
+  }
+  if (bs >= 0) {
+    const int s = bs;
+    const float4 a4 = verts[v0 + s];
+    const float4 b4 = verts[v0 + ((s + 1) % nv)];
+    const float2 A = metric_apply(pr, a4.xy), B = metric_apply(pr, b4.xy);
+    const float2 ab = B - A;
+    const float l2 = dot(ab, ab);
+    const float traw = l2 > 0.0f ? dot(P - A, ab) / l2 : 0.0f;
+    const float t = clamp(traw, 0.0f, 1.0f);
+    const float2 d = P - (A + t * ab);
+    const float d2 = dot(d, d);
+    const float len = sqrt(d2);
+    const float2 tan_real = b4.xy - a4.xy;
+    const float tl = length(tan_real);
+    c.tangent = tl > 0.0f ? tan_real / tl : (float2)(1.0f, 0.0f);
+    const float2 tq = a4.xy + t * tan_real - p;
+    const float tql = length(tq);
+    c.toward = tql > 0.0f ? tq / tql : (float2)(0.0f, 0.0f);
+    c.amp = a4.z + t * (b4.z - a4.z);
+    // Side: (-ab.y, ab.x) is "right" (positive); with x east and y south that is the travel
+    // direction turned clockwise on a north-up map.
+    const float cr = ab.x * (P.y - A.y) - ab.y * (P.x - A.x);
+    side = cr >= 0.0f ? 1.0f : -1.0f;
+    const float al = sqrt(l2);
+    n = len > 0.0f ? d / len : (al > 0.0f ? (float2)(-ab.y, ab.x) / al : (float2)(0.0f, 0.0f));
+    c.dist = len;
+    c.beyond = 0.0f;
+    if (!closed) {
+      if (s == 0 && traw < 0.0f) c.beyond = -traw * al;
+      if (s == nseg - 1 && traw > 1.0f) c.beyond = (traw - 1.0f) * al;
     }
   }
   if (closed) {
