@@ -150,9 +150,30 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
   const int cx0 = std::max(0, int(std::floor((x0 - half) / g.cell_x))), cx1 = std::min(g.width - 1, int(std::ceil((x1 + half) / g.cell_x)));
   const int cy0 = std::max(0, int(std::floor((y0 - half) / g.cell_y))), cy1 = std::min(g.height - 1, int(std::ceil((y1 + half) / g.cell_y)));
   if (cx1 < cx0 || cy1 < cy0) return;
-  for (int y = cy0; y <= cy1; ++y)
-    for (int x = cx0; x <= cx1; ++x) {
-      const double px = x * g.cell_x, py = y * g.cell_y;
+  for (int y = cy0; y <= cy1; ++y) {
+    // Only the columns near some segment in this row (a diagonal curve's box is mostly empty): the
+    // x-extent of each segment's part within `half` of the row, widened by `half` and one cell.
+    const double py = y * g.cell_y;
+    double rx0 = 1e300, rx1 = -1e300;
+    for (size_t i = 0; i + 1 < pts.size(); ++i) {
+      const Vec3 &a = pts[i], &b = pts[i + 1];
+      const double uy = b.y - a.y;
+      double t0 = 0, t1 = 1;
+      if (uy != 0) {
+        t0 = (py - half - a.y) / uy, t1 = (py + half - a.y) / uy;
+        if (t0 > t1) std::swap(t0, t1);
+        t0 = std::max(t0, 0.0), t1 = std::min(t1, 1.0);
+        if (t0 > t1) continue;
+      } else if (std::abs(py - a.y) > half + g.cell_y) {
+        continue;
+      }
+      const double xa = a.x + t0 * (b.x - a.x), xb = a.x + t1 * (b.x - a.x);
+      rx0 = std::min(rx0, std::min(xa, xb) - half - g.cell_x), rx1 = std::max(rx1, std::max(xa, xb) + half + g.cell_x);
+    }
+    if (rx0 > rx1) continue;
+    const int x0r = std::max(cx0, int(std::floor(rx0 / g.cell_x))), x1r = std::min(cx1, int(std::ceil(rx1 / g.cell_x)));
+    for (int x = x0r; x <= x1r; ++x) {
+      const double px = x * g.cell_x;
       double best = 1e300, z = 0;
       for (size_t i = 0; i + 1 < pts.size(); ++i) {
         const Vec3 &a = pts[i], &b = pts[i + 1];
@@ -163,6 +184,7 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
       }
       if (best <= half) s.set_hard(size_t(y) * g.width + x, float(z));
     }
+  }
   s.changed();
 }
 
