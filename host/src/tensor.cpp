@@ -133,8 +133,10 @@ DeviceSkeleton upload(Device& d, const std::vector<Primitive>& prims) {
   return s;
 }
 
+// A fixed work-group of 16 rows (the kernels return past the last row): with NullRange PoCL picks
+// a local size from each box's height and compiles the kernel again for every new one.
 void launch_rows(Device& d, cl::Kernel& k, int rows) {
-  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(rows)), cl::NullRange);
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(size_t(rows), 16)), cl::NDRange(16));
 }
 
 void set_common(cl::Kernel& k, int& a, const GradientBuffers& g, const Box& b) {
