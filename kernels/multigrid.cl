@@ -188,21 +188,24 @@ __kernel void rhs_norm0(__global const float* u, __global const float* g, const 
   rows[y] = (float)s;
 }
 
-// Turns the uploaded constraint values (NaN = free) into the level-0 state: u = value - m at hard
-// cells and 0 (or the warm start - m) elsewhere; g = NaN marks hard cells.
-__kernel void init_level0(__global float* u, __global float* g, __global const float* warm, const int use_warm,
-                          const int W, const int H, const float m) {
+// Warm start: u holds the uploaded initial heightfield; make it the deviation from m.
+__kernel void shift_level0(__global float* u, const int W, const int H, const float m) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
-  for (int x = 0; x < W; ++x) {
-    const float c = u[o + x];
-    if (isnan(c)) {
-      u[o + x] = use_warm ? warm[o + x] - m : 0.0f;
-    } else {
-      u[o + x] = c - m;
-      g[o + x] = NAN;
-    }
+  for (int x = 0; x < W; ++x) u[o + x] -= m;
+}
+
+// Hard cells from the sparse list (flat index, value): u = value - m, g = NaN marks them hard.
+// Work-item k handles entries [k * chunk, (k + 1) * chunk).
+__kernel void scatter_hard(__global float* u, __global float* g, __global const uint* index,
+                           __global const float* value, const int n, const int chunk, const float m) {
+  const int k = get_global_id(0);
+  const int end = min(n, (k + 1) * chunk);
+  for (int i = k * chunk; i < end; ++i) {
+    const uint c = index[i];
+    u[c] = value[i] - m;
+    g[c] = NAN;
   }
 }
 
