@@ -87,7 +87,9 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   p.cell_y = cy;
   p.singular = singular;
   const size_t N = size_t(W) * H, bytes = N * sizeof(float);
-  std::vector<float> out(N);
+  // The solution is read straight into the result (no second N-float array).
+  std::vector<float>& out = res.height.z;
+  out.resize(N);
   try {
     cl::CommandQueue& q = d.queue();
     p.u = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction solution");
@@ -173,16 +175,19 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   h.georef.vertical_units = "m";
   h.metadata = meta;
   h.metadata.erase("terracl:gradient");
-  h.z.resize(N);
   double shift = m;
   if (singular) {
     double s = 0;
     for (float v : out) s += v;
     shift = target - s / double(N);
   }
-  for (size_t i = 0; i < N; ++i) h.z[i] = float(double(out[i]) + shift);
+  bool finite = true;
+  for (float& v : h.z) {
+    v = float(double(v) + shift);
+    finite &= std::isfinite(v);
+  }
   for (size_t k = 0; k < hard; ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
-  for (size_t i = 0; i < N; ++i)
+  for (size_t i = 0; !finite && i < N; ++i)
     if (!std::isfinite(h.z[i]))
       fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}); input too large for float32?",
            i % W, i / W);
