@@ -188,21 +188,24 @@ __kernel void rhs_norm0(__global const float* u, __global const float* g, const 
   rows[y] = (float)s;
 }
 
-// Turns the uploaded constraint values (NaN = free) into the level-0 state: u = value - m at hard
-// cells and 0 (or the warm start - m) elsewhere; g = NaN marks hard cells.
-__kernel void init_level0(__global float* u, __global float* g, __global const float* warm, const int use_warm,
-                          const int W, const int H, const float m) {
+// Warm start: u holds the uploaded initial heightfield; make it the deviation from m.
+__kernel void shift_level0(__global float* u, const int W, const int H, const float m) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
-  for (int x = 0; x < W; ++x) {
-    const float c = u[o + x];
-    if (isnan(c)) {
-      u[o + x] = use_warm ? warm[o + x] - m : 0.0f;
-    } else {
-      u[o + x] = c - m;
-      g[o + x] = NAN;
-    }
+  for (int x = 0; x < W; ++x) u[o + x] -= m;
+}
+
+// Hard cells from the sparse list (flat index, value): u = value - m, g = NaN marks them hard.
+// Work-item k handles entries [k * chunk, (k + 1) * chunk).
+__kernel void scatter_hard(__global float* u, __global float* g, __global const uint* index,
+                           __global const float* value, const int n, const int chunk, const float m) {
+  const int k = get_global_id(0);
+  const int end = min(n, (k + 1) * chunk);
+  for (int i = k * chunk; i < end; ++i) {
+    const uint c = index[i];
+    u[c] = value[i] - m;
+    g[c] = NAN;
   }
 }
 
@@ -696,29 +699,60 @@ __kernel void galerkin9(__global const float* st, const int W, const int H, __gl
   if (j >= Hc) return;
   const int Pc = Wc + 2;
   const size_t Nc = (size_t)Pc * (Hc + 2);
+  const int P = W + 2;
+  const size_t N = (size_t)P * (H + 2);
+  // The window reaches 2 fine nodes out; the ghost frame covers 1, so rows/columns whose window
+  // stays within [-1, W] x [-1, H] need no bounds test (most of them).
+  const int by = 2 * j;
+  const int rows_in = (by - 2 >= -1) && (by + 2 <= H);
   for (int i = 0; i < Wc; ++i) {
-    const int bx = 2 * i, by = 2 * j;
-#define WE(a, b) ld9(st, 1, bx + (a), by + (b), W, H)
-#define WS(a, b) ld9(st, 2, bx + (a), by + (b), W, H)
-#define WSE(a, b) ld9(st, 3, bx + (a), by + (b), W, H)
-#define WSW(a, b) ld9(st, 4, bx + (a), by + (b), W, H)
-#define S(a, b) ld9(st, 5, bx + (a), by + (b), W, H)
-    GALERKIN_LOADS;
+    const int bx = 2 * i;
     const size_t o = GI(i, j, Pc);
-    stc[o] = GALERKIN_D;
-    stc[Nc + o] = GALERKIN_WE;
-    stc[2 * Nc + o] = GALERKIN_WS;
-    stc[3 * Nc + o] = GALERKIN_WSE;
-    stc[4 * Nc + o] = GALERKIN_WSW;
-#define SV(a, b) S_##a##_##b
-    stc[5 * Nc + o] = S_p0_p0 + 0.5f * (S_m1_p0 + S_p1_p0 + S_p0_m1 + S_p0_p1) +
-                      0.25f * (S_m1_m1 + S_p1_m1 + S_m1_p1 + S_p1_p1);
-#undef SV
+    float d_, we_, ws_, wse_, wsw_, s_;
+    if (rows_in && bx - 2 >= -1 && bx + 2 <= W) {
+      __global const float* c = st + GI(bx, by, P);
+#define WE(a, b) c[N + (b) * P + (a)]
+#define WS(a, b) c[2 * N + (b) * P + (a)]
+#define WSE(a, b) c[3 * N + (b) * P + (a)]
+#define WSW(a, b) c[4 * N + (b) * P + (a)]
+#define S(a, b) c[5 * N + (b) * P + (a)]
+      GALERKIN_LOADS;
+      d_ = GALERKIN_D;
+      we_ = GALERKIN_WE;
+      ws_ = GALERKIN_WS;
+      wse_ = GALERKIN_WSE;
+      wsw_ = GALERKIN_WSW;
+      s_ = S_p0_p0 + 0.5f * (S_m1_p0 + S_p1_p0 + S_p0_m1 + S_p0_p1) + 0.25f * (S_m1_m1 + S_p1_m1 + S_m1_p1 + S_p1_p1);
 #undef WE
 #undef WS
 #undef WSE
 #undef WSW
 #undef S
+    } else {
+#define WE(a, b) ld9(st, 1, bx + (a), by + (b), W, H)
+#define WS(a, b) ld9(st, 2, bx + (a), by + (b), W, H)
+#define WSE(a, b) ld9(st, 3, bx + (a), by + (b), W, H)
+#define WSW(a, b) ld9(st, 4, bx + (a), by + (b), W, H)
+#define S(a, b) ld9(st, 5, bx + (a), by + (b), W, H)
+      GALERKIN_LOADS;
+      d_ = GALERKIN_D;
+      we_ = GALERKIN_WE;
+      ws_ = GALERKIN_WS;
+      wse_ = GALERKIN_WSE;
+      wsw_ = GALERKIN_WSW;
+      s_ = S_p0_p0 + 0.5f * (S_m1_p0 + S_p1_p0 + S_p0_m1 + S_p0_p1) + 0.25f * (S_m1_m1 + S_p1_m1 + S_m1_p1 + S_p1_p1);
+#undef WE
+#undef WS
+#undef WSE
+#undef WSW
+#undef S
+    }
+    stc[o] = d_;
+    stc[Nc + o] = we_;
+    stc[2 * Nc + o] = ws_;
+    stc[3 * Nc + o] = wse_;
+    stc[4 * Nc + o] = wsw_;
+    stc[5 * Nc + o] = s_;
   }
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <unordered_map>
 
@@ -30,6 +31,28 @@ std::vector<float> ConstraintSet::values() const {
   for (size_t i = 0; i < v.size(); ++i)
     if (m_kind[i]) v[i] = m_count[i] == 1 ? m_sum[i] : float(double(m_sum[i]) / m_count[i]);
   return v;
+}
+
+void ConstraintSet::hard_cells(std::vector<uint32_t>& index, std::vector<float>& value) const {
+  index.clear();
+  value.clear();
+  // Scan the kind bytes eight at a time: most cells are free.
+  const size_t n = m_kind.size();
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    uint64_t w;
+    std::memcpy(&w, m_kind.data() + i, 8);
+    if (!w) continue;
+    for (size_t k = i; k < i + 8; ++k)
+      if (m_kind[k]) index.push_back(uint32_t(k));
+  }
+  for (; i < n; ++i)
+    if (m_kind[i]) index.push_back(uint32_t(i));
+  value.resize(index.size());
+  for (size_t k = 0; k < index.size(); ++k) {
+    const size_t c = index[k];
+    value[k] = m_count[c] == 1 ? m_sum[c] : float(double(m_sum[c]) / m_count[c]);
+  }
 }
 
 void ConstraintSet::add_cell(int x, int y, double z, ConstraintKind kind, const std::string& where) {

@@ -45,21 +45,22 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   if (cin.width() != 0 && (cin.width() != W || cin.height() != H))
     fail("reconstruct", "constraints are {}x{}, the input is {}x{}", cin.width(), cin.height(), W, H);
 
-  // Resolved constraint values (NaN = free), with the border added when asked.
-  std::vector<float> vals;
+  // Hard cells as a sparse row-major list (index, resolved value), with the border added when asked.
+  if (size_t(W) * size_t(H) > size_t(UINT32_MAX)) fail("reconstruct", "grid {}x{} has too many cells", W, H);
+  std::vector<uint32_t> hard_index;
+  std::vector<float> hard_value;
   if (o.dirichlet_border) {
     if (!o.initial) fail("reconstruct", "a Dirichlet border needs the initial heightfield for its values");
     ConstraintSet c = cin.width() ? cin : ConstraintSet(W, H);
     c.add_border(*o.initial);
-    vals = c.values();
-  } else if (cin.width() && !cin.empty()) {
-    vals = cin.values();
+    c.hard_cells(hard_index, hard_value);
+  } else if (cin.width()) {
+    cin.hard_cells(hard_index, hard_value);
   }
   const double t_vals = now_ms();
-  size_t hard = 0;
+  const size_t hard = hard_index.size();
   double hard_sum = 0;
-  for (float v : vals)
-    if (!std::isnan(v)) ++hard, hard_sum += v;
+  for (float v : hard_value) hard_sum += v;
   const bool singular = hard == 0;
   double target = 0;
   if (o.mean) target = *o.mean;
@@ -86,33 +87,46 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   p.cell_y = cy;
   p.singular = singular;
   const size_t N = size_t(W) * H, bytes = N * sizeof(float);
-  std::vector<float> out(N);
+  // The solution is read straight into the result (no second N-float array).
+  std::vector<float>& out = res.height.z;
+  out.resize(N);
   try {
     cl::CommandQueue& q = d.queue();
     p.u = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction solution");
     p.g = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction right-hand side");
-    if (!vals.empty()) q.enqueueWriteBuffer(p.u, CL_FALSE, 0, bytes, vals.data());
-    else q.enqueueFillBuffer(p.u, std::numeric_limits<float>::quiet_NaN(), 0, bytes);
-    {
-      make_rhs(d, p.g);
-      peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
-      cl::Buffer warm;
-      if (o.initial) {
-        warm = d.buffer(bytes, CL_MEM_READ_ONLY, "warm start");
-        q.enqueueWriteBuffer(warm, CL_FALSE, 0, bytes, o.initial->z.data());
-      }
-      cl::Kernel init = d.kernel("multigrid", "init_level0");
-      init.setArg(0, p.u);
-      init.setArg(1, p.g);
-      init.setArg(2, o.initial ? warm : p.u);
-      init.setArg(3, int(o.initial != nullptr));
-      init.setArg(4, W);
-      init.setArg(5, H);
-      init.setArg(6, float(m));
-      launch_rows(d, init, size_t(H));
-      peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
-      q.finish();  // releases the gradient and warm-start buffers before the hierarchy is built
+    // u: the warm start (or 0) as deviation from m; g: -f; then the hard cells from the sparse
+    // list (u = value - m, g = NaN).
+    if (o.initial) {
+      q.enqueueWriteBuffer(p.u, CL_FALSE, 0, bytes, o.initial->z.data());
+      cl::Kernel sh = d.kernel("multigrid", "shift_level0");
+      sh.setArg(0, p.u);
+      sh.setArg(1, W);
+      sh.setArg(2, H);
+      sh.setArg(3, float(m));
+      launch_rows(d, sh, size_t(H));
+    } else {
+      q.enqueueFillBuffer(p.u, 0.0f, 0, bytes);
     }
+    make_rhs(d, p.g);
+    peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
+    if (hard) {
+      cl::Buffer bi = d.buffer(hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
+      cl::Buffer bv = d.buffer(hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
+      q.enqueueWriteBuffer(bi, CL_FALSE, 0, hard * sizeof(uint32_t), hard_index.data());
+      q.enqueueWriteBuffer(bv, CL_FALSE, 0, hard * sizeof(float), hard_value.data());
+      const int chunk = 4096;
+      cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
+      sc.setArg(0, p.u);
+      sc.setArg(1, p.g);
+      sc.setArg(2, bi);
+      sc.setArg(3, bv);
+      sc.setArg(4, int(hard));
+      sc.setArg(5, chunk);
+      sc.setArg(6, float(m));
+      launch_rows(d, sc, (hard + chunk - 1) / chunk);
+      peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
+    }
+    q.finish();  // releases the gradient and hard-list buffers before the hierarchy is built
     if (singular) {
       // Project onto the range of the pure-Neumann operator: the mean of f must vanish.
       cl::Buffer rows = d.buffer(size_t(H) * sizeof(float), CL_MEM_READ_WRITE, "row sums");
@@ -161,20 +175,22 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   h.georef.vertical_units = "m";
   h.metadata = meta;
   h.metadata.erase("terracl:gradient");
-  h.z.resize(N);
   double shift = m;
   if (singular) {
     double s = 0;
     for (float v : out) s += v;
     shift = target - s / double(N);
   }
-  for (size_t i = 0; i < N; ++i) {
-    const bool is_hard = !vals.empty() && !std::isnan(vals[i]);
-    h.z[i] = is_hard ? vals[i] : float(double(out[i]) + shift);  // hard cells bit-exact
+  bool finite = true;
+  for (float& v : h.z) {
+    v = float(double(v) + shift);
+    finite &= std::isfinite(v);
+  }
+  for (size_t k = 0; k < hard; ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
+  for (size_t i = 0; !finite && i < N; ++i)
     if (!std::isfinite(h.z[i]))
       fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}); input too large for float32?",
            i % W, i / W);
-  }
   res.total_ms = now_ms() - t0;
   return res;
 }

@@ -178,6 +178,8 @@ void bench_reconstruct(const BenchArgs& a) {
   o.smoother = parse_smoother(e.value("smoother", std::string("rbgs")));
   o.tolerance = e.value("tolerance", 1e-6);
   o.max_cycles = e.value("max_cycles", 50);
+  o.pre_smooth = e.value("pre", o.pre_smooth);
+  o.post_smooth = e.value("post", o.post_smooth);
   const double fixed = e.value("fixed", 0.01);
   const int n = a.size;
   BenchProblem p = make_problem(n, fixed, 7);

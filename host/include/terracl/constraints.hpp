@@ -37,6 +37,9 @@ class ConstraintSet {
   float value(int x, int y) const;
   /// All resolved values, row-major, NaN for free cells (what the solver uploads).
   std::vector<float> values() const;
+  /// The hard cells only, in row-major order: flat indices and resolved values (the solver
+  /// uploads these instead of the dense NaN raster: ~1 % of the bytes for sparse constraints).
+  void hard_cells(std::vector<uint32_t>& index, std::vector<float>& value) const;
 
   /// One cell; higher-priority kinds replace, equal kinds average. Throws for NaN/Inf z or a
   /// cell outside the grid (`where` names the source in the message).
