@@ -79,6 +79,7 @@ void bench_edit(const BenchArgs& a) {
   std::vector<double> ops_ms, solve_ms, total_ms, add_ms, warm_ms, cold_ms;
   int warm_cycles = 0, cold_cycles = 0, cycles = 0;
   json last_log;
+  std::vector<double> residuals;
   for (int rep = 0; rep <= a.repeats; ++rep) {  // rep 0 warms up kernel builds
     EditOptions o;
     EditSession s(d, base, o);
@@ -86,7 +87,9 @@ void bench_edit(const BenchArgs& a) {
     s.apply(script);
     const double t_ops = ms_since(t0);
     auto t1 = std::chrono::steady_clock::now();
-    cycles = s.solve(false).cycles;  // the 20-operation script solved from scratch
+    const ReconstructResult& first = s.solve(false);  // the 20-operation script solved from scratch
+    cycles = first.cycles;
+    residuals = first.residuals;
     const double t_solve = ms_since(t1);
     auto t2 = std::chrono::steady_clock::now();
     s.apply(one_more);
@@ -105,6 +108,9 @@ void bench_edit(const BenchArgs& a) {
   fmt::print("edit {}x{} on {} (median of {}):\n", n, n, d.info().name, a.repeats);
   fmt::print("  20 operations        {:8.1f} ms\n", median(ops_ms));
   fmt::print("  reconstruction       {:8.1f} ms ({} cycles, cold)\n", median(solve_ms), cycles);
+  std::string hist;
+  for (double r : residuals) hist += fmt::format(" {:.1e}", r);
+  fmt::print("  relative residuals  {}\n", hist);
   fmt::print("  script total         {:8.1f} ms\n", median(total_ms));
   fmt::print("  one more operation   {:8.1f} ms\n", median(add_ms));
   fmt::print("  re-solve, warm start {:8.1f} ms ({} cycles)\n", median(warm_ms), warm_cycles);
