@@ -127,6 +127,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sk->add_option("--cell", sa->cell, "Sketch cell size (m)")->capture_default_str();
   sk->add_option("--smooth", sa->smooth, "Tent filter width applied to the sketch (cells)")->capture_default_str();
   sk->add_option("--factor", sa->amp.factor, "Amplification factor (4, 16, 64, 256)")->capture_default_str();
+  sk->add_option("--seed", sa->amp.seed, "Seed of FLANN's randomized trees")->capture_default_str();
   sk->callback([sa] {
     ReadOptions r;
     r.zmin = sa->zmin;
@@ -163,6 +164,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--search", va->amp.search, "auto | flann | exact | omp")->capture_default_str();
   ev->add_option("--checks", va->amp.checks, "FLANN checks")->capture_default_str();
   ev->add_option("--trees", va->amp.trees, "FLANN trees")->capture_default_str();
+  ev->add_option("--seed", va->amp.seed, "Seed of the training subset and of FLANN's trees")->capture_default_str();
   ev->add_flag("--header", va->header, "Print the table header first");
   ev->add_option("--recall", va->recall_samples, "Also measure FLANN recall against exact search on this many queries");
   ev->add_option("--recall-checks", va->recall_checks, "FLANN checks values for --recall")->capture_default_str();
@@ -179,6 +181,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                  "RMSE m", "PSNR", "HF", "rough", "slope", "LR m", "time s");
       fmt::print("|---|---|---|---|---|---|---|---|---|---|\n");
     }
+    va->learn.seed = va->amp.seed;
     using clock = std::chrono::steady_clock;
     auto t0 = clock::now();
     const Heightfield bic = bicubic_upsample(low, f);
@@ -202,7 +205,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       const Dictionary d = learn_dictionary({ex}, l);
       const MatrixF q = extract_patches(block_mean(truth, f), d.low_patch(), 1);
       for (int checks : va->recall_checks) {
-        const RecallReport r = measure_recall(d.low, q, o.trees, checks, va->recall_samples);
+        const RecallReport r = measure_recall(d.low, q, o.trees, checks, va->recall_samples, o.seed);
         fmt::print("# {} x{}: FLANN {} trees, checks {:4}: recall {:5.1f} % over {} queries, {:.3f} ms/query "
                    "(exact scan of {} atoms: {:.3f} ms/query)\n", name, f, o.trees, checks, 100 * r.recall, r.samples,
                    r.ms_per_query_flann, d.atoms(), r.ms_per_query_exact);

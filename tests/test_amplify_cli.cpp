@@ -4,6 +4,7 @@
 #include <terracl/amplify.hpp>
 #include <terracl/io.hpp>
 
+#include <cstring>
 #include <fstream>
 
 using namespace terracl;
@@ -58,6 +59,20 @@ TEST(AmplifyCli, AmplifyFromExemplarAndBadArguments) {
   EXPECT_NE(corrupt.exit_code, 0);
   EXPECT_NE(corrupt.out.find("bad.tdic"), std::string::npos) << corrupt.out;
   EXPECT_FALSE(std::filesystem::exists(f.tmp.path("e.tif")));
+}
+
+TEST(AmplifyCli, FlannAmplificationIsReproducibleAcrossProcesses) {
+  Files f;
+  auto run = [&](const std::string& out, int seed) {
+    const auto r = test::run_cli("amplify " + f.low + " -o " + f.tmp.path(out) + " --exemplar " + f.exemplar +
+                                 " --method complete --search flann --checks 4 --seed " + std::to_string(seed));
+    EXPECT_EQ(r.exit_code, 0) << r.out;
+    return read_heightfield(f.tmp.path(out)).z;
+  };
+  const auto a = run("a.tif", 3), b = run("b.tif", 3), c = run("c.tif", 4);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float)));
+  EXPECT_NE(0, std::memcmp(a.data(), c.data(), a.size() * sizeof(float)));
 }
 
 TEST(AmplifyCli, EncodeReportsRhoAndPsnr) {

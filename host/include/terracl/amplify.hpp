@@ -141,10 +141,11 @@ struct AtomMatch {
 /// Exact scan (one GEMM per block of queries).
 AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads = 0);
 
-/// FLANN randomized kd-tree forest over {+d, -d}. `checks` < 0 means unlimited (exact).
+/// FLANN randomized kd-tree forest over {+d, -d}. `checks` < 0 means unlimited (exact). The trees'
+/// randomisation is seeded by `seed`: the same seed gives the same index and results in every run.
 class AtomIndex {
  public:
-  AtomIndex(const MatrixF& D, int trees = 4, int checks = 512);
+  AtomIndex(const MatrixF& D, int trees = 4, int checks = 512, unsigned seed = 1);
   ~AtomIndex();
   AtomIndex(const AtomIndex&) = delete;
   AtomIndex& operator=(const AtomIndex&) = delete;
@@ -165,7 +166,8 @@ struct RecallReport {
   double ms_per_query_flann = 0, ms_per_query_exact = 0;
 };
 /// Compares FLANN with the exact scan on `samples` columns of Q (chosen evenly).
-RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples = 2000);
+RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples = 2000,
+                            unsigned seed = 1);
 
 // ---------------------------------------------------------------- amplification (amplify.cpp)
 
@@ -176,6 +178,7 @@ struct AmplifyOptions {
   std::string search = "auto";  ///< auto | flann | exact | omp (auto: flann for s=1 and > 4096 atoms)
   int trees = 2;
   int checks = 8;
+  unsigned seed = 1;       ///< seed of FLANN's randomized kd-trees (the output is reproducible per seed)
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;
   float detail_gain = -1;  ///< < 0: the dictionary's calibrated gain

@@ -140,7 +140,7 @@ std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions&
   const bool s1 = o.sparsity == 1 && o.search != "omp";
   if (!s1) return nullptr;
   if (o.search == "flann" || (o.search == "auto" && d.atoms() > 4096))
-    return std::make_unique<AtomIndex>(d.low, o.trees, o.checks);
+    return std::make_unique<AtomIndex>(d.low, o.trees, o.checks, o.seed);
   return nullptr;
 }
 
@@ -221,6 +221,7 @@ double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
   ao.detail_gain = 1;
   ao.bias_correction = false;
   ao.threads = o.threads;
+  ao.seed = o.seed;
   const Heightfield out = amplify(low, d, ao);
   // The output is bicubic + g detail followed by the bias correction C, which is affine
   // (back-projection and block shifts), so C(bic + g det) = cb + g cd with cb = C(bic) and

@@ -40,6 +40,7 @@ AmplifyOptions amplify_options(const StageContext& c) {
   o.search = c.get<std::string>("search");
   o.trees = c.get<int>("trees");
   o.checks = c.get<int>("checks");
+  o.seed = unsigned(c.get<int>("seed"));
   o.tile = c.get<int>("tile");
   o.bias_correction = c.get<bool>("bias_correction");
   o.detail_gain = float(c.get<double>("detail_gain"));
@@ -74,6 +75,7 @@ void run_amplify(StageContext& c) {
     l.atoms = c.get<int>("atoms");
     l.sparsity = o.sparsity;
     l.method = c.get<std::string>("method");
+    l.seed = o.seed;
     out = amplify_from_exemplars(low, ex, l, o, c.progress);
   }
   out.metadata["amplify_factor"] = std::to_string(o.factor);
@@ -100,6 +102,7 @@ void register_amplify_stages(StageRegistry& r) {
              {"search", OptionType::Enum, "auto", "", "Atom search for sparsity 1", {"auto", "flann", "exact", "omp"}},
              {"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}},
              {"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
+             {"seed", OptionType::Int, 1, "", "Seed of FLANN's randomized trees (same seed, same output)", {}},
              {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
              {"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}},
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},

@@ -4,10 +4,60 @@
 #include <terracl/amplify.hpp>
 #include <terracl/error.hpp>
 
-#include <flann/flann.hpp>
-
+// Every standard header FLANN uses is included before the shim below, so the macros only reach
+// FLANN's own code.
+#include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <unordered_map>
+#include <vector>
+
+namespace terracl::flann_seed {
+// Reproducibility shim. Debian's FLANN 1.9.2 randomises its kd-trees from two sources that no API
+// seeds: KDTreeIndex::buildIndexImpl shuffles the points of every tree with
+// std::mt19937(std::random_device{}()), and selectDivision picks the split dimension with
+// std::rand() (flann::seed_random is srand, process-global and shared with any other rand() user).
+// So the approximate search, and the amplified output, changed from run to run. While FLANN's
+// headers are read, `std::random_device` and `std::rand()` are redirected to a per-thread SplitMix64
+// stream that AtomIndex seeds right before each build (FLANN builds kd-trees in the calling
+// thread): the forest is still FLANN's own, but a given seed gives the same trees everywhere.
+// The macros expand to standard names (std::enable_if_t, std::ref), so nothing is added to std.
+inline thread_local uint64_t state = 0x9e3779b97f4a7c15ull;
+inline uint64_t next() {
+  uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+inline int next_rand() { return int(next() % (uint64_t(RAND_MAX) + 1)); }
+struct SeededDevice {
+  using result_type = unsigned int;
+  static constexpr result_type min() { return 0; }
+  static constexpr result_type max() { return std::numeric_limits<result_type>::max(); }
+  result_type operator()() { return result_type(next() >> 32); }
+  double entropy() const noexcept { return 0; }
+};
+}  // namespace terracl::flann_seed
+
+#define random_device enable_if_t<true, ::terracl::flann_seed::SeededDevice>
+#define rand() ref(::terracl::flann_seed::next_rand)()
+#include <flann/flann.hpp>
+#undef rand
+#undef random_device
 
 namespace terracl {
 
@@ -42,7 +92,7 @@ struct AtomIndex::Impl {
   std::unique_ptr<flann::Index<flann::L2<float>>> index;
 };
 
-AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks)
+AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks, unsigned seed)
     : m_impl(new Impl), m_atoms(D), m_trees(trees), m_checks(checks) {
   if (trees < 1) fail("amplify", "FLANN trees must be >= 1 (got {})", trees);
   if (checks == 0) fail("amplify", "FLANN checks must be > 0, or negative for unlimited");
@@ -58,6 +108,7 @@ AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks)
   if (checks < 0) m_trees = 1;
   flann::Matrix<float> data(m_impl->points.data(), 2 * N, K);
   m_impl->index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeIndexParams(m_trees));
+  flann_seed::state = 0x243f6a8885a308d3ull ^ (uint64_t(seed) * 0x9e3779b97f4a7c15ull);  // see the shim above
   m_impl->index->buildIndex();
 }
 
@@ -104,14 +155,14 @@ AtomMatch AtomIndex::search(const MatrixF& Q, int threads) const {
   return m;
 }
 
-RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples) {
+RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples, unsigned seed) {
   RecallReport r;
   const Eigen::Index n = Q.cols();
   const int m = int(std::min<Eigen::Index>(samples, n));
   if (m == 0) return r;
   MatrixF S(Q.rows(), m);
   for (int i = 0; i < m; ++i) S.col(i) = Q.col(Eigen::Index(double(i) * n / m));
-  AtomIndex index(D, trees, checks);
+  AtomIndex index(D, trees, checks, seed);
   using clock = std::chrono::steady_clock;
   auto t0 = clock::now();
   const AtomMatch a = index.search(S, 1);
