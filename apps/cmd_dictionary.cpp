@@ -127,6 +127,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sk->add_option("--cell", sa->cell, "Sketch cell size (m)")->capture_default_str();
   sk->add_option("--smooth", sa->smooth, "Tent filter width applied to the sketch (cells)")->capture_default_str();
   sk->add_option("--factor", sa->amp.factor, "Amplification factor (4, 16, 64, 256)")->capture_default_str();
+  sk->add_option("--neighbours", sa->amp.neighbours, "Sparsity 1: average of the k best atoms")->capture_default_str();
+  sk->add_option("--magnitude-weight", sa->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off)")
+      ->capture_default_str();
   sk->add_option("--seed", sa->amp.seed, "Seed of FLANN's randomized trees")->capture_default_str();
   sk->callback([sa] {
     ReadOptions r;
@@ -164,6 +167,10 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--search", va->amp.search, "auto | flann | exact | omp")->capture_default_str();
   ev->add_option("--checks", va->amp.checks, "FLANN checks")->capture_default_str();
   ev->add_option("--trees", va->amp.trees, "FLANN trees")->capture_default_str();
+  ev->add_option("--neighbours", va->amp.neighbours, "Sparsity 1: average of the k best atoms")->capture_default_str();
+  ev->add_option("--magnitude-weight", va->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off)")
+      ->capture_default_str();
+  ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();
   ev->add_option("--seed", va->amp.seed, "Seed of the training subset and of FLANN's trees")->capture_default_str();
   ev->add_flag("--header", va->header, "Print the table header first");
   ev->add_option("--recall", va->recall_samples, "Also measure FLANN recall against exact search on this many queries");
@@ -205,7 +212,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       const Dictionary d = learn_dictionary({ex}, l);
       const MatrixF q = extract_patches(block_mean(truth, f), d.low_patch(), 1);
       for (int checks : va->recall_checks) {
-        const RecallReport r = measure_recall(d.low, q, o.trees, checks, va->recall_samples, o.seed);
+        const RecallReport r =
+            measure_recall(d.low, q, o.trees, checks, va->recall_samples, o.seed, &d.low_norm, o.magnitude_weight);
         fmt::print("# {} x{}: FLANN {} trees, checks {:4}: recall {:5.1f} % over {} queries, {:.3f} ms/query "
                    "(exact scan of {} atoms: {:.3f} ms/query)\n", name, f, o.trees, checks, 100 * r.recall, r.samples,
                    r.ms_per_query_flann, d.atoms(), r.ms_per_query_exact);

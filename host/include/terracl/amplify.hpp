@@ -96,6 +96,9 @@ struct Dictionary {
   /// Gain applied to the synthesized detail (output minus bicubic of the input), calibrated on the
   /// exemplar: blending overlapping patches averages uncorrelated detail away.
   float detail_gain = 1.0f;
+  /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
+  /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
+  std::vector<float> low_norm;
   std::string description;
   int atoms() const { return int(high.cols()); }
   int low_patch() const { return patch / factor; }
@@ -124,6 +127,11 @@ struct LearnOptions {
   /// block means, compare roughness) at this output patch spacing.
   bool calibrate = true;
   int calibration_spacing = 8;
+  /// Search settings the detail gain is calibrated for (AmplifyOptions::neighbours, magnitude_weight).
+  int calibration_neighbours = 3;
+  float calibration_magnitude_weight = 0.4f;
+  /// Folds of the calibration's cross-validation (strips across the exemplar's longer axis).
+  int calibration_folds = 2;
 };
 /// Builds a multi-resolution dictionary (H, L) from exemplars at the high resolution.
 /// Throws when an exemplar is smaller than a patch or P is not a multiple of f.
@@ -132,24 +140,36 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
 
 // ---------------------------------------------------------------- atom search (flann_search.cpp)
 
-/// Best single atom (s = 1) for zero-mean queries over unit-norm atoms: the nearest neighbour of
-/// q/|q| among {+d, -d}; coefficient <q, d>.
+/// Best atoms (s = 1) for zero-mean queries over unit-norm atoms: the nearest neighbours of q/|q|
+/// among {+d, -d}; coefficient <q, d>. Entries [i k, i k + k) belong to query i, best first
+/// (index -1 where fewer were found).
 struct AtomMatch {
   std::vector<int32_t> index;
   std::vector<float> coef;
 };
-/// Exact scan (one GEMM per block of queries).
-AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads = 0);
 
-/// FLANN randomized kd-tree forest over {+d, -d}. `checks` < 0 means unlimited (exact). The trees'
-/// randomisation is seeded by `seed`: the same seed gives the same index and results in every run.
+/// The magnitude feature of a low-resolution patch norm n (m): log(n + 0.1). With a weight w > 0 and
+/// the atoms' norms (Dictionary::low_norm), the search minimises |q/|q| -+ d|^2 + w^2 (feature(s |q|) -
+/// feature(n_d))^2, preferring atoms cut from exemplar patches of the query's relief; s rescales the
+/// query to the dictionary's cell size.
+float magnitude_feature(float norm);
+
+/// Exact scan (one GEMM per block of queries), k best atoms.
+AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads = 0, int k = 1,
+                            const std::vector<float>* atom_norm = nullptr, float weight = 0, float query_scale = 1);
+
+/// FLANN randomized kd-tree forest over {+d, -d} (plus the weighted magnitude feature when `atom_norm`
+/// is given and `weight` > 0). `checks` < 0 means unlimited (exact). The trees' randomisation is
+/// seeded by `seed`: the same seed gives the same index and results in every run.
 class AtomIndex {
  public:
-  AtomIndex(const MatrixF& D, int trees = 4, int checks = 512, unsigned seed = 1);
+  AtomIndex(const MatrixF& D, int trees = 4, int checks = 512, unsigned seed = 1,
+            const std::vector<float>* atom_norm = nullptr, float weight = 0);
   ~AtomIndex();
   AtomIndex(const AtomIndex&) = delete;
   AtomIndex& operator=(const AtomIndex&) = delete;
-  AtomMatch search(const MatrixF& Q, int threads = 0) const;
+  /// The k nearest atoms of each query (see AtomMatch).
+  AtomMatch search(const MatrixF& Q, int threads = 0, int k = 1, float query_scale = 1) const;
   int trees() const { return m_trees; }
   int checks() const { return m_checks; }
 
@@ -158,6 +178,7 @@ class AtomIndex {
   Impl* m_impl;
   const MatrixF& m_atoms;
   int m_trees, m_checks;
+  float m_weight = 0;
 };
 
 struct RecallReport {
@@ -167,7 +188,7 @@ struct RecallReport {
 };
 /// Compares FLANN with the exact scan on `samples` columns of Q (chosen evenly).
 RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples = 2000,
-                            unsigned seed = 1);
+                            unsigned seed = 1, const std::vector<float>* atom_norm = nullptr, float weight = 0);
 
 // ---------------------------------------------------------------- amplification (amplify.cpp)
 
@@ -178,6 +199,10 @@ struct AmplifyOptions {
   std::string search = "auto";  ///< auto | flann | exact | omp (auto: flann for s=1 and > 4096 atoms)
   int trees = 2;
   int checks = 8;
+  /// Sparsity 1: the k best atoms are averaged (their coefficients divided by k).
+  int neighbours = 3;
+  /// Weight of the magnitude term of the atom search (see magnitude_feature; 0 = off).
+  float magnitude_weight = 0.4f;
   unsigned seed = 1;       ///< seed of FLANN's randomized kd-trees (the output is reproducible per seed)
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;

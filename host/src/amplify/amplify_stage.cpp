@@ -41,6 +41,8 @@ AmplifyOptions amplify_options(const StageContext& c) {
   o.trees = c.get<int>("trees");
   o.checks = c.get<int>("checks");
   o.seed = unsigned(c.get<int>("seed"));
+  o.neighbours = c.get<int>("neighbours");
+  o.magnitude_weight = float(c.get<double>("magnitude_weight"));
   o.tile = c.get<int>("tile");
   o.bias_correction = c.get<bool>("bias_correction");
   o.detail_gain = float(c.get<double>("detail_gain"));
@@ -102,6 +104,8 @@ void register_amplify_stages(StageRegistry& r) {
              {"search", OptionType::Enum, "auto", "", "Atom search for sparsity 1", {"auto", "flann", "exact", "omp"}},
              {"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}},
              {"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
+             {"neighbours", OptionType::Int, 3, "", "Sparsity 1: average of the k best atoms", {}},
+             {"magnitude_weight", OptionType::Float, 0.4, "", "Weight of the atom search's magnitude term (0: off)", {}},
              {"seed", OptionType::Int, 1, "", "Seed of FLANN's randomized trees (same seed, same output)", {}},
              {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
              {"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}},
@@ -142,6 +146,8 @@ void register_amplify_benches(BenchRegistry& r) {
            o.search = a.extra.value("search", std::string("auto"));
            o.checks = a.extra.value("checks", 8);
            o.trees = a.extra.value("trees", 2);
+           o.neighbours = a.extra.value("neighbours", o.neighbours);
+           o.magnitude_weight = a.extra.value("magnitude_weight", o.magnitude_weight);
            std::vector<double> times;
            Heightfield out;
            for (int k = 0; k < a.repeats; ++k) {

@@ -19,7 +19,9 @@ namespace terracl {
 namespace {
 
 constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
-constexpr uint32_t kVersion = 1;
+// Version 2 added the atoms' low-resolution norms (flag bit 1); version 1 files still load.
+constexpr uint32_t kVersion = 2;
+constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2;
 
 uint64_t fnv1a(const std::string& bytes) {
   uint64_t h = 1469598103934665603ull;
@@ -87,7 +89,10 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   put<int32_t>(out, d.factor);
   put<int32_t>(out, d.atoms());
   put<int32_t>(out, d.sparsity);
-  put<int32_t>(out, d.constrained ? 1 : 0);
+  const bool norms = !d.low_norm.empty();
+  if (norms && d.low_norm.size() != size_t(d.atoms()))
+    fail("dictionary", "{} atom norms for {} atoms", d.low_norm.size(), d.atoms());
+  put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0));
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
@@ -95,6 +100,7 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   out += d.description;
   for (Eigen::Index i = 0; i < d.high.size(); ++i) put<float>(out, d.high.data()[i]);
   for (Eigen::Index i = 0; i < d.low.size(); ++i) put<float>(out, d.low.data()[i]);
+  for (float v : d.low_norm) put<float>(out, v);
   put<uint64_t>(out, fnv1a(out));
   write_atomically(path, [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::binary);
@@ -112,13 +118,16 @@ Dictionary load_dictionary(const std::string& path) {
     fail("dictionary", "{}: not a terracl dictionary (no TDIC signature)", path);
   Reader r{data, path, 4};
   const uint32_t version = r.get<uint32_t>("version");
-  if (version != kVersion) fail("dictionary", "{}: format version {} is not supported (expected {})", path, version, kVersion);
+  if (version < 1 || version > kVersion)
+    fail("dictionary", "{}: format version {} is not supported (expected 1 to {})", path, version, kVersion);
   Dictionary d;
   d.patch = r.get<int32_t>("patch size");
   d.factor = r.get<int32_t>("factor");
   const int32_t atoms = r.get<int32_t>("atom count");
   d.sparsity = r.get<int32_t>("sparsity");
-  d.constrained = (r.get<int32_t>("flags") & 1) != 0;
+  const int32_t flags = r.get<int32_t>("flags");
+  d.constrained = (flags & kFlagConstrained) != 0;
+  const bool norms = version >= 2 && (flags & kFlagNorms) != 0;
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
   d.detail_gain = r.get<float>("detail gain");
@@ -132,7 +141,7 @@ Dictionary load_dictionary(const std::string& path) {
   d.description = data.substr(r.pos, dlen);
   r.pos += dlen;
   const size_t K = size_t(d.patch) * d.patch, k = size_t(d.low_patch()) * d.low_patch();
-  const size_t need = (K + k) * size_t(atoms) * 4 + 8;
+  const size_t need = (K + k + (norms ? 1 : 0)) * size_t(atoms) * 4 + 8;
   if (data.size() - r.pos != need)
     fail("dictionary", "{}: size {} bytes does not match its header ({} atoms of {}x{} need {} more bytes after byte {}); "
          "truncated or corrupt file", path, data.size(), atoms, d.patch, d.patch, need, r.pos);
@@ -145,6 +154,13 @@ Dictionary load_dictionary(const std::string& path) {
   d.low.resize(Eigen::Index(k), atoms);
   for (Eigen::Index i = 0; i < d.high.size(); ++i) d.high.data()[i] = r.get<float>("atoms");
   for (Eigen::Index i = 0; i < d.low.size(); ++i) d.low.data()[i] = r.get<float>("atoms");
+  if (norms) {
+    d.low_norm.resize(size_t(atoms));
+    for (auto& v : d.low_norm) {
+      v = r.get<float>("atom norms");
+      if (!(v >= 0 && std::isfinite(v))) fail("dictionary", "{}: atom norm {} is not a finite norm (corrupt file)", path, v);
+    }
+  }
   if (!d.high.allFinite() || !d.low.allFinite()) fail("dictionary", "{}: atoms contain NaN or Inf (corrupt file)", path);
   return d;
 }
@@ -208,8 +224,11 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   F.resize(0, 0);
 
   MatrixF H;
+  std::vector<float> norms;
   if (o.method == "complete") {
     H = T;
+    norms.resize(size_t(T.cols()));
+    for (Eigen::Index j = 0; j < T.cols(); ++j) norms[size_t(j)] = downsample_atom(T.col(j), P, f, low_mask).norm();
     for (Eigen::Index j = 0; j < H.cols(); ++j) H.col(j).normalize();
   } else if (o.method == "ksvd" || o.method == "constrained") {
     KsvdOptions k;
@@ -219,7 +238,12 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
     k.constrained = o.method == "constrained";
     k.seed = o.seed;
     k.threads = o.threads;
-    H = learn_ksvd(T, k, scaled_progress(progress, 0.0, 0.95)).D;
+    const KsvdResult r = learn_ksvd(T, k, scaled_progress(progress, 0.0, 0.95));
+    H = r.D;
+    // Constrained atoms are training patches: keep the relief they were cut from.
+    if (k.constrained && r.source.size() == size_t(H.cols()) &&
+        std::all_of(r.source.begin(), r.source.end(), [](int i) { return i >= 0; }))
+      for (int src : r.source) norms.push_back(downsample_atom(T.col(src), P, f, low_mask).norm());
   } else {
     fail("dictionary", "unknown learning method '{}' (constrained, ksvd or complete)", o.method);
   }
@@ -241,6 +265,7 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
       L.col(j) /= n;
       H.col(j) /= n;
       good.push_back(j);
+      if (!norms.empty()) d.low_norm.push_back(norms[size_t(j)]);
     }
   }
   d.high.resize(P * P, Eigen::Index(good.size()));

@@ -61,25 +61,55 @@ struct SeededDevice {
 
 namespace terracl {
 
-AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads) {
+float magnitude_feature(float norm) { return std::log(norm + 0.1f); }
+
+namespace {
+bool magnitude_active(const std::vector<float>* atom_norm, float weight, size_t atoms) {
+  if (!(weight > 0) || !atom_norm || atom_norm->empty()) return false;
+  if (atom_norm->size() != atoms) fail("amplify", "{} atom norms for {} atoms", atom_norm->size(), atoms);
+  return true;
+}
+}  // namespace
+
+AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads, int k, const std::vector<float>* atom_norm,
+                            float weight, float query_scale) {
   if (D.rows() != Q.rows()) fail("amplify", "query length {} differs from atom length {}", Q.rows(), D.rows());
-  const size_t n = size_t(Q.cols());
+  if (k < 1) fail("amplify", "neighbours must be >= 1 (got {})", k);
+  const size_t n = size_t(Q.cols()), N = size_t(D.cols()), kk = std::min(size_t(k), N);
+  const bool mag = magnitude_active(atom_norm, weight, N);
+  std::vector<float> feat;
+  if (mag)
+    for (float v : *atom_norm) feat.push_back(magnitude_feature(v));
+  const float w2 = weight * weight;
   AtomMatch m;
-  m.index.assign(n, -1);
-  m.coef.assign(n, 0.f);
+  m.index.assign(n * size_t(k), -1);
+  m.coef.assign(n * size_t(k), 0.f);
   constexpr size_t kBlock = 256;
   const size_t blocks = (n + kBlock - 1) / kBlock;
   parallel_for(blocks, threads, [&](size_t b0, size_t b1) {
+    std::vector<std::pair<float, int32_t>> best;  // (score, atom), the kk highest, best first
     for (size_t b = b0; b < b1; ++b) {
       const size_t c0 = b * kBlock, cn = std::min(kBlock, n - c0);
       const MatrixF A = D.transpose() * Q.middleCols(Eigen::Index(c0), Eigen::Index(cn));
       for (size_t c = 0; c < cn; ++c) {
-        Eigen::Index k;
-        A.col(Eigen::Index(c)).cwiseAbs().maxCoeff(&k);
-        const float a = A(k, Eigen::Index(c));
-        if (a != 0.f) {
-          m.index[c0 + c] = int32_t(k);
-          m.coef[c0 + c] = a;
+        const float nrm = Q.col(Eigen::Index(c0 + c)).norm();
+        if (!(nrm > 0)) continue;
+        // The FLANN criterion (search below): minimise |q/|q| -+ d|^2 + w^2 (feature(q) - feature(d))^2.
+        const float fq = mag ? magnitude_feature(nrm * query_scale) : 0.f;
+        best.clear();
+        for (size_t j = 0; j < N; ++j) {
+          const float a = A(Eigen::Index(j), Eigen::Index(c));
+          float score = 2 * std::fabs(a) / nrm;
+          if (mag) score -= w2 * (fq - feat[j]) * (fq - feat[j]);
+          if (best.size() == kk && !(score > best.back().first)) continue;
+          if (best.size() == kk) best.pop_back();
+          auto it = std::upper_bound(best.begin(), best.end(), score,
+                                     [](float s, const std::pair<float, int32_t>& e) { return s > e.first; });
+          best.insert(it, {score, int32_t(j)});
+        }
+        for (size_t t = 0; t < best.size(); ++t) {
+          m.index[(c0 + c) * size_t(k) + t] = best[t].second;
+          m.coef[(c0 + c) * size_t(k) + t] = A(best[t].second, Eigen::Index(c));
         }
       }
     }
@@ -88,22 +118,28 @@ AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads) {
 }
 
 struct AtomIndex::Impl {
-  std::vector<float> points;  // 2N x K row-major: +d then -d
+  std::vector<float> points;  // 2N x K row-major: +d then -d (and the magnitude feature when used)
   std::unique_ptr<flann::Index<flann::L2<float>>> index;
 };
 
-AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks, unsigned seed)
+AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks, unsigned seed, const std::vector<float>* atom_norm,
+                     float weight)
     : m_impl(new Impl), m_atoms(D), m_trees(trees), m_checks(checks) {
   if (trees < 1) fail("amplify", "FLANN trees must be >= 1 (got {})", trees);
   if (checks == 0) fail("amplify", "FLANN checks must be > 0, or negative for unlimited");
-  const size_t N = size_t(D.cols()), K = size_t(D.rows());
+  const size_t N = size_t(D.cols()), K0 = size_t(D.rows());
   if (N == 0) fail("amplify", "empty dictionary");
+  if (magnitude_active(atom_norm, weight, N)) m_weight = weight;
+  const size_t K = K0 + (m_weight > 0 ? 1 : 0);
   m_impl->points.resize(2 * N * K);
-  for (size_t j = 0; j < N; ++j)
-    for (size_t k = 0; k < K; ++k) {
+  for (size_t j = 0; j < N; ++j) {
+    for (size_t k = 0; k < K0; ++k) {
       m_impl->points[j * K + k] = D(Eigen::Index(k), Eigen::Index(j));
       m_impl->points[(N + j) * K + k] = -D(Eigen::Index(k), Eigen::Index(j));
     }
+    // Both signs of an atom come from one exemplar patch, of one magnitude.
+    if (m_weight > 0) m_impl->points[j * K + K0] = m_impl->points[(N + j) * K + K0] = m_weight * magnitude_feature((*atom_norm)[j]);
+  }
   // Unlimited checks visit every leaf: one tree is then exact and FLANN warns about more.
   if (checks < 0) m_trees = 1;
   flann::Matrix<float> data(m_impl->points.data(), 2 * N, K);
@@ -114,20 +150,23 @@ AtomIndex::AtomIndex(const MatrixF& D, int trees, int checks, unsigned seed)
 
 AtomIndex::~AtomIndex() { delete m_impl; }
 
-AtomMatch AtomIndex::search(const MatrixF& Q, int threads) const {
-  const size_t n = size_t(Q.cols()), K = size_t(Q.rows()), N = size_t(m_atoms.cols());
-  if (K != size_t(m_atoms.rows())) fail("amplify", "query length {} differs from atom length {}", K, m_atoms.rows());
+AtomMatch AtomIndex::search(const MatrixF& Q, int threads, int k, float query_scale) const {
+  const size_t n = size_t(Q.cols()), K0 = size_t(Q.rows()), N = size_t(m_atoms.cols());
+  const size_t K = K0 + (m_weight > 0 ? 1 : 0);
+  if (K0 != size_t(m_atoms.rows())) fail("amplify", "query length {} differs from atom length {}", K0, m_atoms.rows());
+  if (k < 1) fail("amplify", "neighbours must be >= 1 (got {})", k);
+  const size_t kk = size_t(k);
   AtomMatch m;
-  m.index.assign(n, -1);
-  m.coef.assign(n, 0.f);
+  m.index.assign(n * kk, -1);
+  m.coef.assign(n * kk, 0.f);
   flann::SearchParams params(m_checks < 0 ? flann::FLANN_CHECKS_UNLIMITED : m_checks);
   params.cores = 1;  // parallelism is ours (one FLANN call per thread chunk)
   constexpr size_t kBlock = 512;
   const size_t blocks = (n + kBlock - 1) / kBlock;
   parallel_for(blocks, threads, [&](size_t b0, size_t b1) {
     std::vector<float> q(kBlock * K);
-    std::vector<size_t> idx(kBlock);
-    std::vector<float> dist(kBlock);
+    std::vector<size_t> idx(kBlock * kk);
+    std::vector<float> dist(kBlock * kk);
     std::vector<size_t> live;
     for (size_t b = b0; b < b1; ++b) {
       const size_t c0 = b * kBlock, cn = std::min(kBlock, n - c0);
@@ -136,38 +175,44 @@ AtomMatch AtomIndex::search(const MatrixF& Q, int threads) const {
         const auto col = Q.col(Eigen::Index(c0 + c));
         const float nrm = col.norm();
         if (!(nrm > 0)) continue;
-        for (size_t k = 0; k < K; ++k) q[live.size() * K + k] = col[Eigen::Index(k)] / nrm;
+        for (size_t k2 = 0; k2 < K0; ++k2) q[live.size() * K + k2] = col[Eigen::Index(k2)] / nrm;
+        if (m_weight > 0) q[live.size() * K + K0] = m_weight * magnitude_feature(nrm * query_scale);
         live.push_back(c);
       }
       if (live.empty()) continue;
       flann::Matrix<float> qm(q.data(), live.size(), K);
-      flann::Matrix<size_t> im(idx.data(), live.size(), 1);
-      flann::Matrix<float> dm(dist.data(), live.size(), 1);
-      m_impl->index->knnSearch(qm, im, dm, 1, params);
+      flann::Matrix<size_t> im(idx.data(), live.size(), kk);
+      flann::Matrix<float> dm(dist.data(), live.size(), kk);
+      std::fill(idx.begin(), idx.end(), size_t(-1));
+      m_impl->index->knnSearch(qm, im, dm, kk, params);
       for (size_t i = 0; i < live.size(); ++i) {
         const size_t c = live[i];
-        const size_t a = idx[i] % N;
-        m.index[c0 + c] = int32_t(a);
-        m.coef[c0 + c] = m_atoms.col(Eigen::Index(a)).dot(Q.col(Eigen::Index(c0 + c)));
+        for (size_t t = 0; t < kk; ++t) {
+          if (idx[i * kk + t] >= 2 * N) continue;  // fewer than k neighbours found
+          const size_t a = idx[i * kk + t] % N;
+          m.index[(c0 + c) * kk + t] = int32_t(a);
+          m.coef[(c0 + c) * kk + t] = m_atoms.col(Eigen::Index(a)).dot(Q.col(Eigen::Index(c0 + c)));
+        }
       }
     }
   });
   return m;
 }
 
-RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples, unsigned seed) {
+RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int checks, int samples, unsigned seed,
+                            const std::vector<float>* atom_norm, float weight) {
   RecallReport r;
   const Eigen::Index n = Q.cols();
   const int m = int(std::min<Eigen::Index>(samples, n));
   if (m == 0) return r;
   MatrixF S(Q.rows(), m);
   for (int i = 0; i < m; ++i) S.col(i) = Q.col(Eigen::Index(double(i) * n / m));
-  AtomIndex index(D, trees, checks, seed);
+  AtomIndex index(D, trees, checks, seed, atom_norm, weight);
   using clock = std::chrono::steady_clock;
   auto t0 = clock::now();
   const AtomMatch a = index.search(S, 1);
   auto t1 = clock::now();
-  const AtomMatch e = exact_atom_search(D, S, 1);
+  const AtomMatch e = exact_atom_search(D, S, 1, 1, atom_norm, weight);
   auto t2 = clock::now();
   int same = 0, live = 0;
   for (int i = 0; i < m; ++i) {
