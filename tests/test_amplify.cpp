@@ -198,6 +198,50 @@ TEST(AmplifyFlann, SameSeedGivesIdenticalForests) {
   EXPECT_EQ(measure_recall(D, Q, 4, 8, 500, 3).recall, measure_recall(D, Q, 4, 8, 500, 3).recall);
 }
 
+TEST(AmplifyFlann, KNearestWithMagnitudeTermMatchBruteForce) {
+  const MatrixF D = random_dictionary(16, 500, 41, true);
+  const MatrixF Q = random_dictionary(16, 200, 42, true) * 20.0f;
+  std::mt19937 rng(43);
+  std::uniform_real_distribution<float> u(0.5f, 200.f);
+  std::vector<float> norms(500);
+  for (auto& v : norms) v = u(rng);
+  const float w = 0.5f, scale = 0.7f;
+  const int k = 3;
+  const AtomMatch e = exact_atom_search(D, Q, 2, k, &norms, w, scale);
+  const AtomMatch a = AtomIndex(D, 2, -1, 1, &norms, w).search(Q, 2, k, scale);
+  for (int i = 0; i < 200; ++i) {
+    // Independent reference: squared distance of the augmented vectors, both signs, sorted.
+    const VectorF q = Q.col(i) / Q.col(i).norm();
+    const float fq = std::log(Q.col(i).norm() * scale + 0.1f);
+    std::vector<std::pair<double, int>> dist;
+    for (int j = 0; j < 500; ++j) {
+      const double m = w * (fq - std::log(norms[j] + 0.1f));
+      dist.push_back({std::min((q - D.col(j)).squaredNorm(), (q + D.col(j)).squaredNorm()) + m * m, j});
+    }
+    std::sort(dist.begin(), dist.end());
+    for (int t = 0; t < k; ++t) {
+      EXPECT_EQ(e.index[i * k + t], dist[t].second);
+      EXPECT_EQ(a.index[i * k + t], dist[t].second);
+      EXPECT_NEAR(e.coef[i * k + t], D.col(dist[t].second).dot(Q.col(i)), 1e-3f);
+    }
+  }
+}
+
+TEST(AmplifyFlann, MagnitudeTermPrefersAtomsOfTheQuerysRelief) {
+  // Two atoms of nearly one shape, cut from gentle (1 m) and rugged (80 m) patches.
+  MatrixF D = random_dictionary(16, 2, 44, true);
+  D.col(1) = (D.col(0) + 0.05f * D.col(1)).normalized();
+  const std::vector<float> norms{1.f, 80.f};
+  MatrixF Q(16, 2);
+  Q.col(0) = 80.f * D.col(0);  // exactly atom 0's shape, but rugged
+  Q.col(1) = 1.f * D.col(0);
+  EXPECT_EQ(exact_atom_search(D, Q, 1).index[0], 0);  // shape only
+  const AtomMatch m = exact_atom_search(D, Q, 1, 1, &norms, 0.4f);
+  EXPECT_EQ(m.index[0], 1);
+  EXPECT_EQ(m.index[1], 0);
+  EXPECT_EQ(AtomIndex(D, 1, -1, 1, &norms, 0.4f).search(Q, 1).index, m.index);
+}
+
 TEST(AmplifyAmplify, FlannOutputIsBitIdenticalAcrossRuns) {
   const Dictionary d = learn_dictionary({rough_terrain(96, 96, 5.0, 11)}, small_learn());
   const Heightfield low = block_mean(rough_terrain(96, 96, 5.0, 12, 3.f), 4);
@@ -245,8 +289,56 @@ TEST(AmplifyDictionary, SaveLoadRoundTrip) {
   EXPECT_EQ(e.description, d.description);
   EXPECT_TRUE(e.high == d.high);
   EXPECT_TRUE(e.low == d.low);
+  EXPECT_TRUE(e.low_norm.empty());  // K-SVD atoms have no source patch
   // L is the normalised block mean of H.
   for (int j = 0; j < d.atoms(); ++j) EXPECT_NEAR(d.low.col(j).norm(), 1.0f, 1e-4f);
+  // Complete and constrained atoms keep the norm of the low-resolution patch they were cut from.
+  for (const char* method : {"complete", "constrained"}) {
+    const Dictionary c = learn_dictionary({rough_terrain(64, 64, 5.0, 2)}, small_learn(method));
+    ASSERT_EQ(c.low_norm.size(), size_t(c.atoms())) << method;
+    save_dictionary(c, tmp.path("c.tdic"));
+    EXPECT_EQ(load_dictionary(tmp.path("c.tdic")).low_norm, c.low_norm) << method;
+  }
+  // Complete: H times the norm is an exemplar window (up to its mean), found by brute force.
+  const Heightfield ex = rough_terrain(64, 64, 5.0, 2);
+  const Dictionary c = learn_dictionary({ex}, small_learn("complete"));
+  for (int j = 0; j < c.atoms(); j += 97) {
+    const VectorF h = c.high.col(j) * c.low_norm[j];
+    double best = 1e30;
+    for (int y = 0; y + 16 <= 64; y += 2)
+      for (int x = 0; x + 16 <= 64; x += 2) {
+        VectorF diff(256);
+        for (int v = 0; v < 16; ++v)
+          for (int u = 0; u < 16; ++u) diff[v * 16 + u] = ex.at(x + u, y + v) - h[v * 16 + u];
+        best = std::min(best, double((diff.array() - diff.mean()).abs().maxCoeff()));
+      }
+    EXPECT_LT(best, 1e-2) << "atom " << j;
+  }
+}
+
+TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
+  // A version 1 file is version 2 without the norms (flag bit 1 clear) and with version = 1.
+  test::TempDir tmp;
+  Dictionary d = learn_dictionary({rough_terrain(48, 48, 5.0, 2)}, small_learn());
+  d.low_norm.clear();
+  save_dictionary(d, tmp.path("d.tdic"));
+  std::string bytes;
+  {
+    std::ifstream f(tmp.path("d.tdic"), std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), {});
+  }
+  ASSERT_EQ(bytes[4], 2);
+  bytes[4] = 1;
+  uint64_t h = 1469598103934665603ull;  // FNV-1a 64 of everything before the hash
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) h = (h ^ (unsigned char)bytes[i]) * 1099511628211ull;
+  for (int i = 0; i < 8; ++i) bytes[bytes.size() - 8 + i] = char((h >> (8 * i)) & 0xff);
+  std::ofstream(tmp.path("v1.tdic"), std::ios::binary) << bytes;
+  const Dictionary e = load_dictionary(tmp.path("v1.tdic"));
+  EXPECT_TRUE(e.high == d.high);
+  EXPECT_TRUE(e.low_norm.empty());
+  bytes[4] = 3;
+  std::ofstream(tmp.path("v3.tdic"), std::ios::binary) << bytes;
+  EXPECT_THROW(load_dictionary(tmp.path("v3.tdic")), Error);
 }
 
 TEST(AmplifyDictionary, CorruptFilesGiveClearErrors) {
