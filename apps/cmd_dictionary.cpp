@@ -118,6 +118,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
 
   auto sa = std::make_shared<SketchArgs>();
   sa->amp.factor = 16;
+  sa->amp.candidates = 6;  // painted edges give many identical footprints: vary their detail
   auto* sk = dict->add_subcommand("sketch", "Synthesize a terrain from a coarse painted sketch (grey PNG) with a dictionary");
   sk->add_option("input", sa->input, "Sketch image (8/16-bit grey PNG or any raster)")->required();
   sk->add_option("-o,--output", sa->output, "Output heightfield")->required();
@@ -128,6 +129,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sk->add_option("--smooth", sa->smooth, "Tent filter width applied to the sketch (cells)")->capture_default_str();
   sk->add_option("--factor", sa->amp.factor, "Amplification factor (4, 16, 64, 256)")->capture_default_str();
   sk->add_option("--neighbours", sa->amp.neighbours, "Sparsity 1: average of the k best atoms")->capture_default_str();
+  sk->add_option("--candidates", sa->amp.candidates, "Pool of nearest atoms each patch draws its neighbours from")
+      ->capture_default_str();
   sk->add_option("--magnitude-weight", sa->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off)")
       ->capture_default_str();
   sk->add_option("--seed", sa->amp.seed, "Seed of FLANN's randomized trees")->capture_default_str();
@@ -168,6 +171,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--checks", va->amp.checks, "FLANN checks")->capture_default_str();
   ev->add_option("--trees", va->amp.trees, "FLANN trees")->capture_default_str();
   ev->add_option("--neighbours", va->amp.neighbours, "Sparsity 1: average of the k best atoms")->capture_default_str();
+  ev->add_option("--candidates", va->amp.candidates, "Pool of nearest atoms each patch draws its neighbours from")
+      ->capture_default_str();
   ev->add_option("--magnitude-weight", va->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off)")
       ->capture_default_str();
   ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();

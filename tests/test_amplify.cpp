@@ -414,6 +414,31 @@ TEST(AmplifyAmplify, FlannAndExactSearchAgreeWhenUnlimited) {
   for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a.z[i], b.z[i], 1e-3f);
 }
 
+TEST(AmplifyAmplify, CandidatePoolVariesIdenticalFootprints) {
+  // On a tilted plane every patch has the same footprint: the nearest atoms repeat with the patch
+  // spacing (8 cells); drawing them from a larger pool by position breaks the repetition.
+  const Dictionary d = learn_dictionary({rough_terrain(96, 96, 5.0, 21)}, small_learn());
+  Heightfield low(24, 24);
+  low.georef.cell_x = low.georef.cell_y = 20.0;
+  for (int y = 0; y < 24; ++y)
+    for (int x = 0; x < 24; ++x) low.at(x, y) = 2.0f * x + 1.0f * y;
+  AmplifyOptions o;
+  o.search = "exact";
+  o.detail_gain = 1;
+  auto periodic_error = [&](const Heightfield& h) {
+    double e = 0;
+    for (int y = 24; y < 64; ++y)
+      for (int x = 24; x < 64; ++x) e = std::max(e, double(std::fabs(h.at(x + 8, y) - h.at(x, y) - 2.0f * 8 / 4)));
+    return e;
+  };
+  EXPECT_LT(periodic_error(amplify(low, d, o)), 1e-2);
+  o.candidates = 8;
+  const Heightfield v = amplify(low, d, o);
+  EXPECT_GT(periodic_error(v), 0.1);
+  const Heightfield m = block_mean(v, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-2f);
+}
+
 TEST(AmplifyErrors, BadInputsAreReported) {
   const Heightfield ex = rough_terrain(64, 64, 5.0, 1);
   const Heightfield low = block_mean(test::smooth_terrain(64, 64, 5.0, 300.0, 2), 4);

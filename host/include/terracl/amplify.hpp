@@ -127,8 +127,10 @@ struct LearnOptions {
   /// block means, compare roughness) at this output patch spacing.
   bool calibrate = true;
   int calibration_spacing = 8;
-  /// Search settings the detail gain is calibrated for (AmplifyOptions::neighbours, magnitude_weight).
+  /// Search settings the detail gain is calibrated for (AmplifyOptions::neighbours, candidates,
+  /// magnitude_weight).
   int calibration_neighbours = 3;
+  int calibration_candidates = 0;
   float calibration_magnitude_weight = 0.4f;
   /// Folds of the calibration's cross-validation (strips across the exemplar's longer axis).
   int calibration_folds = 2;
@@ -201,6 +203,9 @@ struct AmplifyOptions {
   int checks = 8;
   /// Sparsity 1: the k best atoms are averaged (their coefficients divided by k).
   int neighbours = 3;
+  /// Pool of nearest atoms from which each patch draws its `neighbours` (seeded by the patch's
+  /// position; <= neighbours: the nearest ones). Varies the detail of identical footprints.
+  int candidates = 0;
   /// Weight of the magnitude term of the atom search (see magnitude_feature; 0 = off).
   float magnitude_weight = 0.4f;
   unsigned seed = 1;       ///< seed of FLANN's randomized kd-trees (the output is reproducible per seed)

@@ -17,6 +17,15 @@ namespace {
 
 inline int clampi(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
 
+// SplitMix64 finaliser of (seed, a, b, c): a reproducible per-patch random number.
+uint64_t position_hash(uint64_t seed, int64_t a, int64_t b, int64_t c) {
+  uint64_t z = seed * 0x9e3779b97f4a7c15ull + uint64_t(a) * 0xbf58476d1ce4e5b9ull + uint64_t(b) * 0x94d049bb133111ebull +
+               uint64_t(c) * 0xd6e8feb86659fd93ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
 int steps_for(int factor, int f) {
   int steps = 0, v = 1;
   while (v < factor && steps < 8) v *= f, ++steps;
@@ -33,6 +42,7 @@ void check_options(const AmplifyOptions& o, const Dictionary& d) {
   if (o.sparsity < 1) fail("amplify", "sparsity must be >= 1");
   if (o.tile < 64) fail("amplify", "tile must be >= 64 cells");
   if (o.neighbours < 1 || o.neighbours > 64) fail("amplify", "neighbours must be between 1 and 64 (got {})", o.neighbours);
+  if (o.candidates < 0 || o.candidates > 256) fail("amplify", "candidates must be between 0 and 256 (got {})", o.candidates);
   if (!(o.magnitude_weight >= 0 && o.magnitude_weight < 1e6))
     fail("amplify", "magnitude weight must be >= 0 (got {})", o.magnitude_weight);
   if (o.search != "auto" && o.search != "flann" && o.search != "exact" && o.search != "omp")
@@ -89,15 +99,36 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
       if (use_omp) {
         codes = batch_omp(d.low, q, o.sparsity, o.threads);
       } else {
-        // k nearest atoms averaged: their shared detail adds up, the rest partly cancels.
-        const int k = std::max(1, o.neighbours);
-        AtomMatch a = index ? index->search(q, o.threads, k, qscale)
-                            : exact_atom_search(d.low, q, o.threads, k, &d.low_norm, o.magnitude_weight, qscale);
+        // k nearest atoms averaged: their shared detail adds up, the rest partly cancels. With a
+        // larger candidate pool, each patch draws its k from the pool by a hash of its position, so
+        // that equal footprints (straight painted edges) do not repeat the same detail.
+        const int k = std::max(1, o.neighbours), pool = std::max(k, o.candidates);
+        AtomMatch a = index ? index->search(q, o.threads, pool, qscale)
+                            : exact_atom_search(d.low, q, o.threads, pool, &d.low_norm, o.magnitude_weight, qscale);
+        AtomMatch chosen;
+        chosen.index.assign(m * size_t(k), -1);
+        chosen.coef.assign(m * size_t(k), 0.f);
         for (size_t c = 0; c < m; ++c) {
+          int32_t* idx = &a.index[c * pool];
+          float* coef = &a.coef[c * pool];
           int found = 0;
-          for (int t = 0; t < k; ++t) found += a.index[c * k + t] >= 0;
-          for (int t = 0; t < k && found > 1; ++t) a.coef[c * k + t] /= float(found);
+          while (found < pool && idx[found] >= 0) ++found;
+          if (found > k) {
+            uint64_t h = position_hash(o.seed, W, kx0 + int(c % nx), ky0 + int(c / nx));
+            for (int t = 0; t < k; ++t) {  // partial Fisher-Yates
+              h = position_hash(h, t, 0, 0);
+              const int r = t + int(h % uint64_t(found - t));
+              std::swap(idx[t], idx[r]);
+              std::swap(coef[t], coef[r]);
+            }
+            found = k;
+          }
+          for (int t = 0; t < found; ++t) {
+            chosen.index[c * k + t] = idx[t];
+            chosen.coef[c * k + t] = coef[t] / float(found);
+          }
         }
+        a = std::move(chosen);
         codes.sparsity = k;
         codes.index = std::move(a.index);
         codes.coef = std::move(a.coef);
@@ -184,6 +215,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   std::unique_ptr<Dictionary> dict;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
   lo.calibration_neighbours = o.neighbours;
+  lo.calibration_candidates = o.candidates;
   lo.calibration_magnitude_weight = o.magnitude_weight;
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
@@ -241,6 +273,7 @@ double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
   ao.threads = o.threads;
   ao.seed = o.seed;
   ao.neighbours = o.calibration_neighbours;
+  ao.candidates = o.calibration_candidates;
   ao.magnitude_weight = o.calibration_magnitude_weight;
   // Sums over every held-out fold (pooled cross-validation): the roughness terms aa, ab, bb, tt and
   // the RMSE terms e2, ed, d2, r2 defined below.

@@ -42,6 +42,7 @@ AmplifyOptions amplify_options(const StageContext& c) {
   o.checks = c.get<int>("checks");
   o.seed = unsigned(c.get<int>("seed"));
   o.neighbours = c.get<int>("neighbours");
+  o.candidates = c.get<int>("candidates");
   o.magnitude_weight = float(c.get<double>("magnitude_weight"));
   o.tile = c.get<int>("tile");
   o.bias_correction = c.get<bool>("bias_correction");
@@ -105,6 +106,7 @@ void register_amplify_stages(StageRegistry& r) {
              {"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}},
              {"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
              {"neighbours", OptionType::Int, 3, "", "Sparsity 1: average of the k best atoms", {}},
+             {"candidates", OptionType::Int, 0, "", "Pool of nearest atoms each patch draws its neighbours from, by position (0: the nearest)", {}},
              {"magnitude_weight", OptionType::Float, 0.4, "", "Weight of the atom search's magnitude term (0: off)", {}},
              {"seed", OptionType::Int, 1, "", "Seed of FLANN's randomized trees (same seed, same output)", {}},
              {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
