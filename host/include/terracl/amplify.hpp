@@ -223,10 +223,11 @@ Heightfield amplify(const Heightfield& low, const Dictionary& dict, const Amplif
 /// (block means when the exemplar is finer), then amplifies. Throws on mismatched cell sizes.
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
                                    const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress = {});
-/// Detail gain calibrated by a split-exemplar test (learn on one half, amplify the block means of
-/// the other, bias-corrected): the largest gain whose RMSE stays within 1.15 x bicubic's, and at
-/// least the gain that matches the truth's roughness (clamped to [0.5, 2]; 1 when the exemplar is
-/// too small to split).
+/// Detail gain calibrated by pooled cross-validation on the exemplar (strips across its longer axis,
+/// `calibration_folds` of them; each amplified, bias-corrected, by a dictionary learned on the others
+/// with the calibration_* search settings): the largest gain whose pooled RMSE stays within 1.14 x
+/// bicubic's, and at least the gain that matches the truth's roughness (clamped to [0.5, 4]; 1 when
+/// the exemplar is too small to split).
 double calibrate_detail_gain(const Heightfield& exemplar, const LearnOptions& o);
 /// z minus its (f+1) x (f+1) box mean (relief finer than one input cell), and its RMS.
 std::vector<double> highpass(const Heightfield& h, int f);
