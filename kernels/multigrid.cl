@@ -148,6 +148,10 @@ __kernel void prolong_correct0(__global float* u, __global const float* g, const
 }
 
 // Per-row sums of squared level-0 residuals (the host adds the rows in double).
+// Per row: the sum of squared residuals (rows[y]) and the expected sum of squared residuals that
+// float32 rounding of u alone produces (rows[H + y]): each u_j is off by up to half an ulp
+// (variance ulp^2 / 12), and cell i's residual sums a_ij times those errors. No smoother can get
+// below that floor, so the host stops cycling once the residual is within a few times it.
 __kernel void residual_norm0(__global const float* u, __global const float* g, const int W, const int H,
                              const float wx, const float wy, __global float* rows) {
   const int y = get_global_id(0);
@@ -157,12 +161,21 @@ __kernel void residual_norm0(__global const float* u, __global const float* g, c
   __global const float* up = (y > 0) ? row - W : row;
   __global const float* dn = (y + 1 < H) ? row + W : row;
   const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
-  acc_t s = 0;
+  acc_t s = 0, fl = 0;
   for (int x = 0; x < W; ++x) {
     const acc_t r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
     s += r * r;
+    if (!isnan(g[o + x])) {
+      const float wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
+      const float d = wl + wr + wn + ws;
+      // ulp(v) ~ |v| * 2^-23 (0 for v = 0 is harmless: it only lowers the floor estimate).
+      const float ur = fabs(row[x]) * 1.1920929e-7f;
+      const float sq = d * d * ur * ur + (wl * wl + wr * wr + wn * wn + ws * ws) * ur * ur;
+      fl += (acc_t)sq * (1.0 / 12.0);
+    }
   }
   rows[y] = (float)s;
+  rows[H + y] = (float)fl;
 }
 
 // Same for the trivial guess (free cells read as 0): the norm of the reduced right-hand side.
