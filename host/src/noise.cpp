@@ -65,8 +65,9 @@ void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const B
   k.setArg(a++, float(p.gain));
   k.setArg(a++, int(p.type));
   k.setArg(a++, cl_uint(p.seed));
-  // 2-D ranges in tiles of 64 x 1: compute-bound, and PoCL vectorises across work-items.
-  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(size_t(cw), 64), size_t(ch)), cl::NDRange(64, 1));
+  // 8 cells per work-item (explicit vectors in the kernel), work-groups of 8 x 1.
+  const size_t runs = (size_t(cw) + 7) / 8;
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(runs, 8), size_t(ch)), cl::NDRange(8, 1));
   cl::Kernel f = d.kernel("noise", "noise_faces");
   a = 0;
   f.setArg(a++, to_scratch ? g.tx : g.gx);
