@@ -113,6 +113,13 @@ void store_lanes(__global float* p, vf v, int n) {
 }
 
 float mask_at(__global const float* mask, int use_mask, size_t o) { return use_mask ? mask[o] : 1.0f; }
+// The mask is only written on the face box [x0, x0 + mw) x [y0, y0 + mh) (the buffer is shared
+// scratch, other operations leave their data beyond it); the box extends past the support, so the
+// weight outside it is 0.
+float mask_in(__global const float* mask, int use_mask, int W, int x, int y, int x0, int y0, int mw, int mh) {
+  if (!use_mask) return 1.0f;
+  return x >= x0 && y >= y0 && x < x0 + mw && y < y0 + mh ? mask[(size_t)y * W + x] : 0.0f;
+}
 
 // Pass 1: noise value and analytic derivatives at the cell centres [x0, x0 + bw) x [y0, y0 + bh)
 // (the caller passes the face box plus one column and row), VW cells per work-item. With a mask,
@@ -120,7 +127,7 @@ float mask_at(__global const float* mask, int use_mask, size_t o) { return use_m
 // reads them (a box is mostly outside a curve's or a disc's support).
 __kernel void noise_cells(__global float* nv, __global float* nx, __global float* ny, const int W, const int H,
                           const float cx, const float cy, const int x0, const int y0, const int bw, const int bh,
-                          __global const float* mask, const int use_mask,
+                          __global const float* mask, const int use_mask, const int mw, const int mh,
                           const float wavelength, const int octaves, const float lacunarity, const float gain,
                           const int type, const uint seed) {
   const int i = get_global_id(0) * VW, j = get_global_id(1);
@@ -131,9 +138,9 @@ __kernel void noise_cells(__global float* nv, __global float* nx, __global float
     int needed = 0;
     for (int k = 0; k < n && !needed; ++k) {
       const int x = xs + k;
-      const size_t c = o + k;
-      needed = mask[c] != 0.0f || (x > x0 && mask[c - 1] != 0.0f) || (y > y0 && mask[c - W] != 0.0f) ||
-               (x + 1 < W && mask[c + 1] != 0.0f) || (y + 1 < H && mask[c + W] != 0.0f);
+#define M(xx, yy) mask_in(mask, 1, W, xx, yy, x0, y0, mw, mh)
+      needed = M(x, y) != 0.0f || M(x - 1, y) != 0.0f || M(x, y - 1) != 0.0f || M(x + 1, y) != 0.0f || M(x, y + 1) != 0.0f;
+#undef M
     }
     if (!needed) return;
   }
@@ -157,7 +164,7 @@ __kernel void noise_faces(__global float* gx, __global float* gy, __global const
   const size_t o = (size_t)y * W + x;
   const float wc = mask_at(mask, use_mask, o);
   if (x < W - 1) {
-    const float w1 = mask_at(mask, use_mask, o + 1);
+    const float w1 = mask_in(mask, use_mask, W, x + 1, y, x0, y0, bw, bh);
     float v = 0.0f;
     if (wc != 0.0f || w1 != 0.0f) {
       const float na = nv[o], nb = nv[o + 1], da = nx[o], db = nx[o + 1];
@@ -168,7 +175,7 @@ __kernel void noise_faces(__global float* gx, __global float* gy, __global const
     gx[o] = add ? gx[o] + v : v;
   }
   if (y < H - 1) {
-    const float w1 = mask_at(mask, use_mask, o + W);
+    const float w1 = mask_in(mask, use_mask, W, x, y + 1, x0, y0, bw, bh);
     float v = 0.0f;
     if (wc != 0.0f || w1 != 0.0f) {
       const float na = nv[o], nb = nv[o + W], da = ny[o], db = ny[o + W];
