@@ -12,13 +12,7 @@
 
 // Each work-item evaluates VW cells of a row in explicit vectors: the octave loop keeps PoCL from
 // vectorising across work-items, and the noise sum is the whole cost of a noise layer.
-#define VW 8
-typedef float8 vf;
-typedef int8 vi;
-typedef uint8 vu;
-#define VLOAD vload8
-#define VSTORE vstore8
-#define LANES ((vf)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
+#include "vec8.clh"
 
 vu hash3(vi x, vi y, uint seed) {
   vu h = as_uint8(x) * 0x8da6b343u ^ as_uint8(y) * 0xd8163841u ^ seed * 0xcb1ab31fu;
@@ -101,16 +95,6 @@ NoiseV noise_sum(vf px, vf py, float wavelength, int octaves, float lacunarity, 
   return acc;
 }
 
-// Stores the first n lanes of v at p.
-void store_lanes(__global float* p, vf v, int n) {
-  if (n == VW) {
-    VSTORE(v, 0, p);
-    return;
-  }
-  float t[VW];
-  VSTORE(v, 0, t);
-  for (int k = 0; k < n; ++k) p[k] = t[k];
-}
 
 float mask_at(__global const float* mask, int use_mask, size_t o) { return use_mask ? mask[o] : 1.0f; }
 // The mask is only written on the face box [x0, x0 + mw) x [y0, y0 + mh) (the buffer is shared

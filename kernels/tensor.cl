@@ -28,12 +28,7 @@
 #define PROFILE_STEP 2
 #define PROFILE_DROP 3
 
-#define VW 8
-typedef float8 vf;
-typedef int8 vi;
-#define VLOAD vload8
-#define VSTORE vstore8
-#define LANES ((vf)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
+#include "vec8.clh"
 
 // alpha(t) = (1 - t^2)^3: alpha(0) = 1, alpha(1) = alpha'(1) = alpha''(1) = 0, even in t (so smooth
 // at the skeleton), zero outside [0, 1].
@@ -212,16 +207,6 @@ TensorV tensor_at_v(__global const float* prims, int nprims, __global const floa
   return A;
 }
 
-// Stores the first n lanes of v at p (all VW with one vector store when the run is full).
-void store_lanes(__global float* p, vf v, int n) {
-  if (n == VW) {
-    VSTORE(v, 0, p);
-    return;
-  }
-  float t[VW];
-  VSTORE(v, 0, t);
-  for (int k = 0; k < n; ++k) p[k] = t[k];
-}
 
 // Mean of the other component's up-to-four faces around a face (missing faces are skipped).
 float other_at_x_face(__global const float* gy, int x, int y, int W, int H) {
