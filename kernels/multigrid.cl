@@ -28,18 +28,29 @@ typedef float acc_t;
 // Level 0: 5-point operator, hard cells = NaN in g.
 
 // Residual g - A u at column x of a level-0 row. `un`/`us` are the rows above/below (aliasing
-// the row itself with weight 0 at the grid border). Evaluated in double where the device has it:
-// the terms are ~|u| w and cancel to a residual many orders smaller, and float rounding of that
-// sum would set the floor of the whole solve (badly conditioned cases, e.g. one anchor cell,
-// then keep a large smooth error); u itself stays float.
-inline acc_t res0(__global const float* ur, __global const float* un, __global const float* us,
+// the row itself with weight 0 at the grid border). Difference form, g + sum_n w_n (u_n - u): the
+// difference of two nearby values is exact in float (Sterbenz), so the residual keeps its accuracy
+// far below the float32 floor of u itself. (The value form sum_n w_n u_n - k u u cancels terms of
+// size ~|u| w and would need double; badly conditioned cases, e.g. one anchor cell, then keep a
+// large smooth error.)
+inline float res0(__global const float* ur, __global const float* un, __global const float* us,
                   __global const float* gr, int x, int W, float wx, float wn, float ws) {
   const float gv = gr[x];
   if (isnan(gv)) return 0.0f;
-  const acc_t wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
-  const acc_t l = x > 0 ? ur[x - 1] : 0.0f, r = x + 1 < W ? ur[x + 1] : 0.0f;
-  return (acc_t)gv + wl * l + wr * r + (acc_t)wn * (acc_t)un[x] + (acc_t)ws * (acc_t)us[x] -
-         (wl + wr + (acc_t)wn + (acc_t)ws) * (acc_t)ur[x];
+  const float c = ur[x];
+  float r = gv + wn * (un[x] - c) + ws * (us[x] - c);
+  if (x > 0) r += wx * (ur[x - 1] - c);
+  if (x + 1 < W) r += wx * (ur[x + 1] - c);
+  return r;
+}
+
+// The same for 16 columns x .. x + 15, all with both x neighbours in the grid.
+inline float16 res0_v16(__global const float* ur, __global const float* un, __global const float* us,
+                        __global const float* gr, int x, float wx, float wn, float ws) {
+  const float16 c = vload16(0, ur + x), gv = vload16(0, gr + x);
+  const float16 r = gv + wx * (vload16(0, ur + x - 1) - c) + wx * (vload16(0, ur + x + 1) - c) +
+                    wn * (vload16(0, un + x) - c) + ws * (vload16(0, us + x) - c);
+  return select(r, (float16)(0.0f), isnan(gv));
 }
 
 // Red-black Gauss-Seidel half-sweep on level 0: cells with (x + y) % 2 == colour.
@@ -90,7 +101,7 @@ __kernel void jacobi0(__global float* out, __global const float* u, __global con
     const float wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
     const float d = wl + wr + wn + ws;
     const float uc = row[x];
-    const float r = (float)res0(row, up, dn, g + o, x, W, wx, wn, ws);
+    const float r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
     out[o + x] = d > 0.0f ? uc + omega * r / d : uc;
   }
 }
@@ -119,13 +130,29 @@ __kernel void residual_restrict0(__global const float* u, __global const float* 
 #define COL(xx)                                                                  \
   (a0 * res0(ur0, un0, us0, gr0, xx, W, wx, wn0, ws0) + a1 * res0(ur1, un1, us1, gr1, xx, W, wx, wn1, ws1) + \
    a2 * res0(ur2, un2, us2, gr2, xx, W, wx, wn2, ws2))
-  acc_t prev = 0.0f;  // column 2i-1
-  for (int i = 0; i < Wc; ++i) {
-    const acc_t c0 = 2 * i < W ? COL(2 * i) : 0.0f;
-    const acc_t c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
-    rc[GI(i, j, P)] = (float)(0.5f * prev + c0 + 0.5f * c1);
+  float prev = 0.0f;  // column 2i-1
+  int i = 0;
+  for (;;) {
+    // Eight coarse nodes at a time where fine columns 2i-1 .. 2i+16 are all in the grid: the fine
+    // residuals of 16 columns in vectors, split into even (2i) and odd (2i+1) columns.
+    for (; i >= 1 && i + 8 <= Wc && 2 * i + 16 <= W - 1; i += 8) {
+      const int x = 2 * i;
+      const float16 c = a0 * res0_v16(ur0, un0, us0, gr0, x, wx, wn0, ws0) +
+                        a1 * res0_v16(ur1, un1, us1, gr1, x, wx, wn1, ws1) +
+                        a2 * res0_v16(ur2, un2, us2, gr2, x, wx, wn2, ws2);
+      const float8 ce = c.even, co = c.odd;
+      const float8 cm = (float8)(prev, co.s012, co.s3456);
+      vstore8(0.5f * cm + ce + 0.5f * co, 0, rc + GI(i, j, P));
+      vstore8((float8)(0.0f), 0, ec + GI(i, j, P));
+      prev = co.s7;
+    }
+    if (i >= Wc) break;
+    const float c0 = 2 * i < W ? COL(2 * i) : 0.0f;
+    const float c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
+    rc[GI(i, j, P)] = 0.5f * prev + c0 + 0.5f * c1;
     ec[GI(i, j, P)] = 0.0f;
     prev = c1;
+    ++i;
   }
 #undef COL
 }
@@ -148,21 +175,48 @@ __kernel void prolong_correct0(__global float* u, __global const float* g, const
 }
 
 // Per-row sums of squared level-0 residuals (the host adds the rows in double).
+// Per row: the sum of squared residuals (rows[y]) and the expected sum of squared residuals that
+// float32 rounding of u alone produces (rows[H + y]): each u_j is off by up to half an ulp
+// (variance ulp^2 / 12), and cell i's residual sums a_ij times those errors. No smoother can get
+// below that floor, so the host stops cycling once the residual is within a few times it.
 __kernel void residual_norm0(__global const float* u, __global const float* g, const int W, const int H,
                              const float wx, const float wy, __global float* rows) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
   __global const float* row = u + o;
+  __global const float* gr = g + o;
   __global const float* up = (y > 0) ? row - W : row;
   __global const float* dn = (y + 1 < H) ? row + W : row;
   const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
-  acc_t s = 0;
-  for (int x = 0; x < W; ++x) {
-    const acc_t r = res0(row, up, dn, g + o, x, W, wx, wn, ws);
-    s += r * r;
+  // Floor weight of an interior cell, (sum of the stencil's squared weights) / 12 * (2^-23)^2.
+  const float di = 2.0f * wx + wn + ws;
+  const float ki = (di * di + 2.0f * wx * wx + wn * wn + ws * ws) * (1.0f / 12.0f) * 1.4210855e-14f;
+  float16 sv = (float16)(0.0f), fv = (float16)(0.0f);
+  int x = 1;
+  for (; x + 16 <= W - 1; x += 16) {
+    const float16 r = res0_v16(row, up, dn, gr, x, wx, wn, ws);
+    const float16 c = vload16(0, row + x);
+    sv += r * r;
+    fv += select(c * c, (float16)(0.0f), isnan(vload16(0, gr + x)));
   }
-  rows[y] = (float)s;
+  float s = 0.0f, f = 0.0f;
+  s = sv.s0 + sv.s1 + sv.s2 + sv.s3 + sv.s4 + sv.s5 + sv.s6 + sv.s7 + sv.s8 + sv.s9 + sv.sa + sv.sb + sv.sc + sv.sd +
+      sv.se + sv.sf;
+  f = ki * (fv.s0 + fv.s1 + fv.s2 + fv.s3 + fv.s4 + fv.s5 + fv.s6 + fv.s7 + fv.s8 + fv.s9 + fv.sa + fv.sb + fv.sc +
+            fv.sd + fv.se + fv.sf);
+  // The rest of the row, and the border columns with their own stencil weights.
+  for (int k = 0; k < W; k = (k == 0 ? x : k + 1)) {
+    const float r = res0(row, up, dn, gr, k, W, wx, wn, ws);
+    s += r * r;
+    if (!isnan(gr[k])) {
+      const float wl = k > 0 ? wx : 0.0f, wr = k + 1 < W ? wx : 0.0f;
+      const float d = wl + wr + wn + ws;
+      f += (d * d + wl * wl + wr * wr + wn * wn + ws * ws) * (1.0f / 12.0f) * 1.4210855e-14f * row[k] * row[k];
+    }
+  }
+  rows[y] = s;
+  rows[H + y] = f;
 }
 
 // Same for the trivial guess (free cells read as 0): the norm of the reduced right-hand side.

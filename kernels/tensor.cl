@@ -6,7 +6,11 @@
 //     cross-section profile of the distance to a curve (crests, faults, ravines, river banks, rims).
 // Positions are metres: cell (x, y) is at (x * cx, y * cy), y growing southwards.
 // Each primitive is 16 floats (layout in host/src/tensor.cpp); vertices are float4 (x, y, amp, 0).
-// Kernels run over a bounding box (x0, y0, bw, bh) of the grid, one work-item per row.
+// Kernels run over a bounding box (x0, y0, bw, bh) of the grid, one work-item per row, VW cells of
+// the row at a time in explicit vectors: PoCL vectorises across work-items only for loop-free kernels,
+// and the per-primitive and per-segment loops here would otherwise run scalar (8x slower on AVX2).
+// Per-primitive data (shape, vertex count, kind) is uniform across the lanes, so only the closest
+// segment differs per lane: it is chosen by selects, never by branches.
 #pragma OPENCL FP_CONTRACT OFF
 
 #define SHAPE_POINT 0
@@ -24,185 +28,185 @@
 #define PROFILE_STEP 2
 #define PROFILE_DROP 3
 
+#include "vec8.clh"
+
 // alpha(t) = (1 - t^2)^3: alpha(0) = 1, alpha(1) = alpha'(1) = alpha''(1) = 0, even in t (so smooth
 // at the skeleton), zero outside [0, 1].
-float alpha_fn(float t) {
-  if (t >= 1.0f) return 0.0f;
-  const float s = 1.0f - t * t;
-  return s * s * s;
-}
-float alpha_deriv(float t) {
-  if (t >= 1.0f) return 0.0f;
-  const float s = 1.0f - t * t;
-  return -6.0f * t * s * s;
+vf alpha_v(vf t) {
+  const vf s = 1.0f - t * t;
+  return select(s * s * s, (vf)(0.0f), t >= 1.0f);
 }
 // 0 -> 0, 1 -> 1 with zero first and second derivatives at both ends (C2 step).
-float smoother(float t) {
+vf smoother_v(vf t) {
   t = clamp(t, 0.0f, 1.0f);
   return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
 }
-float smoother_deriv(float t) {
-  if (t <= 0.0f || t >= 1.0f) return 0.0f;
-  const float u = t * (1.0f - t);
-  return 30.0f * u * u;
-}
 
+// The closest point of a primitive to VW positions.
 typedef struct {
-  float dist;     // distance in the (anisotropic) metric; 0 inside filled shapes
-  float sdist;    // signed: right of a polyline / outside a filled shape is positive
-  float2 grad;    // gradient of sdist in real space (unit for isotropic metrics)
-  float2 tangent; // unit tangent of the closest segment (polylines, polygons)
-  float2 toward;  // unit direction from p towards the closest point u(p)
-  float amp;      // vertex amplitude interpolated at the closest point
-  float beyond;   // distance past the end of an open polyline (0 along it)
-} Closest;
+  vf dist;        // distance in the (anisotropic) metric; 0 inside filled shapes
+  vf sdist;       // signed: right of a polyline / outside a filled shape is positive
+  vf gx, gy;      // gradient of sdist in real space (unit for isotropic metrics)
+  vf tx, ty;      // unit tangent of the closest segment (polylines, polygons)
+  vf ux, uy;      // unit direction from p towards the closest point u(p)
+  vf amp;         // vertex amplitude interpolated at the closest point
+  vf beyond;      // distance past the end of an open polyline (0 along it)
+} ClosestV;
 
-float2 metric_apply(__global const float* pr, float2 v) {
-  return (float2)(pr[8] * v.x + pr[9] * v.y, pr[10] * v.x + pr[11] * v.y);
-}
-// Real-space gradient of |M v| given the unit vector n = M v / |M v|: M^T n.
-float2 metric_transpose(__global const float* pr, float2 n) {
-  return (float2)(pr[8] * n.x + pr[10] * n.y, pr[9] * n.x + pr[11] * n.y);
-}
-
-Closest closest_point(__global const float* pr, __global const float4* verts, float2 p) {
-  Closest c;
-  c.dist = MAXFLOAT;
-  c.sdist = MAXFLOAT;
-  c.grad = (float2)(0.0f, 0.0f);
-  c.tangent = (float2)(1.0f, 0.0f);
-  c.toward = (float2)(0.0f, 0.0f);
-  c.amp = 0.0f;
-  c.beyond = 0.0f;
+// Anisotropic metric M = pr[8..11] (row-major); distances are |M (p - q)|, and the real-space
+// gradient of |M v| is M^T (M v / |M v|).
+ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px, vf py) {
+  ClosestV c;
   const int shape = (int)pr[0];
   const int v0 = (int)pr[1];
   const int nv = (int)pr[2];
-  const float2 P = metric_apply(pr, p);
+  const float m00 = pr[8], m01 = pr[9], m10 = pr[10], m11 = pr[11];
+  const vf zero = (vf)(0.0f), one = (vf)(1.0f);
+  const vf Px = m00 * px + m01 * py, Py = m10 * px + m11 * py;
+  c.beyond = zero;
   if (shape == SHAPE_POINT || shape == SHAPE_DISC) {
     const float4 v = verts[v0];
-    const float2 d = P - metric_apply(pr, v.xy);
-    const float len = length(d);
+    const float Vx = m00 * v.x + m01 * v.y, Vy = m10 * v.x + m11 * v.y;
+    const vf dx = Px - Vx, dy = Py - Vy;
+    const vf len = sqrt(dx * dx + dy * dy);
     const float R = shape == SHAPE_DISC ? pr[7] : 0.0f;
     c.sdist = len - R;
-    c.dist = fmax(c.sdist, 0.0f);
-    c.grad = len > 0.0f ? metric_transpose(pr, d / len) : (float2)(0.0f, 0.0f);
-    const float2 tq = v.xy - p;
-    const float tql = length(tq);
-    c.toward = tql > 0.0f ? tq / tql : (float2)(0.0f, 0.0f);
-    c.tangent = (float2)(-c.toward.y, c.toward.x);
-    c.amp = v.z;
+    c.dist = fmax(c.sdist, zero);
+    const vi pos = len > zero;
+    const vf nx = select(zero, dx / len, pos), ny = select(zero, dy / len, pos);
+    c.gx = m00 * nx + m10 * ny;
+    c.gy = m01 * nx + m11 * ny;
+    const vf qx = v.x - px, qy = v.y - py;
+    const vf ql = sqrt(qx * qx + qy * qy);
+    const vi qpos = ql > zero;
+    c.ux = select(zero, qx / ql, qpos);
+    c.uy = select(zero, qy / ql, qpos);
+    c.tx = -c.uy;
+    c.ty = c.ux;
+    c.amp = (vf)(v.z);
     return c;
   }
   const int closed = shape == SHAPE_POLYGON;
   const int nseg = closed ? nv : nv - 1;
-  float best = MAXFLOAT;
-  float side = 1.0f;
-  float2 n = (float2)(0.0f, 0.0f);
-  int inside = 0;
-  // Pass 1: the closest segment by squared distance only (and the crossing number); the closest
-  // point's other attributes (four square roots, divisions) are derived once, for that segment.
-  int bs = -1;
+  // Pass 1: the closest segment by squared distance (and the crossing number); its end points are
+  // kept per lane, and the closest point's other attributes are derived once, from them.
+  vf best = (vf)(MAXFLOAT);
+  vi inside = (vi)(0), seg = (vi)(-1);
+  vf sAx = zero, sAy = zero, sBx = zero, sBy = zero;  // metric end points
+  vf sax = zero, say = zero, saz = zero, sbx = zero, sby = zero, sbz = zero;  // real end points
   for (int s = 0; s < nseg; ++s) {
     const float4 a4 = verts[v0 + s];
     const float4 b4 = verts[v0 + ((s + 1) % nv)];
-    const float2 A = metric_apply(pr, a4.xy), B = metric_apply(pr, b4.xy);
-    const float2 ab = B - A;
-    const float l2 = dot(ab, ab);
-    const float traw = l2 > 0.0f ? dot(P - A, ab) / l2 : 0.0f;
-    const float t = clamp(traw, 0.0f, 1.0f);
-    const float2 d = P - (A + t * ab);
-    const float d2 = dot(d, d);
-    if (d2 < best) {
-      best = d2;
-      bs = s;
-    }
-    if (closed && ((a4.y <= p.y) != (b4.y <= p.y))) {  // crossing number, real coordinates
-      const float xi = a4.x + (p.y - a4.y) / (b4.y - a4.y) * (b4.x - a4.x);
-      if (p.x < xi) inside ^= 1;
-    }
-  }
-  if (bs >= 0) {
-    const int s = bs;
-    const float4 a4 = verts[v0 + s];
-    const float4 b4 = verts[v0 + ((s + 1) % nv)];
-    const float2 A = metric_apply(pr, a4.xy), B = metric_apply(pr, b4.xy);
-    const float2 ab = B - A;
-    const float l2 = dot(ab, ab);
-    const float traw = l2 > 0.0f ? dot(P - A, ab) / l2 : 0.0f;
-    const float t = clamp(traw, 0.0f, 1.0f);
-    const float2 d = P - (A + t * ab);
-    const float d2 = dot(d, d);
-    const float len = sqrt(d2);
-    const float2 tan_real = b4.xy - a4.xy;
-    const float tl = length(tan_real);
-    c.tangent = tl > 0.0f ? tan_real / tl : (float2)(1.0f, 0.0f);
-    const float2 tq = a4.xy + t * tan_real - p;
-    const float tql = length(tq);
-    c.toward = tql > 0.0f ? tq / tql : (float2)(0.0f, 0.0f);
-    c.amp = a4.z + t * (b4.z - a4.z);
-    // Side: (-ab.y, ab.x) is "right" (positive); with x east and y south that is the travel
-    // direction turned clockwise on a north-up map.
-    const float cr = ab.x * (P.y - A.y) - ab.y * (P.x - A.x);
-    side = cr >= 0.0f ? 1.0f : -1.0f;
-    const float al = sqrt(l2);
-    n = len > 0.0f ? d / len : (al > 0.0f ? (float2)(-ab.y, ab.x) / al : (float2)(0.0f, 0.0f));
-    c.dist = len;
-    c.beyond = 0.0f;
-    if (!closed) {
-      if (s == 0 && traw < 0.0f) c.beyond = -traw * al;
-      if (s == nseg - 1 && traw > 1.0f) c.beyond = (traw - 1.0f) * al;
+    const float Ax = m00 * a4.x + m01 * a4.y, Ay = m10 * a4.x + m11 * a4.y;
+    const float Bx = m00 * b4.x + m01 * b4.y, By = m10 * b4.x + m11 * b4.y;
+    const float abx = Bx - Ax, aby = By - Ay, l2 = abx * abx + aby * aby;
+    const float il2 = l2 > 0.0f ? 1.0f / l2 : 0.0f;
+    const vf t = clamp(((Px - Ax) * abx + (Py - Ay) * aby) * il2, 0.0f, 1.0f);
+    const vf dx = Px - (Ax + t * abx), dy = Py - (Ay + t * aby);
+    const vf d2 = dx * dx + dy * dy;
+    const vi m = d2 < best;
+    best = select(best, d2, m);
+    seg = select(seg, (vi)(s), m);
+    sAx = select(sAx, (vf)(Ax), m), sAy = select(sAy, (vf)(Ay), m);
+    sBx = select(sBx, (vf)(Bx), m), sBy = select(sBy, (vf)(By), m);
+    sax = select(sax, (vf)(a4.x), m), say = select(say, (vf)(a4.y), m), saz = select(saz, (vf)(a4.z), m);
+    sbx = select(sbx, (vf)(b4.x), m), sby = select(sby, (vf)(b4.y), m), sbz = select(sbz, (vf)(b4.z), m);
+    if (closed && a4.y != b4.y) {  // crossing number, real coordinates
+      const vi cross = (a4.y <= py) != (b4.y <= py);
+      const vf xi = a4.x + (py - a4.y) / (b4.y - a4.y) * (b4.x - a4.x);
+      inside ^= cross & (px < xi);
     }
   }
+  const vf abx = sBx - sAx, aby = sBy - sAy, l2 = abx * abx + aby * aby;
+  const vf traw = select(zero, ((Px - sAx) * abx + (Py - sAy) * aby) / l2, l2 > zero);
+  const vf t = clamp(traw, 0.0f, 1.0f);
+  const vf dx = Px - (sAx + t * abx), dy = Py - (sAy + t * aby);
+  const vf len = sqrt(dx * dx + dy * dy);
+  const vf rx = sbx - sax, ry = sby - say;
+  const vf rl = sqrt(rx * rx + ry * ry);
+  c.tx = select(one, rx / rl, rl > zero);
+  c.ty = select(zero, ry / rl, rl > zero);
+  const vf qx = sax + t * rx - px, qy = say + t * ry - py;
+  const vf ql = sqrt(qx * qx + qy * qy);
+  c.ux = select(zero, qx / ql, ql > zero);
+  c.uy = select(zero, qy / ql, ql > zero);
+  c.amp = saz + t * (sbz - saz);
+  // Side: (-ab.y, ab.x) is "right" (positive); with x east and y south that is the travel
+  // direction turned clockwise on a north-up map.
+  const vf cr = abx * (Py - sAy) - aby * (Px - sAx);
+  const vf side = select(-one, one, cr >= zero);
+  const vf al = sqrt(l2);
+  const vi lpos = len > zero, apos = al > zero;
+  const vf nx = select(select(zero, -aby / al, apos), dx / len, lpos);
+  const vf ny = select(select(zero, abx / al, apos), dy / len, lpos);
+  c.dist = len;
+  vf fx, fy;
   if (closed) {
     // Filled shape: distance 0 inside, sdist negative inside, grad pointing outwards.
-    const float sgn = inside ? -1.0f : 1.0f;
-    c.sdist = sgn * c.dist;
-    c.grad = metric_transpose(pr, n * (c.dist > 0.0f ? sgn : 1.0f));
-    if (inside) c.dist = 0.0f;
+    const vf sgn = select(one, -one, inside);
+    c.sdist = sgn * len;
+    const vf f = select(one, sgn, lpos);
+    fx = nx * f, fy = ny * f;
+    c.dist = select(len, zero, inside);
   } else {
-    c.sdist = side * c.dist;
+    c.beyond = select(zero, -traw * al, (seg == 0) & (traw < zero));
+    c.beyond = select(c.beyond, (traw - one) * al, (seg == nseg - 1) & (traw > one));
+    c.sdist = side * len;
     // d/|d| already points away from the curve; on the curve n is the right normal.
-    c.grad = metric_transpose(pr, c.dist > 0.0f ? n * side : n);
+    const vf f = select(one, side, lpos);
+    fx = nx * f, fy = ny * f;
   }
+  c.gx = m00 * fx + m10 * fy;
+  c.gy = m01 * fx + m11 * fy;
   return c;
 }
 
-// Weight of primitive i at p (alpha of the distance over the radius).
-float prim_weight(__global const float* pr, Closest c) {
+// Weight of primitive i (alpha of the distance over the radius).
+vf prim_weight_v(__global const float* pr, const ClosestV* c) {
   const float r = pr[3];
-  return r > 0.0f ? alpha_fn(c.dist / r) : (c.dist <= 0.0f ? 1.0f : 0.0f);
+  return r > 0.0f ? alpha_v(c->dist / r) : select((vf)(0.0f), (vf)(1.0f), c->dist <= 0.0f);
 }
 
-// The traceless direction tensor R(2 theta) = [[cos 2t, sin 2t], [sin 2t, -cos 2t]] for a unit
-// direction (cos t, sin t): cos 2t = c^2 - s^2, sin 2t = 2 c s.
-float4 dir_tensor(float2 u) { return (float4)(u.x * u.x - u.y * u.y, 2.0f * u.x * u.y, 2.0f * u.x * u.y, u.y * u.y - u.x * u.x); }
+typedef struct {
+  vf a00, a01, a10, a11;
+} TensorV;
 
-float4 tensor_at(__global const float* prims, int nprims, __global const float4* verts, float2 p) {
-  float4 A = (float4)(1.0f, 0.0f, 0.0f, 1.0f);
+TensorV tensor_at_v(__global const float* prims, int nprims, __global const float4* verts, vf px, vf py) {
+  TensorV A;
+  A.a00 = A.a11 = (vf)(1.0f);
+  A.a01 = A.a10 = (vf)(0.0f);
   for (int i = 0; i < nprims; ++i) {
     __global const float* pr = prims + 16 * i;
-    const Closest c = closest_point(pr, verts, p);
-    const float w = pr[4] * prim_weight(pr, c);
-    if (w == 0.0f) continue;
+    const ClosestV c = closest_v(pr, verts, px, py);
+    const vf w = pr[4] * prim_weight_v(pr, &c);
+    if (!any(w != 0.0f)) continue;
     const int kind = (int)pr[5];
-    float4 T;
     if (kind == TENSOR_SCALE) {
-      T = (float4)(1.0f, 0.0f, 0.0f, 1.0f);
+      A.a00 += w;
+      A.a11 += w;
     } else if (kind == TENSOR_DIRECTIONAL) {
-      // pr[14], pr[15] = cos, sin of 2 angle (computed once on the host, not per face).
-      T = (float4)(pr[14], pr[15], pr[15], -pr[14]);
+      // pr[14], pr[15] = cos, sin of 2 angle (computed once on the host): R(2 theta).
+      A.a00 += w * pr[14];
+      A.a01 += w * pr[15];
+      A.a10 += w * pr[15];
+      A.a11 -= w * pr[14];
     } else {
-      // Aligned with the stroke's tangent or with u(p); the angle (pr[14], pr[15] = its cos, sin)
-      // adds a rotation (e.g. pi/2).
-      float2 u = kind == TENSOR_TANGENT ? c.tangent : c.toward;
+      // Aligned with the stroke's tangent or with u(p), rotated by the angle (pr[14], pr[15] = its
+      // cos, sin). The traceless direction tensor of a unit u = (cos t, sin t) is
+      // [[cos 2t, sin 2t], [sin 2t, -cos 2t]], with cos 2t = ux^2 - uy^2 and sin 2t = 2 ux uy.
+      const vf ux0 = kind == TENSOR_TANGENT ? c.tx : c.ux, uy0 = kind == TENSOR_TANGENT ? c.ty : c.uy;
       const float cs = pr[14], sn = pr[15];
-      u = (float2)(cs * u.x - sn * u.y, sn * u.x + cs * u.y);
-      T = dir_tensor(u);
+      const vf ux = cs * ux0 - sn * uy0, uy = sn * ux0 + cs * uy0;
+      const vf c2 = ux * ux - uy * uy, s2 = 2.0f * ux * uy;
+      A.a00 += w * c2;
+      A.a01 += w * s2;
+      A.a10 += w * s2;
+      A.a11 -= w * c2;
     }
-    A += w * T;
   }
   return A;
 }
+
 
 // Mean of the other component's up-to-four faces around a face (missing faces are skipped).
 float other_at_x_face(__global const float* gy, int x, int y, int W, int H) {
@@ -242,26 +246,40 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
   const int j = get_global_id(0);
   if (j >= bh) return;
   const int y = y0 + j;
-  for (int x = x0; x < x0 + bw; ++x) {
-    const size_t o = (size_t)y * W + x;
-    // A zero input gives a zero output: skip the tensor (most of a noise layer's box in add mode).
-    if (x < W - 1) {
-      const float gxv = sx[o], gyv = other_at_x_face(sy, x, y, W, H);
-      float v = 0.0f;
-      if (gxv != 0.0f || gyv != 0.0f) {
-        const float4 A = tensor_at(prims, nprims, verts, (float2)(((float)x + 0.5f) * cx, (float)y * cy));
-        v = A.x * gxv + A.y * gyv;
-      }
-      dx[o] = add ? dx[o] + v : v;
+  for (int xs = x0; xs < x0 + bw; xs += VW) {
+    const int n = min(VW, x0 + bw - xs);
+    float ax[VW], ay[VW], bx[VW], by[VW];
+    int any_x = 0, any_y = 0;
+    for (int k = 0; k < VW; ++k) {
+      const int x = xs + k;
+      const size_t o = (size_t)y * W + x;
+      const int fx = k < n && x < W - 1, fy = k < n && y < H - 1;
+      ax[k] = fx ? sx[o] : 0.0f;
+      ay[k] = fx ? other_at_x_face(sy, x, y, W, H) : 0.0f;
+      bx[k] = fy ? other_at_y_face(sx, x, y, W, H) : 0.0f;
+      by[k] = fy ? sy[o] : 0.0f;
+      any_x |= ax[k] != 0.0f || ay[k] != 0.0f;
+      any_y |= bx[k] != 0.0f || by[k] != 0.0f;
     }
-    if (y < H - 1) {
-      const float gxv = other_at_y_face(sx, x, y, W, H), gyv = sy[o];
-      float v = 0.0f;
-      if (gxv != 0.0f || gyv != 0.0f) {
-        const float4 A = tensor_at(prims, nprims, verts, (float2)((float)x * cx, ((float)y + 0.5f) * cy));
-        v = A.z * gxv + A.w * gyv;
-      }
-      dy[o] = add ? dy[o] + v : v;
+    // A zero input gives a zero output: skip the tensor (most of a noise layer's box in add mode).
+    const vf xv = (float)xs + LANES;
+    vf vx = (vf)(0.0f), vy = (vf)(0.0f);
+    if (any_x) {
+      const TensorV A = tensor_at_v(prims, nprims, verts, (xv + 0.5f) * cx, (vf)((float)y * cy));
+      vx = A.a00 * VLOAD(0, ax) + A.a01 * VLOAD(0, ay);
+    }
+    if (any_y) {
+      const TensorV A = tensor_at_v(prims, nprims, verts, xv * cx, (vf)(((float)y + 0.5f) * cy));
+      vy = A.a10 * VLOAD(0, bx) + A.a11 * VLOAD(0, by);
+    }
+    float rx[VW], ry[VW];
+    VSTORE(vx, 0, rx);
+    VSTORE(vy, 0, ry);
+    for (int k = 0; k < n; ++k) {
+      const int x = xs + k;
+      const size_t o = (size_t)y * W + x;
+      if (x < W - 1) dx[o] = add ? dx[o] + rx[k] : rx[k];
+      if (y < H - 1) dy[o] = add ? dy[o] + ry[k] : ry[k];
     }
   }
 }
@@ -274,39 +292,41 @@ __kernel void primitive_weight(__global float* w, const int W, const int H, cons
   const int j = get_global_id(0);
   if (j >= bh) return;
   const int y = y0 + j;
-  for (int x = x0; x < x0 + bw; ++x) {
-    const float2 p = (float2)((float)x * cx, (float)y * cy);
-    float m = 0.0f;
+  const vf py = (vf)((float)y * cy);
+  for (int xs = x0; xs < x0 + bw; xs += VW) {
+    const vf px = ((float)xs + LANES) * cx;
+    vf m = (vf)(0.0f);
     for (int i = 0; i < nprims; ++i) {
       __global const float* pr = prims + 16 * i;
-      m = fmax(m, prim_weight(pr, closest_point(pr, verts, p)));
+      const ClosestV c = closest_v(pr, verts, px, py);
+      m = fmax(m, prim_weight_v(pr, &c));
     }
-    w[(size_t)y * W + x] = invert ? 1.0f - m : m;
+    store_lanes(w + (size_t)y * W + xs, invert ? 1.0f - m : m, min(VW, x0 + bw - xs));
   }
 }
 
-// Value of primitive i's profile P_i at p. pr[12] = profile kind, pr[13] = amplitude scale.
+// Value of primitive i's profile P_i. pr[12] = profile kind, pr[13] = amplitude scale.
 // ROUND: P = a alpha(d/r); SHARP: P = a (1 - d/r)^3; STEP: P = a smoother((s/r + 1)/2) across a
 // signed distance s (a fault of throw a); DROP: P = -a smoother(s/r) for s >= 0 (a cliff face, a mesa
 // rim). a = pr[13] * the vertex amplitude at the closest point. Open-curve signed profiles taper off
 // past the curve's ends (times alpha(beyond/r)) so that a finite fault dies out.
-float profile_value(__global const float* pr, Closest c) {
+vf profile_value_v(__global const float* pr, const ClosestV* c) {
   const float r = pr[3];
-  if (r <= 0.0f) return 0.0f;
+  if (r <= 0.0f) return (vf)(0.0f);
   const int kind = (int)pr[12];
-  const float a = pr[13] * c.amp;
-  float P;
+  const vf a = pr[13] * c->amp;
+  vf P;
   if (kind == PROFILE_ROUND) {
-    P = a * alpha_fn(c.dist / r);
+    P = a * alpha_v(c->dist / r);
   } else if (kind == PROFILE_SHARP) {
-    const float t = fmin(c.dist / r, 1.0f);
+    const vf t = fmin(c->dist / r, 1.0f);
     P = a * (1.0f - t) * (1.0f - t) * (1.0f - t);
   } else if (kind == PROFILE_STEP) {
-    P = a * smoother((c.sdist / r + 1.0f) * 0.5f);
+    P = a * smoother_v((c->sdist / r + 1.0f) * 0.5f);
   } else {
-    P = -a * smoother(c.sdist / r);
+    P = -a * smoother_v(c->sdist / r);
   }
-  if ((kind == PROFILE_STEP || kind == PROFILE_DROP) && c.beyond > 0.0f) P *= alpha_fn(c.beyond / r);
+  if (kind == PROFILE_STEP || kind == PROFILE_DROP) P = select(P, P * alpha_v(c->beyond / r), c->beyond > 0.0f);
   return P;
 }
 
@@ -317,14 +337,16 @@ __kernel void profile_potential(__global float* pot, const int W, const int H, c
   const int j = get_global_id(0);
   if (j >= bh) return;
   const int y = y0 + j;
-  for (int x = x0; x < x0 + bw; ++x) {
-    const float2 p = (float2)((float)x * cx, (float)y * cy);
-    float P = 0.0f;
+  const vf py = (vf)((float)y * cy);
+  for (int xs = x0; xs < x0 + bw; xs += VW) {
+    const vf px = ((float)xs + LANES) * cx;
+    vf P = (vf)(0.0f);
     for (int i = 0; i < nprims; ++i) {
       __global const float* pr = prims + 16 * i;
-      P += profile_value(pr, closest_point(pr, verts, p));
+      const ClosestV c = closest_v(pr, verts, px, py);
+      P += profile_value_v(pr, &c);
     }
-    pot[(size_t)y * W + x] = P;
+    store_lanes(pot + (size_t)y * W + xs, P, min(VW, x0 + bw - xs));
   }
 }
 

@@ -262,3 +262,29 @@ TEST(Edit, FitReadsASketchFile) {
   EXPECT_GT(h.at(32, 40), 5.0f);
   EXPECT_LT(h.at(32, 40), 300.0f);
 }
+
+// Operations share scratch buffers (the mask also holds profile potentials): a masked noise layer
+// must not read what an earlier operation left just outside its own box (it did, and the canyon
+// example grew a 150 m step along the noise box's edge). Layers add linearly, so the noise's
+// contribution must not depend on what ran before it.
+TEST(Edit, MaskedNoiseIgnoresScratchLeftByEarlierOperations) {
+  const Heightfield base = flat(96, 64, 10);
+  const json ravine = {{"op", "ravine"}, {"points", {{2, 30}, {94, 34}}}, {"depth", 40}, {"radius", 20}};
+  const json noise = {{"op", "noise"}, {"center", {30, 32}}, {"radius", 12}, {"falloff", 6}, {"amplitude", 10},
+                      {"wavelength", 8}, {"type", "ridged"}, {"seed", 9}, {"orient", {{"angle", 0}, {"strength", 0.7}}}};
+  auto field = [&](std::vector<json> ops) {
+    EditSession s(test::device(), base);
+    s.apply({{"units", "cells"}, {"seed", 5}, {"operations", ops}});
+    return s.gradient();
+  };
+  const GradientField both = field({ravine, noise}), r = field({ravine}), n = field({noise}), none = field({});
+  double worst = 0, scale = 0;
+  for (size_t i = 0; i < both.size(); ++i) {
+    const double dn = double(n.gx[i]) - none.gx[i], dnb = double(both.gx[i]) - r.gx[i];
+    worst = std::max(worst, std::abs(dnb - dn));
+    scale = std::max(scale, std::abs(dn));
+    worst = std::max(worst, std::abs((double(both.gy[i]) - r.gy[i]) - (double(n.gy[i]) - none.gy[i])));
+  }
+  EXPECT_GT(scale, 0.05);
+  EXPECT_LT(worst, 1e-5 * scale + 1e-6);
+}

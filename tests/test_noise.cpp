@@ -110,3 +110,20 @@ TEST(Noise, BadParametersAreErrors) {
   EXPECT_THROW(noise_field(p, 8, 8, 1), Error);
   EXPECT_THROW(parse_noise_type("simplex"), Error);
 }
+
+TEST(Noise, OctavesFinerThanFourCellsAreLeftOut) {
+  NoiseParams p;
+  p.type = NoiseType::Fbm;
+  p.wavelength = 80;  // 8 cells of 10 m: octaves of 8, 4, 2, 1 cells
+  p.octaves = 4;
+  EXPECT_EQ(band_limited_octaves(p, 10, 10), 2);
+  EXPECT_EQ(band_limited_octaves(p, 10, 25), 1);  // the first octave is always kept
+  const GradientField all = noise_field(p, 48, 40, 10);
+  p.octaves = 2;
+  const GradientField two = noise_field(p, 48, 40, 10);
+  EXPECT_EQ(all.gx, two.gx);
+  EXPECT_EQ(all.gy, two.gy);
+  p.octaves = 1;
+  const GradientField one = noise_field(p, 48, 40, 10);
+  EXPECT_NE(one.gx, two.gx);  // the 4-cell octave is still there
+}

@@ -256,3 +256,24 @@ TEST(Reconstruct, ReportJson) {
   EXPECT_EQ(multigrid_levels(1025, 1025).size(), 9u);
   EXPECT_EQ(multigrid_levels(1025, 1025).back(), std::make_pair(5, 5));
 }
+
+// The device-resident entry point (used by the editor) solves the same problem as the host one.
+TEST(Reconstruct, DeviceBuffersGiveTheSameResultAsHostGradients) {
+  Device& d = test::device();
+  const Heightfield h = test::smooth_terrain(61, 45, 12.0, 300.0, 4);
+  const GradientField g = extract_gradient(d, h);
+  ConstraintSet c(61, 45);
+  c.add_cell(10, 7, h.at(10, 7) + 5.0f, ConstraintKind::Point);
+  c.add_cell(50, 30, h.at(50, 30) - 3.0f, ConstraintKind::Point);
+  const size_t bytes = g.size() * sizeof(float);
+  cl::Buffer gx = d.buffer(bytes, CL_MEM_READ_ONLY, "test gx"), gy = d.buffer(bytes, CL_MEM_READ_ONLY, "test gy");
+  d.queue().enqueueWriteBuffer(gx, CL_FALSE, 0, bytes, g.gx.data());
+  d.queue().enqueueWriteBuffer(gy, CL_TRUE, 0, bytes, g.gy.data());
+  const ReconstructResult a = reconstruct(d, g, c), b = reconstruct_device(d, gx, gy, g, c);
+  EXPECT_EQ(a.cycles, b.cycles);
+  EXPECT_EQ(a.height.z, b.height.z);
+  EXPECT_EQ(b.height.at(10, 7), h.at(10, 7) + 5.0f);
+  // Buffers smaller than the grid are refused.
+  cl::Buffer small = d.buffer(16, CL_MEM_READ_ONLY, "small");
+  EXPECT_THROW(reconstruct_device(d, small, gy, g, c), Error);
+}

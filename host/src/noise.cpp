@@ -33,9 +33,20 @@ void set_params(cl::Kernel& k, int& a, const NoiseParams& p) {
 }
 }  // namespace
 
+int band_limited_octaves(const NoiseParams& p, double cell_x, double cell_y) {
+  // Octaves finer than kMinWavelengthCells cells are not resolved by the grid: they alias into a
+  // cell-sized grid pattern in the shaded relief, so they are left out (never the first one).
+  constexpr double kMinWavelengthCells = 4.0;
+  const double finest = kMinWavelengthCells * std::max(cell_x, cell_y);
+  int n = p.octaves;
+  while (n > 1 && p.wavelength / std::pow(p.lacunarity, n - 1) < finest) --n;
+  return n;
+}
+
 void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const Box& box, bool use_mask, bool to_scratch) {
   check(p);
   if (box.empty()) return;
+  const int octaves = band_limited_octaves(p, g.cell_x, g.cell_y);
   const size_t bytes = g.cells() * sizeof(float);
   if (!g.nv()) {  // allocated on first use: most edits need no noise
     g.nv = d.buffer(bytes, CL_MEM_READ_WRITE, "noise values");
@@ -59,14 +70,17 @@ void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const B
   k.setArg(a++, ch);
   k.setArg(a++, g.mask);
   k.setArg(a++, use_mask ? 1 : 0);
+  k.setArg(a++, box.w);  // the mask is valid on the face box only
+  k.setArg(a++, box.h);
   k.setArg(a++, float(p.wavelength));
-  k.setArg(a++, p.octaves);
+  k.setArg(a++, octaves);
   k.setArg(a++, float(p.lacunarity));
   k.setArg(a++, float(p.gain));
   k.setArg(a++, int(p.type));
   k.setArg(a++, cl_uint(p.seed));
-  // 2-D ranges in tiles of 64 x 1: compute-bound, and PoCL vectorises across work-items.
-  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(size_t(cw), 64), size_t(ch)), cl::NDRange(64, 1));
+  // 8 cells per work-item (explicit vectors in the kernel), work-groups of 8 x 1.
+  const size_t runs = (size_t(cw) + 7) / 8;
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(runs, 8), size_t(ch)), cl::NDRange(8, 1));
   cl::Kernel f = d.kernel("noise", "noise_faces");
   a = 0;
   f.setArg(a++, to_scratch ? g.tx : g.gx);

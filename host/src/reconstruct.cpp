@@ -189,7 +189,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   for (size_t k = 0; k < hard; ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
   for (size_t i = 0; !finite && i < N; ++i)
     if (!std::isfinite(h.z[i]))
-      fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}); input too large for float32?",
+      fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}): NaN/Inf in the input, or values too large for float32",
            i % W, i / W);
   res.total_ms = now_ms() - t0;
   return res;
@@ -273,6 +273,19 @@ ReconstructResult reconstruct(Device& d, const GradientField& gin, const Constra
     enqueue_divergence(dev, gx, gy, out, g->width, g->height, g->georef.cell_x, g->georef.cell_y, -1.0f);
   };
   return solve_common(d, W, H, g->georef, g->metadata, g->mean_elevation, rhs, c, o);
+}
+
+ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::Buffer& gy, const GradientField& like,
+                                     const ConstraintSet& c, const SolverOptions& o) {
+  if (gradient_format(like) == GradientFormat::Central)
+    fail("reconstruct", "device gradients must be staggered (convert central gradients first)");
+  const size_t need = size_t(like.width) * size_t(like.height) * sizeof(float);
+  if (gx.getInfo<CL_MEM_SIZE>() < need || gy.getInfo<CL_MEM_SIZE>() < need)
+    fail("reconstruct", "device gradient buffers are smaller than {}x{} floats", like.width, like.height);
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
+    enqueue_divergence(dev, gx, gy, out, like.width, like.height, like.georef.cell_x, like.georef.cell_y, -1.0f);
+  };
+  return solve_common(d, like.width, like.height, like.georef, like.metadata, like.mean_elevation, rhs, c, o);
 }
 
 ReconstructResult reconstruct_divergence(Device& d, const Heightfield& f, const ConstraintSet& c,

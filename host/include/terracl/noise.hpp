@@ -23,6 +23,10 @@ struct NoiseParams {
   uint32_t seed = 1;
 };
 
+/// Octaves of `p` that noise_gradient evaluates on cells of cell_x x cell_y: the ones whose wavelength
+/// is at least 4 cells (finer ones alias into a grid pattern in the shaded relief), and always the first.
+int band_limited_octaves(const NoiseParams& p, double cell_x, double cell_y);
+
 /// Adds grad(amplitude * w * n) over `box` to the field (to_scratch = false) or writes it into the
 /// scratch (tx, ty) to be oriented by a tensor field afterwards. use_mask = false: w = 1.
 void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const Box& box, bool use_mask, bool to_scratch);

@@ -72,6 +72,13 @@ struct ReconstructResult {
 /// gradient's size otherwise. Throws on NaN/Inf input, size mismatch or a device failure.
 ReconstructResult reconstruct(Device& d, const GradientField& g, const ConstraintSet& c, const SolverOptions& o = {});
 
+/// Same with a staggered gradient already on the device (gx, gy: width x height floats each, read
+/// only; cell size from `like.georef`, which also gives the result's georef, metadata and the mean
+/// rule's source mean). Saves the round trip through the host for editors that keep the field
+/// on the device. A NaN/Inf in the buffers is reported as a non-finite result.
+ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::Buffer& gy, const GradientField& like,
+                                     const ConstraintSet& c, const SolverOptions& o = {});
+
 /// Same with the divergence f (1/m) given directly: (sum of in-grid neighbours - k h)/d^2 = f,
 /// d from f.georef (1 when the raster has no georeferencing). With no hard cell f is projected
 /// onto the solvable (zero-mean) part first.

@@ -55,15 +55,40 @@ std::string build_log(const cl::Program& p, const cl::Device& d) {
 }  // namespace
 
 const std::string& kernel_source(const std::string& file) {
-  const auto& k = detail::embedded_kernels();
-  auto it = k.find(file);
-  if (it == k.end()) fail("device", "no embedded kernel file kernels/{}.cl", file);
+  // Sources with their `#include "name.clh"` lines replaced by the embedded headers (one level:
+  // headers include nothing), built once.
+  static const std::map<std::string, std::string> resolved = [] {
+    const auto& k = detail::embedded_kernels();
+    std::map<std::string, std::string> out;
+    for (const auto& [name, src] : k) {
+      if (name.size() > 4 && name.compare(name.size() - 4, 4, ".clh") == 0) continue;
+      std::string text;
+      std::istringstream in(src);
+      for (std::string line; std::getline(in, line);) {
+        const std::string tag = "#include \"";
+        if (line.rfind(tag, 0) == 0 && line.size() > tag.size() + 1 && line.back() == '"') {
+          const std::string header = line.substr(tag.size(), line.size() - tag.size() - 1);
+          auto h = k.find(header);
+          if (h == k.end()) fail("device", "kernels/{}.cl includes unknown header kernels/{}", name, header);
+          text += h->second;
+        } else {
+          text += line;
+        }
+        text += '\n';
+      }
+      out.emplace(name, std::move(text));
+    }
+    return out;
+  }();
+  auto it = resolved.find(file);
+  if (it == resolved.end()) fail("device", "no embedded kernel file kernels/{}.cl", file);
   return it->second;
 }
 
 std::vector<std::string> kernel_files() {
   std::vector<std::string> out;
-  for (const auto& [name, src] : detail::embedded_kernels()) out.push_back(name);
+  for (const auto& [name, src] : detail::embedded_kernels())
+    if (name.size() <= 4 || name.compare(name.size() - 4, 4, ".clh") != 0) out.push_back(name);
   return out;
 }
 

@@ -48,14 +48,15 @@ const Heightfield& EditState::height() {
 }
 
 const Heightfield& EditState::solve(bool warm) {
-  m_buf.download(m_device, m_template);
+  // The field stays on the device: the solve reads m_buf directly (m_template gives georef,
+  // metadata and mean only).
   ConstraintSet cs(m_grid.width, m_grid.height);
   for (size_t i = 0; i < m_hard.size(); ++i)
     if (!std::isnan(m_hard[i]))
       cs.add_cell(int(i % size_t(m_grid.width)), int(i / size_t(m_grid.width)), m_hard[i], ConstraintKind::Raster, "edit");
   SolverOptions o = m_solver;
   o.initial = warm && m_solution ? &*m_solution : nullptr;
-  m_last = reconstruct(m_device, m_template, cs, o);
+  m_last = reconstruct_device(m_device, m_buf.gx, m_buf.gy, m_template, cs, o);
   m_solution = std::move(m_last.height);
   m_last.height = Heightfield();
   m_solution->georef = m_template.georef;
