@@ -108,7 +108,7 @@ void register_amplify_stages(StageRegistry& r) {
              {"neighbours", OptionType::Int, 3, "", "Sparsity 1: average of the k best atoms", {}},
              {"candidates", OptionType::Int, 0, "", "Pool of nearest atoms each patch draws its neighbours from, by position (0: the nearest)", {}},
              {"magnitude_weight", OptionType::Float, 0.4, "", "Weight of the atom search's magnitude term (0: off)", {}},
-             {"seed", OptionType::Int, 1, "", "Seed of FLANN's randomized trees (same seed, same output)", {}},
+             {"seed", OptionType::Int, 1, "", "Seed of FLANN's trees, the candidate draw and (--exemplar) the training subset: same seed, same output", {}},
              {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
              {"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}},
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
