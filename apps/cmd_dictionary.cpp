@@ -128,10 +128,11 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sk->add_option("--cell", sa->cell, "Sketch cell size (m)")->capture_default_str();
   sk->add_option("--smooth", sa->smooth, "Tent filter width applied to the sketch (cells)")->capture_default_str();
   sk->add_option("--factor", sa->amp.factor, "Amplification factor (4, 16, 64, 256)")->capture_default_str();
-  sk->add_option("--neighbours", sa->amp.neighbours, "Sparsity 1: average of the k best atoms")->capture_default_str();
+  sk->add_option("--neighbours", sa->amp.neighbours, "Sparsity 1: average of the k best atoms (0: the dictionary's)")
+      ->capture_default_str();
   sk->add_option("--candidates", sa->amp.candidates, "Pool of nearest atoms each patch draws its neighbours from")
       ->capture_default_str();
-  sk->add_option("--magnitude-weight", sa->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off)")
+  sk->add_option("--magnitude-weight", sa->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off; -1: the dictionary's)")
       ->capture_default_str();
   sk->add_option("--seed", sa->amp.seed, "Seed of FLANN's randomized trees")->capture_default_str();
   sk->callback([sa] {
@@ -170,10 +171,10 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--search", va->amp.search, "auto | flann | exact | omp")->capture_default_str();
   ev->add_option("--checks", va->amp.checks, "FLANN checks")->capture_default_str();
   ev->add_option("--trees", va->amp.trees, "FLANN trees")->capture_default_str();
-  ev->add_option("--neighbours", va->amp.neighbours, "Sparsity 1: average of the k best atoms")->capture_default_str();
+  ev->add_option("--neighbours", va->amp.neighbours, "Sparsity 1: average of the k best atoms (0: 3)")->capture_default_str();
   ev->add_option("--candidates", va->amp.candidates, "Pool of nearest atoms each patch draws its neighbours from")
       ->capture_default_str();
-  ev->add_option("--magnitude-weight", va->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off)")
+  ev->add_option("--magnitude-weight", va->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off; -1: 0.4)")
       ->capture_default_str();
   ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();
   ev->add_option("--seed", va->amp.seed, "Seed of the training subset and of FLANN's trees")->capture_default_str();
@@ -218,7 +219,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       const MatrixF q = extract_patches(block_mean(truth, f), d.low_patch(), 1);
       for (int checks : va->recall_checks) {
         const RecallReport r =
-            measure_recall(d.low, q, o.trees, checks, va->recall_samples, o.seed, &d.low_norm, o.magnitude_weight);
+            measure_recall(d.low, q, o.trees, checks, va->recall_samples, o.seed, &d.low_norm,
+                           o.magnitude_weight >= 0 ? o.magnitude_weight : d.magnitude_weight);
         fmt::print("# {} x{}: FLANN {} trees, checks {:4}: recall {:5.1f} % over {} queries, {:.3f} ms/query "
                    "(exact scan of {} atoms: {:.3f} ms/query)\n", name, f, o.trees, checks, 100 * r.recall, r.samples,
                    r.ms_per_query_flann, d.atoms(), r.ms_per_query_exact);

@@ -287,6 +287,8 @@ TEST(AmplifyDictionary, SaveLoadRoundTrip) {
   EXPECT_EQ(e.cell_x, d.cell_x);
   EXPECT_EQ(e.detail_gain, d.detail_gain);
   EXPECT_EQ(e.description, d.description);
+  EXPECT_EQ(e.neighbours, 3);
+  EXPECT_EQ(e.magnitude_weight, 0.4f);
   EXPECT_TRUE(e.high == d.high);
   EXPECT_TRUE(e.low == d.low);
   EXPECT_TRUE(e.low_norm.empty());  // K-SVD atoms have no source patch
@@ -317,7 +319,8 @@ TEST(AmplifyDictionary, SaveLoadRoundTrip) {
 }
 
 TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
-  // A version 1 file is version 2 without the norms (flag bit 1 clear) and with version = 1.
+  // A version 1 file is version 2 without the search settings (bytes 48-55) and the norms (flag
+  // bit 1 clear), with version = 1.
   test::TempDir tmp;
   Dictionary d = learn_dictionary({rough_terrain(48, 48, 5.0, 2)}, small_learn());
   d.low_norm.clear();
@@ -329,6 +332,7 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
   }
   ASSERT_EQ(bytes[4], 2);
   bytes[4] = 1;
+  bytes.erase(48, 8);
   uint64_t h = 1469598103934665603ull;  // FNV-1a 64 of everything before the hash
   for (size_t i = 0; i + 8 < bytes.size(); ++i) h = (h ^ (unsigned char)bytes[i]) * 1099511628211ull;
   for (int i = 0; i < 8; ++i) bytes[bytes.size() - 8 + i] = char((h >> (8 * i)) & 0xff);
@@ -336,6 +340,8 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
   const Dictionary e = load_dictionary(tmp.path("v1.tdic"));
   EXPECT_TRUE(e.high == d.high);
   EXPECT_TRUE(e.low_norm.empty());
+  EXPECT_EQ(e.neighbours, 1);  // its gain was calibrated for the nearest atom alone
+  EXPECT_EQ(e.magnitude_weight, 0.f);
   bytes[4] = 3;
   std::ofstream(tmp.path("v3.tdic"), std::ios::binary) << bytes;
   EXPECT_THROW(load_dictionary(tmp.path("v3.tdic")), Error);

@@ -96,6 +96,10 @@ struct Dictionary {
   /// Gain applied to the synthesized detail (output minus bicubic of the input), calibrated on the
   /// exemplar: blending overlapping patches averages uncorrelated detail away.
   float detail_gain = 1.0f;
+  /// The atom search the gain was calibrated for, and the default of amplifications with this
+  /// dictionary (AmplifyOptions::neighbours, magnitude_weight). Version 1 files: 1 and 0.
+  int neighbours = 3;
+  float magnitude_weight = 0.4f;
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
@@ -201,13 +205,15 @@ struct AmplifyOptions {
   std::string search = "auto";  ///< auto | flann | exact | omp (auto: flann for s=1 and > 4096 atoms)
   int trees = 2;
   int checks = 8;
-  /// Sparsity 1: the k best atoms are averaged (their coefficients divided by k).
-  int neighbours = 3;
+  /// Sparsity 1: the k best atoms are averaged (their coefficients divided by k); 0 = the
+  /// dictionary's (the setting its detail gain was calibrated for).
+  int neighbours = 0;
   /// Pool of nearest atoms from which each patch draws its `neighbours` (seeded by the patch's
   /// position; <= neighbours: the nearest ones). Varies the detail of identical footprints.
   int candidates = 0;
-  /// Weight of the magnitude term of the atom search (see magnitude_feature; 0 = off).
-  float magnitude_weight = 0.4f;
+  /// Weight of the magnitude term of the atom search (see magnitude_feature; 0 = off; < 0 = the
+  /// dictionary's).
+  float magnitude_weight = -1;
   unsigned seed = 1;       ///< seed of FLANN's randomized kd-trees (the output is reproducible per seed)
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;

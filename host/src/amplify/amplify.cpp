@@ -41,12 +41,18 @@ void check_options(const AmplifyOptions& o, const Dictionary& d) {
          d.factor, d.patch);
   if (o.sparsity < 1) fail("amplify", "sparsity must be >= 1");
   if (o.tile < 64) fail("amplify", "tile must be >= 64 cells");
-  if (o.neighbours < 1 || o.neighbours > 64) fail("amplify", "neighbours must be between 1 and 64 (got {})", o.neighbours);
+  if (o.neighbours < 0 || o.neighbours > 64) fail("amplify", "neighbours must be between 1 and 64, or 0 for the dictionary's (got {})", o.neighbours);
   if (o.candidates < 0 || o.candidates > 256) fail("amplify", "candidates must be between 0 and 256 (got {})", o.candidates);
-  if (!(o.magnitude_weight >= 0 && o.magnitude_weight < 1e6))
-    fail("amplify", "magnitude weight must be >= 0 (got {})", o.magnitude_weight);
+  if (!(o.magnitude_weight < 1e6)) fail("amplify", "magnitude weight must be finite (got {})", o.magnitude_weight);
   if (o.search != "auto" && o.search != "flann" && o.search != "exact" && o.search != "omp")
     fail("amplify", "search '{}' is not one of auto|flann|exact|omp", o.search);
+}
+
+// The dictionary's search settings where the options leave them open (its gain was calibrated for them).
+AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
+  if (o.neighbours <= 0) o.neighbours = d.neighbours;
+  if (o.magnitude_weight < 0) o.magnitude_weight = d.magnitude_weight;
+  return o;
 }
 
 // One x f step.
@@ -198,10 +204,11 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
   check_options(o, d);
   if (d.factor < 2) fail("amplify", "the dictionary has factor {}: amplification needs a multi-resolution dictionary", d.factor);
   const int steps = steps_for(o.factor, d.factor);
-  const auto index = make_index(d, o);
+  const AmplifyOptions r = resolved(o, d);
+  const auto index = make_index(d, r);
   Heightfield cur = low;
   for (int k = 0; k < steps; ++k)
-    cur = amplify_step(cur, d, o, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps));
+    cur = amplify_step(cur, d, r, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps));
   return cur;
 }
 
@@ -214,9 +221,9 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   Heightfield cur = low;
   std::unique_ptr<Dictionary> dict;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
-  lo.calibration_neighbours = o.neighbours;
+  if (o.neighbours > 0) lo.calibration_neighbours = o.neighbours;
   lo.calibration_candidates = o.candidates;
-  lo.calibration_magnitude_weight = o.magnitude_weight;
+  if (o.magnitude_weight >= 0) lo.calibration_magnitude_weight = o.magnitude_weight;
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
     const double rx = tx / e.cell_x, ry = ty / e.cell_y;
@@ -236,8 +243,9 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
       dict = std::make_unique<Dictionary>(learn_dictionary(ex, lo, scaled_progress(pk, 0, 0.5)));
     }
     check_options(o, *dict);
-    const auto index = make_index(*dict, o);
-    cur = amplify_step(cur, *dict, o, index.get(), scaled_progress(pk, 0.5, 1));
+    const AmplifyOptions r = resolved(o, *dict);
+    const auto index = make_index(*dict, r);
+    cur = amplify_step(cur, *dict, r, index.get(), scaled_progress(pk, 0.5, 1));
   }
   return cur;
 }

@@ -96,6 +96,8 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
+  put<int32_t>(out, d.neighbours);
+  put<float>(out, d.magnitude_weight);
   put<uint32_t>(out, uint32_t(d.description.size()));
   out += d.description;
   for (Eigen::Index i = 0; i < d.high.size(); ++i) put<float>(out, d.high.data()[i]);
@@ -131,6 +133,13 @@ Dictionary load_dictionary(const std::string& path) {
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
   d.detail_gain = r.get<float>("detail gain");
+  d.neighbours = 1, d.magnitude_weight = 0;  // version 1 gains were calibrated for the nearest atom alone
+  if (version >= 2) {
+    d.neighbours = r.get<int32_t>("neighbours");
+    d.magnitude_weight = r.get<float>("magnitude weight");
+    if (d.neighbours < 1 || d.neighbours > 64 || !(d.magnitude_weight >= 0 && d.magnitude_weight < 1e6))
+      fail("dictionary", "{}: corrupt header (neighbours {}, magnitude weight {})", path, d.neighbours, d.magnitude_weight);
+  }
   if (d.patch < 2 || d.patch > 256 || d.factor < 1 || d.factor > 16 || d.patch % d.factor != 0 || atoms < 1 ||
       atoms > 50'000'000 || d.sparsity < 1 || !(d.cell_x >= 0) || !(d.cell_y >= 0) ||
       !(d.detail_gain > 0 && d.detail_gain < 100))
@@ -256,6 +265,8 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   d.cell_x = g0.cell_x;
   d.cell_y = g0.cell_y;
   d.description = fmt::format("{} dictionary, {} training patches", o.method, T.cols());
+  d.neighbours = o.calibration_neighbours;
+  d.magnitude_weight = o.calibration_magnitude_weight;
   std::vector<Eigen::Index> good;
   MatrixF L(p * p, H.cols());
   for (Eigen::Index j = 0; j < H.cols(); ++j) {
