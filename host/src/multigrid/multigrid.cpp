@@ -27,7 +27,8 @@ constexpr int kFmgCyclesPerLevel = 2;
 // the residual levels off at 1.3-1.4x the estimate; at 2x one more V-cycle gains less than 1.5x).
 constexpr double kFloorFactor = 2.0;
 
-// TERRACL_MG_PROFILE=1: wait after every kernel and print the time per kernel (development aid;
+// TERRACL_MG_PROFILE=1: wait after every kernel and print the time per kernel (=2: per kernel and
+// launch size, i.e. per level; development aid;
 // the waits themselves cost 25-50 us each on PoCL).
 bool profiling() {
   static const bool on = std::getenv("TERRACL_MG_PROFILE") != nullptr;
@@ -392,7 +393,7 @@ class Solver {
       m_q.finish();
       std::string name = k.getInfo<CL_KERNEL_FUNCTION_NAME>();
       name = name.c_str();
-      auto& e = profile()[name];
+      auto& e = profile()[std::getenv("TERRACL_MG_PROFILE")[0] == '2' ? fmt::format("{}@{}", name, n) : name];
       e.ms += now_ms() - t;
       e.calls++;
       e.items += items > 0 ? items : double(n);
