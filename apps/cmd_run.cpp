@@ -103,7 +103,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     } catch (const Cancelled&) {
       finish_progress();
       const auto done = report.outputs();
-      throw Error("run",
+      throw Cancelled("run",
                   fmt::format("cancelled by Ctrl-C during stage '{}'; no partial file was left; {}", report.running,
                               done.empty() ? std::string("nothing was written")
                                            : fmt::format("complete outputs: {}", fmt::join(done, ", "))));

@@ -70,7 +70,7 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       s.run(ctx);
     } catch (const Cancelled&) {
       finish_progress();
-      throw Error(s.name, "cancelled by Ctrl-C; no output was written");
+      throw Cancelled(s.name, "cancelled by Ctrl-C; no output was written");
     }
     finish_progress();
     if (a->output.empty()) return;

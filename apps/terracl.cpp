@@ -83,6 +83,10 @@ int main(int argc, char** argv) {
     cli::finish_progress();
     std::cerr << "terracl ERROR: " << e.what() << "\n";
     return 2;
+  } catch (const terracl::Cancelled& e) {
+    cli::finish_progress();
+    std::cerr << "terracl ERROR: " << e.what() << "\n";
+    return 130;  // 128 + SIGINT, as a shell reports a command stopped by Ctrl-C
   } catch (const terracl::Error& e) {
     cli::finish_progress();
     std::cerr << "terracl ERROR: " << e.what() << "\n";

@@ -225,7 +225,7 @@ TEST(RunCli, CtrlCStopsCleanly) {
   waitpid(pid, &status, 0);
   ASSERT_TRUE(sent) << all;
   ASSERT_TRUE(WIFEXITED(status)) << all;
-  EXPECT_EQ(WEXITSTATUS(status), 1) << all;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << all;
   EXPECT_NE(all.find("terracl ERROR: run: cancelled by Ctrl-C during stage"), std::string::npos) << all;
   EXPECT_NE(all.find("no partial file was left"), std::string::npos) << all;
   EXPECT_FALSE(fs::exists(dir.path("out/t11.exr"))) << "the run went on after Ctrl-C\n" << all;

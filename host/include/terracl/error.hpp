@@ -24,10 +24,10 @@ class UsageError : public Error {
   using Error::Error;
 };
 
-/// Thrown when a progress callback asked to stop.
+/// Thrown when a progress callback asked to stop (the CLI exits with 130, the Ctrl-C convention).
 class Cancelled : public Error {
  public:
-  explicit Cancelled(const std::string& stage) : Error(stage, "cancelled") {}
+  explicit Cancelled(const std::string& stage, const std::string& message = "cancelled") : Error(stage, message) {}
 };
 
 template <typename... Args>
