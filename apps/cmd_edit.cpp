@@ -77,7 +77,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     if (!a->preview.empty()) {
       render::Options ro;
       ro.mode = render::Mode::ShadedRelief;
-      render::write_image(render::render(h, ro, device()), a->preview);
+      render::write_image(render::render(h, ro, device()), a->preview, h.metadata);
     }
     if (!a->gradient_out.empty() || !a->gradient_image.empty()) {
       GradientField g = s.gradient();

@@ -9,6 +9,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
+#include <terracl/version.hpp>
 
 #include "test_helpers.hpp"
 
@@ -140,6 +141,17 @@ TEST(MeshExport, GlbAndGltfReReadWithVertexCountAndMetricBounds) {
     expect_bounds(acc, h);  // the accessor's min/max (Blender's importer relies on them)
     for (uint32_t i : idx) ASSERT_LT(i, pos.size() / 3);
   }
+  // Provenance: glTF asset.extras, OBJ header comments.
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadASCIIFromFile(&model, &err, &warn, tmp.path("full.gltf"))) << err;
+  ASSERT_TRUE(model.asset.extras.Has("terracl:version"));
+  EXPECT_EQ(model.asset.extras.Get("terracl:version").Get<std::string>(), terracl::version());
+  ASSERT_EQ(test::run_cli("-q mesh " + in + " -o " + tmp.path("m.obj")).exit_code, 0);
+  std::ifstream obj(tmp.path("m.obj"));
+  std::string head((std::istreambuf_iterator<char>(obj)), {});
+  EXPECT_NE(head.substr(0, 2000).find("# terracl:version = " + std::string(terracl::version())), std::string::npos);
 }
 
 TEST(MeshExport, ObjReReadAndSimplifiedWithinMaxError) {

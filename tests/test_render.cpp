@@ -8,6 +8,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
+#include <terracl/version.hpp>
 
 #include "test_helpers.hpp"
 
@@ -157,6 +158,8 @@ TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {
     EXPECT_EQ(spec.height, 64);
     EXPECT_EQ(spec.nchannels, 3);
     EXPECT_EQ(spec.format, OIIO::TypeDesc::UINT8);
+    EXPECT_EQ(spec.get_string_attribute("terracl:version"), terracl::version()) << "provenance in the PNG";
+    EXPECT_NE(spec.get_string_attribute("terracl:command").find("render"), std::string::npos);
     std::vector<uint8_t> px(size_t(64) * 64 * 3);
     ASSERT_TRUE(img->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
     const auto [lo, hi] = std::minmax_element(px.begin(), px.end());

@@ -26,6 +26,6 @@ Mesh triangulate_full(const Heightfield& h);
 Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Progress& progress = {});
 
 /// Writes .glb (binary glTF 2.0), .gltf (JSON with the buffer embedded) or .obj, atomically.
-void write_mesh(const Mesh& m, const std::string& path);
+void write_mesh(const Mesh& m, const std::string& path, const Metadata& meta = {});
 
 }  // namespace terracl::mesh

@@ -61,7 +61,8 @@ Image render(const Heightfield& h, const Options& opt);
 /// host version within one level per channel).
 Image render(const Heightfield& h, const Options& opt, Device& device);
 
-/// Writes an 8-bit PNG (any other extension OIIO knows works too), atomically.
-void write_image(const Image& img, const std::string& path);
+/// Writes an 8-bit PNG (any other extension OIIO knows works too), atomically, with `meta`
+/// (provenance) as text attributes.
+void write_image(const Image& img, const std::string& path, const Metadata& meta = {});
 
 }  // namespace terracl::render

@@ -42,7 +42,7 @@ void run_sketch(StageContext& c) {
   img.width = s.width;
   img.height = s.height;
   img.pixels = s.rgb;
-  render::write_image(img, c.get<std::string>("file"));
+  render::write_image(img, c.get<std::string>("file"), c.provenance);
   if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), analysis::sketch_to_json(s, h).dump(1) + "\n");
 }
 
@@ -57,14 +57,14 @@ void run_render(StageContext& c) {
   const Heightfield& h = c.height();
   const render::Image img =
       c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
-  render::write_image(img, c.get<std::string>("file"));
+  render::write_image(img, c.get<std::string>("file"), c.provenance);
 }
 
 void run_mesh(StageContext& c) {
   const Heightfield& h = c.height();
   const mesh::Mesh m = c.has("max_error") ? mesh::triangulate_simplified(h, c.get<double>("max_error"), c.progress)
                                           : mesh::triangulate_full(h);
-  mesh::write_mesh(m, c.get<std::string>("file"));
+  mesh::write_mesh(m, c.get<std::string>("file"), c.provenance);
 }
 
 void run_drainage(StageContext& c) {

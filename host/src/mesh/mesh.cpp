@@ -190,7 +190,7 @@ std::vector<float> vertex_normals(const Mesh& m) {
   return out;
 }
 
-void write_obj(const Mesh& m, const std::string& path) {
+void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
   write_atomically(path, [&](const std::string& tmp) {
     FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) fail("mesh", "cannot write {}", path);
@@ -205,6 +205,11 @@ void write_obj(const Mesh& m, const std::string& path) {
     };
     buf += fmt::format("# terracl heightfield mesh: metres, Y up, X east, Z south\n# {} vertices, {} triangles\n",
                        m.vertex_count(), m.triangle_count());
+    for (const auto& [k, v] : meta) {  // provenance as comments, one line each
+      std::string line = v;
+      std::replace(line.begin(), line.end(), '\n', ' ');
+      buf += fmt::format("# {} = {}\n", k, line);
+    }
     for (size_t v = 0; v < m.vertex_count(); ++v) {
       fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", m.positions[3 * v], m.positions[3 * v + 1],
                      m.positions[3 * v + 2]);
@@ -225,7 +230,7 @@ void write_obj(const Mesh& m, const std::string& path) {
   });
 }
 
-void write_gltf(const Mesh& m, const std::string& path, bool binary) {
+void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metadata& meta) {
   tinygltf::Model model;
   tinygltf::Buffer buffer;
   const size_t pos_bytes = m.positions.size() * sizeof(float), idx_bytes = m.indices.size() * sizeof(uint32_t);
@@ -293,6 +298,11 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary) {
   model.defaultScene = 0;
   model.asset.version = "2.0";
   model.asset.generator = "terracl";
+  if (!meta.empty()) {  // provenance in asset.extras (glTF's place for application data)
+    tinygltf::Value::Object extras;
+    for (const auto& [k, v] : meta) extras[k] = tinygltf::Value(v);
+    model.asset.extras = tinygltf::Value(extras);
+  }
 
   write_atomically(path, [&](const std::string& tmp) {
     tinygltf::TinyGLTF writer;
@@ -303,15 +313,15 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary) {
 
 }  // namespace
 
-void write_mesh(const Mesh& m, const std::string& path) {
+void write_mesh(const Mesh& m, const std::string& path, const Metadata& meta) {
   std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if (ext == ".obj")
-    write_obj(m, path);
+    write_obj(m, path, meta);
   else if (ext == ".glb")
-    write_gltf(m, path, true);
+    write_gltf(m, path, true, meta);
   else if (ext == ".gltf")
-    write_gltf(m, path, false);
+    write_gltf(m, path, false, meta);
   else
     fail("mesh", "{}: unknown mesh format '{}' (expected .glb, .gltf or .obj)", path, ext);
 }

@@ -219,12 +219,14 @@ Image render(const Heightfield& h, const Options& opt) {
   return img;
 }
 
-void write_image(const Image& img, const std::string& path) {
+void write_image(const Image& img, const std::string& path, const Metadata& meta) {
   if (img.pixels.size() != size_t(img.width) * img.height * img.channels) fail("render", "inconsistent image buffer");
   write_atomically(path, [&](const std::string& tmp) {
     auto out = OIIO::ImageOutput::create(tmp);
     if (!out) fail("render", "cannot write {}: {}", path, OIIO::geterror());
     OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
+    spec.attribute("Software", "terracl");
+    for (const auto& [k, v] : meta) spec.attribute(k, v);  // PNG text chunks
     if (!out->open(tmp, spec)) fail("render", "cannot write {}: {}", path, out->geterror());
     if (!out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()))
       fail("render", "cannot write {}: {}", path, out->geterror());
