@@ -80,8 +80,10 @@ struct GradientField {
   size_t size() const { return gx.size(); }
 };
 
-/// Replaces nodata (NaN) cells by the harmonic interpolation of their valid neighbours
-/// (Laplace equation with the valid cells as Dirichlet values). Throws if no cell is valid.
+/// Replaces nodata (NaN) cells by the harmonic interpolation of their valid neighbours: the
+/// discrete Laplace equation of the metric grid (weights 1/cell_x^2, 1/cell_y^2) with the valid
+/// cells as Dirichlet values and a natural border, solved exactly (sparse Cholesky). Throws if no
+/// cell is valid.
 void fill_nodata_harmonic(Heightfield& h);
 
 /// Throws a clear error naming `stage` and `what` when `h` has NaN/Inf cells.

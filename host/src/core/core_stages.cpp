@@ -7,7 +7,7 @@ namespace terracl {
 
 void register_core_stages(StageRegistry& r) {
   r.add({"fill_nodata",
-         "Replace nodata cells by a harmonic (Laplace) interpolation of their valid neighbours.",
+         "Replace nodata cells by the harmonic (Laplace, metric cells) interpolation of their valid neighbours, solved exactly.",
          DataKind::Heightfield,
          DataKind::Heightfield,
          {},

@@ -1,6 +1,10 @@
 #include <terracl/error.hpp>
 #include <terracl/heightfield.hpp>
 
+#include <Eigen/Sparse>
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCholesky>
+
 #include <algorithm>
 #include <cmath>
 
@@ -91,42 +95,72 @@ void require_finite(const Heightfield& h, const std::string& stage, const std::s
          bad == 1 ? "" : "s", h.size());
 }
 
+// Above this many unknowns the fill uses conjugate gradients (incomplete Cholesky preconditioner)
+// instead of a sparse Cholesky factorisation, whose memory grows faster than the void. Measured on
+// a 724k-cell void in N44W072: Cholesky 7.5 s, 0.66 GB; conjugate gradients 80 s, 0.40 GB.
+constexpr size_t kDirectFillCells = 2000000;
+
 void fill_nodata_harmonic(Heightfield& h) {
   const size_t bad = h.count_nodata();
   if (bad == 0) return;
   if (bad == h.size()) fail("fill-nodata", "every cell is nodata; nothing to interpolate from");
-  // Gauss-Seidel on the holes only, started from the mean of the valid cells. Holes in real DEMs
-  // are small, so a few hundred sweeps over just the hole cells converge quickly.
+  // The discrete Laplace equation of the metric grid on the hole cells, sum over in-grid
+  // neighbours n of w_n (z_n - z) = 0 with w = 1/cx^2 along rows and 1/cy^2 along columns (so
+  // anisotropic geographic cells interpolate in metres), valid neighbours as Dirichlet values and
+  // a natural (Neumann) border. Every hole component touches a valid cell, so the system is SPD:
+  // a sparse Cholesky factorisation solves it exactly whatever the size of the voids (sweeps over
+  // the hole cells needed ~n^2 iterations for an n-cell-wide void).
+  const int W = h.width, H = h.height;
+  const double cx = h.georef.cell_x > 0 && std::isfinite(h.georef.cell_x) ? h.georef.cell_x : 1.0;
+  const double cy = h.georef.cell_y > 0 && std::isfinite(h.georef.cell_y) ? h.georef.cell_y : 1.0;
+  // Relative weights (the larger one is 1) keep the matrix well scaled.
+  const double wx = std::min(1.0, (cy * cy) / (cx * cx)), wy = std::min(1.0, (cx * cx) / (cy * cy));
+  std::vector<int> id(h.size(), -1);
   std::vector<size_t> holes;
-  double sum = 0;
-  size_t valid = 0;
-  for (size_t i = 0; i < h.z.size(); ++i) {
-    if (std::isfinite(h.z[i])) {
-      sum += h.z[i];
-      ++valid;
-    } else {
+  holes.reserve(bad);
+  for (size_t i = 0; i < h.size(); ++i)
+    if (!std::isfinite(h.z[i])) {
+      id[i] = int(holes.size());
       holes.push_back(i);
     }
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(5 * holes.size());
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(holes.size()));
+  for (size_t k = 0; k < holes.size(); ++k) {
+    const size_t i = holes[k];
+    const int x = int(i % size_t(W)), y = int(i / size_t(W));
+    double diag = 0;
+    auto link = [&](bool inside, size_t n, double w) {
+      if (!inside) return;
+      diag += w;
+      if (id[n] >= 0) t.emplace_back(int(k), id[n], -w);
+      else rhs[Eigen::Index(k)] += w * double(h.z[n]);
+    };
+    link(x > 0, i - 1, wx);
+    link(x + 1 < W, i + 1, wx);
+    link(y > 0, i - size_t(W), wy);
+    link(y + 1 < H, i + size_t(W), wy);
+    t.emplace_back(int(k), int(k), diag);
   }
-  const float mean = float(sum / double(valid));
-  for (size_t i : holes) h.z[i] = mean;
-  const int W = h.width, H = h.height;
-  for (int it = 0; it < 5000; ++it) {
-    double change = 0;
-    for (size_t i : holes) {
-      const int x = int(i % W), y = int(i / W);
-      double s = 0;
-      int k = 0;
-      if (x > 0) s += h.z[i - 1], ++k;
-      if (x + 1 < W) s += h.z[i + 1], ++k;
-      if (y > 0) s += h.z[i - W], ++k;
-      if (y + 1 < H) s += h.z[i + W], ++k;
-      const float v = float(s / k);
-      change = std::max(change, double(std::fabs(v - h.z[i])));
-      h.z[i] = v;
-    }
-    if (change < 1e-4) break;
+  Eigen::SparseMatrix<double> A(Eigen::Index(holes.size()), Eigen::Index(holes.size()));
+  A.setFromTriplets(t.begin(), t.end());
+  Eigen::VectorXd z;
+  if (holes.size() <= kDirectFillCells) {
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+    if (ldlt.info() != Eigen::Success)
+      fail("fill-nodata", "the interpolation of {} nodata cells failed (out of memory?)", holes.size());
+    z = ldlt.solve(rhs);
+  } else {
+    Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper, Eigen::IncompleteCholesky<double>> cg;
+    cg.setTolerance(1e-10);
+    cg.setMaxIterations(20000);
+    cg.compute(A);
+    z = cg.solve(rhs);
+    if (cg.info() != Eigen::Success)
+      fail("fill-nodata", "the interpolation of {} nodata cells did not converge ({} iterations, error {:.1e})",
+           holes.size(), cg.iterations(), cg.error());
   }
+  for (size_t k = 0; k < holes.size(); ++k) h.z[holes[k]] = float(z[Eigen::Index(k)]);
 }
 
 }  // namespace terracl
