@@ -284,7 +284,7 @@ TEST(ErosionBrush, ConstraintsInPixelsAndGeoreferencedAgree) {
   std::ofstream(tmp.path("geo.json")) << R"({"units": "georeferenced",
       "polygons": [{"points": [[1035, 4955], [1125, 4955], [1125, 4905], [1035, 4905]]}],
       "polylines": [{"points": [[1205, 4975], [1205, 4845]], "width": 3}],
-      "points": [{"x": 1255, "y": 4815}]})";
+      "points": [{"x": 1255, "y": 4815, "z": 7}]})";
   const auto a = read_fixed_cells(tmp.path("px.json"), grid);
   const auto b = read_fixed_cells(tmp.path("geo.json"), grid);
   EXPECT_EQ(a, b);

@@ -97,7 +97,11 @@ TEST(Constraints, BadJsonErrorsNameThePath) {
   EXPECT_NE(err(R"({"points": [{"x": 1, "y": 1, "z": 1}, {"x": 30, "y": 1, "z": 1}]})").find("c.json/points/1"),
             std::string::npos);
   EXPECT_NE(err(R"({"points": [{"x": 1, "y": 1, "z": null}]})").find("c.json/points/0/z"), std::string::npos);
-  EXPECT_NE(err(R"({"points": [{"x": 1, "y": 1}]})").find("missing \"z\""), std::string::npos);
+  EXPECT_NE(err(R"({"points": [{"x": 1, "y": 1}]})").find("c.json/points/0/z: missing z"), std::string::npos);
+  EXPECT_NE(err(R"({"polylines": [{"points": [[1, 1], [1, 2]]}]})").find("c.json/polylines/0/points/0: missing z"),
+            std::string::npos);
+  EXPECT_NE(err(R"({"polygons": [{"points": [[1, 1], [5, 1], [5, 5]]}]})").find("c.json/polygons/0: missing \"z\""),
+            std::string::npos);
   EXPECT_NE(err(R"({"polylines": [{"points": [[1, 1, 1], [1, 2]]}]})").find("c.json/polylines/0/points/1"),
             std::string::npos);
   EXPECT_NE(err(R"({"polylines": [{"points": [[1, 1, 1]], "width": -2}]})").find("width"), std::string::npos);
@@ -110,6 +114,30 @@ TEST(Constraints, BadJsonErrorsNameThePath) {
   EXPECT_NE(err(R"({"pointz": []})").find("c.json/pointz"), std::string::npos);
   EXPECT_NE(err(R"({"units": "map", "points": []})").find("georeferenced"), std::string::npos);
   EXPECT_NE(err(R"([1, 2])").find("JSON object"), std::string::npos);
+}
+
+// Where the current elevations are known (--initial, a pipeline's previous stage, erosion's input)
+// z may be omitted: points and polyline vertices take the current elevation of their nearest cell,
+// polygons are frozen. Points may be [x, y(, z)] arrays; "georeferenced" is an alias of "map".
+TEST(Constraints, OmittedZTakesTheCurrentElevation) {
+  Heightfield cur(10, 8);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 10; ++x) cur.at(x, y) = float(100 * y + x);
+  cur.georef.geotransform = {500.0, 10.0, 0.0, 900.0, 0.0, -10.0};
+  cur.georef.has_geotransform = true;
+  ConstraintSet c(10, 8);
+  add_constraints_json(c, json::parse(R"({"units": "georeferenced",
+      "points": [[515, 875], {"x": 575, "y": 855, "z": 3}],
+      "polylines": [{"points": [[505, 835], [545, 835]]}],
+      "polygons": [{"points": [[560, 845], [595, 845], [595, 825], [560, 825]]}]})"),
+                       cur.georef, &cur, "c.json");
+  EXPECT_EQ(c.value(1, 2), cur.at(1, 2));  // [515, 875] -> cell (1, 2)
+  EXPECT_EQ(c.value(7, 4), 3.f);           // an explicit z is kept
+  EXPECT_EQ(c.value(0, 6), cur.at(0, 6));  // polyline ends take their cells' elevations,
+  EXPECT_EQ(c.value(4, 6), cur.at(4, 6));
+  EXPECT_NEAR(c.value(2, 6), 0.5 * (cur.at(0, 6) + cur.at(4, 6)), 1e-3);  // interpolated between them
+  EXPECT_EQ(c.value(7, 6), cur.at(7, 6));  // inside the frozen polygon
+  EXPECT_TRUE(std::isnan(c.value(0, 0)));
 }
 
 TEST(Constraints, ConflictingConstraintsInASolveFollowThePriorityRule) {

@@ -233,9 +233,9 @@ void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Geo
   bool map = false;
   if (doc.contains("units")) {
     const auto& u = doc.at("units");
-    if (!u.is_string() || (u != "pixels" && u != "map"))
-      fail("constraints", "{}/units: expected \"pixels\" or \"map\", got {}", source, u.dump());
-    map = u == "map";
+    if (!u.is_string() || (u != "pixels" && u != "map" && u != "georeferenced"))
+      fail("constraints", "{}/units: expected \"pixels\" or \"map\" (alias \"georeferenced\"), got {}", source, u.dump());
+    map = u != "pixels";
     if (map && !georef.has_geotransform)
       fail("constraints", "{}/units: \"map\" coordinates need a georeferenced grid, and this one has none", source);
   }
@@ -252,14 +252,34 @@ void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Geo
     if (!j.is_array()) fail("constraints", "{}: expected an array, got {}", path, j.dump());
     return j;
   };
+  // An omitted z is the current elevation at the nearest cell when `current` is known (erosion's
+  // kept constraints only need the cells; a reconstruction with --initial keeps the terrain there).
+  auto current_z = [&](const std::array<double, 2>& px, const std::string& path) {
+    if (!current)
+      fail("constraints", "{}: missing z (a number; it may be omitted only where the current elevations are known, "
+                          "e.g. with --initial)", path);
+    const int x = int(std::lround(px[0])), y = int(std::lround(px[1]));
+    if (x < 0 || y < 0 || x >= current->width || y >= current->height)
+      fail("constraints", "{}: point ({}, {}) is outside the {}x{} grid", path, px[0], px[1], current->width, current->height);
+    return double(current->at(x, y));
+  };
   if (doc.contains("points")) {
     const auto& a = array(doc.at("points"), source + "/points");
     for (size_t i = 0; i < a.size(); ++i) {
       const std::string p = fmt::format("{}/points/{}", source, i);
-      const double x = number(field(a[i], "x", p), p + "/x"), y = number(field(a[i], "y", p), p + "/y");
-      const double z = number(field(a[i], "z", p), p + "/z");
+      // {"x": .., "y": .., "z": ..} or [x, y, z]; z optional with known current elevations.
+      double x = 0, y = 0;
+      const nlohmann::json* zj = nullptr;
+      if (a[i].is_array()) {
+        if (a[i].size() != 2 && a[i].size() != 3) fail("constraints", "{}: expected [x, y] or [x, y, z], got {}", p, a[i].dump());
+        x = number(a[i][0], p + "/0"), y = number(a[i][1], p + "/1");
+        if (a[i].size() == 3) zj = &a[i][2];
+      } else {
+        x = number(field(a[i], "x", p), p + "/x"), y = number(field(a[i], "y", p), p + "/y");
+        if (a[i].contains("z")) zj = &a[i].at("z");
+      }
       const auto px = to_pixel(x, y, p);
-      c.add_point(px[0], px[1], z, p);
+      c.add_point(px[0], px[1], zj ? number(*zj, p + "/z") : current_z(px, p + "/z"), p);
     }
   }
   if (doc.contains("polylines")) {
@@ -273,9 +293,11 @@ void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Geo
       std::vector<std::array<double, 3>> v;
       for (size_t k = 0; k < pts.size(); ++k) {
         const std::string q = fmt::format("{}/points/{}", p, k);
-        if (!pts[k].is_array() || pts[k].size() != 3) fail("constraints", "{}: expected [x, y, z], got {}", q, pts[k].dump());
+        if (!pts[k].is_array() || (pts[k].size() != 3 && pts[k].size() != 2))
+          fail("constraints", "{}: expected [x, y, z] (or [x, y] where the current elevations are known), got {}", q,
+               pts[k].dump());
         const auto px = to_pixel(number(pts[k][0], q + "/0"), number(pts[k][1], q + "/1"), q);
-        v.push_back({px[0], px[1], number(pts[k][2], q + "/2")});
+        v.push_back({px[0], px[1], pts[k].size() == 3 ? number(pts[k][2], q + "/2") : current_z(px, q)});
       }
       c.add_polyline(v, width, p);
     }
@@ -291,7 +313,9 @@ void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Geo
         if (!pts[k].is_array() || pts[k].size() != 2) fail("constraints", "{}: expected [x, y], got {}", q, pts[k].dump());
         v.push_back(to_pixel(number(pts[k][0], q + "/0"), number(pts[k][1], q + "/1"), q));
       }
-      const auto& z = field(a[i], "z", p);
+      // An omitted z freezes the polygon where the current elevations are known.
+      static const nlohmann::json kFreeze = "freeze";
+      const auto& z = a[i].contains("z") || !current ? field(a[i], "z", p) : kFreeze;
       if (z.is_string()) {
         if (z != "freeze") fail("constraints", "{}/z: expected a number or \"freeze\", got {}", p, z.dump());
         if (!current)

@@ -1,10 +1,7 @@
 // The `erode` stage, its brush / constraint inputs and `terracl bench erode`.
-//
-// Hard constraints: host/include/terracl/constraints.hpp does not exist yet, so read_fixed_cells is a
-// minimal reader of the constraints JSON (points, polygons, polylines) that only answers "which cells
-// are fixed"; switch to the shared ConstraintSet once it lands.
 #include "pipeline/builtin.hpp"
 
+#include <terracl/constraints.hpp>
 #include <terracl/erosion.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -25,124 +22,16 @@ namespace {
 
 constexpr const char* kStage = "erode";
 
-struct Pt {
-  double x, y;
-};
-
-// Pixel coordinates (column, row; cell centres at integers) of a JSON coordinate pair.
-Pt to_pixel(const json& v, const std::string& where, bool geo, const Heightfield& g, const std::string& file) {
-  double x = 0, y = 0;
-  if (v.is_array() && v.size() >= 2 && v[0].is_number() && v[1].is_number()) {
-    x = v[0].get<double>();
-    y = v[1].get<double>();
-  } else if (v.is_object() && v.contains("x") && v.contains("y") && v["x"].is_number() && v["y"].is_number()) {
-    x = v["x"].get<double>();
-    y = v["y"].get<double>();
-  } else {
-    fail(kStage, "{}: {}: expected [x, y] or {{\"x\": .., \"y\": ..}}, got {}", file, where, v.dump());
-  }
-  if (!std::isfinite(x) || !std::isfinite(y)) fail(kStage, "{}: {}: coordinates must be finite", file, where);
-  if (geo) {
-    const auto& gt = g.georef.geotransform;
-    if (gt[2] != 0 || gt[4] != 0) fail(kStage, "{}: rotated geotransforms are not supported", file);
-    x = (x - gt[0]) / gt[1] - 0.5;
-    y = (y - gt[3]) / gt[5] - 0.5;
-  }
-  if (x < -0.5 || y < -0.5 || x > g.width - 0.5 || y > g.height - 0.5)
-    fail(kStage, "{}: {}: point ({}, {}) is outside the {}x{} grid", file, where, x, y, g.width, g.height);
-  return {x, y};
-}
-
-std::vector<Pt> point_list(const json& obj, const std::string& where, bool geo, const Heightfield& g,
-                           const std::string& file) {
-  const json* arr = nullptr;
-  std::string key;
-  for (const char* k : {"points", "vertices"})
-    if (obj.is_object() && obj.contains(k)) arr = &obj.at(k), key = k;
-  if (!arr || !arr->is_array() || arr->empty())
-    fail(kStage, "{}: {}: expected a non-empty \"points\" array", file, where);
-  std::vector<Pt> pts;
-  for (size_t i = 0; i < arr->size(); ++i)
-    pts.push_back(to_pixel((*arr)[i], fmt::format("{}/{}/{}", where, key, i), geo, g, file));
-  return pts;
-}
-
-double segment_distance(Pt p, Pt a, Pt b) {
-  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-  double t = len2 > 0 ? ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
-  return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
-}
-
 }  // namespace
 
 std::vector<unsigned char> read_fixed_cells(const std::string& path, const Heightfield& g) {
-  std::ifstream in(path);
-  if (!in) fail(kStage, "cannot open constraints file {}", path);
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::exception& e) {
-    fail(kStage, "{}: not valid JSON: {}", path, e.what());
-  }
-  if (!j.is_object()) fail(kStage, "{}: expected a JSON object with points/polygons/polylines", path);
-  bool geo = false;
-  if (j.contains("units")) {
-    const std::string u = j["units"].is_string() ? j["units"].get<std::string>() : "";
-    if (u == "georeferenced") geo = true;
-    else if (u != "pixels") fail(kStage, "{}: /units: expected \"pixels\" or \"georeferenced\", got {}", path, j["units"].dump());
-  }
+  // The shared constraint reader; the erosion only needs which cells are hard, so z may be omitted
+  // (it defaults to the input elevation, `g` serves as the current terrain).
+  ConstraintSet c(g.width, g.height);
+  add_constraints_file(c, path, g.georef, &g);
   std::vector<unsigned char> fixed(g.size(), 0);
-  auto mark = [&](int x, int y) {
-    if (x >= 0 && y >= 0 && x < g.width && y < g.height) fixed[size_t(y) * g.width + x] = 1;
-  };
-  auto array_of = [&](const char* key) -> const json& {
-    static const json empty = json::array();
-    if (!j.contains(key)) return empty;
-    if (!j[key].is_array()) fail(kStage, "{}: /{}: expected an array", path, key);
-    return j[key];
-  };
-  const json& points = array_of("points");
-  for (size_t i = 0; i < points.size(); ++i) {
-    const Pt p = to_pixel(points[i], fmt::format("/points/{}", i), geo, g, path);
-    if (points[i].is_object() && points[i].contains("z") && !points[i]["z"].is_number() && points[i]["z"] != "freeze")
-      fail(kStage, "{}: /points/{}/z: expected a number or \"freeze\"", path, i);
-    mark(int(std::lround(p.x)), int(std::lround(p.y)));
-  }
-  const json& polygons = array_of("polygons");
-  for (size_t i = 0; i < polygons.size(); ++i) {
-    const auto poly = point_list(polygons[i], fmt::format("/polygons/{}", i), geo, g, path);
-    if (poly.size() < 3) fail(kStage, "{}: /polygons/{}: a polygon needs at least 3 points", path, i);
-    for (int y = 0; y < g.height; ++y)
-      for (int x = 0; x < g.width; ++x) {
-        bool inside = false;  // even-odd rule at the cell centre
-        for (size_t a = 0, b = poly.size() - 1; a < poly.size(); b = a++) {
-          const Pt& pa = poly[a];
-          const Pt& pb = poly[b];
-          if ((pa.y > y) != (pb.y > y) && x < (pb.x - pa.x) * (y - pa.y) / (pb.y - pa.y) + pa.x) inside = !inside;
-        }
-        if (inside) mark(x, y);
-      }
-    for (const Pt& p : poly) mark(int(std::lround(p.x)), int(std::lround(p.y)));
-  }
-  const json& lines = array_of("polylines");
-  for (size_t i = 0; i < lines.size(); ++i) {
-    const auto line = point_list(lines[i], fmt::format("/polylines/{}", i), geo, g, path);
-    double width = 1.0;
-    if (lines[i].contains("width")) {
-      if (!lines[i]["width"].is_number() || !(lines[i]["width"].get<double>() > 0))
-        fail(kStage, "{}: /polylines/{}/width: expected a positive number of cells", path, i);
-      width = lines[i]["width"].get<double>();
-    }
-    const double r = std::max(0.5, width / 2);
-    for (int y = 0; y < g.height; ++y)
-      for (int x = 0; x < g.width; ++x) {
-        double dmin = INFINITY;
-        for (size_t k = 0; k + 1 < line.size(); ++k) dmin = std::min(dmin, segment_distance({double(x), double(y)}, line[k], line[k + 1]));
-        if (line.size() == 1) dmin = std::hypot(x - line[0].x, y - line[0].y);
-        if (dmin <= r) mark(x, y);
-      }
-  }
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x) fixed[size_t(y) * g.width + x] = c.is_hard(x, y) ? 1 : 0;
   return fixed;
 }
 

@@ -73,9 +73,11 @@ class ConstraintSet {
 ///    "points":    [{"x": 10, "y": 20, "z": 1500}, ...],
 ///    "polylines": [{"points": [[x, y, z], ...], "width": 3}, ...],
 ///    "polygons":  [{"points": [[x, y], ...], "z": 1200}, {"points": [...], "z": "freeze"}]}
-/// "map" coordinates go through the inverse geotransform of `georef`. `current` provides the
-/// elevations of "freeze" polygons (null: such polygons are an error). Every error names the
-/// JSON path ("<source>/polylines/2/points/1: ...").
+/// "map" (alias "georeferenced") coordinates go through the inverse geotransform of `georef`.
+/// Points may also be [x, y, z] arrays. `current` provides the elevations of "freeze" polygons,
+/// and of an omitted z: points and polyline vertices ([x, y]) then take the current elevation at
+/// their nearest cell and polygons without z are frozen (null `current`: all of these are errors).
+/// Every error names the JSON path ("<source>/polylines/2/points/1: ...").
 void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Georef& georef, const Heightfield* current,
                           const std::string& source);
 

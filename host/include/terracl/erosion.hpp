@@ -127,11 +127,9 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
                   const std::vector<float>* weight = nullptr, ErosionOutputs* outputs = nullptr,
                   const Progress& progress = {});
 
-/// Minimal reader of hard constraints for `--keep-constraints`: a JSON object with "points"
-/// ([{"x", "y"[, "z"]}]), "polygons" ([{"points": [[x, y], ...]}] or {"vertices": ...}) and
-/// "polylines" ([{"points": [[x, y], ...], "width": cells}]); coordinates in pixels (column, row;
-/// cell centres at integers) unless "units": "georeferenced". Returns a width*height mask, 1 = fixed.
-/// Errors name the file and the JSON path.
+/// The cells of a constraint JSON file (the format of `reconstruct --constraints`, read by
+/// add_constraints_file; z may be omitted here) as a width*height mask, 1 = fixed, for
+/// `--keep-constraints`. Errors name the file and the JSON path.
 std::vector<unsigned char> read_fixed_cells(const std::string& path, const Heightfield& grid);
 
 /// Brush weight from a mask raster (any format read_heightfield reads; values scaled so the mask's
