@@ -90,6 +90,20 @@ TEST(Device, AllocationBeyondLimitIsClearError) {
   }
 }
 
+// Allocation accounting is per physical device: two Device objects on the same device see each
+// other's buffers, and a buffer's bytes are returned when it is released.
+TEST(Device, AllocationAccountingIsPerPhysicalDeviceAndReleases) {
+  Device& d = test::device();
+  auto other = Device::open(std::to_string(d.info().index));
+  const uint64_t before = d.allocated_bytes();
+  EXPECT_EQ(other->allocated_bytes(), before);
+  {
+    cl::Buffer b = other->buffer(1 << 20, CL_MEM_READ_WRITE, "accounting test");
+    EXPECT_EQ(d.allocated_bytes(), before + (1 << 20));
+  }
+  EXPECT_EQ(d.allocated_bytes(), before);
+}
+
 TEST(Device, BadIndexIsClearError) {
   EXPECT_THROW(Device::open("9999"), Error);
   EXPECT_THROW(Device::open("no-such-device-name-xyz"), Error);

@@ -2,6 +2,7 @@
 /// OpenCL device layer: device choice, context and queue, embedded kernels and program cache.
 #include <terracl/cl.hpp>
 
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -63,7 +64,8 @@ class Device {
   /// Device buffer with a clear error when `bytes` exceeds the device's max allocation or global
   /// memory; `what` names the buffer in that error.
   cl::Buffer buffer(size_t bytes, cl_mem_flags flags, const std::string& what);
-  /// Bytes currently allocated through buffer() and not yet released (approximate accounting).
+  /// Bytes currently allocated through buffer() on this physical device (by every Device object
+  /// opened on it) and not yet released (approximate accounting).
   uint64_t allocated_bytes() const;
 
  private:
@@ -74,6 +76,7 @@ class Device {
   cl::CommandQueue m_queue;
   std::mutex m_mutex;
   std::map<std::string, cl::Program> m_programs;
+  std::shared_ptr<std::atomic<int64_t>> m_allocated;  ///< shared by the Devices of one cl_device_id
 };
 
 /// Source of an embedded kernel file by stem ("gradient" for kernels/gradient.cl); throws if unknown.

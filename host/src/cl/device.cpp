@@ -122,7 +122,16 @@ struct AllocRecord {
   std::shared_ptr<std::atomic<int64_t>> counter;
   int64_t bytes;
 };
-std::shared_ptr<std::atomic<int64_t>> g_allocated = std::make_shared<std::atomic<int64_t>>(0);
+// One counter per physical device: devices have their own memory, and Device objects opened on
+// the same device share it.
+std::shared_ptr<std::atomic<int64_t>> allocation_counter(cl_device_id id) {
+  static std::mutex mutex;
+  static std::map<cl_device_id, std::shared_ptr<std::atomic<int64_t>>> counters;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& c = counters[id];
+  if (!c) c = std::make_shared<std::atomic<int64_t>>(0);
+  return c;
+}
 
 void CL_CALLBACK on_release(cl_mem, void* user) {
   auto* r = static_cast<AllocRecord*>(user);
@@ -143,6 +152,7 @@ std::shared_ptr<Device> Device::open(const std::string& spec) {
   std::shared_ptr<Device> d(new Device());
   d->m_info = e.info;
   d->m_device = e.device;
+  d->m_allocated = allocation_counter(e.device());
   try {
     d->m_context = cl::Context(e.device);
     d->m_queue = cl::CommandQueue(d->m_context, e.device);
@@ -166,15 +176,15 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   if (bytes > m_info.max_alloc)
     fail("device", "{} needs {:.1f} MiB, more than the largest allocation {} allows ({:.1f} MiB)", what,
          bytes / 1048576.0, m_info.name, m_info.max_alloc / 1048576.0);
-  if (uint64_t(g_allocated->load()) + bytes > m_info.global_mem)
+  if (uint64_t(m_allocated->load()) + bytes > m_info.global_mem)
     fail("device", "{} needs {:.1f} MiB, but {} has {:.1f} MiB of global memory and {:.1f} MiB are in use", what,
-         bytes / 1048576.0, m_info.name, m_info.global_mem / 1048576.0, g_allocated->load() / 1048576.0);
+         bytes / 1048576.0, m_info.name, m_info.global_mem / 1048576.0, m_allocated->load() / 1048576.0);
   try {
     cl::Buffer b(m_context, flags, bytes);
-    g_allocated->fetch_add(int64_t(bytes));
-    auto* rec = new AllocRecord{g_allocated, int64_t(bytes)};
+    m_allocated->fetch_add(int64_t(bytes));
+    auto* rec = new AllocRecord{m_allocated, int64_t(bytes)};
     if (clSetMemObjectDestructorCallback(b(), on_release, rec) != CL_SUCCESS) {
-      g_allocated->fetch_sub(int64_t(bytes));
+      m_allocated->fetch_sub(int64_t(bytes));
       delete rec;
     }
     return b;
@@ -183,6 +193,6 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   }
 }
 
-uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, g_allocated->load())); }
+uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, m_allocated->load())); }
 
 }  // namespace terracl
