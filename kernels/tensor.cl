@@ -93,7 +93,13 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   vf best = (vf)(MAXFLOAT);
   vi inside = (vi)(0), seg = (vi)(-1);
   vf sAx = zero, sAy = zero, sBx = zero, sBy = zero;  // metric end points
-  vf sax = zero, say = zero, saz = zero, sbx = zero, sby = zero, sbz = zero;  // real end points
+  vf sax = zero, say = zero, sbx = zero, sby = zero;  // real end points
+  // The runner-up segment's distance, unit tangent and amplitude: the stroke's tangent and amplitude
+  // fields blend the two nearest segments where their distances are close. Otherwise both would
+  // jump where the closest segment changes: on the inner side of a bend the two closest points
+  // differ, and per-vertex amplitudes made a profile step there (a 60-100 m cliff in the
+  // mountain_range example).
+  vf second = (vf)(MAXFLOAT), t0x = one, t0y = zero, t1x = one, t1y = zero, a0 = zero, a1 = zero;
   for (int s = 0; s < nseg; ++s) {
     const float4 a4 = verts[v0 + s];
     const float4 b4 = verts[v0 + ((s + 1) % nv)];
@@ -105,12 +111,24 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     const vf dx = Px - (Ax + t * abx), dy = Py - (Ay + t * aby);
     const vf d2 = dx * dx + dy * dy;
     const vi m = d2 < best;
+    const float2 tr = b4.xy - a4.xy;
+    const float trl = length(tr);
+    const float2 tu = trl > 0.0f ? tr / trl : (float2)(1.0f, 0.0f);
+    const vi m2 = (~m) & (d2 < second);  // new runner-up (not a new best)
+    const vf amp = a4.z + t * (b4.z - a4.z);
+    second = select(select(second, d2, m2), best, m);
+    a1 = select(select(a1, amp, m2), a0, m);
+    a0 = select(a0, amp, m);
+    t1x = select(select(t1x, (vf)(tu.x), m2), t0x, m);
+    t1y = select(select(t1y, (vf)(tu.y), m2), t0y, m);
+    t0x = select(t0x, (vf)(tu.x), m);
+    t0y = select(t0y, (vf)(tu.y), m);
     best = select(best, d2, m);
     seg = select(seg, (vi)(s), m);
     sAx = select(sAx, (vf)(Ax), m), sAy = select(sAy, (vf)(Ay), m);
     sBx = select(sBx, (vf)(Bx), m), sBy = select(sBy, (vf)(By), m);
-    sax = select(sax, (vf)(a4.x), m), say = select(say, (vf)(a4.y), m), saz = select(saz, (vf)(a4.z), m);
-    sbx = select(sbx, (vf)(b4.x), m), sby = select(sby, (vf)(b4.y), m), sbz = select(sbz, (vf)(b4.z), m);
+    sax = select(sax, (vf)(a4.x), m), say = select(say, (vf)(a4.y), m);
+    sbx = select(sbx, (vf)(b4.x), m), sby = select(sby, (vf)(b4.y), m);
     if (closed && a4.y != b4.y) {  // crossing number, real coordinates
       const vi cross = (a4.y <= py) != (b4.y <= py);
       const vf xi = a4.x + (py - a4.y) / (b4.y - a4.y) * (b4.x - a4.x);
@@ -123,14 +141,22 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   const vf dx = Px - (sAx + t * abx), dy = Py - (sAy + t * aby);
   const vf len = sqrt(dx * dx + dy * dy);
   const vf rx = sbx - sax, ry = sby - say;
-  const vf rl = sqrt(rx * rx + ry * ry);
-  c.tx = select(one, rx / rl, rl > zero);
-  c.ty = select(zero, ry / rl, rl > zero);
+  // Tangent and amplitude: the closest segment's, blended with the runner-up's by w1 = 1/2 where
+  // both are equally near, falling smoothly to 0 where the runner-up is a quarter radius (at least
+  // a metre) further.
+  {
+    const float band = fmax(0.25f * pr[3], 1.0f);
+    const vf w1 = 0.5f * (1.0f - smoother_v((sqrt(second) - sqrt(best)) / band));
+    const vf bx = (1.0f - w1) * t0x + w1 * t1x, by = (1.0f - w1) * t0y + w1 * t1y;
+    const vf bl = sqrt(bx * bx + by * by);
+    c.tx = select(t0x, bx / bl, bl > 1e-6f);
+    c.ty = select(t0y, by / bl, bl > 1e-6f);
+    c.amp = (1.0f - w1) * a0 + w1 * a1;
+  }
   const vf qx = sax + t * rx - px, qy = say + t * ry - py;
   const vf ql = sqrt(qx * qx + qy * qy);
   c.ux = select(zero, qx / ql, ql > zero);
   c.uy = select(zero, qy / ql, ql > zero);
-  c.amp = saz + t * (sbz - saz);
   // Side: (-ab.y, ab.x) is "right" (positive); with x east and y south that is the travel
   // direction turned clockwise on a north-up map.
   const vf cr = abx * (Py - sAy) - aby * (Px - sAx);
