@@ -20,4 +20,15 @@ for p in data/pipelines/pictures-*.json; do
   "$T" -q run "$p"
   made=$((made + 1))
 done
-echo "gen-pictures: ran $made picture pipeline(s); pictures are under docs/img/"
+# Authoring examples: edit script -> reconstruction -> 2x block means -> shaded relief.
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+for name in canyon volcanic_island mountain_range dem_paste; do
+  factor=2
+  [ "$name" = dem_paste ] && factor=3
+  "$T" -q edit --script "data/examples/$name.json" -o "$tmp/$name.tif"
+  "$T" -q downsample "$tmp/$name.tif" --factor "$factor" -o "$tmp/${name}_small.tif"
+  "$T" -q render "$tmp/${name}_small.tif" --mode shaded-relief -o "docs/img/edit_$name.png"
+  made=$((made + 1))
+done
+echo "gen-pictures: made $made picture set(s); pictures are under docs/img/"
