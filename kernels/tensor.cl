@@ -1,9 +1,9 @@
 // Skeleton primitives for gradient-domain authoring (paper section 4.3):
 //   * apply_tensor_field: the composite tensor field A(p) = I + sum_i mu_i alpha(d_i/r_i) T_i(p, u(p))
 //     applied to a staggered gradient, g' = A g (or g += A delta to orient a noise layer);
-//   * primitive_weight: the falloff weight max_i alpha(d_i/r_i) (masks for brushes and noise);
-//   * profile_potential + add_potential_gradient: g += the discrete gradient of sum_i P_i(d_i), a
-//     cross-section profile of the distance to a curve (crests, faults, ravines, river banks, rims).
+//   * primitive_field: the falloff weight max_i alpha(d_i/r_i) (masks for brushes and noise), or the
+//     potential sum_i P_i(d_i), a cross-section profile of the distance to a curve (crests, faults,
+//     ravines, river banks, rims), whose discrete gradient add_potential_gradient adds to g.
 // Positions are metres: cell (x, y) is at (x * cx, y * cy), y growing southwards.
 // Each primitive is 16 floats (layout in host/src/tensor.cpp); vertices are float4 (x, y, amp, 0).
 // Kernels run over a bounding box (x0, y0, bw, bh) of the grid, one work-item per row, VW cells of
@@ -310,27 +310,6 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
   }
 }
 
-// w = max_i alpha(d_i / r_i) at cell centres (invert: 1 - that), written on the box only.
-__kernel void primitive_weight(__global float* w, const int W, const int H, const float cx, const float cy,
-                               const int x0, const int y0, const int bw, const int bh,
-                               __global const float* prims, const int nprims, __global const float4* verts,
-                               const int invert) {
-  const int j = get_global_id(0);
-  if (j >= bh) return;
-  const int y = y0 + j;
-  const vf py = (vf)((float)y * cy);
-  for (int xs = x0; xs < x0 + bw; xs += VW) {
-    const vf px = ((float)xs + LANES) * cx;
-    vf m = (vf)(0.0f);
-    for (int i = 0; i < nprims; ++i) {
-      __global const float* pr = prims + 16 * i;
-      const ClosestV c = closest_v(pr, verts, px, py);
-      m = fmax(m, prim_weight_v(pr, &c));
-    }
-    store_lanes(w + (size_t)y * W + xs, invert ? 1.0f - m : m, min(VW, x0 + bw - xs));
-  }
-}
-
 // Value of primitive i's profile P_i. pr[12] = profile kind, pr[13] = amplitude scale.
 // ROUND: P = a alpha(d/r); SHARP: P = a (1 - d/r)^3; STEP: P = a smoother((s/r + 1)/2) across a
 // signed distance s (a fault of throw a); DROP: P = -a smoother(s/r) for s >= 0 (a cliff face, a mesa
@@ -356,23 +335,28 @@ vf profile_value_v(__global const float* pr, const ClosestV* c) {
   return P;
 }
 
-// P = sum_i P_i at the cell centres of the box (into `pot`).
-__kernel void profile_potential(__global float* pot, const int W, const int H, const float cx, const float cy,
-                                const int x0, const int y0, const int bw, const int bh,
-                                __global const float* prims, const int nprims, __global const float4* verts) {
+#define FIELD_WEIGHT 0         // max_i alpha(d_i / r_i): masks for brushes and noise
+#define FIELD_WEIGHT_INVERTED 1  // 1 - that
+#define FIELD_PROFILE 2        // sum_i P_i: the potential of the profiles
+
+// A per-cell field of the primitives at the cell centres of the box, written on the box only.
+__kernel void primitive_field(__global float* out, const int W, const int H, const float cx, const float cy,
+                              const int x0, const int y0, const int bw, const int bh,
+                              __global const float* prims, const int nprims, __global const float4* verts,
+                              const int mode) {
   const int j = get_global_id(0);
   if (j >= bh) return;
   const int y = y0 + j;
   const vf py = (vf)((float)y * cy);
   for (int xs = x0; xs < x0 + bw; xs += VW) {
     const vf px = ((float)xs + LANES) * cx;
-    vf P = (vf)(0.0f);
+    vf v = (vf)(0.0f);
     for (int i = 0; i < nprims; ++i) {
       __global const float* pr = prims + 16 * i;
       const ClosestV c = closest_v(pr, verts, px, py);
-      P += profile_value_v(pr, &c);
+      v = mode == FIELD_PROFILE ? v + profile_value_v(pr, &c) : fmax(v, prim_weight_v(pr, &c));
     }
-    store_lanes(pot + (size_t)y * W + xs, P, min(VW, x0 + bw - xs));
+    store_lanes(out + (size_t)y * W + xs, mode == FIELD_WEIGHT_INVERTED ? 1.0f - v : v, min(VW, x0 + bw - xs));
   }
 }
 

@@ -167,6 +167,24 @@ void tensor_launch(Device& d, const cl::Buffer& sx, const cl::Buffer& sy, Gradie
   launch_rows(d, k, box.h);
 }
 
+// Modes of kernels/tensor.cl's primitive_field (FIELD_*).
+constexpr int kFieldWeight = 0, kFieldWeightInverted = 1, kFieldProfile = 2;
+
+// mask = the primitives' weight or profile potential on `box`.
+void field_launch(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box, int mode) {
+  if (box.empty()) return;
+  const DeviceSkeleton s = upload(d, prims);
+  cl::Kernel k = d.kernel("tensor", "primitive_field");
+  int a = 0;
+  k.setArg(a++, g.mask);
+  set_common(k, a, g, box);
+  k.setArg(a++, s.prims);
+  k.setArg(a++, s.count);
+  k.setArg(a++, s.verts);
+  k.setArg(a++, mode);
+  launch_rows(d, k, box.h);
+}
+
 }  // namespace
 
 void apply_tensor_field(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims) {
@@ -191,38 +209,20 @@ void add_tensor_field_of_scratch(Device& d, GradientBuffers& g, const std::vecto
 }
 
 void primitive_weight(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims, const Box& box, bool invert) {
-  if (box.empty()) return;
-  const DeviceSkeleton s = upload(d, prims);
-  cl::Kernel k = d.kernel("tensor", "primitive_weight");
-  int a = 0;
-  k.setArg(a++, g.mask);
-  set_common(k, a, g, box);
-  k.setArg(a++, s.prims);
-  k.setArg(a++, s.count);
-  k.setArg(a++, s.verts);
-  k.setArg(a++, invert ? 1 : 0);
-  launch_rows(d, k, box.h);
+  field_launch(d, g, prims, box, invert ? kFieldWeightInverted : kFieldWeight);
 }
 
 void add_profile_gradient(Device& d, GradientBuffers& g, const std::vector<Primitive>& prims) {
   const Box box = primitives_box(prims, g.width, g.height, g.cell_x, g.cell_y);
+  field_launch(d, g, prims, box, kFieldProfile);  // the potential, into the mask scratch
   if (box.empty()) return;
-  const DeviceSkeleton s = upload(d, prims);
-  cl::Kernel k = d.kernel("tensor", "profile_potential");
+  cl::Kernel k = d.kernel("tensor", "add_potential_gradient");
   int a = 0;
+  k.setArg(a++, g.gx);
+  k.setArg(a++, g.gy);
   k.setArg(a++, g.mask);
   set_common(k, a, g, box);
-  k.setArg(a++, s.prims);
-  k.setArg(a++, s.count);
-  k.setArg(a++, s.verts);
   launch_rows(d, k, box.h);
-  cl::Kernel k2 = d.kernel("tensor", "add_potential_gradient");
-  a = 0;
-  k2.setArg(a++, g.gx);
-  k2.setArg(a++, g.gy);
-  k2.setArg(a++, g.mask);
-  set_common(k2, a, g, box);
-  launch_rows(d, k2, box.h);
 }
 
 }  // namespace terracl
