@@ -2,6 +2,8 @@
 #include <terracl/error.hpp>
 #include <terracl/noise.hpp>
 
+#include "row_launch.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -22,15 +24,6 @@ void check(const NoiseParams& p) {
   if (!(p.lacunarity >= 1) || !(p.gain > 0 && p.gain <= 1)) fail("noise", "lacunarity >= 1 and gain in (0, 1] expected");
 }
 
-void set_params(cl::Kernel& k, int& a, const NoiseParams& p) {
-  k.setArg(a++, float(p.amplitude));
-  k.setArg(a++, float(p.wavelength));
-  k.setArg(a++, p.octaves);
-  k.setArg(a++, float(p.lacunarity));
-  k.setArg(a++, float(p.gain));
-  k.setArg(a++, int(p.type));
-  k.setArg(a++, cl_uint(p.seed));
-}
 }  // namespace
 
 int band_limited_octaves(const NoiseParams& p, double cell_x, double cell_y) {
@@ -56,50 +49,17 @@ void noise_gradient(Device& d, GradientBuffers& g, const NoiseParams& p, const B
   // Cells of the face box plus the column and row beyond it (the far cell of its last faces).
   const int cw = std::min(box.w + 1, g.width - box.x0), ch = std::min(box.h + 1, g.height - box.y0);
   cl::Kernel k = d.kernel("noise", "noise_cells");
-  int a = 0;
-  k.setArg(a++, g.nv);
-  k.setArg(a++, g.nx);
-  k.setArg(a++, g.ny);
-  k.setArg(a++, g.width);
-  k.setArg(a++, g.height);
-  k.setArg(a++, float(g.cell_x));
-  k.setArg(a++, float(g.cell_y));
-  k.setArg(a++, box.x0);
-  k.setArg(a++, box.y0);
-  k.setArg(a++, cw);
-  k.setArg(a++, ch);
-  k.setArg(a++, g.mask);
-  k.setArg(a++, use_mask ? 1 : 0);
-  k.setArg(a++, box.w);  // the mask is valid on the face box only
-  k.setArg(a++, box.h);
-  k.setArg(a++, float(p.wavelength));
-  k.setArg(a++, octaves);
-  k.setArg(a++, float(p.lacunarity));
-  k.setArg(a++, float(p.gain));
-  k.setArg(a++, int(p.type));
-  k.setArg(a++, cl_uint(p.seed));
+  // The mask is valid on the face box only (box.w x box.h).
+  set_args(k, g.nv, g.nx, g.ny, g.width, g.height, float(g.cell_x), float(g.cell_y), box.x0, box.y0, cw, ch, g.mask,
+           use_mask ? 1 : 0, box.w, box.h, float(p.wavelength), octaves, float(p.lacunarity), float(p.gain),
+           int(p.type), cl_uint(p.seed));
   // 8 cells per work-item (explicit vectors in the kernel), work-groups of 8 x 1.
   const size_t runs = (size_t(cw) + 7) / 8;
   d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(runs, 8), size_t(ch)), cl::NDRange(8, 1));
   cl::Kernel f = d.kernel("noise", "noise_faces");
-  a = 0;
-  f.setArg(a++, to_scratch ? g.tx : g.gx);
-  f.setArg(a++, to_scratch ? g.ty : g.gy);
-  f.setArg(a++, g.nv);
-  f.setArg(a++, g.nx);
-  f.setArg(a++, g.ny);
-  f.setArg(a++, g.width);
-  f.setArg(a++, g.height);
-  f.setArg(a++, float(g.cell_x));
-  f.setArg(a++, float(g.cell_y));
-  f.setArg(a++, box.x0);
-  f.setArg(a++, box.y0);
-  f.setArg(a++, box.w);
-  f.setArg(a++, box.h);
-  f.setArg(a++, g.mask);
-  f.setArg(a++, use_mask ? 1 : 0);
-  f.setArg(a++, float(p.amplitude));
-  f.setArg(a++, to_scratch ? 0 : 1);
+  set_args(f, to_scratch ? g.tx : g.gx, to_scratch ? g.ty : g.gy, g.nv, g.nx, g.ny, g.width, g.height, float(g.cell_x),
+           float(g.cell_y), box.x0, box.y0, box.w, box.h, g.mask, use_mask ? 1 : 0, float(p.amplitude),
+           to_scratch ? 0 : 1);
   d.queue().enqueueNDRangeKernel(f, cl::NullRange, cl::NDRange(round_up(size_t(box.w), 64), size_t(box.h)), cl::NDRange(64, 1));
 }
 
@@ -111,15 +71,8 @@ Heightfield noise_values(Device& d, int width, int height, double cell_x, double
   cl::Buffer out = d.buffer(h.size() * sizeof(float), CL_MEM_WRITE_ONLY, "noise values");
   cl::Buffer dummy = d.buffer(sizeof(float), CL_MEM_READ_ONLY, "mask");
   cl::Kernel k = d.kernel("noise", "noise_value");
-  int a = 0;
-  k.setArg(a++, out);
-  k.setArg(a++, width);
-  k.setArg(a++, height);
-  k.setArg(a++, float(cell_x));
-  k.setArg(a++, float(cell_y));
-  k.setArg(a++, dummy);
-  k.setArg(a++, 0);
-  set_params(k, a, p);
+  set_args(k, out, width, height, float(cell_x), float(cell_y), dummy, 0, float(p.amplitude), float(p.wavelength),
+           p.octaves, float(p.lacunarity), float(p.gain), int(p.type), cl_uint(p.seed));
   d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(size_t(height)), cl::NullRange);
   d.queue().enqueueReadBuffer(out, CL_TRUE, 0, h.size() * sizeof(float), h.z.data());
   return h;

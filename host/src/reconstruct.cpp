@@ -99,10 +99,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     if (o.initial) {
       q.enqueueWriteBuffer(p.u, CL_FALSE, 0, bytes, o.initial->z.data());
       cl::Kernel sh = d.kernel("multigrid", "shift_level0");
-      sh.setArg(0, p.u);
-      sh.setArg(1, W);
-      sh.setArg(2, H);
-      sh.setArg(3, float(m));
+      set_args(sh, p.u, W, H, float(m));
       launch_rows(d, sh, size_t(H));
     } else {
       q.enqueueFillBuffer(p.u, 0.0f, 0, bytes);
@@ -116,13 +113,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       q.enqueueWriteBuffer(bv, CL_FALSE, 0, hard * sizeof(float), hard_value.data());
       const int chunk = 4096;
       cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
-      sc.setArg(0, p.u);
-      sc.setArg(1, p.g);
-      sc.setArg(2, bi);
-      sc.setArg(3, bv);
-      sc.setArg(4, int(hard));
-      sc.setArg(5, chunk);
-      sc.setArg(6, float(m));
+      set_args(sc, p.u, p.g, bi, bv, int(hard), chunk, float(m));
       launch_rows(d, sc, (hard + chunk - 1) / chunk);
       peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
     }
@@ -131,10 +122,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       // Project onto the range of the pure-Neumann operator: the mean of f must vanish.
       cl::Buffer rows = d.buffer(size_t(H) * sizeof(float), CL_MEM_READ_WRITE, "row sums");
       cl::Kernel k = d.kernel("multigrid", "row_sums");
-      k.setArg(0, p.g);
-      k.setArg(1, W);
-      k.setArg(2, H);
-      k.setArg(3, rows);
+      set_args(k, p.g, W, H, rows);
       launch_rows(d, k, size_t(H));
       std::vector<float> rs(static_cast<size_t>(H));
       q.enqueueReadBuffer(rows, CL_TRUE, 0, rs.size() * sizeof(float), rs.data());
@@ -143,10 +131,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       const double mean = s / double(N);
       if (mean != 0.0) {
         cl::Kernel sh = d.kernel("multigrid", "shift_free");
-        sh.setArg(0, p.g);
-        sh.setArg(1, W);
-        sh.setArg(2, H);
-        sh.setArg(3, float(mean));
+        set_args(sh, p.g, W, H, float(mean));
         launch_rows(d, sh, size_t(H));
       }
     }

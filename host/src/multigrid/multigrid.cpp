@@ -113,10 +113,10 @@ class Solver {
     for (size_t l = 1; l < m_levels.size(); ++l) {
       const Level &F = m_levels[l - 1], &C = m_levels[l];
       if (l == 1) {
-        set(g0, m_p.g, F.W, F.H, m_wx, m_wy, C.st, C.W, C.H);
+        set_args(g0, m_p.g, F.W, F.H, m_wx, m_wy, C.st, C.W, C.H);
         run(g0, C.H, double(C.W) * C.H);
       } else {
-        set(g9, F.st, F.W, F.H, C.st, C.W, C.H);
+        set_args(g9, F.st, F.W, F.H, C.st, C.W, C.H);
         run(g9, C.H, double(C.W) * C.H);
       }
     }
@@ -162,7 +162,7 @@ class Solver {
   /// For u, also sets m_floor: the residual norm that float32 rounding of u alone would leave.
   double norm(bool cold) {
     cl::Kernel& k = cold ? m_rhs0 : m_norm0;
-    set(k, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, m_rows);
+    set_args(k, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, m_rows);
     run(k, m_p.height, double(m_p.width) * m_p.height);
     const size_t H = size_t(m_p.height);
     m_q.enqueueReadBuffer(m_rows, CL_TRUE, 0, (cold ? 1 : 2) * H * sizeof(float), m_rows_host.data());
@@ -181,12 +181,12 @@ class Solver {
     for (int s = 0; s < sweeps; ++s) {
       if (m_o.smoother == Smoother::Rbgs) {
         for (int c = 0; c < 2; ++c) {
-          set(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, reverse ? 1 - c : c);
+          set_args(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, reverse ? 1 - c : c);
           run(m_rb0, m_p.height, double(m_p.width) * m_p.height / 2);
         }
       } else {
         Level& L = m_levels[0];
-        set(m_jac0, L.tmp, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, float(m_o.jacobi_omega));
+        set_args(m_jac0, L.tmp, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, float(m_o.jacobi_omega));
         run(m_jac0, m_p.height);
         std::swap(L.tmp, m_p.u);
       }
@@ -203,11 +203,11 @@ class Solver {
         for (int cc = 0; cc < colours; ++cc) {
           const int c = reverse ? colours - 1 - cc : cc;
           const int px = colours == 4 ? (c & 1) : 0, py = colours == 4 ? (c >> 1) : c;
-          set(m_z9, L.e, L.r, L.st, L.W, L.H, px, py, colours == 4 ? 2 : 1);
+          set_args(m_z9, L.e, L.r, L.st, L.W, L.H, px, py, colours == 4 ? 2 : 1);
           run(m_z9, size_t((L.H - py + 1) / 2), double(L.W) * L.H / colours);
         }
       } else {
-        set(m_jac9, L.tmp, L.e, L.r, L.st, L.W, L.H, float(m_o.jacobi_omega));
+        set_args(m_jac9, L.tmp, L.e, L.r, L.st, L.W, L.H, float(m_o.jacobi_omega));
         run(m_jac9, L.H);
         std::swap(L.tmp, L.e);
       }
@@ -218,10 +218,10 @@ class Solver {
     Level& F = m_levels[l];
     Level& C = m_levels[l + 1];
     if (l == 0) {
-      set(m_rr0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, C.r, C.e, C.W);
+      set_args(m_rr0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, C.r, C.e, C.W);
       run(m_rr0, C.H, double(C.W) * C.H * 4);
     } else {
-      set(m_rr9, F.e, F.r, F.st, F.W, F.H, C.r, C.e, C.W);
+      set_args(m_rr9, F.e, F.r, F.st, F.W, F.H, C.r, C.e, C.W);
       run(m_rr9, C.H, double(C.W) * C.H * 4);
     }
   }
@@ -229,11 +229,11 @@ class Solver {
   void prolong_from(size_t l) {  // level l += P e_{l+1}
     Level& C = m_levels[l + 1];
     if (l == 0) {
-      set(m_pc0, m_p.u, m_p.g, m_p.width, m_p.height, C.e, C.W);
+      set_args(m_pc0, m_p.u, m_p.g, m_p.width, m_p.height, C.e, C.W);
       run(m_pc0, m_p.height, double(m_p.width) * m_p.height);
     } else {
       Level& F = m_levels[l];
-      set(m_pc9, F.e, F.W, F.H, C.e, C.W);
+      set_args(m_pc9, F.e, F.W, F.H, C.e, C.W);
       run(m_pc9, F.H, double(F.W) * F.H);
     }
   }
@@ -241,7 +241,7 @@ class Solver {
   void coarse_solve() {
     Level& C = m_levels.back();
     const int n = C.W * C.H;
-    set(m_cs, C.e, C.r, m_pinv, C.W, C.H);
+    set_args(m_cs, C.e, C.r, m_pinv, C.W, C.H);
     run(m_cs, size_t(n));
   }
 
@@ -331,7 +331,7 @@ class Solver {
     cl::Kernel fuse = m_d.kernel("multigrid", "fuse_restrict");
     cl::Kernel pa = m_d.kernel("multigrid", "prolong_assign");
     for (size_t l = 0; l + 1 < L; ++l) {
-      set(fuse, lv[l].r, lv[l].e, lv[l].W, lv[l].H, lv[l + 1].r, lv[l + 1].e, lv[l + 1].W, lv[l + 1].H);
+      set_args(fuse, lv[l].r, lv[l].e, lv[l].W, lv[l].H, lv[l + 1].r, lv[l + 1].e, lv[l + 1].W, lv[l + 1].H);
       run(fuse, lv[l + 1].H);
     }
     if (m_p.singular) {
@@ -342,12 +342,12 @@ class Solver {
       for (size_t l = 1; l < L; ++l) {
         std::vector<float> rows(size_t(lv[l].H));
         cl::Buffer rb = m_d.buffer(rows.size() * sizeof(float), CL_MEM_READ_WRITE, "cascade row sums");
-        set(rs, lv[l].r, lv[l].W, lv[l].H, rb);
+        set_args(rs, lv[l].r, lv[l].W, lv[l].H, rb);
         run(rs, lv[l].H);
         m_q.enqueueReadBuffer(rb, CL_TRUE, 0, rows.size() * sizeof(float), rows.data());
         double sum = 0;
         for (float v : rows) sum += v;
-        set(sh, lv[l].r, lv[l].W, lv[l].H, float(sum / (double(lv[l].W) * lv[l].H)));
+        set_args(sh, lv[l].r, lv[l].W, lv[l].H, float(sum / (double(lv[l].W) * lv[l].H)));
         run(sh, lv[l].H);
       }
     }
@@ -355,14 +355,14 @@ class Solver {
     m_stats.residuals.push_back(b > 0 ? norm(false) / b : 0.0);
     for (size_t l = L; l-- > 0;) {
       if (l + 1 < L) {
-        set(pa, lv[l].e, lv[l].r, lv[l].W, lv[l].H, lv[l + 1].e, lv[l + 1].W);
+        set_args(pa, lv[l].e, lv[l].r, lv[l].W, lv[l].H, lv[l + 1].e, lv[l + 1].W);
         run(pa, lv[l].H);
       }
       const double scale = std::ldexp(1.0, int(l));
       const float wx = float(1.0 / (p2(m_p.cell_x * scale))), wy = float(1.0 / p2(m_p.cell_y * scale));
       const int sweeps = 50 + 10 * int(L - 1 - l);
       for (int s = 0; s < sweeps; ++s) {
-        set(m_jac0, lv[l].tmp, lv[l].e, lv[l].r, lv[l].W, lv[l].H, wx, wy, 1.0f);
+        set_args(m_jac0, lv[l].tmp, lv[l].e, lv[l].r, lv[l].W, lv[l].H, wx, wy, 1.0f);
         run(m_jac0, lv[l].H);
         std::swap(lv[l].tmp, lv[l].e);
       }
@@ -379,11 +379,6 @@ class Solver {
 
  private:
   static double p2(double v) { return v * v; }
-  template <typename... A>
-  void set(cl::Kernel& k, const A&... a) {
-    cl_uint i = 0;
-    (k.setArg(i++, a), ...);
-  }
   void run(cl::Kernel& k, size_t n, double items = 0) {
     if (n == 0) return;
     const bool prof = profiling();
