@@ -15,7 +15,7 @@ namespace terracl::cli {
 namespace {
 
 struct EditArgs {
-  std::string base, script, output, preview, report, gradient_out, gradient_image;
+  std::string base, script, output, preview, ramp, report, gradient_out, gradient_image;
   bool validate = false, list = false;
 };
 
@@ -25,7 +25,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("base", a->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE] (metres)");
   sub->add_option("--script", a->script, "Edit script (JSON)");
   sub->add_option("-o,--output", a->output, "Output heightfield (.tif, .exr, .png, ...)");
-  sub->add_option("--preview", a->preview, "Also write a shaded-relief preview PNG (render module)");
+  sub->add_option("--preview", a->preview, "Also write a shaded-relief preview PNG (render module), one pixel per cell");
+  sub->add_option("--ramp", a->ramp, "Preview colour ramp: hypsometric (default), relative, grey or a gdaldem colour file");
   sub->add_option("--report", a->report, "Write per-operation timings and solver figures (JSON)");
   sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr)");
   sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
@@ -46,6 +47,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     if (a->base.empty())
       throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE]), or \"base\" in the script");
     if (a->output.empty() && !a->validate) throw UsageError("edit", "needs -o OUTPUT");
+    // The preview's ramp is checked before any work (a bad ramp must not leave a half-done run).
+    render::ColorRamp ramp = render::ColorRamp::default_ramp();
+    if (!a->ramp.empty()) ramp = render::ColorRamp::from_spec(a->ramp);
     Heightfield base;
     if (auto flat = parse_flat_spec(a->base)) {
       base = std::move(*flat);
@@ -77,6 +81,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     if (!a->preview.empty()) {
       render::Options ro;
       ro.mode = render::Mode::ShadedRelief;
+      ro.ramp = ramp;
       render::write_image(render::render(h, ro, device()), a->preview, h.metadata);
     }
     if (!a->gradient_out.empty() || !a->gradient_image.empty()) {

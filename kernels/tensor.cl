@@ -5,7 +5,8 @@
 //     potential sum_i P_i(d_i), a cross-section profile of the distance to a curve (crests, faults,
 //     ravines, river banks, rims), whose discrete gradient add_potential_gradient adds to g.
 // Positions are metres: cell (x, y) is at (x * cx, y * cy), y growing southwards.
-// Each primitive is 16 floats (layout in host/src/tensor.cpp); vertices are float4 (x, y, amp, 0).
+// Each primitive is PRIM_STRIDE floats (layout in host/src/tensor.cpp); vertices are float4 (x, y, amp,
+// arc length from the first vertex).
 // Kernels run over a bounding box (x0, y0, bw, bh) of the grid, one work-item per row, VW cells of
 // the row at a time in explicit vectors: PoCL vectorises across work-items only for loop-free kernels,
 // and the per-primitive and per-segment loops here would otherwise run scalar (8x slower on AVX2).
@@ -27,6 +28,10 @@
 #define PROFILE_SHARP 1
 #define PROFILE_STEP 2
 #define PROFILE_DROP 3
+#define PROFILE_V 4
+#define PROFILE_U 5
+
+#define PRIM_STRIDE 24
 
 #include "vec8.clh"
 
@@ -49,8 +54,13 @@ typedef struct {
   vf gx, gy;      // gradient of sdist in real space (unit for isotropic metrics)
   vf tx, ty;      // unit tangent of the closest segment (polylines, polygons)
   vf ux, uy;      // unit direction from p towards the closest point u(p)
-  vf amp;         // vertex amplitude interpolated at the closest point
+  vf amp;         // vertex amplitude interpolated at the closest point (blended, for tensors)
   vf beyond;      // distance past the end of an open polyline (0 along it)
+  // Profiles blend the values of the nearest segment (0) and the runner-up (1) with weight w1, so
+  // that they are C1 across the medial axis of a bend (the distance itself has a crease there).
+  vf w1;
+  vf d0, s0, a0, arc0;  // nearest segment: distance, signed distance, amplitude, arc length
+  vf d1, s1, a1, arc1;  // runner-up
 } ClosestV;
 
 // Anisotropic metric M = pr[8..11] (row-major); distances are |M (p - q)|, and the real-space
@@ -84,10 +94,16 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     c.tx = -c.uy;
     c.ty = c.ux;
     c.amp = (vf)(v.z);
+    c.w1 = zero;
+    c.d0 = c.d1 = c.dist;
+    c.s0 = c.s1 = c.sdist;
+    c.a0 = c.a1 = c.amp;
+    c.arc0 = c.arc1 = zero;
     return c;
   }
   const int closed = shape == SHAPE_POLYGON;
   const int nseg = closed ? nv : nv - 1;
+  c.s0 = one;  // side of the nearest segment so far (a sign)
   // Pass 1: the closest segment by squared distance (and the crossing number); its end points are
   // kept per lane, and the closest point's other attributes are derived once, from them.
   vf best = (vf)(MAXFLOAT);
@@ -100,6 +116,8 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   // differ, and per-vertex amplitudes made a profile step there (a 60-100 m cliff in the
   // mountain_range example).
   vf second = (vf)(MAXFLOAT), t0x = one, t0y = zero, t1x = one, t1y = zero, a0 = zero, a1 = zero;
+  vf arc0 = zero, arc1 = zero, sg1 = one;  // arc lengths and the runner-up's side
+  vf i0x = one, i0y = zero, i1x = one, i1y = zero;  // interpolated vertex tangents
   for (int s = 0; s < nseg; ++s) {
     const float4 a4 = verts[v0 + s];
     const float4 b4 = verts[v0 + ((s + 1) % nv)];
@@ -114,15 +132,36 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     const float2 tr = b4.xy - a4.xy;
     const float trl = length(tr);
     const float2 tu = trl > 0.0f ? tr / trl : (float2)(1.0f, 0.0f);
+    // Vertex tangents (central differences of the neighbours) interpolated along the segment: the
+    // tangent field is continuous where the nearest segment changes (a smoothed stroke's pieces
+    // turn by a few degrees each, and a per-segment tangent made seams in oriented noise there).
+    const int has_prev = closed || s > 0, has_next = closed || s + 2 < nv;
+    const float4 p4 = has_prev ? verts[v0 + ((s + nv - 1) % nv)] : a4;
+    const float4 n4 = has_next ? verts[v0 + ((s + 2) % nv)] : b4;
+    const float2 ta = b4.xy - p4.xy, tb = n4.xy - a4.xy;
+    const float tal = length(ta), tbl = length(tb);
+    const float2 tua = tal > 0.0f ? ta / tal : tu, tub = tbl > 0.0f ? tb / tbl : tu;
+    const vf tix = tua.x + t * (tub.x - tua.x), tiy = tua.y + t * (tub.y - tua.y);
     const vi m2 = (~m) & (d2 < second);  // new runner-up (not a new best)
     const vf amp = a4.z + t * (b4.z - a4.z);
+    const vf arc = a4.w + t * (b4.w - a4.w);
+    const vf sg = select(-one, one, abx * (Py - Ay) - aby * (Px - Ax) >= 0.0f);
     second = select(select(second, d2, m2), best, m);
     a1 = select(select(a1, amp, m2), a0, m);
     a0 = select(a0, amp, m);
+    arc1 = select(select(arc1, arc, m2), arc0, m);
+    arc0 = select(arc0, arc, m);
+    // Sides (signs of the cross product): a new best demotes the old best together with its side.
+    sg1 = select(select(sg1, sg, m2), c.s0, m);
+    c.s0 = select(c.s0, sg, m);
     t1x = select(select(t1x, (vf)(tu.x), m2), t0x, m);
     t1y = select(select(t1y, (vf)(tu.y), m2), t0y, m);
     t0x = select(t0x, (vf)(tu.x), m);
     t0y = select(t0y, (vf)(tu.y), m);
+    i1x = select(select(i1x, tix, m2), i0x, m);
+    i1y = select(select(i1y, tiy, m2), i0y, m);
+    i0x = select(i0x, tix, m);
+    i0y = select(i0y, tiy, m);
     best = select(best, d2, m);
     seg = select(seg, (vi)(s), m);
     sAx = select(sAx, (vf)(Ax), m), sAy = select(sAy, (vf)(Ay), m);
@@ -141,13 +180,31 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   const vf dx = Px - (sAx + t * abx), dy = Py - (sAy + t * aby);
   const vf len = sqrt(dx * dx + dy * dy);
   const vf rx = sbx - sax, ry = sby - say;
-  // Tangent and amplitude: the closest segment's, blended with the runner-up's by w1 = 1/2 where
-  // both are equally near, falling smoothly to 0 where the runner-up is a quarter radius (at least
-  // a metre) further.
+  // Tangent (interpolated vertex tangents) and amplitude: the closest segment's, blended with the
+  // runner-up's by w1 = 1/2 where both are equally near, falling smoothly to 0 where the runner-up is
+  // a quarter radius (at least a metre) further, and only at bends of more than 15 degrees.
   {
     const float band = fmax(0.25f * pr[3], 1.0f);
-    const vf w1 = 0.5f * (1.0f - smoother_v((sqrt(second) - sqrt(best)) / band));
-    const vf bx = (1.0f - w1) * t0x + w1 * t1x, by = (1.0f - w1) * t0y + w1 * t1y;
+    const vf d1 = sqrt(fmin(second, (vf)(1e30f)));
+    // The blend measures the gap between the two distances as sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2):
+    // about d1 - d0 away from the curve, but smooth where d0 or d1 -> 0 (d1 - d0 has a kink on
+    // each segment, which put a crease into the profile along the curve near a bend).
+    const float b2 = band * band;
+    const vf gap = sqrt(fmin(second, (vf)(1e30f)) + b2) - sqrt(best + b2);
+    // Only real bends blend: where the runner-up runs within 15 degrees of the nearest segment (the
+    // fine pieces of a smoothed stroke) the crease is small, while blending would pull the profile
+    // towards the farther segment's value near every vertex (ripples) and the runner-up switches
+    // between the two neighbours mid-segment (steps). Full blending from 35 degrees.
+    const vf bend = smoother_v((1.0f - (t0x * t1x + t0y * t1y) - 0.0341f) / (0.1808f - 0.0341f));
+    const vf w1 = select(zero, 0.5f * (1.0f - smoother_v(gap / band)) * bend, second < (vf)(1e30f));
+    c.w1 = w1;
+    c.d1 = d1;
+    c.s1 = sg1 * d1;
+    c.a0 = a0;
+    c.a1 = a1;
+    c.arc0 = arc0;
+    c.arc1 = arc1;
+    const vf bx = (1.0f - w1) * i0x + w1 * i1x, by = (1.0f - w1) * i0y + w1 * i1y;
     const vf bl = sqrt(bx * bx + by * by);
     c.tx = select(t0x, bx / bl, bl > 1e-6f);
     c.ty = select(t0y, by / bl, bl > 1e-6f);
@@ -174,16 +231,21 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     const vf f = select(one, sgn, lpos);
     fx = nx * f, fy = ny * f;
     c.dist = select(len, zero, inside);
+    c.s0 = c.sdist;
+    c.s1 = sgn * c.d1;  // filled shapes: the side is inside/outside, the same for both segments
+    c.d1 = select(c.d1, zero, inside);
   } else {
     c.beyond = select(zero, -traw * al, (seg == 0) & (traw < zero));
     c.beyond = select(c.beyond, (traw - one) * al, (seg == nseg - 1) & (traw > one));
     c.sdist = side * len;
+    c.s0 = c.sdist;
     // d/|d| already points away from the curve; on the curve n is the right normal.
     const vf f = select(one, side, lpos);
     fx = nx * f, fy = ny * f;
   }
   c.gx = m00 * fx + m10 * fy;
   c.gy = m01 * fx + m11 * fy;
+  c.d0 = c.dist;
   return c;
 }
 
@@ -202,7 +264,7 @@ TensorV tensor_at_v(__global const float* prims, int nprims, __global const floa
   A.a00 = A.a11 = (vf)(1.0f);
   A.a01 = A.a10 = (vf)(0.0f);
   for (int i = 0; i < nprims; ++i) {
-    __global const float* pr = prims + 16 * i;
+    __global const float* pr = prims + PRIM_STRIDE * i;
     const ClosestV c = closest_v(pr, verts, px, py);
     const vf w = pr[4] * prim_weight_v(pr, &c);
     if (!any(w != 0.0f)) continue;
@@ -310,27 +372,53 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
   }
 }
 
-// Value of primitive i's profile P_i. pr[12] = profile kind, pr[13] = amplitude scale.
-// ROUND: P = a alpha(d/r); SHARP: P = a (1 - d/r)^3; STEP: P = a smoother((s/r + 1)/2) across a
-// signed distance s (a fault of throw a); DROP: P = -a smoother(s/r) for s >= 0 (a cliff face, a mesa
-// rim). a = pr[13] * the vertex amplitude at the closest point. Open-curve signed profiles taper off
-// past the curve's ends (times alpha(beyond/r)) so that a finite fault dies out.
+// Value of primitive i's profile P_i. pr[12] = profile kind, pr[13] = amplitude scale, pr[16] = half
+// width f of a flat floor/top, pr[17], pr[18] = taper lengths at the first/last vertex, pr[19] =
+// cliff face width as a fraction of r, pr[20] = scree share of a cliff's drop, pr[21] = arc length.
+// With u = clamp((d - f) / (r - f), 0, 1) and a = pr[13] * the vertex amplitude at the closest point:
+// ROUND: a alpha(u); SHARP: a (1 - u)^3; V: a (1 - u)^2; U: a (1 - u^4)^2; STEP: a smoother((s/r + 1)/2)
+// across a signed distance s (a fault of throw a); DROP: -a [(1 - k) smoother(s / (c r)) + k
+// smoother(s / r)] for s >= 0 (a cliff face of width c r and a scree apron holding the share k).
+// Open-curve signed profiles die out past the curve's ends (times alpha(beyond/r)); other open-curve
+// profiles taper to zero towards the ends (amplitude times smoother(arc / taper)), without a cap.
+vf profile_shape_v(__global const float* pr, vf d, vf s, vf a) {
+  const float r = pr[3];
+  const int kind = (int)pr[12];
+  const float f = fmin(pr[16], 0.95f * r);
+  if (kind == PROFILE_STEP) return a * smoother_v((s / r + 1.0f) * 0.5f);
+  if (kind == PROFILE_DROP) {
+    const float k = pr[20];
+    const float c = fmax(pr[19], 1e-3f) * r;
+    return -a * ((1.0f - k) * smoother_v(s / c) + k * smoother_v(s / r));
+  }
+  const vf u = clamp((d - f) / (r - f), 0.0f, 1.0f);
+  if (kind == PROFILE_ROUND) return a * alpha_v(u);
+  const vf w = 1.0f - u;
+  if (kind == PROFILE_SHARP) return a * w * w * w;
+  if (kind == PROFILE_V) return a * w * w;
+  const vf u2 = u * u, q = 1.0f - u2 * u2;
+  return a * q * q;
+}
+
+vf taper_v(__global const float* pr, vf arc) {
+  vf t = (vf)(1.0f);
+  if (pr[17] > 0.0f) t = smoother_v(arc / pr[17]);
+  if (pr[18] > 0.0f) t *= smoother_v((pr[21] - arc) / pr[18]);
+  return t;
+}
+
 vf profile_value_v(__global const float* pr, const ClosestV* c) {
   const float r = pr[3];
   if (r <= 0.0f) return (vf)(0.0f);
   const int kind = (int)pr[12];
-  const vf a = pr[13] * c->amp;
-  vf P;
-  if (kind == PROFILE_ROUND) {
-    P = a * alpha_v(c->dist / r);
-  } else if (kind == PROFILE_SHARP) {
-    const vf t = fmin(c->dist / r, 1.0f);
-    P = a * (1.0f - t) * (1.0f - t) * (1.0f - t);
-  } else if (kind == PROFILE_STEP) {
-    P = a * smoother_v((c->sdist / r + 1.0f) * 0.5f);
-  } else {
-    P = -a * smoother_v(c->sdist / r);
+  const int shape = (int)pr[0];
+  vf a0 = pr[13] * c->a0, a1 = pr[13] * c->a1;
+  if (shape == SHAPE_POLYLINE && (pr[17] > 0.0f || pr[18] > 0.0f)) {
+    a0 *= taper_v(pr, c->arc0);
+    a1 *= taper_v(pr, c->arc1);
   }
+  vf P = profile_shape_v(pr, c->d0, c->s0, a0);
+  if (any(c->w1 > 0.0f)) P = (1.0f - c->w1) * P + c->w1 * profile_shape_v(pr, c->d1, c->s1, a1);
   if (kind == PROFILE_STEP || kind == PROFILE_DROP) P = select(P, P * alpha_v(c->beyond / r), c->beyond > 0.0f);
   return P;
 }
@@ -352,7 +440,7 @@ __kernel void primitive_field(__global float* out, const int W, const int H, con
     const vf px = ((float)xs + LANES) * cx;
     vf v = (vf)(0.0f);
     for (int i = 0; i < nprims; ++i) {
-      __global const float* pr = prims + 16 * i;
+      __global const float* pr = prims + PRIM_STRIDE * i;
       const ClosestV c = closest_v(pr, verts, px, py);
       v = mode == FIELD_PROFILE ? v + profile_value_v(pr, &c) : fmax(v, prim_weight_v(pr, &c));
     }

@@ -20,15 +20,20 @@ for p in data/pipelines/pictures-*.json; do
   "$T" -q run "$p"
   made=$((made + 1))
 done
-# Authoring examples: edit script -> reconstruction -> 2x block means -> shaded relief.
+# Authoring examples: edit script -> reconstruction -> shaded relief with the hypsometric ramp
+# (metres). The 1025^2 gallery is shown at 513 px (2x block means), the 758^2 DEM examples at full size.
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-for name in canyon volcanic_island mountain_range dem_paste; do
+for name in canyon volcanic_island mountain_range cliff river_valley dem_paste; do
   factor=2
-  [ "$name" = dem_paste ] && factor=3
+  case "$name" in dem_paste | river_valley) factor=1 ;; esac
   "$T" -q edit --script "data/examples/$name.json" -o "$tmp/$name.tif"
-  "$T" -q downsample "$tmp/$name.tif" --factor "$factor" -o "$tmp/${name}_small.tif"
-  "$T" -q render "$tmp/${name}_small.tif" --mode shaded-relief -o "docs/img/edit_$name.png"
+  src="$tmp/$name.tif"
+  if [ "$factor" != 1 ]; then
+    "$T" -q downsample "$tmp/$name.tif" --factor "$factor" -o "$tmp/${name}_small.tif"
+    src="$tmp/${name}_small.tif"
+  fi
+  "$T" -q render "$src" --mode shaded-relief -o "docs/img/edit_$name.png"
   made=$((made + 1))
 done
 echo "gen-pictures: made $made picture set(s); pictures are under docs/img/"

@@ -140,7 +140,8 @@ TEST(EditParams, PipelineRunsTheEditStage) {
   const auto r = test::run_cli(fmt::format("-q run {}", tmp.path("p.json")));
   ASSERT_EQ(r.exit_code, 0) << r.out;
   const Heightfield h = read_heightfield(tmp.path("out.tif"));
-  EXPECT_EQ(h.at(20, 20), 900.0f);
+  EXPECT_EQ(h.at(26, 20), 900.0f);  // the mesa's rim ring is hard, its cap free
+  EXPECT_NEAR(h.at(20, 20), 900.0, 0.1 * 200);
   const json bad = json::array({test::data_path("crops/frontrange_64.asc"), json{{"type", "edit"}}, tmp.path("o2.tif")});
   write_text_file_atomic(tmp.path("bad.json"), bad.dump());
   const auto b = test::run_cli(fmt::format("-q run {}", tmp.path("bad.json")));

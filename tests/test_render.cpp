@@ -2,6 +2,7 @@
 #include <OpenImageIO/imageio.h>
 #include <gdal_priv.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -129,12 +130,31 @@ TEST(RenderRamp, GdaldemFormatWithPercentagesAndNodata) {
   }
   EXPECT_THROW(render::ColorRamp::parse("# nothing\n", "empty.txt"), Error);
   EXPECT_THROW(render::ColorRamp::parse("high 1 2 3\n", "word.txt"), Error);
-  // The default ramp spans the data range: lowest green-ish, highest near white.
+  // The default ramp is in metres, whatever the data range: the sea below 0 m is blue, the coast
+  // green, a 500 m plateau is not snow (the issue: a percent ramp made it white), 4500 m is snow.
   const auto d = render::ColorRamp::default_ramp();
-  d.color(0, 0, 1, c);
+  d.color(-50, -100, 500, c);
+  EXPECT_GT(c[2], c[1]);
+  EXPECT_GT(c[2], c[0]);
+  d.color(0, -100, 500, c);
   EXPECT_GT(c[1], c[0]);
-  d.color(1, 0, 1, c);
+  EXPECT_GT(c[1], c[2]);
+  d.color(500, 0, 500, c);
+  EXPECT_LT(std::min({c[0], c[1], c[2]}), 200);
+  d.color(4500, 0, 4500, c);
   EXPECT_GE(c[0], 240);
+  // Named ramps; the former percent ramp is "relative" (highest value near white).
+  render::ColorRamp::from_spec("relative").color(1, 0, 1, c);
+  EXPECT_GE(c[0], 240);
+  render::ColorRamp::from_spec("grey").color(0.5, 0, 1, c);
+  EXPECT_EQ(c[0], c[1]);
+  try {
+    render::ColorRamp::from_spec("no-such-ramp");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-ramp"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("hypsometric"), std::string::npos) << e.what();
+  }
 }
 
 TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {

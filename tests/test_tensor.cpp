@@ -218,15 +218,17 @@ TEST(Tensor, ProfileGradientIsCurlFreeWithTheRightRelief) {
   EXPECT_LT(curl, 1e-5 * steep);
   // Integrating gx from the west edge (P = 0 there) to cell (20, 22) at (60 m, 88 m): 1.2 m off the
   // first segment at t = 5505/5625 along it (amplitude a0 = 1 + t) and 1.923 m off the second at
-  // t = 40/5300 (a1 = 2 - t/2). The two distances differ by less than the blend band (r/4): the
-  // amplitude is (1 - w1) a0 + w1 a1 with w1 = (1 - smootherstep((d1 - d0) / (r/4))) / 2, and
-  // P = 20 a (1 - 1.2/35)^3.
+  // t = 40/5300 (a1 = 2 - t/2). The two distances are within the blend band b = r/4: the profile
+  // values blend, P = (1 - w1) P(d0, a0) + w1 P(d1, a1) with w1 = (1 - smootherstep(g / b)) / 2,
+  // g = sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2), and P(d, a) = 20 a (1 - d/35)^3.
   const double d0 = 1.2, d1 = std::hypot(60 + 70 * 40.0 / 5300 - 60, 90 - 20 * 40.0 / 5300 - 88);
-  const double u = (d1 - d0) / (35 / 4.0), w1 = 0.5 * (1 - u * u * u * (u * (u * 6 - 15) + 10));
-  const double a = (1 - w1) * (1 + 5505.0 / 5625) + w1 * (2 - 0.5 * 40.0 / 5300);
+  const double bw = 35 / 4.0, u = (std::sqrt(d1 * d1 + bw * bw) - std::sqrt(d0 * d0 + bw * bw)) / bw;
+  const double w1 = 0.5 * (1 - u * u * u * (u * (u * 6 - 15) + 10));
+  const double a0 = 1 + 5505.0 / 5625, a1 = 2 - 0.5 * 40.0 / 5300;
+  const double want = (1 - w1) * 20 * a0 * std::pow(1 - d0 / 35, 3) + w1 * 20 * a1 * std::pow(1 - d1 / 35, 3);
   double sum = 0;
   for (int x = 0; x < 20; ++x) sum += out.gx[size_t(22) * 50 + x] * 3;
-  EXPECT_NEAR(sum, 20 * a * std::pow(1 - d0 / 35, 3), 0.01);
+  EXPECT_NEAR(sum, want, 0.01);
 }
 
 // Per-vertex amplitudes interpolated at the closest point jump where the closest segment changes on

@@ -1,8 +1,10 @@
-// Launchers of kernels/tensor.cl. Primitives are packed 16 floats each:
+// Launchers of kernels/tensor.cl. Primitives are packed kStride (= PRIM_STRIDE) floats each:
 //   [0] shape  [1] first vertex  [2] vertex count  [3] radius r  [4] mu  [5] tensor kind  [6] angle
 //   [7] disc radius  [8..11] anisotropic metric M (row-major)  [12] profile  [13] profile amplitude
 //   [14] [15] cos, sin of the tensor's rotation (2 angle for directional tensors)
-// and vertices as float4 (x, y, amplitude factor, 0), all in metres.
+//   [16] floor half width  [17] [18] taper lengths at the first / last vertex  [19] cliff face fraction
+//   [20] scree share  [21] total arc length  [22] [23] unused
+// and vertices as float4 (x, y, amplitude factor, arc length from the first vertex), all in metres.
 #include <terracl/error.hpp>
 #include <terracl/tensor.hpp>
 
@@ -12,6 +14,81 @@
 #include <cmath>
 
 namespace terracl {
+
+namespace {
+constexpr size_t kStride = 24;
+double smoother(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * t * (t * (t * 6 - 15) + 10);
+}
+}  // namespace
+
+double profile_value(Profile p, double d, double s, double r, double a, double f, double face, double scree) {
+  if (!(r > 0)) return 0;
+  f = std::min(f, 0.95 * r);
+  const double u = std::clamp((d - f) / (r - f), 0.0, 1.0), w = 1 - u;
+  switch (p) {
+    case Profile::Round: return a * alpha(u);
+    case Profile::Sharp: return a * w * w * w;
+    case Profile::V: return a * w * w;
+    case Profile::U: {
+      const double q = 1 - u * u * u * u;
+      return a * q * q;
+    }
+    case Profile::Step: return a * smoother((s / r + 1) * 0.5);
+    case Profile::Drop: return -a * ((1 - scree) * smoother(s / (std::max(face, 1e-3) * r)) + scree * smoother(s / r));
+  }
+  return 0;
+}
+
+std::vector<Vec2> catmull_rom(const std::vector<Vec2>& pts, double step, const std::vector<double>& z,
+                              std::vector<double>* z_out) {
+  const size_t n = pts.size();
+  std::vector<Vec2> out;
+  if (z_out) z_out->clear();
+  if (n < 3 || !(step > 0)) {
+    if (z_out) *z_out = z;
+    return pts;
+  }
+  auto at = [&](long i) -> Vec2 {  // mirrored ends: P(-1) = 2 P0 - P1
+    if (i < 0) return {2 * pts[0].x - pts[1].x, 2 * pts[0].y - pts[1].y};
+    if (i >= long(n)) return {2 * pts[n - 1].x - pts[n - 2].x, 2 * pts[n - 1].y - pts[n - 2].y};
+    return pts[size_t(i)];
+  };
+  auto zat = [&](long i) -> double {
+    if (z.empty()) return 0;
+    if (i < 0) return 2 * z[0] - z[1];
+    if (i >= long(n)) return 2 * z[n - 1] - z[n - 2];
+    return z[size_t(i)];
+  };
+  auto knot = [](const Vec2& a, const Vec2& b) { return std::max(std::sqrt(std::hypot(b.x - a.x, b.y - a.y)), 1e-9); };
+  for (size_t i = 0; i + 1 < n; ++i) {
+    const Vec2 p0 = at(long(i) - 1), p1 = at(long(i)), p2 = at(long(i) + 1), p3 = at(long(i) + 2);
+    const double z0 = zat(long(i) - 1), z1 = zat(long(i)), z2 = zat(long(i) + 1), z3 = zat(long(i) + 2);
+    const double t0 = 0, t1 = t0 + knot(p0, p1), t2 = t1 + knot(p1, p2), t3 = t2 + knot(p2, p3);
+    // Pieces of at most `step`, and turning by at most ~4 degrees each: the distance to a polyline
+    // creases inside every vertex (a slope jump of 2 sin(angle/2) of the profile's slope there).
+    const double a1 = std::atan2(p2.y - p0.y, p2.x - p0.x), a2 = std::atan2(p3.y - p1.y, p3.x - p1.x);
+    const double turn = std::abs(std::remainder(a2 - a1, 2 * M_PI));
+    const int pieces = std::max({1, int(std::ceil(std::hypot(p2.x - p1.x, p2.y - p1.y) / step)),
+                                 int(std::ceil(turn / (4 * M_PI / 180)))});
+    for (int k = 0; k < pieces; ++k) {
+      const double t = t1 + (t2 - t1) * double(k) / pieces;
+      // Barry-Goldman pyramid.
+      auto lerp = [](double a, double b, double ta, double tb, double t) { return tb > ta ? (a * (tb - t) + b * (t - ta)) / (tb - ta) : a; };
+      auto eval = [&](double v0, double v1, double v2, double v3) {
+        const double a1 = lerp(v0, v1, t0, t1, t), a2 = lerp(v1, v2, t1, t2, t), a3 = lerp(v2, v3, t2, t3, t);
+        const double b1 = lerp(a1, a2, t0, t2, t), b2 = lerp(a2, a3, t1, t3, t);
+        return lerp(b1, b2, t1, t2, t);
+      };
+      out.push_back({eval(p0.x, p1.x, p2.x, p3.x), eval(p0.y, p1.y, p2.y, p3.y)});
+      if (z_out && !z.empty()) z_out->push_back(eval(z0, z1, z2, z3));
+    }
+  }
+  out.push_back(pts[n - 1]);
+  if (z_out && !z.empty()) z_out->push_back(z[n - 1]);
+  return out;
+}
 
 double alpha(double t) {
   if (t < 0) t = -t;
@@ -101,9 +178,11 @@ Packed pack(const std::vector<Primitive>& prims) {
     if (!pr.amplitude.empty() && pr.amplitude.size() != pr.points.size())
       fail("tensor", "primitive has {} amplitudes for {} points", pr.amplitude.size(), pr.points.size());
     const float first = float(p.verts.size() / 4);
+    double arc = 0;
     for (size_t i = 0; i < pr.points.size(); ++i) {
+      if (i > 0) arc += std::hypot(pr.points[i].x - pr.points[i - 1].x, pr.points[i].y - pr.points[i - 1].y);
       p.verts.insert(p.verts.end(), {float(pr.points[i].x), float(pr.points[i].y),
-                                     float(pr.amplitude.empty() ? 1.0 : pr.amplitude[i]), 0.f});
+                                     float(pr.amplitude.empty() ? 1.0 : pr.amplitude[i]), float(arc)});
     }
     // M = R(phi) diag(1, ratio) R(-phi): offsets along phi unchanged, across scaled by ratio.
     const double c = std::cos(pr.aniso_angle), s = std::sin(pr.aniso_angle), k = pr.aniso_ratio;
@@ -114,10 +193,12 @@ Packed pack(const std::vector<Primitive>& prims) {
     p.prims.insert(p.prims.end(),
                    {float(int(pr.shape)), first, float(pr.points.size()), float(pr.radius), float(pr.strength),
                     float(int(pr.tensor)), float(pr.angle), float(pr.disc_radius), float(m00), float(m01),
-                    float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), std::cos(rot), std::sin(rot)});
+                    float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), std::cos(rot), std::sin(rot),
+                    float(pr.floor_half_width), float(pr.taper_start), float(pr.taper_end), float(pr.face_fraction),
+                    float(pr.scree), float(arc), 0.f, 0.f});
   }
   if (p.verts.empty()) p.verts.assign(4, 0.f);
-  if (p.prims.empty()) p.prims.assign(16, 0.f);
+  if (p.prims.empty()) p.prims.assign(kStride, 0.f);
   return p;
 }
 

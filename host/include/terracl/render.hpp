@@ -34,8 +34,14 @@ struct ColorRamp {
   /// Parses ramp text; errors name `where` (the file) and the line.
   static ColorRamp parse(const std::string& text, const std::string& where);
   static ColorRamp load(const std::string& path);
-  /// Hypsometric tints from lowland green through tan and brown to snow, in percentages.
+  /// Hypsometric tints in metres: sea below 0 m in blues, lowland green at 0 m, through tan and
+  /// brown to rock and snow above 4000 m (the "hypsometric" named ramp).
   static ColorRamp default_ramp();
+  /// Named ramps: hypsometric (metres, the default), relative (tints over the data range, in
+  /// percent), grey (black to white over the data range).
+  static std::vector<std::string> names();
+  /// A named ramp, else a gdaldem colour file (errors name the spec).
+  static ColorRamp from_spec(const std::string& spec);
   /// Colour of elevation z for data range [zmin, zmax] (percentages resolve against it).
   void color(double z, double zmin, double zmax, uint8_t out[3]) const;
 };

@@ -27,10 +27,18 @@ enum class PrimitiveShape { Point, Polyline, Disc, Polygon };
 /// rotated by `angle`.
 enum class TensorKind { Directional, Scale, Tangent, Closest };
 
-/// Cross-section profile P(d) for profile gradients (landform curves); a = amplitude (metres).
-/// Round: a alpha(d/r). Sharp: a (1 - d/r)^3. Step: a smootherstep((s/r + 1)/2) across the signed
-/// distance s (a fault of throw a). Drop: -a smootherstep(s/r) for s >= 0 (a cliff face / rim).
-enum class Profile { Round, Sharp, Step, Drop };
+/// Cross-section profile P(d) for profile gradients (landform curves); a = amplitude (metres),
+/// u = clamp((d - f) / (r - f), 0, 1) with f = floor_half_width (a flat floor or top).
+/// Round: a alpha(u). Sharp: a (1 - u)^3. V: a (1 - u)^2. U: a (1 - u^4)^2.
+/// Step: a smootherstep((s/r + 1)/2) across the signed distance s (a fault of throw a).
+/// Drop: -a [(1 - k) smootherstep(s / (c r)) + k smootherstep(s / r)] for s >= 0: a cliff face of
+/// width c r (c = face_fraction) above a scree apron holding the share k (scree) of the drop.
+/// Near a bend, the values of the two nearest segments are blended (C1 across the medial axis).
+enum class Profile { Round, Sharp, Step, Drop, V, U };
+
+/// Profile value at distance d (signed distance s for Step/Drop), host copy of the kernel's formula.
+double profile_value(Profile p, double d, double s, double r, double a, double floor_half_width = 0,
+                     double face_fraction = 1, double scree = 0);
 
 struct Primitive {
   PrimitiveShape shape = PrimitiveShape::Point;
@@ -45,7 +53,19 @@ struct Primitive {
   double aniso_ratio = 1, aniso_angle = 0;
   Profile profile = Profile::Round;
   double profile_amplitude = 0;     ///< metres
+  double floor_half_width = 0;      ///< metres: the profile is flat (= a) within this distance
+  /// Open polylines: the profile's amplitude tapers to 0 over these arc lengths (metres) at the first
+  /// and the last vertex (0: no taper).
+  double taper_start = 0, taper_end = 0;
+  double face_fraction = 1;         ///< Drop: width of the steep face as a fraction of the radius
+  double scree = 0;                 ///< Drop: share of the drop taken by the scree apron (0..1)
 };
+
+/// Centripetal Catmull-Rom spline through the points (alpha = 1/2, end points mirrored), sampled so
+/// that no piece is longer than `step` metres nor turns by more than about 4 degrees; per-point values `z` (if not empty) are interpolated
+/// with the same parameter and returned in `z_out`. Passes through every input point.
+std::vector<Vec2> catmull_rom(const std::vector<Vec2>& pts, double step, const std::vector<double>& z = {},
+                              std::vector<double>* z_out = nullptr);
 
 /// alpha(t) = (1 - t^2)^3 for 0 <= t < 1, else 0 (host copy of the kernel's function).
 double alpha(double t);

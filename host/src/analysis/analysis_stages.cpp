@@ -53,7 +53,7 @@ void run_render(StageContext& c) {
   o.altitude_deg = c.get<double>("altitude");
   o.z_factor = c.get<double>("z_factor");
   o.slope_max_deg = c.get<double>("slope_max");
-  if (c.has("ramp")) o.ramp = render::ColorRamp::load(c.get<std::string>("ramp"));
+  if (c.has("ramp")) o.ramp = render::ColorRamp::from_spec(c.get<std::string>("ramp"));
   const Heightfield& h = c.height();
   const render::Image img =
       c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
@@ -161,10 +161,11 @@ void register_analysis_stages(StageRegistry& r) {
           {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
           {"z_factor", OptionType::Float, 1.0, "", "Vertical exaggeration", {}, false},
           {"ramp",
-           OptionType::Path,
+           OptionType::String,
            nullptr,
            "",
-           "Colour ramp in gdaldem color-relief format (default: hypsometric tints)",
+           "Colour ramp: hypsometric (metres, sea below 0 m blue; the default), relative (over the data range), "
+           "grey, or a gdaldem color-relief file",
            {},
            false},
           {"slope_max", OptionType::Float, 60.0, "deg", "Slope mode: this slope and steeper are black", {}, false},

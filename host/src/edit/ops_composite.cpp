@@ -2,6 +2,7 @@
 // and mesa (plateau elevation constraints + a rim drop + downslope-oriented noise). "Downslope
 // oriented" = the noise's gradients are dragged across the slope by a tensor aligned with the
 // stroke (or with the rim), so its crests and gullies run down the flanks.
+#include "edit/curve_shape.hpp"
 #include "edit/state.hpp"
 
 #include <terracl/error.hpp>
@@ -9,8 +10,24 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace terracl::edit {
 namespace {
+
+// Distance (metres) from a point to the boundary of a disc or polygon primitive.
+double distance_to_edge(const Primitive& p, double x, double y) {
+  if (p.shape == PrimitiveShape::Disc) return std::abs(std::hypot(x - p.points[0].x, y - p.points[0].y) - p.disc_radius);
+  double best = 1e300;
+  for (size_t i = 0; i < p.points.size(); ++i) {
+    const Vec2 &a = p.points[i], &b = p.points[(i + 1) % p.points.size()];
+    const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
+    const double t = l2 > 0 ? std::clamp(((x - a.x) * ux + (y - a.y) * uy) / l2, 0.0, 1.0) : 0.0;
+    best = std::min(best, std::hypot(x - a.x - t * ux, y - a.y - t * uy));
+  }
+  return best;
+}
 
 struct OrientedNoise {
   bool enabled = false;
@@ -50,27 +67,26 @@ void add_oriented_noise(EditState& s, const OrientedNoise& o, const Primitive& r
 }
 
 Operation parse_mountain_range(Params& p) {
-  const auto pts = p.points("points", 2);
-  const double radius = p.hlength("radius", {}, 0, true);
+  CurveShape c = parse_curve_shape(p, "round", {"round", "sharp", "v", "u", "flat"}, true);
   size_t with_z = 0;
-  for (const auto& v : pts) with_z += std::isnan(v.z) ? 0 : 1;
-  if (with_z != 0 && with_z != pts.size()) param_error(p.where("points"), "give z for every point or for none");
-  Primitive ridge;
-  ridge.shape = PrimitiveShape::Polyline;
-  ridge.points = xy(pts);
-  ridge.radius = radius;
-  ridge.profile = p.choice("profile", "round", {"round", "sharp"}) == "round" ? Profile::Round : Profile::Sharp;
+  for (const auto& v : c.pts) with_z += std::isnan(v.z) ? 0 : 1;
+  if (with_z != 0 && with_z != c.pts.size()) param_error(p.where("points"), "give z for every point or for none");
   double height = 0;
   if (with_z) {
-    for (const auto& v : pts) ridge.amplitude.push_back(v.z), height = std::max(height, v.z);
-    ridge.profile_amplitude = 1;
+    for (const auto& v : c.pts) height = std::max(height, v.z);
     if (p.has("height")) param_error(p.where("height"), "the points already carry heights [x, y, z]");
   } else {
     height = p.vlength("height");
-    ridge.profile_amplitude = height;
+    for (auto& v : c.pts) v.z = height;
   }
-  const OrientedNoise noise = parse_oriented_noise(p, 0.12 * std::abs(height), radius / 4);
+  // The noise's wavelength follows the half-width, known here only when given: default r = 2 height.
+  const double r_guess = c.radius > 0 ? c.radius : std::max(min_half_width(p.grid()), 2.0 * std::abs(height));
+  const OrientedNoise noise = parse_oriented_noise(p, 0.12 * std::abs(height), r_guess / 4);
   return [=](EditState& s) {
+    const double r = c.resolve_radius(s.grid(), height, 2.0);
+    const auto path = c.path(s.grid(), r);
+    Primitive ridge = c.primitive(path, r, c.profile, 1.0);
+    for (const auto& v : path) ridge.amplitude.push_back(v.z);
     add_profile_gradient(s.device(), s.buffers(), {ridge});
     Primitive orient = ridge;
     orient.tensor = TensorKind::Tangent;
@@ -79,23 +95,50 @@ Operation parse_mountain_range(Params& p) {
   };
 }
 
+// A mesa: the rim ring is hard at `elevation`; the cap inside is free and gets gentle noise of its
+// own (detail, no flat disc), and the flanks drop as a cliff face over a talus apron (the cliff's
+// Drop profile with a scree share).
 Operation parse_mesa(Params& p) {
   const Region r = parse_region(p, false);
   const double top = p.vlength("elevation");
   const double height = p.vlength("height");
   if (!(height > 0)) param_error(p.where("height"), fmt::format("expected a drop > 0 m, got {}", height));
   const double radius = p.hlength("radius", {}, 0, true);
+  const double talus = p.number("talus", 0.4, 0.0, 0.95);
+  const double cap_detail = p.vlength("cap_detail", 0.03 * height);
   const OrientedNoise noise = parse_oriented_noise(p, 0.08 * height, radius / 2);
   return [=](EditState& s) {
-    Primitive rim = region_primitive(r, s.grid(), radius);
+    const Grid& g = s.grid();
+    Primitive rim = region_primitive(r, g, std::max(radius, min_half_width(g)));
     rim.profile = Profile::Drop;
     rim.profile_amplitude = height;
+    rim.scree = talus;
+    rim.face_fraction = 0.35;
     add_profile_gradient(s.device(), s.buffers(), {rim});
     Primitive orient = rim;
     orient.tensor = TensorKind::Closest;
     orient.angle = M_PI / 2;  // drag gradients across u(p): gullies run towards the rim
     add_oriented_noise(s, noise, rim, orient);
-    for (size_t i : region_cells(r, s.grid())) s.set_hard(i, float(top));
+    if (cap_detail != 0) {  // undulations on the cap, fading out towards the rim
+      OrientedNoise cap;
+      cap.enabled = true;
+      cap.noise.type = NoiseType::Fbm;
+      cap.noise.amplitude = cap_detail;
+      cap.noise.wavelength = std::max(radius, 4 * std::max(g.cell_x, g.cell_y));
+      cap.noise.octaves = 4;
+      cap.noise.seed = noise.noise.seed + 1;
+      cap.strength = 0;
+      Primitive inner = rim;
+      inner.radius = std::max(g.cell_x, g.cell_y);
+      add_oriented_noise(s, cap, inner, inner);
+    }
+    // Hard cells: the rim ring only (cells inside the region within two cells of its edge).
+    const Primitive edge = region_primitive(r, g, 0);
+    const double ring = 2.0 * std::max(g.cell_x, g.cell_y);
+    for (size_t i : region_cells(r, g)) {
+      const double px = double(i % size_t(g.width)) * g.cell_x, py = double(i / size_t(g.width)) * g.cell_y;
+      if (distance_to_edge(edge, px, py) <= ring) s.set_hard(i, float(top));
+    }
     s.changed();
   };
 }

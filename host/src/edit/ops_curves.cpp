@@ -1,18 +1,117 @@
-// Landform curves (paper section 4.2, figure 4): a sketched polyline with a radius of influence.
+// Landform curves (paper section 4.2, figure 4): a sketched polyline with a cross-section.
 // crest, cliff and river put elevation constraints on the curve plus a profile gradient on the
 // side(s); free_crest, fault and ravine are gradient-only. Profile gradients are added to the field,
 // so they superpose additively (crossing faults add up); elevation constraints replace each other.
+//
+// Every curve has a cross-section in metres: `width` (the full width, 2 r; the old `radius` = r is
+// still read), `profile`, `floor` (a flat floor/top, also the width of a constrained curve's band),
+// `taper` (the amplitude fades to 0 over this arc length at both ends) and `smooth` (a centripetal
+// Catmull-Rom spline through the points). Defaults scale with the cell size and the feature's
+// relief, so that no default feature is narrower than kMinCells cells.
+#include "edit/curve_shape.hpp"
 #include "edit/state.hpp"
 
 #include <terracl/error.hpp>
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
 namespace terracl::edit {
+
+namespace {
+// Half-widths of at least this many cells keep every profile's full width at half maximum (0.41 r
+// for the sharpest, `sharp`) and a cliff's face (0.35 r) at >= 3 cells.
+constexpr double kMinHalfWidthCells = 9;
+}  // namespace
+
+double min_half_width(const Grid& g) { return kMinHalfWidthCells * std::max(g.cell_x, g.cell_y); }
+
+CurveShape parse_curve_shape(Params& p, const std::string& def_profile, const std::vector<std::string>& profiles,
+                             bool def_taper) {
+  CurveShape c;
+  c.pts = p.points("points", 2);
+  const bool has_r = p.has("radius"), has_w = p.has("width");
+  if (has_r && has_w)
+    param_error(p.where("width"),
+                "give either width (the full width of the cross-section, m) or radius (half of it), not both; "
+                "the constrained band of a crest, cliff or river is now `floor`");
+  if (has_w) c.radius = 0.5 * p.hlength("width", {}, 0, true);
+  if (has_r) c.radius = p.hlength("radius", {}, 0, true);
+  c.floor = p.hlength("floor", 0.0);
+  if (!profiles.empty()) {
+    const std::string prof = p.choice("profile", def_profile, profiles);
+    if (prof == "round") c.profile = Profile::Round;
+    else if (prof == "sharp") c.profile = Profile::Sharp;
+    else if (prof == "v") c.profile = Profile::V;
+    else if (prof == "u") c.profile = Profile::U;
+    else if (prof == "flat") c.profile = Profile::U, c.flat = true;
+  }
+  if (p.has("taper")) c.taper = p.hlength("taper", 0.0);
+  else c.taper = def_taper ? -1.0 : 0.0;  // -1: the half-width, once known
+  c.smooth = p.boolean("smooth", false);
+  return c;
+}
+
+double CurveShape::resolve_radius(const Grid& g, double amplitude, double per_metre) const {
+  if (radius > 0) return radius;
+  return std::max(min_half_width(g), per_metre * std::abs(amplitude));
+}
+
+std::vector<Vec3> CurveShape::path(const Grid& g, double r) const {
+  if (!smooth || pts.size() < 3) return pts;
+  std::vector<double> z;
+  for (const auto& v : pts) z.push_back(v.z);
+  const bool with_z = !std::isnan(pts[0].z);
+  std::vector<double> zs;
+  const double step = std::max(0.125 * r, 1.5 * std::max(g.cell_x, g.cell_y));
+  const auto xy2 = catmull_rom(xy(pts), step, with_z ? z : std::vector<double>{}, &zs);
+  std::vector<Vec3> out;
+  for (size_t i = 0; i < xy2.size(); ++i) out.push_back({xy2[i].x, xy2[i].y, with_z ? zs[i] : pts[0].z});
+  return out;
+}
+
+Primitive CurveShape::primitive(const std::vector<Vec3>& path_pts, double r, Profile prof, double amplitude) const {
+  Primitive pr;
+  pr.shape = PrimitiveShape::Polyline;
+  pr.points = xy(path_pts);
+  pr.radius = r;
+  pr.profile = prof;
+  pr.profile_amplitude = amplitude;
+  pr.floor_half_width = flat && floor <= 0 ? r / 3 : 0.5 * floor;
+  const double t = taper < 0 ? r : taper;
+  pr.taper_start = pr.taper_end = t;
+  return pr;
+}
+
+void release_near_polyline(EditState& s, const std::vector<Vec3>& pts, double half) {
+  const Grid& g = s.grid();
+  auto& hard = s.hard();
+  for (size_t i = 0; i + 1 < pts.size(); ++i) {
+    const Vec3 &a = pts[i], &b = pts[i + 1];
+    const int x0 = std::max(0, int(std::floor((std::min(a.x, b.x) - half) / g.cell_x)));
+    const int x1 = std::min(g.width - 1, int(std::ceil((std::max(a.x, b.x) + half) / g.cell_x)));
+    const int y0 = std::max(0, int(std::floor((std::min(a.y, b.y) - half) / g.cell_y)));
+    const int y1 = std::min(g.height - 1, int(std::ceil((std::max(a.y, b.y) + half) / g.cell_y)));
+    const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double px = x * g.cell_x, py = y * g.cell_y;
+        const double t = l2 > 0 ? std::clamp(((px - a.x) * ux + (py - a.y) * uy) / l2, 0.0, 1.0) : 0.0;
+        if (std::hypot(px - a.x - t * ux, py - a.y - t * uy) <= half)
+          hard[size_t(y) * g.width + x] = std::numeric_limits<float>::quiet_NaN();
+      }
+  }
+  s.changed();
+}
+
 namespace {
 
 // Vertices with an elevation each: from [x, y, z] points, else from "elevation".
-std::vector<Vec3> with_elevation(Params& p, std::vector<Vec3> pts) {
+void with_elevation(Params& p, std::vector<Vec3>& pts) {
   size_t with_z = 0;
   for (const auto& v : pts) with_z += std::isnan(v.z) ? 0 : 1;
   if (with_z != 0 && with_z != pts.size()) param_error(p.where("points"), "give z for every point or for none");
@@ -22,95 +121,174 @@ std::vector<Vec3> with_elevation(Params& p, std::vector<Vec3> pts) {
   } else if (p.has("elevation")) {
     param_error(p.where("elevation"), "the points already carry elevations [x, y, z]");
   }
-  return pts;
 }
 
-Primitive curve_primitive(const std::vector<Vec3>& pts, double radius, Profile profile, double amplitude) {
-  Primitive pr;
-  pr.shape = PrimitiveShape::Polyline;
-  pr.points = xy(pts);
-  pr.radius = radius;
-  pr.profile = profile;
-  pr.profile_amplitude = amplitude;
-  return pr;
-}
-
-Profile parse_profile(Params& p, const std::string& def) {
-  return p.choice("profile", def, {"sharp", "round"}) == "sharp" ? Profile::Sharp : Profile::Round;
-}
-
-// Elevation-constrained curves: crest, cliff, river.
-Operation constrained(std::vector<Vec3> pts, double width, Primitive profile) {
-  return [=](EditState& s) {
-    add_profile_gradient(s.device(), s.buffers(), {profile});
-    rasterize_polyline(s, pts, width);
-    s.changed();
-  };
+// Mean elevation of the current terrain under the curve's vertices (the crest's local relief).
+double terrain_under(EditState& s, const std::vector<Vec3>& pts) {
+  const Heightfield& h = s.height();
+  double sum = 0;
+  int n = 0;
+  for (const auto& v : pts) {
+    const int x = std::clamp(int(std::lround(v.x / s.grid().cell_x)), 0, h.width - 1);
+    const int y = std::clamp(int(std::lround(v.y / s.grid().cell_y)), 0, h.height - 1);
+    const float z = h.at(x, y);
+    if (std::isfinite(z)) sum += z, ++n;
+  }
+  return n ? sum / n : 0.0;
 }
 
 Operation parse_crest(Params& p) {
-  const auto pts = with_elevation(p, p.points("points", 2));
-  const double radius = p.hlength("radius", {}, 0, true);
-  const double height = p.vlength("height", 0.3 * radius);
-  const Profile prof = parse_profile(p, "sharp");
-  const double width = p.hlength("width", 0.0);
-  return constrained(pts, width, curve_primitive(pts, radius, prof, height));
-}
-
-Operation parse_cliff(Params& p) {
-  auto pts = with_elevation(p, p.points("points", 2));
-  const double radius = p.hlength("radius", {}, 0, true);
-  const double height = p.vlength("height");
-  if (!(height > 0)) param_error(p.where("height"), fmt::format("expected a drop > 0 m, got {}", height));
-  const std::string side = p.choice("side", "right", {"right", "left"});
-  const double width = p.hlength("width", 0.0);
-  std::vector<Vec3> dir = pts;
-  if (side == "left") std::reverse(dir.begin(), dir.end());
-  return constrained(pts, width, curve_primitive(dir, radius, Profile::Drop, height));
-}
-
-Operation parse_river(Params& p) {
-  const auto pts = with_elevation(p, p.points("points", 2));
-  const double radius = p.hlength("radius", {}, 0, true);
-  const double bank = p.vlength("bank_height", 0.1 * radius);
-  if (bank < 0) param_error(p.where("bank_height"), "expected >= 0 m (banks rise away from the river)");
-  const double width = p.hlength("width", 0.0);
-  return constrained(pts, width, curve_primitive(pts, radius, Profile::Round, -bank));
-}
-
-// Gradient-only curves. Per-vertex z (if given) scales the amplitude along the curve.
-Operation gradient_only(Params& p, const std::string& amp_key, double sign, Profile prof) {
-  const auto pts = p.points("points", 2);
-  const double radius = p.hlength("radius", {}, 0, true);
-  size_t with_z = 0;
-  for (const auto& v : pts) with_z += std::isnan(v.z) ? 0 : 1;
-  if (with_z != 0 && with_z != pts.size()) param_error(p.where("points"), "give z for every point or for none");
-  Primitive pr = curve_primitive(pts, radius, prof, 1.0);
-  if (with_z) {
-    for (const auto& v : pts) pr.amplitude.push_back(sign * v.z);
-    if (p.has(amp_key)) param_error(p.where(amp_key), "the points already carry per-vertex values [x, y, z]");
-  } else {
-    pr.profile_amplitude = sign * p.vlength(amp_key);
-  }
+  CurveShape c = parse_curve_shape(p, "sharp", {"sharp", "round", "v", "u", "flat"}, false);
+  with_elevation(p, c.pts);
+  const std::optional<double> height = p.has("height") ? std::optional<double>(p.vlength("height")) : std::nullopt;
   return [=](EditState& s) {
-    add_profile_gradient(s.device(), s.buffers(), {pr});
+    // Default height: the crest's relief above the terrain under it (so the flanks meet the
+    // constrained crest line instead of leaving a one-cell wall), else 0.3 r.
+    double h = 0;
+    if (height) h = *height;
+    else {
+      double zc = 0;
+      for (const auto& v : c.pts) zc += v.z;
+      h = zc / c.pts.size() - terrain_under(s, c.pts);
+      if (!(h > 0)) h = 0.3 * c.resolve_radius(s.grid(), 0, 0);
+    }
+    const double r = c.resolve_radius(s.grid(), h, 1.5);
+    const auto path = c.path(s.grid(), r);
+    add_profile_gradient(s.device(), s.buffers(), {c.primitive(path, r, c.profile, h)});
+    rasterize_polyline(s, path, c.floor);
     s.changed();
   };
 }
 
-Operation parse_free_crest(Params& p) { return gradient_only(p, "height", 1.0, parse_profile(p, "round")); }
-Operation parse_ravine(Params& p) { return gradient_only(p, "depth", -1.0, parse_profile(p, "sharp")); }
-Operation parse_fault(Params& p) { return gradient_only(p, "throw", 1.0, Profile::Step); }
+Operation parse_cliff(Params& p) {
+  CurveShape c = parse_curve_shape(p, "", {}, false);
+  with_elevation(p, c.pts);
+  const double height = p.vlength("height");
+  if (!(height > 0)) param_error(p.where("height"), fmt::format("expected a drop > 0 m, got {}", height));
+  const std::string side = p.choice("side", "right", {"right", "left"});
+  const double scree = p.number("scree", 0.35, 0.0, 0.95);
+  const double face = p.number("face", 0.3, 0.05, 1.0);
+  return [=](EditState& s) {
+    const double r = c.resolve_radius(s.grid(), height, 2.0);
+    const auto path = c.path(s.grid(), r);
+    std::vector<Vec3> dir = path;
+    if (side == "left") std::reverse(dir.begin(), dir.end());
+    Primitive pr = c.primitive(dir, r, Profile::Drop, height);
+    pr.scree = scree;
+    pr.face_fraction = face;
+    add_profile_gradient(s.device(), s.buffers(), {pr});
+    rasterize_polyline(s, path, c.floor);
+    s.changed();
+  };
+}
+
+Operation parse_river(Params& p) {
+  CurveShape c = parse_curve_shape(p, "round", {"round", "u", "v", "flat"}, false);
+  with_elevation(p, c.pts);
+  const std::optional<double> bank = p.has("bank_height") ? std::optional<double>(p.vlength("bank_height")) : std::nullopt;
+  if (bank && *bank < 0) param_error(p.where("bank_height"), "expected >= 0 m (banks rise away from the river)");
+  return [=](EditState& s) {
+    const double r = c.resolve_radius(s.grid(), bank.value_or(0), 0.0);
+    const double b = bank.value_or(0.1 * r);
+    const auto path = c.path(s.grid(), r);
+    add_profile_gradient(s.device(), s.buffers(), {c.primitive(path, r, c.profile, -b)});
+    rasterize_polyline(s, path, c.floor);
+    s.changed();
+  };
+}
+
+// Gradient-only curves. Per-vertex z (if given) scales the amplitude along the curve.
+struct GradientCurve {
+  CurveShape c;
+  std::vector<double> amp;  // per-vertex amplitudes (metres), or empty
+  double amplitude = 1;     // uniform amplitude (metres) when amp is empty
+};
+
+GradientCurve parse_gradient_curve(Params& p, const std::string& amp_key, double sign, CurveShape c) {
+  GradientCurve g;
+  size_t with_z = 0;
+  for (const auto& v : c.pts) with_z += std::isnan(v.z) ? 0 : 1;
+  if (with_z != 0 && with_z != c.pts.size()) param_error(p.where("points"), "give z for every point or for none");
+  if (with_z) {
+    for (const auto& v : c.pts) g.amp.push_back(sign * v.z);
+    if (p.has(amp_key)) param_error(p.where(amp_key), "the points already carry per-vertex values [x, y, z]");
+  } else {
+    g.amplitude = sign * p.vlength(amp_key);
+  }
+  g.c = std::move(c);
+  return g;
+}
+
+Primitive gradient_primitive(const GradientCurve& g, const Grid& grid, double per_metre, Profile prof) {
+  double peak = std::abs(g.amplitude);
+  for (double a : g.amp) peak = std::max(peak, std::abs(a));
+  const double r = g.c.resolve_radius(grid, peak, per_metre);
+  CurveShape c = g.c;
+  if (!g.amp.empty())
+    for (size_t i = 0; i < c.pts.size(); ++i) c.pts[i].z = g.amp[i];
+  const auto path = c.path(grid, r);
+  Primitive pr = c.primitive(path, r, prof, g.amp.empty() ? g.amplitude : 1.0);
+  if (!g.amp.empty())
+    for (const auto& v : path) pr.amplitude.push_back(v.z);
+  return pr;
+}
+
+Operation parse_free_crest(Params& p) {
+  CurveShape c = parse_curve_shape(p, "round", {"round", "sharp", "v", "u", "flat"}, true);
+  const GradientCurve g = parse_gradient_curve(p, "height", 1.0, std::move(c));
+  return [=](EditState& s) {
+    add_profile_gradient(s.device(), s.buffers(), {gradient_primitive(g, s.grid(), 2.0, g.c.profile)});
+    s.changed();
+  };
+}
+
+Operation parse_fault(Params& p) {
+  CurveShape c = parse_curve_shape(p, "", {}, false);
+  const GradientCurve g = parse_gradient_curve(p, "throw", 1.0, std::move(c));
+  return [=](EditState& s) {
+    add_profile_gradient(s.device(), s.buffers(), {gradient_primitive(g, s.grid(), 1.0, Profile::Step)});
+    s.changed();
+  };
+}
+
+// A ravine deepens downstream (from the first point to the last): without per-vertex depths its
+// depth grows linearly along the stroke from `depth_start` [0.35 depth] to `depth`. It cuts through
+// the constrained rims it crosses (their hard cells within half its half-width r are released) unless
+// `"cut_rims": false`.
+Operation parse_ravine(Params& p) {
+  CurveShape c = parse_curve_shape(p, "v", {"v", "sharp", "u", "round", "flat"}, true);
+  GradientCurve g = parse_gradient_curve(p, "depth", -1.0, std::move(c));
+  if (g.amp.empty()) {
+    const double start = p.has("depth_start") ? -p.vlength("depth_start") : 0.35 * g.amplitude;
+    std::vector<double> arc{0};
+    for (size_t i = 1; i < g.c.pts.size(); ++i)
+      arc.push_back(arc.back() + std::hypot(g.c.pts[i].x - g.c.pts[i - 1].x, g.c.pts[i].y - g.c.pts[i - 1].y));
+    for (double a : arc) g.amp.push_back(start + (g.amplitude - start) * (arc.back() > 0 ? a / arc.back() : 1.0));
+  } else if (p.has("depth_start")) {
+    param_error(p.where("depth_start"), "the points already carry per-vertex depths [x, y, z]");
+  }
+  const bool cut = p.boolean("cut_rims", true);
+  return [=](EditState& s) {
+    const Primitive pr = gradient_primitive(g, s.grid(), 2.0, g.c.profile);
+    add_profile_gradient(s.device(), s.buffers(), {pr});
+    if (cut && s.hard_count() > 0) {
+      std::vector<Vec3> line;
+      for (const auto& v : pr.points) line.push_back({v.x, v.y, 0.0});
+      release_near_polyline(s, line, pr.radius);
+    }
+    s.changed();
+  };
+}
 
 }  // namespace
 
 void add_curve_ops(std::vector<OpSpec>& ops) {
-  ops.push_back({"crest", "elevation constraints on a curve plus steep flanks on both sides", parse_crest});
-  ops.push_back({"cliff", "elevation constraints on the cliff top plus a steep drop on one side", parse_cliff});
+  ops.push_back({"crest", "elevation constraints on a curve plus flanks on both sides", parse_crest});
+  ops.push_back({"cliff", "elevation constraints on the cliff top plus a steep face and a scree apron on one side", parse_cliff});
   ops.push_back({"river", "elevation constraints along a river plus gently rising banks", parse_river});
   ops.push_back({"free_crest", "a ridge made of gradients only (no elevation constraint)", parse_free_crest});
   ops.push_back({"fault", "a step of a given throw across a curve, gradients only (faults add up)", parse_fault});
-  ops.push_back({"ravine", "a V-shaped valley made of gradients only", parse_ravine});
+  ops.push_back({"ravine", "a valley deepening downstream, gradients only; cuts through constrained rims", parse_ravine});
 }
 
 }  // namespace terracl::edit

@@ -126,18 +126,49 @@ ColorRamp ColorRamp::load(const std::string& path) {
   return parse(ss.str(), path);
 }
 
-ColorRamp ColorRamp::default_ramp() {
-  static const char* text =
-      "0%   46 112  74\n"
-      "10%  96 150  84\n"
-      "25% 166 188 112\n"
-      "40% 222 214 150\n"
-      "55% 196 158 104\n"
-      "70% 156 112  80\n"
-      "85% 170 160 152\n"
-      "100% 250 250 250\n"
-      "nv 0 0 0\n";
-  return parse(text, "default ramp");
+// Hypsometric tints in metres (the conventions of shaded relief maps): bathymetric blues below
+// 0 m, lowland green at the coast, through yellow-tan uplands and brown mountains to grey rock and
+// snow above 4000 m. Absolute, so a 500 m plateau is never snow and the sea is never green.
+static const char* kHypsometric =
+    "-6000  10  30  90\n"
+    "-2000  25  70 150\n"
+    "-200   60 120 190\n"
+    "-0.01 130 185 225\n"
+    "0      70 130  80\n"
+    "150   110 160  90\n"
+    "500   190 200 130\n"
+    "1000  210 180 120\n"
+    "1800  170 125  85\n"
+    "2800  140 115 100\n"
+    "3600  185 180 175\n"
+    "4500  250 250 250\n"
+    "nv 0 0 0\n";
+// The former default: the same kind of tints stretched over the data range (percentages).
+static const char* kRelative =
+    "0%   46 112  74\n"
+    "10%  96 150  84\n"
+    "25% 166 188 112\n"
+    "40% 222 214 150\n"
+    "55% 196 158 104\n"
+    "70% 156 112  80\n"
+    "85% 170 160 152\n"
+    "100% 250 250 250\n"
+    "nv 0 0 0\n";
+static const char* kGrey = "0% 0 0 0\n100% 255 255 255\nnv 0 0 0\n";
+
+ColorRamp ColorRamp::default_ramp() { return parse(kHypsometric, "hypsometric ramp"); }
+
+std::vector<std::string> ColorRamp::names() { return {"hypsometric", "relative", "grey"}; }
+
+ColorRamp ColorRamp::from_spec(const std::string& spec) {
+  if (spec == "hypsometric") return default_ramp();
+  if (spec == "relative") return parse(kRelative, "relative ramp");
+  if (spec == "grey" || spec == "gray") return parse(kGrey, "grey ramp");
+  std::ifstream f(spec);
+  if (!f)
+    fail("render", "ramp '{}' is neither a named ramp (hypsometric, relative, grey) nor a readable gdaldem colour file",
+         spec);
+  return load(spec);
 }
 
 void ColorRamp::color(double z, double zmin, double zmax, uint8_t out[3]) const {

@@ -1,0 +1,238 @@
+// Landform cross-sections (issue 12): every profile against its analytic formula, C1 continuity of
+// the profile across a bent polyline, tapers, smoothing, and no default feature narrower than 3 cells.
+#include "test_helpers.hpp"
+
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+#include <terracl/tensor.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+using namespace terracl;
+using json = nlohmann::json;
+
+namespace {
+
+// The potential P of `prims` on a W x H grid (read back from the mask scratch buffer).
+std::vector<float> potential(int W, int H, double cell, const std::vector<Primitive>& prims) {
+  Device& d = test::device();
+  GradientField g(W, H);
+  g.georef.cell_x = g.georef.cell_y = cell;
+  GradientBuffers b = GradientBuffers::upload(d, g);
+  add_profile_gradient(d, b, prims);
+  std::vector<float> p(size_t(W) * H);
+  d.queue().enqueueReadBuffer(b.mask, CL_TRUE, 0, p.size() * sizeof(float), p.data());
+  return p;
+}
+
+Primitive line(std::vector<Vec2> pts, double r, Profile prof, double a) {
+  Primitive p;
+  p.shape = PrimitiveShape::Polyline;
+  p.points = std::move(pts);
+  p.radius = r;
+  p.profile = prof;
+  p.profile_amplitude = a;
+  return p;
+}
+
+}  // namespace
+
+// A straight stroke across the grid: the integrated gradient (the solve's input) equals the
+// analytic cross-section P(d) of every profile, cell by cell.
+TEST(Landforms, ProfilesMatchTheirAnalyticCrossSection) {
+  Device& d = test::device();
+  const int W = 9, H = 81;
+  const double cell = 2, r = 50, a = 30, y0 = 80.5;  // the line between cell rows
+  struct Case {
+    Profile p;
+    double floor, face, scree;
+  };
+  for (const Case& c : {Case{Profile::Round, 0, 1, 0}, Case{Profile::Sharp, 0, 1, 0}, Case{Profile::V, 0, 1, 0},
+                        Case{Profile::U, 0, 1, 0}, Case{Profile::U, 20, 1, 0}, Case{Profile::Drop, 0, 0.3, 0.35},
+                        Case{Profile::Step, 0, 1, 0}}) {
+    Primitive pr = line({{-100, y0}, {200, y0}}, r, c.p, a);
+    pr.floor_half_width = c.floor;
+    pr.face_fraction = c.face;
+    pr.scree = c.scree;
+    GradientField g(W, H);
+    g.georef.cell_x = g.georef.cell_y = cell;
+    GradientBuffers b = GradientBuffers::upload(d, g);
+    add_profile_gradient(d, b, {pr});
+    GradientField out = g;
+    b.download(d, out);
+    const int x = 4;
+    // P at row 0 is the analytic value there (the box starts inside the support for Drop/Step).
+    double z = profile_value(c.p, std::abs(0 - y0), 0 - y0 < 0 ? -(y0 - 0) : 0, r, a, c.floor, c.face, c.scree);
+    double worst = 0;
+    for (int y = 0; y + 1 < H; ++y) {
+      z += out.gy[size_t(y) * W + x] * cell;
+      const double py = (y + 1) * cell, s = py - y0;  // right of an eastward stroke is south (+y)
+      const double want = profile_value(c.p, std::abs(s), s, r, a, c.floor, c.face, c.scree);
+      worst = std::max(worst, std::abs(z - want));
+    }
+    EXPECT_LT(worst, 2e-3 * a) << "profile " << int(c.p) << " floor " << c.floor;
+  }
+  // Spot values of the formulas themselves.
+  EXPECT_NEAR(profile_value(Profile::V, 25, 25, 50, 10), 2.5, 1e-12);           // 10 (1 - 1/2)^2
+  EXPECT_NEAR(profile_value(Profile::U, 25, 25, 50, 10), 10 * std::pow(1 - 1.0 / 16, 2), 1e-12);
+  EXPECT_NEAR(profile_value(Profile::U, 10, 10, 50, 10, 20), 10, 1e-12);       // on the flat floor
+  EXPECT_NEAR(profile_value(Profile::Drop, 0, 50, 50, 10, 0, 0.3, 0.35), -10, 1e-12);
+}
+
+// A bent stroke: the distance to a polyline has a crease along the medial axis inside the bend, so
+// a profile of the nearest distance alone has a slope jump there (the seams of the mountain_range
+// example). With the two nearest segments blended, the profile is C1: its largest second difference
+// shrinks like h^2 when the cell size h halves (a slope jump would only halve it).
+TEST(Landforms, ProfileIsC1AcrossABend) {
+  auto max_second_diff = [](double cell) {
+    const double L = 160;
+    const int n = int(std::lround(L / cell)) + 1;
+    Primitive p = line({{20, 140}, {80, 40}, {140, 140}}, 45, Profile::Round, 100);  // a sharp bend
+    const auto P = potential(n, n, cell, {p});
+    double worst = 0, jump = 0;
+    for (int y = 1; y + 1 < n; ++y)
+      for (int x = 1; x + 1 < n; ++x) {
+        const size_t o = size_t(y) * n + x;
+        worst = std::max({worst, std::abs(P[o + 1] - 2.0 * P[o] + P[o - 1]), std::abs(P[o + n] - 2.0 * P[o] + P[o - n])});
+        jump = std::max({jump, std::abs(double(P[o + 1]) - P[o]), std::abs(double(P[o + n]) - P[o])});
+      }
+    return std::make_pair(worst, jump);
+  };
+  const auto [c2, j2] = max_second_diff(2.0);
+  const auto [c1, j1] = max_second_diff(1.0);
+  // Value: the largest step between neighbours halves with the cell (no jump).
+  EXPECT_LT(j1, 0.6 * j2);
+  // Slope: the largest second difference drops about 4x (3x allows for float rounding).
+  EXPECT_LT(c1, c2 / 3.0) << c2 << " -> " << c1;
+}
+
+// Stroke ends taper: with a taper the profile fades to zero at the end points (no round cap, no
+// knob); without one the end is a full-height cap.
+TEST(Landforms, StrokeEndsTaper) {
+  Primitive p = line({{40, 100}, {160, 100}}, 30, Profile::Round, 50);
+  const auto cap = potential(201, 201, 1, {p});
+  p.taper_start = p.taper_end = 30;
+  const auto tap = potential(201, 201, 1, {p});
+  const size_t end = size_t(100) * 201 + 40, mid = size_t(100) * 201 + 100, beyond = size_t(100) * 201 + 30;
+  EXPECT_NEAR(cap[end], 50, 1e-3);
+  EXPECT_NEAR(tap[mid], 50, 1e-3);
+  EXPECT_NEAR(tap[end], 0, 1e-3);
+  EXPECT_NEAR(tap[beyond], 0, 1e-3);
+  EXPECT_GT(cap[beyond], 10);
+}
+
+TEST(Landforms, CatmullRomPassesThroughThePointsWithoutKinks) {
+  const std::vector<Vec2> pts = {{0, 0}, {100, 0}, {150, 80}, {300, 90}};
+  std::vector<double> z;
+  const auto s = catmull_rom(pts, 5, {1, 2, 3, 4}, &z);
+  ASSERT_EQ(s.size(), z.size());
+  for (const auto& p : pts) {
+    double best = 1e9;
+    for (const auto& q : s) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
+    EXPECT_LT(best, 1e-9);
+  }
+  // Turning angle between consecutive pieces stays small (the input turns by ~58 degrees at once).
+  double worst = 0;
+  for (size_t i = 1; i + 1 < s.size(); ++i) {
+    const double a1 = std::atan2(s[i].y - s[i - 1].y, s[i].x - s[i - 1].x);
+    const double a2 = std::atan2(s[i + 1].y - s[i].y, s[i + 1].x - s[i].x);
+    worst = std::max(worst, std::abs(std::remainder(a2 - a1, 2 * M_PI)));
+  }
+  EXPECT_LT(worst, 0.25);
+  EXPECT_NEAR(z.front(), 1, 1e-12);
+  EXPECT_NEAR(z.back(), 4, 1e-12);
+}
+
+// Every curve tool at its default width on 10, 30 and 90 m cells: the feature's width at half its
+// relief (the 10-90 % transition for cliffs and faults) is at least 3 cells.
+TEST(Landforms, NoDefaultFeatureIsNarrowerThanThreeCells) {
+  const int N = 97;
+  for (double cell : {10.0, 30.0, 90.0}) {
+    const json P = json::array({json::array({-20, 48}), json::array({116, 48})});  // cells, past the grid
+    const std::vector<std::pair<std::string, json>> ops = {
+        {"crest", {{"op", "crest"}, {"points", P}, {"elevation", 200}}},
+        {"free_crest", {{"op", "free_crest"}, {"points", P}, {"height", 150}}},
+        {"ravine", {{"op", "ravine"}, {"points", P}, {"depth", 80}}},
+        {"river", {{"op", "river"}, {"points", P}, {"elevation", 0}}},
+        {"mountain_range", {{"op", "mountain_range"}, {"points", P}, {"height", 400}, {"noise", {{"amplitude", 0}}}}},
+        {"cliff", {{"op", "cliff"}, {"points", P}, {"elevation", 0}, {"height", 100}}},
+        {"fault", {{"op", "fault"}, {"points", P}, {"throw", 60}}}};
+    for (const auto& [name, op] : ops) {
+      EditSession s(test::device(), *parse_flat_spec(fmt::format("flat:{}x{}@{}", N, N, cell)));
+      s.apply(json{{"units", "cells"}, {"operations", json::array({op})}});
+      const Heightfield& h = s.height();
+      std::vector<double> col;
+      for (int y = 0; y < N; ++y) col.push_back(h.at(N / 2, y));
+      double width = 0;
+      if (name == "cliff" || name == "fault") {
+        const double a = col.front(), b = col.back();
+        int y10 = -1, y90 = -1;
+        for (int y = 0; y < N; ++y) {
+          const double f = (col[y] - a) / (b - a);
+          if (y10 < 0 && f >= 0.1) y10 = y;
+          if (y90 < 0 && f >= 0.9) y90 = y;
+        }
+        width = y90 - y10;
+      } else {
+        const double base = 0.5 * (col.front() + col.back());
+        double peak = 0;
+        for (double v : col) peak = std::max(peak, std::abs(v - base));
+        ASSERT_GT(peak, 1.0) << name;
+        for (double v : col) width += std::abs(v - base) >= 0.5 * peak ? 1 : 0;
+      }
+      EXPECT_GE(width, 3) << name << " at " << cell << " m cells";
+    }
+  }
+}
+
+// A ravine deepens downstream and cuts through a constrained rim it crosses.
+TEST(Landforms, RavineDeepensDownstreamAndCutsTheRim) {
+  auto run = [](bool cut) {
+    EditSession s(test::device(), *parse_flat_spec("flat:97x97@10"));
+    s.apply(json{{"units", "cells"},
+                 {"operations",
+                  {{{"op", "cliff"}, {"points", {{-10, 40}, {110, 40}}}, {"elevation", 100}, {"height", 80}},
+                   {{"op", "ravine"}, {"points", {{48, 5}, {48, 90}}}, {"depth", 60}, {"width", 200}, {"cut_rims", cut}}}}});
+    return s.height();
+  };
+  const Heightfield cut = run(true), kept = run(false);
+  EXPECT_NEAR(kept.at(48, 40), 100, 1e-3);        // the rim holds its elevation
+  EXPECT_LT(cut.at(48, 40), 100 - 10);           // the ravine notches it
+  // Deeper downstream: the ravine's depth below its banks grows along the stroke.
+  const Heightfield flat_only = [] {
+    EditSession s(test::device(), *parse_flat_spec("flat:97x97@10"));
+    s.apply(json{{"units", "cells"}, {"operations", {{{"op", "ravine"}, {"points", {{48, -10}, {48, 106}}}, {"depth", 60}}}}});
+    return s.height();
+  }();
+  const double up = flat_only.at(20, 15) - flat_only.at(48, 15), down = flat_only.at(20, 80) - flat_only.at(48, 80);
+  EXPECT_GT(down, 1.5 * up);
+}
+
+TEST(Landforms, MesaCapHasDetailAndTalusFlanks) {
+  EditSession s(test::device(), *parse_flat_spec("flat:97x97@10"));
+  s.apply(json{{"units", "cells"},
+               {"operations", {{{"op", "mesa"}, {"center", {48, 48}}, {"radius", 25}, {"elevation", 300}, {"height", 200}}}}});
+  const Heightfield& h = s.height();
+  double lo = 1e9, hi = -1e9;
+  for (int y = 38; y <= 58; ++y)
+    for (int x = 38; x <= 58; ++x) lo = std::min(lo, double(h.at(x, y))), hi = std::max(hi, double(h.at(x, y)));
+  EXPECT_GT(hi - lo, 1.0) << "the cap is a flat disc";
+  EXPECT_LT(hi - lo, 0.2 * 200);
+  EXPECT_NEAR(h.at(48 + 25, 48), 300, 1e-3);  // the rim is hard
+}
+
+TEST(Landforms, OldWidthWithRadiusIsAClearError) {
+  EditSession s(test::device(), *parse_flat_spec("flat:33x33@10"));
+  try {
+    s.apply(json{{"units", "cells"},
+                 {"operations", {{{"op", "crest"}, {"points", {{2, 2}, {30, 30}}}, {"elevation", 50}, {"radius", 5}, {"width", 2}}}}});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("/operations/0/width"), std::string::npos) << m;
+    EXPECT_NE(m.find("floor"), std::string::npos) << m;
+  }
+}
