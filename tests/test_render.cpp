@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -194,4 +195,27 @@ TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {
   EXPECT_NE(noramp.exit_code, 0);
   EXPECT_NE(noramp.out.find("missing.txt"), std::string::npos) << noramp.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.path("x.png")));
+}
+
+// `edit --preview` draws the shaded relief at the output's full size with the chosen ramp; a bad
+// ramp is refused before any work, leaving no output.
+TEST(RenderCli, EditPreviewIsFullSizeAndTakesARamp) {
+  test::TempDir tmp;
+  {
+    std::ofstream f(tmp.path("s.json"));
+    f << R"({"units": "cells", "operations": [{"op": "free_crest", "points": [[5, 20], [60, 30]], "height": 40}]})";
+  }
+  const std::string base = "flat:67x41@10 --script " + tmp.path("s.json");
+  const auto bad = test::run_cli("-q edit " + base + " -o " + tmp.path("a.tif") + " --preview " + tmp.path("a.png") +
+                                 " --ramp no-such-ramp");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.out.find("no-such-ramp"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path("a.tif")));
+  const auto ok = test::run_cli("-q edit " + base + " -o " + tmp.path("b.tif") + " --preview " + tmp.path("b.png") +
+                                " --ramp grey");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  auto in = OIIO::ImageInput::open(tmp.path("b.png"));
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().width, 67);
+  EXPECT_EQ(in->spec().height, 41);
 }
