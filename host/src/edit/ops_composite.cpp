@@ -59,6 +59,10 @@ void add_oriented_noise(EditState& s, const OrientedNoise& o, const Primitive& r
   GradientBuffers& b = s.buffers();
   const Box box = primitives_box({region}, b.width, b.height, b.cell_x, b.cell_y);
   primitive_weight(d, b, {region}, box, false);
+  if (o.strength == 0) {  // A = I: add the masked noise directly (no tensor pass)
+    noise_gradient(d, b, o.noise, box, true, false);
+    return;
+  }
   b.clear_scratch(d, box);
   noise_gradient(d, b, o.noise, box, true, true);
   orient.strength = o.strength;
