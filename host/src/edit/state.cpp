@@ -1,11 +1,14 @@
 #include "edit/state.hpp"
 
+#include "edit/locality.hpp"
+
 #include <terracl/error.hpp>
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace terracl::edit {
 
@@ -18,7 +21,25 @@ EditState::EditState(Device& d, const GradientField& g0, std::optional<Heightfie
   m_buf = GradientBuffers::upload(d, g0);
   m_hard.assign(g0.size(), std::numeric_limits<float>::quiet_NaN());
   m_stale = !m_solution.has_value();
+  if (m_solution) {  // the base of local solves
+    m_base = *m_solution;
+    m_base_gx = g0.gx;
+    m_base_gy = g0.gy;
+  }
   // The template only carries georef/metadata/mean; its arrays are reused for downloads.
+}
+
+double EditState::falloff() const {
+  if (m_falloff) return *m_falloff;
+  return std::max(kFalloffPerReach * m_reach, kMinFalloffCells * std::max(m_grid.cell_x, m_grid.cell_y));
+}
+
+void EditState::rebase() {
+  if (!m_solution) solve();
+  m_base = *m_solution;
+  download();
+  m_base_gx = m_template.gx;
+  m_base_gy = m_template.gy;
 }
 
 size_t EditState::hard_count() const {
@@ -48,6 +69,13 @@ const Heightfield& EditState::height() {
 }
 
 const Heightfield& EditState::solve(bool warm) {
+  if (m_local && !m_base.z.empty()) {
+    solve_local(warm);
+    m_stale = false;
+    ++m_solves;
+    return *m_solution;
+  }
+  m_locality = {{"mode", "global"}};
   // The field stays on the device: the solve reads m_buf directly (m_template gives georef,
   // metadata and mean only).
   ConstraintSet cs(m_grid.width, m_grid.height);
@@ -63,6 +91,118 @@ const Heightfield& EditState::solve(bool warm) {
   m_stale = false;
   ++m_solves;
   return *m_solution;
+}
+
+void EditState::solve_local(bool warm) {
+  const int W = m_grid.width, H = m_grid.height;
+  const size_t N = size_t(W) * size_t(H);
+  const double cx = m_grid.cell_x, cy = m_grid.cell_y;
+  const auto t0 = std::chrono::steady_clock::now();
+  download();
+  const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
+  // Changed cells: a changed face changes the divergence of both cells it separates; a hard cell
+  // changes the terrain only where it differs from the base (freeze holds, it does not move).
+  std::vector<uint8_t> changed(N, 0);
+  size_t n_changed = 0;
+  int bx0 = W, by0 = H, bx1 = -1, by1 = -1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      bool c = false;
+      if (gx[i] != m_base_gx[i]) {
+        c = true;
+        if (x + 1 < W) changed[i + 1] = 1;
+      }
+      if (gy[i] != m_base_gy[i]) {
+        c = true;
+        if (y + 1 < H) changed[i + W] = 1;
+      }
+      if (!std::isnan(m_hard[i]) && m_hard[i] != m_base.z[i]) c = true;
+      if (c) changed[i] = 1;
+    }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (changed[size_t(y) * W + x]) {
+        ++n_changed;
+        bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = std::max(by1, y);
+      }
+  const double F = falloff();
+  m_locality = {{"mode", "local"}, {"falloff_m", F}, {"changed_cells", n_changed}};
+  Heightfield h = m_base;
+  h.georef = m_template.georef;
+  m_last = ReconstructResult();
+  if (n_changed == 0) {  // nothing moved (or only holds at the base elevation)
+    m_locality["solved_cells"] = 0;
+    m_solution = std::move(h);
+    return;
+  }
+  // The region: every cell within F of a changed cell (distance transform on the changed box grown
+  // by F, which holds every cell that can be that close).
+  const int mx = int(std::ceil(F / cx)) + 1, my = int(std::ceil(F / cy)) + 1;
+  const int ex0 = std::max(0, bx0 - mx), ex1 = std::min(W - 1, bx1 + mx), ey0 = std::max(0, by0 - my), ey1 = std::min(H - 1, by1 + my);
+  const int ew = ex1 - ex0 + 1, eh = ey1 - ey0 + 1;
+  std::vector<uint8_t> src(size_t(ew) * eh);
+  for (int y = 0; y < eh; ++y)
+    for (int x = 0; x < ew; ++x) src[size_t(y) * ew + x] = changed[size_t(y + ey0) * W + x + ex0];
+  const std::vector<float> d2 = squared_distance(src, ew, eh, cx, cy);
+  const float F2 = float(F * F);
+  std::vector<uint8_t> omega(N, 0);
+  size_t n_omega = 0;
+  int ox0 = W, oy0 = H, ox1 = -1, oy1 = -1;
+  for (int y = 0; y < eh; ++y)
+    for (int x = 0; x < ew; ++x)
+      if (d2[size_t(y) * ew + x] <= F2) {
+        omega[size_t(y + ey0) * W + x + ex0] = 1;
+        ++n_omega;
+        ox0 = std::min(ox0, x + ex0), ox1 = std::max(ox1, x + ex0), oy0 = std::min(oy0, y + ey0), oy1 = std::max(oy1, y + ey0);
+      }
+  // The window: the region's box plus one cell, so every region cell's in-grid neighbours are in
+  // it (the window's own border is then either the grid's border, Neumann as in a global solve,
+  // or a Dirichlet cell outside the region).
+  const int wx0 = std::max(0, ox0 - 1), wx1 = std::min(W - 1, ox1 + 1), wy0 = std::max(0, oy0 - 1), wy1 = std::min(H - 1, oy1 + 1);
+  const int ww = wx1 - wx0 + 1, wh = wy1 - wy0 + 1;
+  // The change of the field dg and of the hard values over the window; the solve returns dh.
+  GradientField dg(ww, wh);
+  dg.georef.cell_x = cx, dg.georef.cell_y = cy;
+  dg.mean_elevation = 0;  // with no hard cell at all (whole-grid support): the mean does not move
+  ConstraintSet cs(ww, wh);
+  for (int y = 0; y < wh; ++y)
+    for (int x = 0; x < ww; ++x) {
+      const size_t j = size_t(y) * ww + x, i = size_t(y + wy0) * W + x + wx0;
+      dg.gx[j] = float(double(gx[i]) - double(m_base_gx[i]));
+      dg.gy[j] = float(double(gy[i]) - double(m_base_gy[i]));
+      if (!omega[i]) cs.add_cell(x, y, 0.0, ConstraintKind::Raster, "locality");
+      else if (!std::isnan(m_hard[i])) cs.add_cell(x, y, double(m_hard[i]) - double(m_base.z[i]), ConstraintKind::Raster, "edit");
+    }
+  SolverOptions o = m_solver;
+  o.mean = 0.0;
+  Heightfield init;
+  if (warm && m_solution) {  // the previous change over this window
+    init = Heightfield(ww, wh);
+    for (int y = 0; y < wh; ++y)
+      for (int x = 0; x < ww; ++x) {
+        const size_t i = size_t(y + wy0) * W + x + wx0;
+        init.z[size_t(y) * ww + x] = float(double(m_solution->z[i]) - double(m_base.z[i]));
+      }
+    o.initial = &init;
+  } else {
+    o.initial = nullptr;
+  }
+  const double prep_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  m_last = reconstruct(m_device, dg, cs, o);
+  const Heightfield& dh = m_last.height;
+  for (int y = 0; y < wh; ++y)
+    for (int x = 0; x < ww; ++x) {
+      const size_t i = size_t(y + wy0) * W + x + wx0;
+      if (!omega[i]) continue;  // the base, bit for bit
+      h.z[i] = std::isnan(m_hard[i]) ? float(double(m_base.z[i]) + double(dh.z[size_t(y) * ww + x])) : m_hard[i];
+    }
+  m_last.height = Heightfield();
+  m_last.total_ms += prep_ms;
+  m_locality["solved_cells"] = n_omega;
+  m_locality["window"] = {wx0, wy0, ww, wh};
+  m_locality["prepare_ms"] = prep_ms;
+  m_solution = std::move(h);
 }
 
 // ---- geometry ----
