@@ -14,7 +14,7 @@ std::vector<float> squared_distance(const std::vector<uint8_t>& src, int w, int 
 /// Falloff defaults: the change fades to zero over this many times the largest reach (radius,
 /// region falloff, half width...) of the script's operations beyond the cells they changed, and
 /// over at least kMinFalloffCells cells.
-constexpr double kFalloffPerReach = 2.0;
+constexpr double kFalloffPerReach = 3.0;
 constexpr double kMinFalloffCells = 8.0;
 
 }  // namespace terracl::edit

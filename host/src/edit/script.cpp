@@ -83,6 +83,7 @@ Parsed parse_script(const json& script, Grid grid) {
       const json& u = script.at("units");
       if (u == "cells") {
         out.unit = grid.cell_x, out.unit_y = grid.cell_y;
+        grid.unit = out.unit, grid.unit_y = out.unit_y;  // for "locality" below
       } else if (u == "map") {
         if (!grid.georeferenced)
           param_error("/units", "\"map\" coordinates need a georeferenced base (a raster with a geotransform); this "

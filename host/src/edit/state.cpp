@@ -76,6 +76,13 @@ const Heightfield& EditState::solve(bool warm) {
     return *m_solution;
   }
   m_locality = {{"mode", "global"}};
+  solve_global(warm);
+  m_stale = false;
+  ++m_solves;
+  return *m_solution;
+}
+
+void EditState::solve_global(bool warm) {
   // The field stays on the device: the solve reads m_buf directly (m_template gives georef,
   // metadata and mean only).
   ConstraintSet cs(m_grid.width, m_grid.height);
@@ -88,9 +95,6 @@ const Heightfield& EditState::solve(bool warm) {
   m_solution = std::move(m_last.height);
   m_last.height = Heightfield();
   m_solution->georef = m_template.georef;
-  m_stale = false;
-  ++m_solves;
-  return *m_solution;
 }
 
 void EditState::solve_local(bool warm) {
@@ -156,6 +160,15 @@ void EditState::solve_local(bool warm) {
         ++n_omega;
         ox0 = std::min(ox0, x + ex0), ox1 = std::max(ox1, x + ex0), oy0 = std::min(oy0, y + ey0), oy1 = std::max(oy1, y + ey0);
       }
+  if (n_omega == N) {
+    // The region is the whole grid (whole-grid support, or edits everywhere): the change has no
+    // Dirichlet border, and solving for dh with the mean kept is the global solve of h, which
+    // reads the field on the device (no window to copy).
+    m_locality["solved_cells"] = n_omega;
+    m_locality["window"] = {0, 0, W, H};
+    solve_global(warm);
+    return;
+  }
   // The window: the region's box plus one cell, so every region cell's in-grid neighbours are in
   // it (the window's own border is then either the grid's border, Neumann as in a global solve,
   // or a Dirichlet cell outside the region).

@@ -79,6 +79,7 @@ class EditState {
 
  private:
   void solve_local(bool warm);
+  void solve_global(bool warm);
 
   Device& m_device;
   Grid m_grid;
