@@ -208,7 +208,18 @@ void EditState::solve_local(bool warm) {
     for (int x = 0; x < ww; ++x) {
       const size_t i = size_t(y + wy0) * W + x + wx0;
       if (!omega[i]) continue;  // the base, bit for bit
-      h.z[i] = std::isnan(m_hard[i]) ? float(double(m_base.z[i]) + double(dh.z[size_t(y) * ww + x])) : m_hard[i];
+      if (!std::isnan(m_hard[i])) {
+        h.z[i] = m_hard[i];
+        continue;
+      }
+      // The harmonic fade meets the Dirichlet border with a kink (a visible crease in hillshades);
+      // the outer half of the falloff band tapers it with a C2 weight, so the change reaches zero
+      // with zero slope. The band holds no changed cell, so no edit is altered.
+      const int ex = x + wx0 - ex0, ey = y + wy0 - ey0;
+      const double d = std::sqrt(double(d2[size_t(ey) * ew + ex]));
+      const double t = std::clamp((d - 0.5 * F) / (0.5 * F), 0.0, 1.0);
+      const double w = 1 - t * t * t * (t * (t * 6 - 15) + 10);
+      h.z[i] = float(double(m_base.z[i]) + w * double(dh.z[size_t(y) * ww + x]));
     }
   m_last.height = Heightfield();
   m_last.total_ms += prep_ms;
