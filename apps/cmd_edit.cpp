@@ -100,7 +100,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                  ls.value("total_ms", 0.0), a->output);
       if (rep.contains("locality") && rep["locality"].value("mode", "") == "local") {
         const auto& l = rep["locality"];
-        fmt::print("edit: local solve: {} cells changed, {} cells solved within {:.0f} m of them; every other cell keeps "
+        fmt::print("edit: local solve: {} cells changed, {} cells solved within {:.0f} m (at most) of them; every other cell keeps "
                    "the base elevation (\"solve\": \"global\" for a global solve)\n",
                    l.value("changed_cells", size_t(0)), l.value("solved_cells", size_t(0)), l.value("falloff_m", 0.0));
       }

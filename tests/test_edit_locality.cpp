@@ -282,3 +282,27 @@ TEST(EditLocality, CliWarnsAndRefusesOffGridWithoutOutput) {
   EXPECT_NE(r.out.find("/operations/0/points: the primitive lies wholly outside"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.path("o.tif")));
 }
+
+// Each operation fades over its own falloff: a wide noise brush in one corner does not widen the
+// fade of a thin crest in the other (with one falloff for all, the crest's change would spread
+// over 3 x the brush's radius).
+TEST(EditLocality, EachOperationFadesOverItsOwnFalloff) {
+  const Heightfield base = dem("frontrange_srtm3_758.asc", 300, 300, 193);
+  EditSession s(test::device(), base);
+  s.apply(json{{"units", "cells"},
+               {"operations",
+                {{{"op", "noise"}, {"center", {30, 30}}, {"radius", 20}, {"falloff", 5}, {"amplitude", 30}, {"wavelength", 6}},
+                 {{"op", "crest"}, {"points", {{130, 150}, {170, 160}}}, {"elevation", 4000}, {"radius", 4}}}}});
+  const Heightfield& h = s.height();
+  const double cmax = std::max(base.georef.cell_x, base.georef.cell_y);
+  size_t near_crest = 0;
+  for (int y = 100; y < h.height; ++y)
+    for (int x = 100; x < h.width; ++x) {
+      if (h.at(x, y) == base.at(x, y)) continue;
+      ++near_crest;
+      // crest radius 4 cells + falloff 3 x 4 cells (+ the changed faces' cell and rounding)
+      EXPECT_LE(seg_dist(base, x, y, {130, 150}, {170, 160}), (4 + 12) * base.georef.cell_x + 2 * cmax) << x << "," << y;
+    }
+  EXPECT_GT(near_crest, 200u);
+  EXPECT_EQ(s.report()["locality"]["falloffs_m"].size(), 2u);
+}

@@ -197,7 +197,13 @@ void EditSession::apply(const nlohmann::json& script) {
   const Parsed parsed = parse_script(script, script_grid(*m_state, m_options, m_georef));
   if (parsed.local) m_state->set_local(*parsed.local);
   if (parsed.falloff) m_state->set_falloff(parsed.falloff);
-  for (const auto& t : parsed.traces) m_state->note_reach(t.reach);
+  for (size_t i = 0; i < parsed.traces.size(); ++i) {
+    m_state->note_reach(parsed.traces[i].reach);
+    edit::EditState::Support sp{0, 0, m_state->grid().width - 1, m_state->grid().height - 1, parsed.traces[i].reach};
+    if (parsed.supports[i].is_array())
+      sp.x0 = parsed.supports[i][0], sp.y0 = parsed.supports[i][1], sp.x1 = parsed.supports[i][2], sp.y1 = parsed.supports[i][3];
+    m_state->note_support(sp);
+  }
   const size_t first = m_state->log().size();
   for (size_t i = 0; i < parsed.ops.size(); ++i) {
     report_progress(m_options.progress, "edit", double(i) / double(parsed.ops.size() + 1), parsed.ops[i].first);
@@ -223,7 +229,8 @@ const nlohmann::json& EditSession::log() const { return m_state->log(); }
 nlohmann::json EditSession::report() const {
   nlohmann::json r = {{"operations", m_state->log()}, {"hard_cells", m_state->hard_count()}, {"solves", m_state->solves()},
                       {"solve", m_state->local() ? "local" : "global"}, {"warnings", warnings()}};
-  if (m_state->local()) r["falloff_m"] = m_state->falloff();
+  if (m_state->local() && m_state->locality_report().contains("falloff_m"))
+    r["falloff_m"] = m_state->locality_report()["falloff_m"];  // the largest used by the last solve
   if (m_state->solves() > 0) r["locality"] = m_state->locality_report();
   if (m_state->solves() > 0) {
     r["last_solve"] = m_state->last_solve().to_json();

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 
 namespace terracl::edit {
 
@@ -140,25 +141,80 @@ void EditState::solve_local(bool warm) {
     m_solution = std::move(h);
     return;
   }
-  // The region: every cell within F of a changed cell (distance transform on the changed box grown
-  // by F, which holds every cell that can be that close).
-  const int mx = int(std::ceil(F / cx)) + 1, my = int(std::ceil(F / cy)) + 1;
-  const int ex0 = std::max(0, bx0 - mx), ex1 = std::min(W - 1, bx1 + mx), ey0 = std::max(0, by0 - my), ey1 = std::min(H - 1, by1 + my);
-  const int ew = ex1 - ex0 + 1, eh = ey1 - ey0 + 1;
-  std::vector<uint8_t> src(size_t(ew) * eh);
-  for (int y = 0; y < eh; ++y)
-    for (int x = 0; x < ew; ++x) src[size_t(y) * ew + x] = changed[size_t(y + ey0) * W + x + ex0];
-  const std::vector<float> d2 = squared_distance(src, ew, eh, cx, cy);
-  const float F2 = float(F * F);
+  // The region: every cell within its falloff of a changed cell. Each operation's changed cells
+  // (those inside its support box) fade over that operation's own falloff, so one wide brush does
+  // not widen the fade of a thin stroke elsewhere; an explicit "falloff", or changed cells in no
+  // box, use F. One exact distance transform per distinct falloff, on the changed box grown by it.
+  // wt: the taper weight (1 in the inner half of the band, C2 to 0 at its edge; max over groups).
+  std::vector<std::pair<double, std::vector<Support>>> groups;
+  std::vector<uint8_t> covered;
+  if (!m_falloff && !m_supports.empty()) {
+    covered.assign(N, 0);
+    const double min_f = kMinFalloffCells * std::max(cx, cy);
+    for (const Support& sp : m_supports) {
+      const double f = std::max(kFalloffPerReach * sp.reach, min_f);
+      auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == f; });
+      if (it == groups.end()) groups.push_back({f, {}}), it = groups.end() - 1;
+      it->second.push_back(sp);
+    }
+  }
+  std::vector<float> wt(N, 0.f);
   std::vector<uint8_t> omega(N, 0);
+  std::vector<uint8_t> src;
+  double f_max = 0;
+  auto dilate = [&](double f, const std::function<bool(int, int)>& take) {
+    int sx0 = W, sy0 = H, sx1 = -1, sy1 = -1;
+    for (int y = by0; y <= by1; ++y)
+      for (int x = bx0; x <= bx1; ++x)
+        if (changed[size_t(y) * W + x] && take(x, y))
+          sx0 = std::min(sx0, x), sx1 = std::max(sx1, x), sy0 = std::min(sy0, y), sy1 = std::max(sy1, y);
+    if (sx1 < 0) return;
+    f_max = std::max(f_max, f);
+    const int mx = int(std::ceil(f / cx)) + 1, my = int(std::ceil(f / cy)) + 1;
+    const int ex0 = std::max(0, sx0 - mx), ex1 = std::min(W - 1, sx1 + mx), ey0 = std::max(0, sy0 - my), ey1 = std::min(H - 1, sy1 + my);
+    const int ew = ex1 - ex0 + 1, eh = ey1 - ey0 + 1;
+    src.assign(size_t(ew) * eh, 0);
+    for (int y = std::max(ey0, sy0); y <= std::min(ey1, sy1); ++y)
+      for (int x = std::max(ex0, sx0); x <= std::min(ex1, sx1); ++x)
+        src[size_t(y - ey0) * ew + x - ex0] = changed[size_t(y) * W + x] && take(x, y);
+    const std::vector<float> d2 = squared_distance(src, ew, eh, cx, cy);
+    const float f2 = float(f * f);
+    for (int y = 0; y < eh; ++y)
+      for (int x = 0; x < ew; ++x) {
+        const float e = d2[size_t(y) * ew + x];
+        if (!(e <= f2)) continue;
+        const size_t i = size_t(y + ey0) * W + x + ex0;
+        omega[i] = 1;
+        // The harmonic fade meets the Dirichlet border with a kink (a visible crease in
+        // hillshades); the outer half of the band tapers it so the change reaches zero with zero
+        // slope. The band holds no changed cell, so no edit is altered.
+        const double t = std::clamp((std::sqrt(double(e)) - 0.5 * f) / (0.5 * f), 0.0, 1.0);
+        wt[i] = std::max(wt[i], float(1 - t * t * t * (t * (t * 6 - 15) + 10)));
+      }
+  };
+  for (const auto& [f, boxes] : groups) {
+    dilate(f, [&, &bx = boxes](int x, int y) {
+      for (const Support& b : bx)
+        if (x >= b.x0 - 2 && x <= b.x1 + 2 && y >= b.y0 - 2 && y <= b.y1 + 2) return true;
+      return false;
+    });
+    for (const Support& b : boxes)
+      for (int y = std::max(0, b.y0 - 2); y <= std::min(H - 1, b.y1 + 2); ++y)
+        std::fill(covered.begin() + size_t(y) * W + std::max(0, b.x0 - 2), covered.begin() + size_t(y) * W + std::min(W - 1, b.x1 + 2) + 1, 1);
+  }
+  if (groups.empty()) dilate(F, [](int, int) { return true; });
+  else dilate(F, [&](int x, int y) { return !covered[size_t(y) * W + x]; });  // changed cells in no box
+  m_locality["falloff_m"] = f_max;
+  std::vector<double> fs;
+  for (const auto& g : groups) fs.push_back(g.first);
+  if (!fs.empty()) m_locality["falloffs_m"] = fs;
   size_t n_omega = 0;
   int ox0 = W, oy0 = H, ox1 = -1, oy1 = -1;
-  for (int y = 0; y < eh; ++y)
-    for (int x = 0; x < ew; ++x)
-      if (d2[size_t(y) * ew + x] <= F2) {
-        omega[size_t(y + ey0) * W + x + ex0] = 1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (omega[size_t(y) * W + x]) {
         ++n_omega;
-        ox0 = std::min(ox0, x + ex0), ox1 = std::max(ox1, x + ex0), oy0 = std::min(oy0, y + ey0), oy1 = std::max(oy1, y + ey0);
+        ox0 = std::min(ox0, x), ox1 = std::max(ox1, x), oy0 = std::min(oy0, y), oy1 = std::max(oy1, y);
       }
   if (n_omega == N) {
     // The region is the whole grid (whole-grid support, or edits everywhere): the change has no
@@ -212,13 +268,7 @@ void EditState::solve_local(bool warm) {
         h.z[i] = m_hard[i];
         continue;
       }
-      // The harmonic fade meets the Dirichlet border with a kink (a visible crease in hillshades);
-      // the outer half of the falloff band tapers it with a C2 weight, so the change reaches zero
-      // with zero slope. The band holds no changed cell, so no edit is altered.
-      const int ex = x + wx0 - ex0, ey = y + wy0 - ey0;
-      const double d = std::sqrt(double(d2[size_t(ey) * ew + ex]));
-      const double t = std::clamp((d - 0.5 * F) / (0.5 * F), 0.0, 1.0);
-      const double w = 1 - t * t * t * (t * (t * 6 - 15) + 10);
+      const double w = wt[i];
       h.z[i] = float(double(m_base.z[i]) + w * double(dh.z[size_t(y) * ww + x]));
     }
   m_last.height = Heightfield();

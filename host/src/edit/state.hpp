@@ -70,6 +70,16 @@ class EditState {
     m_stale = true;
   }
   void note_reach(double metres) { m_reach = std::max(m_reach, metres); }
+  /// An operation's support: cells [x0, x1] x [y0, y1] (the points it read grown by its reach, or
+  /// the whole grid) and its reach (metres); its changed cells fade over kFalloffPerReach x reach.
+  struct Support {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    double reach = 0;
+  };
+  void note_support(const Support& s) {
+    m_supports.push_back(s);
+    m_stale = true;
+  }
   double falloff() const;
   /// The current solution and field become the base of later local solves (regularize bakes
   /// the edits into the gradient).
@@ -96,6 +106,7 @@ class EditState {
   bool m_local = false;
   std::optional<double> m_falloff;
   double m_reach = 0;
+  std::vector<Support> m_supports;
   Heightfield m_base;
   std::vector<float> m_base_gx, m_base_gy;
   nlohmann::json m_locality = nlohmann::json::object();
