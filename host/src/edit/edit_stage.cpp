@@ -135,9 +135,9 @@ void bench_edit(const BenchArgs& a) {
   fmt::print("edit {}x{} on {} (median of {}), base {}, {} solve:\n", n, n, d.info().name, a.repeats,
              base_path.empty() ? "flat" : base_path, last_report.value("solve", std::string("?")));
   if (last_report.contains("locality") && last_report["locality"].value("mode", "") == "local")
-    fmt::print("  locality (last solve): {} cells changed, {} solved, falloff {:.0f} m\n",
+    fmt::print("  locality (last solve): {} cells changed, {} solved, falloff {:.0f} m, comparison with the base {:.1f} ms\n",
                last_report["locality"].value("changed_cells", size_t(0)), last_report["locality"].value("solved_cells", size_t(0)),
-               last_report["locality"].value("falloff_m", 0.0));
+               last_report["locality"].value("falloff_m", 0.0), last_report["locality"].value("prepare_ms", 0.0));
   fmt::print("  20 operations        {:8.1f} ms\n", median(ops_ms));
   fmt::print("  reconstruction       {:8.1f} ms ({} cycles after FMG, cold; set-up {:.1f} ms in the last run)\n",
              median(solve_ms), cycles, setup_ms);

@@ -192,6 +192,17 @@ void EditState::solve_local(bool warm) {
         wt[i] = std::max(wt[i], float(1 - t * t * t * (t * (t * 6 - 15) + 10)));
       }
   };
+  // One distance transform per group costs its window; when the groups' windows add up to more
+  // than twice the grid (edits spread over the whole map, as in the benchmark), one transform with
+  // the largest falloff (a wider fade, still local) is cheaper than the per-operation ones.
+  double work = 0;
+  for (const auto& [f, boxes] : groups) {
+    int x0 = W, y0 = H, x1 = -1, y1 = -1;
+    for (const Support& b : boxes) x0 = std::min(x0, b.x0), y0 = std::min(y0, b.y0), x1 = std::max(x1, b.x1), y1 = std::max(y1, b.y1);
+    const double gw = std::min(double(W), x1 - x0 + 1 + 2 * f / cx), gh = std::min(double(H), y1 - y0 + 1 + 2 * f / cy);
+    work += std::max(0.0, gw) * std::max(0.0, gh);
+  }
+  if (groups.size() > 1 && work > 2.0 * double(N)) groups.clear();
   for (const auto& [f, boxes] : groups) {
     dilate(f, [&, &bx = boxes](int x, int y) {
       for (const Support& b : bx)
@@ -222,6 +233,7 @@ void EditState::solve_local(bool warm) {
     // reads the field on the device (no window to copy).
     m_locality["solved_cells"] = n_omega;
     m_locality["window"] = {0, 0, W, H};
+    m_locality["prepare_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     solve_global(warm);
     return;
   }
