@@ -65,12 +65,17 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     o.progress = make_progress("edit");
     o.base_dir = std::filesystem::path(a->script).parent_path().string();
     EditSession s(device(), base, o);
+    // Warnings go to stderr even with -q: they say an operation may do nothing visible.
+    auto warn = [](const std::vector<std::string>& w) {
+      for (const auto& m : w) fmt::print(stderr, "terracl WARNING: edit: {}\n", m);
+    };
     if (a->validate) {
-      s.validate(script);
+      warn(s.check(script));
       fmt::print("{}: valid for a {}x{} base\n", a->script, base.width, base.height);
       return;
     }
     s.apply(script);
+    warn(s.warnings());
     Heightfield h = s.height();
     finish_progress();
     h.georef = base.georef;
@@ -98,6 +103,12 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       fmt::print("edit: {} operations in {:.1f} ms, {} hard cells, reconstruction {} cycles {:.1f} ms -> {}\n",
                  rep["operations"].size(), ops_ms, rep["hard_cells"].get<size_t>(), ls.value("cycles", 0),
                  ls.value("total_ms", 0.0), a->output);
+      if (rep.contains("locality") && rep["locality"].value("mode", "") == "local") {
+        const auto& l = rep["locality"];
+        fmt::print("edit: local solve: {} cells changed, {} cells solved within {:.0f} m (at most) of them; every other cell keeps "
+                   "the base elevation (\"solve\": \"global\" for a global solve)\n",
+                   l.value("changed_cells", size_t(0)), l.value("solved_cells", size_t(0)), l.value("falloff_m", 0.0));
+      }
       for (const auto& e : rep["operations"])
         if (e.contains("curl_rms_before"))
           fmt::print("edit: regularize (operation {}): curl RMS {:.3g} -> {:.3g} 1/m\n", e["index"].get<int>(),

@@ -51,3 +51,32 @@ TEST(EditExamples, EveryExampleScriptRuns) {
   }
   EXPECT_GE(n, 7);
 }
+
+// The two real-DEM examples (issue 12) are local: a small part of the N44W072 tile changes, all of
+// it inside the solved window the report names, and the rest is the tile bit for bit.
+TEST(EditExamples, RealDemExamplesAreLocal) {
+  test::TempDir tmp;
+  const Heightfield base = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  for (const std::string name : {"n44_ridge", "n44_dam"}) {
+    const std::string script = test::data_path("examples/" + name + ".json");
+    const auto r = test::run_cli(fmt::format("edit -q --script {} -o {} --report {}", script, tmp.path(name + ".tif"),
+                                             tmp.path(name + ".json")));
+    ASSERT_EQ(r.exit_code, 0) << name << ": " << r.out;
+    const Heightfield h = read_heightfield(tmp.path(name + ".tif"));
+    const nlohmann::json rep = read_edit_script(tmp.path(name + ".json"));
+    ASSERT_EQ(rep.at("solve"), "local") << name;
+    const auto& w = rep.at("locality").at("window");
+    const int x0 = w[0], y0 = w[1], x1 = x0 + int(w[2]), y1 = y0 + int(w[3]);
+    ASSERT_EQ(h.size(), base.size());
+    size_t changed = 0, outside = 0;
+    for (int y = 0; y < h.height; ++y)
+      for (int x = 0; x < h.width; ++x)
+        if (h.at(x, y) != base.at(x, y)) {
+          ++changed;
+          outside += x < x0 || x >= x1 || y < y0 || y >= y1;
+        }
+    EXPECT_GT(changed, 1000u) << name;
+    EXPECT_LT(changed, base.size() / 20) << name << ": under 5 % of the tile";
+    EXPECT_EQ(outside, 0u) << name;
+  }
+}

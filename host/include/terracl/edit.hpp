@@ -1,7 +1,8 @@
 #pragma once
 /// Gradient-domain authoring with JSON edit scripts (docs/authoring.md).
 ///
-/// A script is {"units": "m" | "cells", "seed": 1, "operations": [{"op": "crest", ...}, ...]} (or just
+/// A script is {"units": "m" | "cells" | "map", "seed": 1, "solve": "local" | "global",
+/// "locality": {"falloff": 2000}, "operations": [{"op": "crest", ...}, ...]} (or just
 /// the array of operations). Operations edit the gradient field (tensors, noise, landform curves,
 /// copy-paste) and add hard elevation constraints (crest, cliff, river, mesa, freeze, fit); the
 /// terrain is the multigrid reconstruction of the edited field under the constraints. Coordinates
@@ -31,6 +32,9 @@ struct EditOptions {
   SolverOptions solver;   ///< initial/progress are managed by the session
   Progress progress;
   std::string base_dir;   ///< folder for relative file names in the script (copy_paste, fit)
+  /// Local solves (docs/authoring.md, "Locality"): true = local, false = global, nullopt = local
+  /// unless the base is flat (every cell equal, e.g. flat:WxH). A script's "solve" overrides it.
+  std::optional<bool> locality;
 };
 
 /// "flat:WIDTHxHEIGHT[@CELLSIZE]" -> a zero heightfield (cell size in metres, default 1); nullopt
@@ -56,6 +60,13 @@ class EditSession {
   void apply(const nlohmann::json& script);
   /// Validates without running.
   void validate(const nlohmann::json& script) const;
+  /// Validates without running and returns the script's warnings (e.g. an operation whose
+  /// support covers less than one cell), each starting with its JSON path.
+  std::vector<std::string> check(const nlohmann::json& script) const;
+  /// Warnings of every operation applied so far (also in log() and report()).
+  std::vector<std::string> warnings() const;
+  /// Whether solves are local (only the cells within the falloff of the edits move).
+  bool local() const;
   /// The current terrain (reconstructs when an operation changed anything).
   const Heightfield& height();
   /// Reconstructs now (warm: from the previous solution, else from scratch), returning the
@@ -71,6 +82,7 @@ class EditSession {
  private:
   std::unique_ptr<edit::EditState> m_state;
   EditOptions m_options;
+  Georef m_georef;  ///< of the base ("units": "map")
 };
 
 /// Name and one-line summary of every edit operation.

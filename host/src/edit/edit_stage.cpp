@@ -3,6 +3,7 @@
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
+#include <terracl/io.hpp>
 
 #include <fmt/format.h>
 
@@ -71,6 +72,28 @@ void bench_edit(const BenchArgs& a) {
   const int n = a.size;
   Heightfield base(n, n, 100.f);
   base.georef.cell_x = base.georef.cell_y = 10;
+  // --set base=DEM: the centre n x n window of a real DEM (local solves by default);
+  // --set solve=local|global forces the mode.
+  const std::string base_path = a.extra.value("base", std::string());
+  if (!base_path.empty()) {
+    const Heightfield dem = read_heightfield(base_path);
+    if (dem.width < n || dem.height < n)
+      throw UsageError("bench", fmt::format("base '{}' is {}x{}, smaller than --size {}", base_path, dem.width, dem.height, n));
+    const int x0 = (dem.width - n) / 2, y0 = (dem.height - n) / 2;
+    base = Heightfield(n, n);
+    base.georef = dem.georef;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) base.at(x, y) = dem.at(x0 + x, y0 + y);
+    auto& gt = base.georef.geotransform;
+    gt[0] += x0 * gt[1] + y0 * gt[2], gt[3] += x0 * gt[4] + y0 * gt[5];
+    if (base.count_nodata()) fill_nodata_harmonic(base);
+  }
+  std::optional<bool> locality;
+  if (a.extra.contains("solve")) {
+    const json& v = a.extra["solve"];
+    if (v != "local" && v != "global") throw UsageError("bench", "--set solve= expects local or global");
+    locality = v == "local";
+  }
   const json script = bench_script(n);
   json crest = {{"op", "crest"}, {"elevation", 500}, {"radius", n * 0.04}};
   crest["points"] = json::array({json::array({0.2 * n, 0.1 * n}), json::array({0.3 * n, 0.15 * n})});
@@ -78,11 +101,12 @@ void bench_edit(const BenchArgs& a) {
   one_more["operations"] = json::array({crest});
   std::vector<double> ops_ms, solve_ms, total_ms, add_ms, warm_ms, cold_ms;
   int warm_cycles = 0, cold_cycles = 0, cycles = 0;
-  json last_log;
+  json last_log, last_report;
   std::vector<double> residuals;
   double setup_ms = 0;
   for (int rep = 0; rep <= a.repeats; ++rep) {  // rep 0 warms up kernel builds
     EditOptions o;
+    o.locality = locality;
     EditSession s(d, base, o);
     auto t0 = std::chrono::steady_clock::now();
     s.apply(script);
@@ -104,10 +128,16 @@ void bench_edit(const BenchArgs& a) {
     const double t_cold = ms_since(t4);
     if (rep == 0) continue;
     last_log = s.log();
+    last_report = s.report();
     ops_ms.push_back(t_ops), solve_ms.push_back(t_solve), total_ms.push_back(t_ops + t_solve);
     add_ms.push_back(t_add), warm_ms.push_back(t_warm), cold_ms.push_back(t_cold);
   }
-  fmt::print("edit {}x{} on {} (median of {}):\n", n, n, d.info().name, a.repeats);
+  fmt::print("edit {}x{} on {} (median of {}), base {}, {} solve:\n", n, n, d.info().name, a.repeats,
+             base_path.empty() ? "flat" : base_path, last_report.value("solve", std::string("?")));
+  if (last_report.contains("locality") && last_report["locality"].value("mode", "") == "local")
+    fmt::print("  locality (last solve): {} cells changed, {} solved, falloff {:.0f} m, comparison with the base {:.1f} ms\n",
+               last_report["locality"].value("changed_cells", size_t(0)), last_report["locality"].value("solved_cells", size_t(0)),
+               last_report["locality"].value("falloff_m", 0.0), last_report["locality"].value("prepare_ms", 0.0));
   fmt::print("  20 operations        {:8.1f} ms\n", median(ops_ms));
   fmt::print("  reconstruction       {:8.1f} ms ({} cycles after FMG, cold; set-up {:.1f} ms in the last run)\n",
              median(solve_ms), cycles, setup_ms);

@@ -78,6 +78,7 @@ Operation parse_fit(Params& p) {
     const bool sketch = doc.is_object() && doc.value("format", std::string()) == "terracl-sketch";
     Grid fg = p.grid();
     if (sketch) {
+      fg.map = false;  // a sketch file has its own pixel coordinates
       const Grid& g = p.grid();
       const int sw = doc.value("width", g.width), sh = doc.value("height", g.height);
       fg.unit = g.cell_x * (sw > 1 ? double(g.width - 1) / (sw - 1) : 1.0);
@@ -168,6 +169,7 @@ Operation parse_regularize(Params&) {
     s.clear_hard();
     s.set_mean(mean);
     s.mark_fresh();  // the solution is the field's own reconstruction now
+    s.rebase();      // and the base of later local solves (the whole field changed by rounding)
     s.log().back()["curl_rms_before"] = before;
     s.log().back()["curl_rms_after"] = after;
     s.log().back()["dropped_constraints"] = dropped;

@@ -74,6 +74,7 @@ Operation parse_copy_paste(Params& p) {
   const double scx = src->g.georef.cell_x, scy = src->g.georef.cell_y;
   const double half_w = fw * scx / 2, half_h = fh * scy / 2;  // source metres
   const double feather = p.hlength("feather", 0.1 * std::min(half_w, half_h) * 2 * scale, 0, false);
+  p.note_reach(std::hypot(half_w, half_h) * scale);  // the pasted box around "to"
   return [=](EditState& s) {
     const Grid& g = s.grid();
     GradientField t = s.download();

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 
 namespace terracl::edit {
@@ -23,6 +24,17 @@ double unit_value(const json& v, const std::string& unit, const std::string& whe
   }
 }
 }  // namespace
+
+Vec2 Grid::to_grid(double x, double y) const {
+  if (!map) return {x * unit, y * unit_y};
+  // CRS -> pixel through the inverse geotransform (corner convention, as constraint files do),
+  // then cell centres on integers, then metres.
+  const auto& gt = geotransform;
+  const double det = gt[1] * gt[5] - gt[2] * gt[4];
+  const double dx = x - gt[0], dy = y - gt[3];
+  const double px = (gt[5] * dx - gt[2] * dy) / det - 0.5, py = (-gt[4] * dx + gt[1] * dy) / det - 0.5;
+  return {px * cell_x, py * cell_y};
+}
 
 Params::Params(const json& j, std::string path, const Grid& grid) : m_j(j), m_path(std::move(path)), m_grid(grid) {
   if (!m_j.is_object()) param_error(m_path, fmt::format("expected a JSON object, got {}", m_j.dump()));
@@ -56,7 +68,37 @@ double Params::hlength(const std::string& key, std::optional<double> def, double
   }
   if (!std::isfinite(v) || (strict_min ? !(v > min) : !(v >= min)))
     param_error(where(key), fmt::format("expected a length {} {} m, got {} m", strict_min ? ">" : ">=", min, v));
+  // An explicit width of 0 was accepted silently before (and drew nothing sensible): widths given
+  // in a script must be positive; leaving the key out selects the default.
+  if (key == "width" && has(key) && !(v > 0))
+    param_error(where(key), fmt::format("expected a width > 0 m, got {} m (leave \"width\" out for the default)", v));
+  if (key == "radius" || key == "disc_radius" || key == "falloff" || key == "fade" || key == "feather") record_reach(v);
+  if (key == "width") record_reach(v / 2);
+  const double cell = std::min(m_grid.cell_x, m_grid.cell_y);
+  if ((key == "radius" || key == "disc_radius") && v < cell && m_grid.trace)
+    m_grid.trace->warnings.push_back(fmt::format(
+        "{}: {:g} m is less than one cell ({:g} m): the operation's support covers less than one cell and may "
+        "have no visible effect",
+        where(key), v, cell));
   return v;
+}
+
+void Params::record_reach(double metres) {
+  m_reach = std::max(m_reach, metres);
+  if (m_grid.trace) m_grid.trace->reach = std::max(m_grid.trace->reach, metres);
+}
+
+void Params::note_reach(double metres) { record_reach(metres); }
+
+void Params::record_points(const std::vector<Vec3>& pts, const std::string& w) {
+  for (const auto& v : pts) {
+    m_x0 = std::min(m_x0, v.x), m_x1 = std::max(m_x1, v.x), m_y0 = std::min(m_y0, v.y), m_y1 = std::max(m_y1, v.y);
+    if (m_grid.trace) {
+      ParseTrace& t = *m_grid.trace;
+      t.x0 = std::min(t.x0, v.x), t.x1 = std::max(t.x1, v.x), t.y0 = std::min(t.y0, v.y), t.y1 = std::max(t.y1, v.y);
+    }
+  }
+  if (m_points_path.empty()) m_points_path = w;
 }
 
 double Params::vlength(const std::string& key, std::optional<double> def) {
@@ -157,10 +199,12 @@ std::vector<Vec3> Params::points_of(const json& arr, const std::string& w, size_
       param_error(pw, fmt::format("expected [x, y] or [x, y, z], got {}", p.dump()));
     for (const auto& c : p)
       if (!c.is_number() || !std::isfinite(c.get<double>())) param_error(pw, fmt::format("coordinates must be numbers, got {}", p.dump()));
-    Vec3 v{p[0].get<double>() * m_grid.unit, p[1].get<double>() * m_grid.unit_y};
+    const Vec2 q = m_grid.to_grid(p[0].get<double>(), p[1].get<double>());
+    Vec3 v{q.x, q.y};
     if (p.size() == 3) v.z = p[2].get<double>();
     out.push_back(v);
   }
+  record_points(out, w);
   // Arrays given as the whole point (e.g. "center": [x, y]) arrive wrapped by point().
   return out;
 }
@@ -181,6 +225,20 @@ namespace terracl::edit {
 void Params::done() const {
   for (auto it = m_j.begin(); it != m_j.end(); ++it)
     if (!m_used.count(it.key())) param_error(where(it.key()), "unknown parameter");
+  // A primitive 50 km off the map used to pass silently and change nothing (or, through the
+  // solve, everything): the points grown by the reach must touch the grid's cells.
+  if (m_x0 <= m_x1) {
+    const Grid& g = m_grid;
+    const double gx0 = -0.5 * g.cell_x, gx1 = (g.width - 0.5) * g.cell_x;
+    const double gy0 = -0.5 * g.cell_y, gy1 = (g.height - 0.5) * g.cell_y;
+    if (m_x1 + m_reach < gx0 || m_x0 - m_reach > gx1 || m_y1 + m_reach < gy0 || m_y0 - m_reach > gy1)
+      param_error(m_points_path,
+                  fmt::format("the primitive lies wholly outside the {}x{} grid: its points span x {:.6g}..{:.6g} m, y "
+                              "{:.6g}..{:.6g} m from the centre of cell (0, 0){} with a reach of {:g} m, the grid covers "
+                              "x {:g}..{:g} m, y {:g}..{:g} m{}",
+                              g.width, g.height, m_x0, m_x1, m_y0, m_y1, "", m_reach, gx0, gx1, gy0, gy1,
+                              g.map ? " (map coordinates converted through the base's geotransform)" : ""));
+  }
 }
 
 }  // namespace terracl::edit

@@ -5,6 +5,7 @@
 #include <terracl/stage.hpp>
 #include <terracl/tensor.hpp>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -13,6 +14,18 @@
 #include <vector>
 
 namespace terracl::edit {
+
+/// What parsing one operation learnt beyond its Operation: its support (the points it read and the
+/// largest radius-like length, for the edited region and the falloff) and warnings. Shared by the
+/// operation's Params and their children (tensor primitives, fit features).
+struct ParseTrace {
+  std::vector<std::string> warnings;
+  /// Bounding box (metres, grid frame) of every point read; empty when no point was read.
+  double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+  /// Largest reach (radius, disc_radius, falloff, half width, pasted box...) in metres.
+  double reach = 0;
+  bool has_points() const { return x0 <= x1; }
+};
 
 /// The grid an edit script works on (coordinates are metres from cell (0, 0), x east, y south).
 struct Grid {
@@ -25,6 +38,16 @@ struct Grid {
   unsigned seed = 1;
   /// Folder of the script file: relative file names are tried there when not found as given.
   std::string base_dir;
+  /// The base's GDAL geotransform (corner convention) when it has one ("units": "map").
+  bool georeferenced = false;
+  std::array<double, 6> geotransform{0, 1, 0, 0, 0, -1};
+  /// "units": "map": x, y coordinates are CRS coordinates (through the inverse geotransform).
+  bool map = false;
+  /// Where the operation being parsed records its support and warnings (may be null).
+  ParseTrace* trace = nullptr;
+
+  /// A script coordinate pair (script units) -> metres in the grid frame.
+  Vec2 to_grid(double x, double y) const;
 };
 
 using terracl::resolve_path;
@@ -65,15 +88,26 @@ class Params {
   std::vector<Vec3> points(const std::string& key, size_t min);
   std::vector<Vec3> points_of(const json& arr, const std::string& where, size_t min);
 
-  /// Throws when the object has keys that no accessor asked for.
+  /// Declares how far (metres) the operation acts beyond the points it read, when that is not one
+  /// of its radius-like parameters (e.g. the half-diagonal of a pasted box).
+  void note_reach(double metres);
+
+  /// Throws when the object has keys that no accessor asked for, or when the points it read, grown
+  /// by its reach, lie wholly outside the grid (the error names the points' JSON path).
   void done() const;
 
  private:
   const json& get(const std::string& key);
   json m_j;
   std::string m_path;
+  void record_points(const std::vector<Vec3>& pts, const std::string& where);
+  void record_reach(double metres);
   Grid m_grid;
   std::set<std::string> m_used;
+  // This object's own points (for the off-grid check) and reach.
+  double m_x0 = std::numeric_limits<double>::infinity(), m_y0 = m_x0, m_x1 = -m_x0, m_y1 = -m_x0;
+  double m_reach = 0;
+  std::string m_points_path;
 };
 
 }  // namespace terracl::edit

@@ -7,7 +7,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <regex>
 
@@ -48,8 +50,21 @@ using edit::param_error;
 
 struct Parsed {
   std::vector<std::pair<std::string, Operation>> ops;
+  std::vector<edit::ParseTrace> traces;  // one per operation
+  std::vector<nlohmann::json> supports;  // one per operation: [x0, y0, x1, y1] cells, or "grid"
   double unit = 1, unit_y = 1;
+  std::optional<bool> local;             // "solve": "local" | "global"
+  std::optional<double> falloff;         // "locality": {"falloff": ...}
 };
+
+// The cells an operation can touch, from what its parameters said (points grown by the reach).
+nlohmann::json support_of(const std::string& name, const json& j, const edit::ParseTrace& t, const Grid& g) {
+  const bool whole = name == "regularize" || (name == "fit" && (!j.contains("clear") || j.at("clear") != false));
+  if (whole || !t.has_points()) return "grid";
+  const int x0 = std::max(0, int(std::floor((t.x0 - t.reach) / g.cell_x))), x1 = std::min(g.width - 1, int(std::ceil((t.x1 + t.reach) / g.cell_x)));
+  const int y0 = std::max(0, int(std::floor((t.y0 - t.reach) / g.cell_y))), y1 = std::min(g.height - 1, int(std::ceil((t.y1 + t.reach) / g.cell_y)));
+  return nlohmann::json::array({x0, y0, x1, y1});
+}
 
 Parsed parse_script(const json& script, Grid grid) {
   const json* ops = &script;
@@ -59,15 +74,38 @@ Parsed parse_script(const json& script, Grid grid) {
   if (script.is_object()) {
     for (auto it = script.begin(); it != script.end(); ++it)
       if (it.key() != "operations" && it.key() != "units" && it.key() != "seed" && it.key() != "description" &&
-          it.key() != "base")
-        param_error("/" + it.key(), "unknown key (expected operations, units, seed, base, description)");
+          it.key() != "base" && it.key() != "solve" && it.key() != "locality")
+        param_error("/" + it.key(), "unknown key (expected operations, units, seed, base, description, solve, locality)");
     if (!script.contains("operations")) param_error("/operations", "missing (required): the array of operations");
     ops = &script.at("operations");
     base = "/operations";
     if (script.contains("units")) {
       const json& u = script.at("units");
-      if (u == "cells") out.unit = grid.cell_x, out.unit_y = grid.cell_y;
-      else if (u != "m") param_error("/units", fmt::format("expected \"m\" or \"cells\", got {}", u.dump()));
+      if (u == "cells") {
+        out.unit = grid.cell_x, out.unit_y = grid.cell_y;
+        grid.unit = out.unit, grid.unit_y = out.unit_y;  // for "locality" below
+      } else if (u == "map") {
+        if (!grid.georeferenced)
+          param_error("/units", "\"map\" coordinates need a georeferenced base (a raster with a geotransform); this "
+                                "base has none (use \"m\" or \"cells\")");
+        const auto& gt = grid.geotransform;
+        if (gt[1] * gt[5] - gt[2] * gt[4] == 0) param_error("/units", "the base's geotransform is not invertible");
+        grid.map = true;
+      } else if (u != "m") {
+        param_error("/units", fmt::format("expected \"m\", \"cells\" or \"map\", got {}", u.dump()));
+      }
+    }
+    if (script.contains("solve")) {
+      const json& v = script.at("solve");
+      if (v != "local" && v != "global") param_error("/solve", fmt::format("expected \"local\" or \"global\", got {}", v.dump()));
+      out.local = v == "local";
+    }
+    if (script.contains("locality")) {
+      if (out.local == false) param_error("/locality", "applies to local solves, and \"solve\" is \"global\"");
+      Params lp(script.at("locality"), "/locality", grid);
+      out.falloff = lp.hlength("falloff", {}, 0, true);
+      lp.done();
+      out.local = true;
     }
     if (script.contains("seed")) {
       if (!script.at("seed").is_number_integer() || script.at("seed").get<long long>() < 0)
@@ -93,11 +131,16 @@ Parsed parse_script(const json& script, Grid grid) {
       param_error(path + "/op", fmt::format("unknown operation '{}' (known: {})", name, list));
     }
     grid.seed = seed * 1000003u + unsigned(i);
+    edit::ParseTrace trace;
+    grid.trace = &trace;
     Params p(j, path, grid);
     p.string("op");
     p.string("comment", "");
     Operation op = spec->parse(p);
     p.done();
+    grid.trace = nullptr;
+    out.supports.push_back(support_of(name, j, trace, grid));
+    out.traces.push_back(std::move(trace));
     out.ops.emplace_back(name, std::move(op));
   }
   return out;
@@ -105,31 +148,67 @@ Parsed parse_script(const json& script, Grid grid) {
 
 }  // namespace
 
-EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_options(std::move(o)) {
+EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_options(std::move(o)), m_georef(base.georef) {
   require_finite(base, "edit", "the base terrain (fill nodata first: terracl fill_nodata)");
   GradientField g = extract_gradient(d, base);
   SolverOptions so = m_options.solver;
   so.initial = nullptr;
   so.progress = nullptr;
   m_state = std::make_unique<edit::EditState>(d, g, base, so);
+  // Locality by default on a real base; a flat base (every cell equal, e.g. flat:WxH) has nothing
+  // to keep and solves globally, as before.
+  bool flat = true;
+  for (float v : base.z) flat = flat && v == base.z.front();
+  m_state->set_local(m_options.locality.value_or(!flat));
 }
 
 EditSession::~EditSession() = default;
 
-void EditSession::validate(const nlohmann::json& script) const {
-  Grid g = m_state->grid();
-  g.base_dir = m_options.base_dir;
-  parse_script(script, g);
+namespace {
+Grid script_grid(const edit::EditState& s, const EditOptions& o, const Georef& geo) {
+  Grid g = s.grid();
+  g.base_dir = o.base_dir;
+  g.georeferenced = geo.has_geotransform;
+  g.geotransform = geo.geotransform;
+  return g;
+}
+}  // namespace
+
+void EditSession::validate(const nlohmann::json& script) const { check(script); }
+
+std::vector<std::string> EditSession::check(const nlohmann::json& script) const {
+  const Parsed parsed = parse_script(script, script_grid(*m_state, m_options, m_georef));
+  std::vector<std::string> w;
+  for (const auto& t : parsed.traces) w.insert(w.end(), t.warnings.begin(), t.warnings.end());
+  return w;
 }
 
+std::vector<std::string> EditSession::warnings() const {
+  std::vector<std::string> w;
+  for (const auto& e : m_state->log())
+    if (e.contains("warnings"))
+      for (const auto& s : e["warnings"]) w.push_back(s.get<std::string>());
+  return w;
+}
+
+bool EditSession::local() const { return m_state->local(); }
+
 void EditSession::apply(const nlohmann::json& script) {
-  Grid g = m_state->grid();
-  g.base_dir = m_options.base_dir;
-  const Parsed parsed = parse_script(script, g);
+  const Parsed parsed = parse_script(script, script_grid(*m_state, m_options, m_georef));
+  if (parsed.local) m_state->set_local(*parsed.local);
+  if (parsed.falloff) m_state->set_falloff(parsed.falloff);
+  for (size_t i = 0; i < parsed.traces.size(); ++i) {
+    m_state->note_reach(parsed.traces[i].reach);
+    edit::EditState::Support sp{0, 0, m_state->grid().width - 1, m_state->grid().height - 1, parsed.traces[i].reach};
+    if (parsed.supports[i].is_array())
+      sp.x0 = parsed.supports[i][0], sp.y0 = parsed.supports[i][1], sp.x1 = parsed.supports[i][2], sp.y1 = parsed.supports[i][3];
+    m_state->note_support(sp);
+  }
   const size_t first = m_state->log().size();
   for (size_t i = 0; i < parsed.ops.size(); ++i) {
     report_progress(m_options.progress, "edit", double(i) / double(parsed.ops.size() + 1), parsed.ops[i].first);
-    m_state->log().push_back({{"index", first + i}, {"op", parsed.ops[i].first}});
+    m_state->log().push_back({{"index", first + i}, {"op", parsed.ops[i].first}, {"support", parsed.supports[i]}});
+    if (!parsed.traces[i].warnings.empty()) m_state->log().back()["warnings"] = parsed.traces[i].warnings;
     const auto t0 = std::chrono::steady_clock::now();
     parsed.ops[i].second(*m_state);
     m_state->device().queue().finish();
@@ -148,7 +227,11 @@ size_t EditSession::hard_cells() const { return m_state->hard_count(); }
 const nlohmann::json& EditSession::log() const { return m_state->log(); }
 
 nlohmann::json EditSession::report() const {
-  nlohmann::json r = {{"operations", m_state->log()}, {"hard_cells", m_state->hard_count()}, {"solves", m_state->solves()}};
+  nlohmann::json r = {{"operations", m_state->log()}, {"hard_cells", m_state->hard_count()}, {"solves", m_state->solves()},
+                      {"solve", m_state->local() ? "local" : "global"}, {"warnings", warnings()}};
+  if (m_state->local() && m_state->locality_report().contains("falloff_m"))
+    r["falloff_m"] = m_state->locality_report()["falloff_m"];  // the largest used by the last solve
+  if (m_state->solves() > 0) r["locality"] = m_state->locality_report();
   if (m_state->solves() > 0) {
     r["last_solve"] = m_state->last_solve().to_json();
     r["last_solve"]["width"] = m_state->grid().width;

@@ -1,11 +1,15 @@
 #include "edit/state.hpp"
 
+#include "edit/locality.hpp"
+
 #include <terracl/error.hpp>
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <functional>
 
 namespace terracl::edit {
 
@@ -18,7 +22,25 @@ EditState::EditState(Device& d, const GradientField& g0, std::optional<Heightfie
   m_buf = GradientBuffers::upload(d, g0);
   m_hard.assign(g0.size(), std::numeric_limits<float>::quiet_NaN());
   m_stale = !m_solution.has_value();
+  if (m_solution) {  // the base of local solves
+    m_base = *m_solution;
+    m_base_gx = g0.gx;
+    m_base_gy = g0.gy;
+  }
   // The template only carries georef/metadata/mean; its arrays are reused for downloads.
+}
+
+double EditState::falloff() const {
+  if (m_falloff) return *m_falloff;
+  return std::max(kFalloffPerReach * m_reach, kMinFalloffCells * std::max(m_grid.cell_x, m_grid.cell_y));
+}
+
+void EditState::rebase() {
+  if (!m_solution) solve();
+  m_base = *m_solution;
+  download();
+  m_base_gx = m_template.gx;
+  m_base_gy = m_template.gy;
 }
 
 size_t EditState::hard_count() const {
@@ -48,6 +70,20 @@ const Heightfield& EditState::height() {
 }
 
 const Heightfield& EditState::solve(bool warm) {
+  if (m_local && !m_base.z.empty()) {
+    solve_local(warm);
+    m_stale = false;
+    ++m_solves;
+    return *m_solution;
+  }
+  m_locality = {{"mode", "global"}};
+  solve_global(warm);
+  m_stale = false;
+  ++m_solves;
+  return *m_solution;
+}
+
+void EditState::solve_global(bool warm) {
   // The field stays on the device: the solve reads m_buf directly (m_template gives georef,
   // metadata and mean only).
   ConstraintSet cs(m_grid.width, m_grid.height);
@@ -60,9 +96,199 @@ const Heightfield& EditState::solve(bool warm) {
   m_solution = std::move(m_last.height);
   m_last.height = Heightfield();
   m_solution->georef = m_template.georef;
-  m_stale = false;
-  ++m_solves;
-  return *m_solution;
+}
+
+void EditState::solve_local(bool warm) {
+  const int W = m_grid.width, H = m_grid.height;
+  const size_t N = size_t(W) * size_t(H);
+  const double cx = m_grid.cell_x, cy = m_grid.cell_y;
+  const auto t0 = std::chrono::steady_clock::now();
+  download();
+  const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
+  // Changed cells: a changed face changes the divergence of both cells it separates; a hard cell
+  // changes the terrain only where it differs from the base (freeze holds, it does not move).
+  std::vector<uint8_t> changed(N, 0);
+  size_t n_changed = 0;
+  int bx0 = W, by0 = H, bx1 = -1, by1 = -1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      bool c = false;
+      if (gx[i] != m_base_gx[i]) {
+        c = true;
+        if (x + 1 < W) changed[i + 1] = 1;
+      }
+      if (gy[i] != m_base_gy[i]) {
+        c = true;
+        if (y + 1 < H) changed[i + W] = 1;
+      }
+      if (!std::isnan(m_hard[i]) && m_hard[i] != m_base.z[i]) c = true;
+      if (c) changed[i] = 1;
+    }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (changed[size_t(y) * W + x]) {
+        ++n_changed;
+        bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = std::max(by1, y);
+      }
+  const double F = falloff();
+  m_locality = {{"mode", "local"}, {"falloff_m", F}, {"changed_cells", n_changed}};
+  Heightfield h = m_base;
+  h.georef = m_template.georef;
+  m_last = ReconstructResult();
+  if (n_changed == 0) {  // nothing moved (or only holds at the base elevation)
+    m_locality["solved_cells"] = 0;
+    m_solution = std::move(h);
+    return;
+  }
+  // The region: every cell within its falloff of a changed cell. Each operation's changed cells
+  // (those inside its support box) fade over that operation's own falloff, so one wide brush does
+  // not widen the fade of a thin stroke elsewhere; an explicit "falloff", or changed cells in no
+  // box, use F. One exact distance transform per distinct falloff, on the changed box grown by it.
+  // wt: the taper weight (1 in the inner half of the band, C2 to 0 at its edge; max over groups).
+  std::vector<std::pair<double, std::vector<Support>>> groups;
+  std::vector<uint8_t> covered;
+  if (!m_falloff && !m_supports.empty()) {
+    covered.assign(N, 0);
+    const double min_f = kMinFalloffCells * std::max(cx, cy);
+    for (const Support& sp : m_supports) {
+      const double f = std::max(kFalloffPerReach * sp.reach, min_f);
+      auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == f; });
+      if (it == groups.end()) groups.push_back({f, {}}), it = groups.end() - 1;
+      it->second.push_back(sp);
+    }
+  }
+  std::vector<float> wt(N, 0.f);
+  std::vector<uint8_t> omega(N, 0);
+  std::vector<uint8_t> src;
+  double f_max = 0;
+  auto dilate = [&](double f, const std::function<bool(int, int)>& take) {
+    int sx0 = W, sy0 = H, sx1 = -1, sy1 = -1;
+    for (int y = by0; y <= by1; ++y)
+      for (int x = bx0; x <= bx1; ++x)
+        if (changed[size_t(y) * W + x] && take(x, y))
+          sx0 = std::min(sx0, x), sx1 = std::max(sx1, x), sy0 = std::min(sy0, y), sy1 = std::max(sy1, y);
+    if (sx1 < 0) return;
+    f_max = std::max(f_max, f);
+    const int mx = int(std::ceil(f / cx)) + 1, my = int(std::ceil(f / cy)) + 1;
+    const int ex0 = std::max(0, sx0 - mx), ex1 = std::min(W - 1, sx1 + mx), ey0 = std::max(0, sy0 - my), ey1 = std::min(H - 1, sy1 + my);
+    const int ew = ex1 - ex0 + 1, eh = ey1 - ey0 + 1;
+    src.assign(size_t(ew) * eh, 0);
+    for (int y = std::max(ey0, sy0); y <= std::min(ey1, sy1); ++y)
+      for (int x = std::max(ex0, sx0); x <= std::min(ex1, sx1); ++x)
+        src[size_t(y - ey0) * ew + x - ex0] = changed[size_t(y) * W + x] && take(x, y);
+    const std::vector<float> d2 = squared_distance(src, ew, eh, cx, cy);
+    const float f2 = float(f * f);
+    for (int y = 0; y < eh; ++y)
+      for (int x = 0; x < ew; ++x) {
+        const float e = d2[size_t(y) * ew + x];
+        if (!(e <= f2)) continue;
+        const size_t i = size_t(y + ey0) * W + x + ex0;
+        omega[i] = 1;
+        // The harmonic fade meets the Dirichlet border with a kink (a visible crease in
+        // hillshades); the outer half of the band tapers it so the change reaches zero with zero
+        // slope. The band holds no changed cell, so no edit is altered.
+        const double t = std::clamp((std::sqrt(double(e)) - 0.5 * f) / (0.5 * f), 0.0, 1.0);
+        wt[i] = std::max(wt[i], float(1 - t * t * t * (t * (t * 6 - 15) + 10)));
+      }
+  };
+  // One distance transform per group costs its window; when the groups' windows add up to more
+  // than twice the grid (edits spread over the whole map, as in the benchmark), one transform with
+  // the largest falloff (a wider fade, still local) is cheaper than the per-operation ones.
+  double work = 0;
+  for (const auto& [f, boxes] : groups) {
+    int x0 = W, y0 = H, x1 = -1, y1 = -1;
+    for (const Support& b : boxes) x0 = std::min(x0, b.x0), y0 = std::min(y0, b.y0), x1 = std::max(x1, b.x1), y1 = std::max(y1, b.y1);
+    const double gw = std::min(double(W), x1 - x0 + 1 + 2 * f / cx), gh = std::min(double(H), y1 - y0 + 1 + 2 * f / cy);
+    work += std::max(0.0, gw) * std::max(0.0, gh);
+  }
+  if (groups.size() > 1 && work > 2.0 * double(N)) groups.clear();
+  for (const auto& [f, boxes] : groups) {
+    dilate(f, [&, &bx = boxes](int x, int y) {
+      for (const Support& b : bx)
+        if (x >= b.x0 - 2 && x <= b.x1 + 2 && y >= b.y0 - 2 && y <= b.y1 + 2) return true;
+      return false;
+    });
+    for (const Support& b : boxes)
+      for (int y = std::max(0, b.y0 - 2); y <= std::min(H - 1, b.y1 + 2); ++y)
+        std::fill(covered.begin() + size_t(y) * W + std::max(0, b.x0 - 2), covered.begin() + size_t(y) * W + std::min(W - 1, b.x1 + 2) + 1, 1);
+  }
+  if (groups.empty()) dilate(F, [](int, int) { return true; });
+  else dilate(F, [&](int x, int y) { return !covered[size_t(y) * W + x]; });  // changed cells in no box
+  m_locality["falloff_m"] = f_max;
+  std::vector<double> fs;
+  for (const auto& g : groups) fs.push_back(g.first);
+  if (!fs.empty()) m_locality["falloffs_m"] = fs;
+  size_t n_omega = 0;
+  int ox0 = W, oy0 = H, ox1 = -1, oy1 = -1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (omega[size_t(y) * W + x]) {
+        ++n_omega;
+        ox0 = std::min(ox0, x), ox1 = std::max(ox1, x), oy0 = std::min(oy0, y), oy1 = std::max(oy1, y);
+      }
+  if (n_omega == N) {
+    // The region is the whole grid (whole-grid support, or edits everywhere): the change has no
+    // Dirichlet border, and solving for dh with the mean kept is the global solve of h, which
+    // reads the field on the device (no window to copy).
+    m_locality["solved_cells"] = n_omega;
+    m_locality["window"] = {0, 0, W, H};
+    m_locality["prepare_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    solve_global(warm);
+    return;
+  }
+  // The window: the region's box plus one cell, so every region cell's in-grid neighbours are in
+  // it (the window's own border is then either the grid's border, Neumann as in a global solve,
+  // or a Dirichlet cell outside the region).
+  const int wx0 = std::max(0, ox0 - 1), wx1 = std::min(W - 1, ox1 + 1), wy0 = std::max(0, oy0 - 1), wy1 = std::min(H - 1, oy1 + 1);
+  const int ww = wx1 - wx0 + 1, wh = wy1 - wy0 + 1;
+  // The change of the field dg and of the hard values over the window; the solve returns dh.
+  GradientField dg(ww, wh);
+  dg.georef.cell_x = cx, dg.georef.cell_y = cy;
+  dg.mean_elevation = 0;  // with no hard cell at all (whole-grid support): the mean does not move
+  ConstraintSet cs(ww, wh);
+  for (int y = 0; y < wh; ++y)
+    for (int x = 0; x < ww; ++x) {
+      const size_t j = size_t(y) * ww + x, i = size_t(y + wy0) * W + x + wx0;
+      dg.gx[j] = float(double(gx[i]) - double(m_base_gx[i]));
+      dg.gy[j] = float(double(gy[i]) - double(m_base_gy[i]));
+      if (!omega[i]) cs.add_cell(x, y, 0.0, ConstraintKind::Raster, "locality");
+      else if (!std::isnan(m_hard[i])) cs.add_cell(x, y, double(m_hard[i]) - double(m_base.z[i]), ConstraintKind::Raster, "edit");
+    }
+  SolverOptions o = m_solver;
+  o.mean = 0.0;
+  Heightfield init;
+  if (warm && m_solution) {  // the previous change over this window
+    init = Heightfield(ww, wh);
+    for (int y = 0; y < wh; ++y)
+      for (int x = 0; x < ww; ++x) {
+        const size_t i = size_t(y + wy0) * W + x + wx0;
+        init.z[size_t(y) * ww + x] = float(double(m_solution->z[i]) - double(m_base.z[i]));
+      }
+    o.initial = &init;
+  } else {
+    o.initial = nullptr;
+  }
+  const double prep_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  m_last = reconstruct(m_device, dg, cs, o);
+  const Heightfield& dh = m_last.height;
+  for (int y = 0; y < wh; ++y)
+    for (int x = 0; x < ww; ++x) {
+      const size_t i = size_t(y + wy0) * W + x + wx0;
+      if (!omega[i]) continue;  // the base, bit for bit
+      if (!std::isnan(m_hard[i])) {
+        h.z[i] = m_hard[i];
+        continue;
+      }
+      const double w = wt[i];
+      h.z[i] = float(double(m_base.z[i]) + w * double(dh.z[size_t(y) * ww + x]));
+    }
+  m_last.height = Heightfield();
+  m_last.total_ms += prep_ms;
+  m_locality["solved_cells"] = n_omega;
+  m_locality["window"] = {wx0, wy0, ww, wh};
+  m_locality["prepare_ms"] = prep_ms;
+  m_solution = std::move(h);
 }
 
 // ---- geometry ----

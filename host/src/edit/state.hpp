@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <functional>
 #include <optional>
 #include <vector>
@@ -53,7 +54,43 @@ class EditState {
   /// Per-operation log (JSON objects), written into the edit report.
   nlohmann::json& log() { return m_log; }
 
+  // ---- locality (docs/authoring.md, "Locality") ----
+  /// Local solves: only the cells within the falloff of the changed cells move (the change is
+  /// solved there with the unchanged terrain as Dirichlet border); every other cell keeps the base
+  /// elevation bit for bit. Off: the global Poisson solve of the whole field.
+  void set_local(bool on) {
+    if (on != m_local) m_stale = true;
+    m_local = on;
+  }
+  bool local() const { return m_local; }
+  /// Falloff distance (metres) of local solves; nullopt: kFalloffPerReach x the largest reach
+  /// noted, at least kMinFalloffCells cells.
+  void set_falloff(std::optional<double> metres) {
+    m_falloff = metres;
+    m_stale = true;
+  }
+  void note_reach(double metres) { m_reach = std::max(m_reach, metres); }
+  /// An operation's support: cells [x0, x1] x [y0, y1] (the points it read grown by its reach, or
+  /// the whole grid) and its reach (metres); its changed cells fade over kFalloffPerReach x reach.
+  struct Support {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    double reach = 0;
+  };
+  void note_support(const Support& s) {
+    m_supports.push_back(s);
+    m_stale = true;
+  }
+  double falloff() const;
+  /// The current solution and field become the base of later local solves (regularize bakes
+  /// the edits into the gradient).
+  void rebase();
+  /// What the last solve did: mode, falloff, changed / solved cells, window (JSON).
+  const nlohmann::json& locality_report() const { return m_locality; }
+
  private:
+  void solve_local(bool warm);
+  void solve_global(bool warm);
+
   Device& m_device;
   Grid m_grid;
   GradientBuffers m_buf;
@@ -65,6 +102,14 @@ class EditState {
   ReconstructResult m_last;
   int m_solves = 0;
   nlohmann::json m_log = nlohmann::json::array();
+  // Locality: the base terrain and its gradient (host copies), the falloff and the report.
+  bool m_local = false;
+  std::optional<double> m_falloff;
+  double m_reach = 0;
+  std::vector<Support> m_supports;
+  Heightfield m_base;
+  std::vector<float> m_base_gx, m_base_gy;
+  nlohmann::json m_locality = nlohmann::json::object();
 };
 
 /// One parsed operation, ready to run.
