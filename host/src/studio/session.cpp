@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -111,6 +112,9 @@ void Session::commit(const json& ops, bool record_undo) {
       replay(ops);
       mode = "replay";
     }
+    // A validated script can still solve to non-finite elevations (extreme parameters): refuse it.
+    for (float z : m_edit->height().z)
+      if (!std::isfinite(z)) throw RequestError(400, "/operations: these operations give non-finite elevations");
   } catch (...) {
     // Validated operations can still fail while running (a file vanished): go back to the
     // previous list so the session stays consistent.
