@@ -163,6 +163,18 @@ TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
   post(c, "/api/export", {{"path", "../out.tif"}}, 403);
   post(c, "/api/export", {{"path", "out.txt"}}, 400);
   post(c, "/api/load", {{"path", "missing.json"}}, 404);
+  // The page and three.js are served; nothing outside three.js's folder is.
+  auto page = c.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_NE(page->body.find("studio.js"), std::string::npos);
+  auto three = c.Get("/three/build/three.module.js");
+  ASSERT_TRUE(three);
+  EXPECT_EQ(three->status, 200);
+  for (const char* p : {"/three/../../../etc/passwd.js", "/three/..%2f..%2fetc/x.js", "/web/..%2fstudio.js"}) {
+    auto r = c.Get(p);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 404) << p;
+  }
   EXPECT_FALSE(std::filesystem::exists(s.dir.path("escape.json")));
 
   const json after = body(c.Get("/api/state"));

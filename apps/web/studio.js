@@ -18,7 +18,7 @@ let eroding = false;
 
 // ---- tool parameters (lengths in metres; scaled to the terrain on the first load) ----
 const TOOLS = {
-  crest: { radius: 0.08, elevation: 150, width: 0 },
+  crest: { radius: 0.08, elevation: 150, height: 150, width: 0 },
   river: { radius: 0.05, elevation: 0, width: 0 },
   ravine: { radius: 0.05, depth: 60 },
   cliff: { radius: 0.03, elevation: 150, height: 80 },
@@ -373,7 +373,7 @@ function draw3d(t = terr) {
     mesh = new THREE.Mesh(g, new THREE.MeshLambertMaterial({ vertexColors: THREE.VertexColors }));
     mesh.userData = { w, h };
     scene.add(mesh);
-    camera.position.set(0, Math.max(ax, ay) * 0.7, Math.max(ax, ay) * 0.9);
+    camera.position.set(0, Math.max(ax, ay) * 0.8, Math.max(ax, ay) * 1.05);
     controls.target.set(0, 0, 0);
   }
   const [lo, hi] = range(t.z);

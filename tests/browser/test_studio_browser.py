@@ -83,7 +83,7 @@ def main():
     ws = os.path.join(tmp, "ws")
     studio, url = start_studio(cli, ws)
     opts = webdriver.ChromeOptions()
-    for a in ["--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1700,760",
+    for a in ["--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1700,860",
               "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]:
         opts.add_argument(a)
     opts.binary_location = "/usr/bin/chromium"

@@ -152,8 +152,9 @@ void StudioServer::Impl::routes() {
     }
     res.set_content(it->second, mime_of(it->first));
   });
+  s.Get("/favicon.ico", [](const httplib::Request&, httplib::Response& res) { res.status = 204; });
   // three.js from libjs-three; the pattern admits no "..".
-  s.Get(R"(/three/((?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-]+\.js))", [this](const httplib::Request& req, httplib::Response& res) {
+  s.Get(R"(/three/((?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-]+(?:\.[A-Za-z0-9_-]+)*\.js))", [this](const httplib::Request& req, httplib::Response& res) {
     const fs::path p = fs::path(opts.three_dir) / req.matches[1].str();
     if (!fs::is_regular_file(p)) {
       res.status = 404;
