@@ -37,7 +37,7 @@ def start(cli, base):
     for _ in range(50):
         m = re.search(r"(http://127\.0\.0\.1:\d+/)", p.stdout.readline())
         if m:
-            return p, m.group(1)
+            return p, m.group(1).rstrip("/")
     raise SystemExit("studio did not start")
 
 
