@@ -190,11 +190,16 @@ function overlay(ctx) {
   if (clip) { ctx.fillStyle = '#ff4'; ctx.fillText('click to paste', 8, 16); }
 }
 
-// canvas pixel -> metres from the centre of cell (0, 0) (x east, y south)
+// canvas pixel -> script coordinates from the centre of cell (0, 0) (x east, y south): metres, or
+// cells when the loaded script says "units": "cells"
+const inCells = () => state.units === 'cells';
 function toMetres(px, py) {
   const fx = (px - view.ox) / view.sw, fy = (py - view.oy) / view.sh;
-  return [round1((fx * state.width - 0.5) * state.cell_x), round1((fy * state.height - 0.5) * state.cell_y)];
+  const cx = inCells() ? 1 : state.cell_x, cy = inCells() ? 1 : state.cell_y;
+  return [round1((fx * state.width - 0.5) * cx), round1((fy * state.height - 0.5) * cy)];
 }
+// a horizontal length in metres (tool fields) -> script units
+const L = (m) => (inCells() ? round1(m / state.cell_x) : m);
 const round1 = (v) => Math.round(v * 10) / 10;
 function toCell(px, py) {
   const fx = (px - view.ox) / view.sw, fy = (py - view.oy) / view.sh;
@@ -227,10 +232,10 @@ function num(k, v) { return Number.isFinite(v) ? v : undefined; }
 
 function curveOp(tool, pts) {
   const p = TOOLS[tool];
-  const op = { op: tool, points: pts.map(([x, y]) => toMetres(x, y)), radius: p.radius };
+  const op = { op: tool, points: pts.map(([x, y]) => toMetres(x, y)), radius: L(p.radius) };
   for (const k of ['elevation', 'depth', 'height', 'throw'])
     if (k in p && num(k, p[k]) !== undefined) op[k] = p[k];
-  if (p.width > 0) op.width = p.width;
+  if (p.width > 0) op.width = L(p.width);
   return op;
 }
 
@@ -238,12 +243,12 @@ function brushOp(tool, px, py) {
   const p = TOOLS[tool];
   const c = toMetres(px, py);
   switch (tool) {
-    case 'scale_slopes': return { op: tool, center: c, radius: p.radius, factor: p.factor, falloff: p.falloff };
-    case 'noise': return { op: tool, center: c, radius: p.radius, amplitude: p.amplitude, wavelength: p.wavelength };
-    case 'freeze': return { op: tool, center: c, radius: p.radius };
-    case 'tensor': return { op: tool, primitives: [{ shape: 'disc', center: c, disc_radius: p.radius / 2, radius: p.radius,
+    case 'scale_slopes': return { op: tool, center: c, radius: L(p.radius), factor: p.factor, falloff: L(p.falloff) };
+    case 'noise': return { op: tool, center: c, radius: L(p.radius), amplitude: p.amplitude, wavelength: L(p.wavelength) };
+    case 'freeze': return { op: tool, center: c, radius: L(p.radius) };
+    case 'tensor': return { op: tool, primitives: [{ shape: 'disc', center: c, disc_radius: L(p.radius / 2), radius: L(p.radius),
                                                      tensor: 'directional', angle: p.angle, strength: p.strength }] };
-    case 'point': return { op: 'crest', points: [[c[0], c[1], p.elevation], [round1(c[0] + state.cell_x), c[1], p.elevation]], radius: p.radius };
+    case 'point': return { op: 'crest', points: [[c[0], c[1], p.elevation], [round1(c[0] + L(state.cell_x)), c[1], p.elevation]], radius: L(p.radius) };
   }
   return null;
 }
@@ -312,8 +317,8 @@ function erosionParams() {
 async function erodeBrush(r) {
   const [x0, y0] = toMetres(r.x0, r.y0), [x1, y1] = toMetres(r.x1, r.y1);
   const p = TOOLS.erode;
-  const radius = Math.max(p.radius / 4, Math.hypot(x1 - x0, y1 - y0) / 2) || p.radius;
-  await startErosion({ ...erosionParams(), center: [round1((x0 + x1) / 2), round1((y0 + y1) / 2)], radius: round1(radius), falloff: p.falloff });
+  const radius = Math.max(L(p.radius / 4), Math.hypot(x1 - x0, y1 - y0) / 2) || L(p.radius);
+  await startErosion({ ...erosionParams(), center: [round1((x0 + x1) / 2), round1((y0 + y1) / 2)], radius: round1(radius), falloff: L(p.falloff) });
 }
 async function startErosion(params) {
   await api('POST', '/api/erosion/start', params);

@@ -145,6 +145,22 @@ def main():
         b = gdal.Open(out).ReadAsArray()
         check(a.shape == b.shape and np.array_equal(a, b), "the studio's export equals terracl edit's output bit for bit")
 
+        if shots:  # a second picture: a mountain range being eroded live
+            from selenium.webdriver.support.ui import Select
+            Select(driver.find_element(By.ID, "tool")).select_by_value("mountain_range")
+            v = driver.execute_script("return document.body.dataset.version")
+            chain = ActionChains(driver).move_to_element_with_offset(canvas, -200, -150).click_and_hold()
+            for i in range(1, 16):
+                chain.move_by_offset(12, 20)
+            chain.release().perform()
+            wait_version(driver, v)
+            driver.find_element(By.ID, "erode_all").click()
+            time.sleep(8)
+            driver.find_element(By.ID, "erode_stop").click()
+            time.sleep(1)
+            driver.save_screenshot(os.path.join(shots, "studio_erosion.png"))
+            driver.find_element(By.ID, "erode_cancel").click()
+
         errors = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
         check(not errors, f"no errors in the browser console {errors}")
     finally:
