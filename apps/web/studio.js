@@ -361,8 +361,15 @@ function init3d() {
   const sun = new THREE.DirectionalLight(0xffffff, 0.8);
   sun.position.set(-1, 1, -1);
   scene.add(sun);
-  const loop = () => { requestAnimationFrame(loop); controls.update(); renderer.render(scene, camera); };
-  loop();
+  // Render on demand (camera moved, terrain changed): a continuous loop would take the CPU that
+  // the device (PoCL) needs.
+  controls.addEventListener('change', render3d);
+}
+let pending = false;
+function render3d() {
+  if (pending || !renderer) return;
+  pending = true;
+  requestAnimationFrame(() => { pending = false; renderer.render(scene, camera); });
 }
 
 function draw3d(t = terr) {
@@ -395,6 +402,8 @@ function draw3d(t = terr) {
   pos.needsUpdate = true;
   col.needsUpdate = true;
   mesh.geometry.computeVertexNormals();
+  controls.update();
+  render3d();
 }
 
 // ---- layers ----
