@@ -95,8 +95,13 @@ TEST(StudioApi, EditsUndoRedoReorderSaveAndReplayBitForBitOnTheCli) {
   httplib::Client c2 = s.client();
   const json st2 = body(c2.Get("/api/state"));
   EXPECT_EQ(st2["version"], body(c.Get("/api/state"))["version"]);
-  EXPECT_EQ(st2["operations"].size(), 3u);
+  EXPECT_EQ(st2["operations"].size(), 3u);  // (before the append below)
   EXPECT_EQ(st2["operations"][0]["elevation"], 90);
+
+  // The last change an append: the live terrain is the warm incremental solve, the export must
+  // still be what `terracl edit` computes.
+  st = post(c, "/api/operations", {{"op", {{"op", "ravine"}, {"points", {{300, 700}, {900, 200}}}, {"depth", 30}, {"radius", 120}}}});
+  EXPECT_EQ(st["last"]["mode"], "append");
 
   post(c, "/api/save", {{"path", "sessions/s.json"}});
   post(c, "/api/export", {{"path", "out.tif"}});
@@ -118,7 +123,7 @@ TEST(StudioApi, EditsUndoRedoReorderSaveAndReplayBitForBitOnTheCli) {
   // Loading the saved script back reproduces the operation list.
   post(c, "/api/operations", {{"op", kNoise}});
   st = post(c, "/api/load", {{"path", "sessions/s.json"}});
-  EXPECT_EQ(st["operations"].size(), 3u);
+  EXPECT_EQ(st["operations"].size(), 4u);
 }
 
 TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
