@@ -76,6 +76,19 @@ TEST(StudioApi, EditsUndoRedoReorderSaveAndReplayBitForBitOnTheCli) {
   EXPECT_NEAR(*std::max_element(crest.begin(), crest.end()), 120.f, 1e-3);
 
   post(c, "/api/operations", {{"op", kNoise}});
+  {
+    // The appended noise ran alone (warm) but with its script index, hence its default seed: the
+    // live terrain matches the canonical replay (GeoTIFF) within the solver's tolerance.
+    const std::vector<float> live = terrain(c);
+    auto tif = c.Get("/api/terrain.tif");
+    ASSERT_TRUE(tif && tif->status == 200);
+    std::ofstream(s.dir.path("canon.tif"), std::ios::binary) << tif->body;
+    const Heightfield canon = read_heightfield(s.dir.path("canon.tif"));
+    ASSERT_EQ(canon.z.size(), live.size());
+    double d = 0;
+    for (size_t i = 0; i < live.size(); ++i) d = std::max(d, double(std::fabs(live[i] - canon.z[i])));
+    EXPECT_LT(d, 0.5);
+  }
   post(c, "/api/operations", {{"op", kRiver}, {"index", 0}});  // inserted first: a replay
   st = post(c, "/api/undo", json::object());
   EXPECT_EQ(st["operations"].size(), 2u);

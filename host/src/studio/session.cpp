@@ -75,11 +75,16 @@ json Session::state() const {
           {"last", m_last}};
 }
 
-void Session::apply_ops(const json& ops) {
-  // Earlier operations are passed disabled so the new ones keep their script index (their default
-  // noise seeds depend on it) without running twice.
+json Session::appended_only(const json& ops) const {
+  // The operations already applied become disabled placeholders, so the new ones keep their script
+  // index (their default noise seeds depend on it) and nothing runs, or is parsed (copy_paste reads
+  // its file when parsed), twice.
   json tail = ops;
-  for (size_t i = 0; i < m_ops.size(); ++i) tail[i]["enabled"] = false;
+  for (size_t i = 0; i < m_ops.size(); ++i) tail[i] = {{"op", "regularize"}, {"enabled", false}};
+  return tail;
+}
+
+void Session::apply_ops(const json& tail) {
   m_edit->apply(full_script(tail));
   m_edit->height();
 }
@@ -97,15 +102,16 @@ void Session::replay(const json& ops) {
 void Session::commit(const json& ops, bool record_undo) {
   if (!ops.is_array()) throw RequestError(400, "/operations: expected an array of operations");
   if (ops.size() > kMaxOps) throw RequestError(413, fmt::format("/operations: at most {} operations", kMaxOps));
-  m_edit->validate(full_script(ops));  // throws with the JSON path; nothing changed yet
-  erosion_cancel();
   const auto t0 = std::chrono::steady_clock::now();
-  bool prefix = ops.size() >= m_ops.size();
-  for (size_t i = 0; prefix && i < m_ops.size(); ++i) prefix = ops[i] == m_ops[i];
+  bool append = ops.size() > m_ops.size();
+  for (size_t i = 0; append && i < m_ops.size(); ++i) append = ops[i] == m_ops[i];
+  const json tail = append ? appended_only(ops) : json();
+  m_edit->validate(full_script(append ? tail : ops));  // throws with the JSON path; nothing changed yet
+  erosion_cancel();
   std::string mode;
   try {
-    if (prefix && ops.size() > m_ops.size()) {
-      apply_ops(ops);
+    if (append) {
+      apply_ops(tail);
       m_canonical = false;
       mode = "append";
     } else {

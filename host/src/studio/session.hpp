@@ -78,7 +78,8 @@ class Session {
   /// Validates `ops`, then makes them current: incremental (apply the new tail warm) when the
   /// current list is a prefix of `ops`, else a replay from the base. Pushes the undo state.
   void commit(const json& ops, bool record_undo = true);
-  void apply_ops(const json& ops);
+  json appended_only(const json& ops) const;
+  void apply_ops(const json& tail);
   void replay(const json& ops);
 
   Device& m_device;
