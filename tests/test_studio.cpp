@@ -1,16 +1,15 @@
 // terracl studio's JSON API end to end: a real server on a free port of 127.0.0.1 (in this
 // process), real httplib clients, and the saved script replayed by the real `terracl edit`.
-#include "test_helpers.hpp"
-
-#include <terracl/io.hpp>
-#include <terracl/studio.hpp>
-
 #include <httplib.h>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <terracl/io.hpp>
+#include <terracl/studio.hpp>
+
+#include "test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -100,7 +99,10 @@ TEST(StudioApi, EditsUndoRedoReorderSaveAndReplayBitForBitOnTheCli) {
   EXPECT_EQ(st["operations"][2]["op"], "river");
   st = post(c, "/api/operations/1/visible", {{"visible", false}});
   EXPECT_EQ(st["operations"][1]["enabled"], false);
-  auto upd = c.Put("/api/operations/0", json{{"op", {{"op", "crest"}, {"points", {{200, 480}, {1080, 400}}}, {"elevation", 90}, {"radius", 250}}}}.dump(), "application/json");
+  auto upd = c.Put(
+      "/api/operations/0",
+      json{{"op", {{"op", "crest"}, {"points", {{200, 480}, {1080, 400}}}, {"elevation", 90}, {"radius", 250}}}}.dump(),
+      "application/json");
   ASSERT_TRUE(upd);
   EXPECT_EQ(upd->status, 200) << upd->body;
 
@@ -113,7 +115,8 @@ TEST(StudioApi, EditsUndoRedoReorderSaveAndReplayBitForBitOnTheCli) {
 
   // The last change an append: the live terrain is the warm incremental solve, the export must
   // still be what `terracl edit` computes.
-  st = post(c, "/api/operations", {{"op", {{"op", "ravine"}, {"points", {{300, 700}, {900, 200}}}, {"depth", 30}, {"radius", 120}}}});
+  st = post(c, "/api/operations",
+            {{"op", {{"op", "ravine"}, {"points", {{300, 700}, {900, 200}}}, {"depth", 30}, {"radius", 120}}}});
   EXPECT_EQ(st["last"]["mode"], "append");
 
   post(c, "/api/save", {{"path", "sessions/s.json"}});
@@ -153,7 +156,8 @@ TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
   json e = post(c, "/api/operations", {{"op", {{"op", "volcano"}}}}, 400);
   EXPECT_NE(e["error"].get<std::string>().find("/operations/1/op"), std::string::npos) << e;
   EXPECT_NE(e["error"].get<std::string>().find("unknown operation"), std::string::npos) << e;
-  e = post(c, "/api/operations", {{"op", {{"op", "noise"}, {"amplitude", 5}, {"wavelength", 100}, {"octaves", 100000}}}}, 400);
+  e = post(c, "/api/operations",
+           {{"op", {{"op", "noise"}, {"amplitude", 5}, {"wavelength", 100}, {"octaves", 100000}}}}, 400);
   EXPECT_NE(e["error"].get<std::string>().find("/operations/1/octaves"), std::string::npos) << e;
   e = post(c, "/api/operations", {{"op", {{"op", "noise"}, {"amplitude", "NaN"}, {"wavelength", 100}}}}, 400);
   EXPECT_NE(e["error"].get<std::string>().find("/operations/1/amplitude"), std::string::npos) << e;
@@ -204,7 +208,8 @@ TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
 TEST(StudioApi, LiveErosionBecomesAnErodeOperationThatReplays) {
   Studio s("flat:65x65@30");
   auto c = s.client();
-  post(c, "/api/operations", {{"op", {{"op", "mountain_range"}, {"points", {{300, 900, 400}, {1600, 1000, 500}}}, {"radius", 600}}}});
+  post(c, "/api/operations",
+       {{"op", {{"op", "mountain_range"}, {"points", {{300, 900, 400}, {1600, 1000, 500}}}, {"radius", 600}}}});
   post(c, "/api/erosion/start", {{"rain", 0.02}, {"center", {960, 960}}, {"radius", 700}, {"falloff", 200}});
   std::vector<float> bed;
   for (int i = 0; i < 3; ++i) {

@@ -1,10 +1,9 @@
 // The two edit-script additions the studio relies on: the "erode" operation and "enabled": false.
-#include "test_helpers.hpp"
-
+#include <cmath>
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
 
-#include <cmath>
+#include "test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -25,8 +24,8 @@ const json kCrest = {{"op", "crest"}, {"points", {{200, 300}, {1700, 300}}}, {"e
 TEST(EditErode, ErodesTheTerrainAndKeepsHardConstraintsExact) {
   size_t hard = 0;
   const Heightfield before = run_script({{"operations", {kRange, kCrest}}});
-  const Heightfield after = run_script(
-      {{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}, &hard);
+  const Heightfield after =
+      run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}, &hard);
   ASSERT_GT(hard, 0u);
   double change = 0;
   size_t at_crest = 0;
@@ -41,12 +40,14 @@ TEST(EditErode, ErodesTheTerrainAndKeepsHardConstraintsExact) {
   EXPECT_GT(at_crest, 10u);
   EXPECT_GT(change, 0.01) << "40 erosion steps left the terrain unchanged";
   // Deterministic: the same script gives the same bits (what makes studio sessions replay).
-  EXPECT_EQ(after.z, run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}).z);
+  EXPECT_EQ(after.z,
+            run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}).z);
 }
 
 TEST(EditErode, ABrushRegionLeavesTheRestAlone) {
   const Heightfield before = run_script({{"operations", {kRange}}});
-  const json brush = {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}, {"center", {600, 950}}, {"radius", 300}, {"falloff", 100}};
+  const json brush = {{"op", "erode"},        {"steps", 40},   {"rain", 0.02},
+                      {"center", {600, 950}}, {"radius", 300}, {"falloff", 100}};
   const Heightfield after = run_script({{"operations", {kRange, brush}}});
   double inside = 0, outside = 0;
   for (int y = 0; y < 65; ++y)

@@ -1,10 +1,9 @@
 #pragma once
 /// terracl studio: a local web server with the sketching page and its JSON API (docs/studio.md).
 /// One shared session (an edit script on a base terrain) for every client.
-#include <terracl/device.hpp>
-
 #include <memory>
 #include <string>
+#include <terracl/device.hpp>
 
 namespace terracl {
 
@@ -12,8 +11,8 @@ struct StudioOptions {
   std::string base = "flat:513x513@10";  ///< raster path or flat:WxH[@cell]
   std::string script;                    ///< optional edit script loaded at start (any path)
   std::string bind = "127.0.0.1";
-  int port = 8080;                       ///< 0: any free port
-  std::string workspace = ".";           ///< scripts and exports stay inside this folder
+  int port = 8080;                                        ///< 0: any free port
+  std::string workspace = ".";                            ///< scripts and exports stay inside this folder
   std::string three_dir = "/usr/share/javascript/three";  ///< Debian's libjs-three
 };
 

@@ -3,10 +3,9 @@
 // elevation). Recorded in scripts like any operation, so a studio session with erosion replays.
 #include "edit/ops_erode.hpp"
 
-#include <terracl/gradient.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <terracl/gradient.hpp>
 
 namespace terracl::edit {
 
@@ -66,7 +65,8 @@ Operation parse_erode(Params& p) {
 }  // namespace
 
 void add_erode_ops(std::vector<OpSpec>& ops) {
-  ops.push_back({"erode", "virtual-pipe erosion of the current terrain (steps, rain, capacity, ...; optional brush region)",
+  ops.push_back({"erode",
+                 "virtual-pipe erosion of the current terrain (steps, rain, capacity, ...; optional brush region)",
                  parse_erode});
 }
 

@@ -2,17 +2,17 @@
 // The "erode" edit operation: virtual-pipe erosion (terracl/erosion.hpp) of the current terrain,
 // baked back into the gradient field. Shared with the studio's live erosion preview so that the
 // preview and the recorded operation run the same simulation.
-#include "edit/state.hpp"
-
 #include <terracl/erosion.hpp>
+
+#include "edit/state.hpp"
 
 namespace terracl::edit {
 
 struct ErodeSpec {
   ErosionParams params;
   int steps = 0;
-  Region region;        ///< Everywhere, a disc or a polygon (the erosion brush)
-  double falloff = 0;   ///< m, the brush's weight fades to 0 over this distance outside the region
+  Region region;       ///< Everywhere, a disc or a polygon (the erosion brush)
+  double falloff = 0;  ///< m, the brush's weight fades to 0 over this distance outside the region
 };
 
 ErodeSpec parse_erode_spec(Params& p);

@@ -1,13 +1,6 @@
 // terracl studio's HTTP server (cpp-httplib): the embedded page, three.js from libjs-three, and
 // the JSON API of docs/studio.md over one shared Session, serialised by one mutex (the OpenCL
 // queue and the session are not thread-safe; edits are short).
-#include "studio/session.hpp"
-
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/render.hpp>
-#include <terracl/studio.hpp>
-
 #include <fmt/format.h>
 #include <httplib.h>
 
@@ -19,7 +12,13 @@
 #include <map>
 #include <mutex>
 #include <sstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+#include <terracl/studio.hpp>
 #include <thread>
+
+#include "studio/session.hpp"
 
 namespace terracl::detail {
 const std::map<std::string, std::string>& embedded_web();
@@ -154,18 +153,21 @@ void StudioServer::Impl::routes() {
   });
   s.Get("/favicon.ico", [](const httplib::Request&, httplib::Response& res) { res.status = 204; });
   // three.js from libjs-three; the pattern admits no "..".
-  s.Get(R"(/three/((?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-]+(?:\.[A-Za-z0-9_-]+)*\.js))", [this](const httplib::Request& req, httplib::Response& res) {
-    const fs::path p = fs::path(opts.three_dir) / req.matches[1].str();
-    if (!fs::is_regular_file(p)) {
-      res.status = 404;
-      res.set_content(fmt::format("{} not found (install libjs-three)", p.string()), "text/plain");
-      return;
-    }
-    res.set_content(read_file_bytes(p.string()), "text/javascript; charset=utf-8");
-  });
+  s.Get(R"(/three/((?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-]+(?:\.[A-Za-z0-9_-]+)*\.js))",
+        [this](const httplib::Request& req, httplib::Response& res) {
+          const fs::path p = fs::path(opts.three_dir) / req.matches[1].str();
+          if (!fs::is_regular_file(p)) {
+            res.status = 404;
+            res.set_content(fmt::format("{} not found (install libjs-three)", p.string()), "text/plain");
+            return;
+          }
+          res.set_content(read_file_bytes(p.string()), "text/javascript; charset=utf-8");
+        });
 
-  s.Get("/api/state", [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->state(); }); });
-  s.Get("/api/script", [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->script(); }); });
+  s.Get("/api/state",
+        [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->state(); }); });
+  s.Get("/api/script",
+        [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->script(); }); });
   s.Get("/api/catalog", [this](const httplib::Request&, httplib::Response& res) {
     api(res, [&] {
       json c = json::array();
@@ -207,7 +209,8 @@ void StudioServer::Impl::routes() {
   s.Post(R"(/api/operations/(\d+)/visible)", [this](const httplib::Request& req, httplib::Response& res) {
     api(res, [&] {
       const json b = parse_body(req);
-      if (!b.contains("visible") || !b["visible"].is_boolean()) throw RequestError(400, "/visible: expected true or false");
+      if (!b.contains("visible") || !b["visible"].is_boolean())
+        throw RequestError(400, "/visible: expected true or false");
       session->set_visible(parse_index(req.matches[1], "index"), b["visible"].get<bool>());
       return session->state();
     });
@@ -333,7 +336,8 @@ int StudioServer::start() {
   } else {
     m->port = m->server.bind_to_port(m->opts.bind, m->opts.port) ? m->opts.port : -1;
   }
-  if (m->port <= 0) fail("studio", "cannot listen on {}:{} (in use, or not an address of this machine)", m->opts.bind, m->opts.port);
+  if (m->port <= 0)
+    fail("studio", "cannot listen on {}:{} (in use, or not an address of this machine)", m->opts.bind, m->opts.port);
   m->thread = std::thread([this] { m->server.listen_after_bind(); });
   return m->port;
 }

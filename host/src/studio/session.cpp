@@ -2,18 +2,17 @@
 // files, live erosion.
 #include "studio/session.hpp"
 
-#include "edit/ops_erode.hpp"
-
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/mesh.hpp>
-
 #include <fmt/format.h>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
+
+#include "edit/ops_erode.hpp"
 
 namespace fs = std::filesystem;
 
@@ -31,8 +30,7 @@ constexpr size_t kMaxOps = 1000;
 
 }  // namespace
 
-Session::Session(Device& d, const std::string& base, const std::string& workspace)
-    : m_device(d), m_base_spec(base) {
+Session::Session(Device& d, const std::string& base, const std::string& workspace) : m_device(d), m_base_spec(base) {
   fs::create_directories(workspace);
   m_workspace = fs::canonical(workspace).string();
   if (auto flat = parse_flat_spec(base)) {
@@ -182,8 +180,10 @@ void Session::move(size_t from, size_t to) {
 void Session::set_visible(size_t index, bool visible) {
   json ops = m_ops;
   json& op = ops[check_index(ops, index, "index")];
-  if (visible) op.erase("enabled");
-  else op["enabled"] = false;
+  if (visible)
+    op.erase("enabled");
+  else
+    op["enabled"] = false;
   commit(ops);
 }
 
@@ -211,7 +211,8 @@ void Session::load_script(const json& script) {
   if (script.is_array()) {
     ops = script;
   } else if (script.is_object()) {
-    if (!script.contains("operations")) throw RequestError(400, "/operations: missing (required): the array of operations");
+    if (!script.contains("operations"))
+      throw RequestError(400, "/operations: missing (required): the array of operations");
     ops = script["operations"];
     for (const char* k : {"units", "seed", "description"})
       if (script.contains(k)) header[k] = script[k];
@@ -232,12 +233,15 @@ std::string Session::resolve(const std::string& rel, bool must_exist) const {
   if (rel.empty()) throw RequestError(400, "/path: expected a file name inside the workspace");
   if (rel.size() > 1024 || rel.find('\0') != std::string::npos) throw RequestError(400, "/path: invalid file name");
   const fs::path p(rel);
-  if (p.is_absolute()) throw RequestError(403, fmt::format("/path: '{}' is absolute: only names inside the workspace", rel));
+  if (p.is_absolute())
+    throw RequestError(403, fmt::format("/path: '{}' is absolute: only names inside the workspace", rel));
   const fs::path full = fs::weakly_canonical(fs::path(m_workspace) / p);
   const std::string f = full.string();
-  if (f.size() <= m_workspace.size() || f.compare(0, m_workspace.size(), m_workspace) != 0 || f[m_workspace.size()] != '/')
+  if (f.size() <= m_workspace.size() || f.compare(0, m_workspace.size(), m_workspace) != 0 ||
+      f[m_workspace.size()] != '/')
     throw RequestError(403, fmt::format("/path: '{}' is outside the workspace", rel));
-  if (must_exist && !fs::is_regular_file(full)) throw RequestError(404, fmt::format("/path: '{}' not found in the workspace", rel));
+  if (must_exist && !fs::is_regular_file(full))
+    throw RequestError(404, fmt::format("/path: '{}' not found in the workspace", rel));
   return f;
 }
 
@@ -269,8 +273,10 @@ std::string Session::export_to(const std::string& rel) {
   h.georef = m_base.georef;
   h.metadata = m_base.metadata;
   h.metadata["terracl:edit_script"] = script().dump();
-  if (ext == ".glb") mesh::write_mesh(mesh::triangulate_simplified(h, 0.5), path, h.metadata);
-  else write_heightfield(h, path);
+  if (ext == ".glb")
+    mesh::write_mesh(mesh::triangulate_simplified(h, 0.5), path, h.metadata);
+  else
+    write_heightfield(h, path);
   return path;
 }
 

@@ -3,16 +3,14 @@
 // of `terracl edit`), replayed on an EditSession that re-solves warm on the device. Every method
 // validates its input before changing anything, so a rejected request leaves the session as it was.
 // Not thread-safe by itself: the server serialises requests with one mutex.
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
 #include <terracl/device.hpp>
 #include <terracl/edit.hpp>
 #include <terracl/erosion.hpp>
 #include <terracl/heightfield.hpp>
-
-#include <nlohmann/json.hpp>
-
-#include <memory>
-#include <optional>
-#include <string>
 #include <vector>
 
 namespace terracl::studio {
