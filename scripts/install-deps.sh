@@ -12,6 +12,8 @@ PACKAGES=(
   libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libbenchmark-dev
   libtinygltf-dev
+  libcpp-httplib-dev libjs-three
+  chromium chromium-driver python3-selenium python3-gdal python3-numpy
 )
 
 missing=()

@@ -72,6 +72,9 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "fit"}, {"ridges", {{{"points", {{1, 1}, {5, 5}}}}}}}, "/operations/0/ridges/0/points/0"},
       {{{"op", "fit"}, {"contours", {{{"points", {{1, 1}, {5, 5}}}}}}}, "/operations/0/contours/0/elevation"},
       {{{"op", "regularize"}, {"strength", 2}}, "/operations/0/strength: unknown parameter"},
+      {{{"op", "erode"}}, "/operations/0/steps"},
+      {{{"op", "erode"}, {"steps", 10}, {"rain", -1}}, "/operations/0/rain"},
+      {{{"op", "erode"}, {"steps", 10}, {"center", {5, 5}}, {"radius", 0}}, "/operations/0/radius"},
   };
   std::set<std::string> covered;
   for (const auto& c : cases) {

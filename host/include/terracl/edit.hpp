@@ -74,6 +74,8 @@ class EditSession {
   const ReconstructResult& solve(bool warm = true);
   GradientField gradient();
   size_t hard_cells() const;
+  /// Hard elevation constraints, row-major, NaN for free cells.
+  const std::vector<float>& hard_constraints() const;
   /// Per-operation log: op, index, milliseconds and operation-specific figures.
   const nlohmann::json& log() const;
   /// Log plus the last solve's figures.

@@ -136,9 +136,13 @@ Parsed parse_script(const json& script, Grid grid) {
     Params p(j, path, grid);
     p.string("op");
     p.string("comment", "");
+    // "enabled": false keeps an operation in the script (validated, seeds unchanged) without
+    // running it: the studio's hidden layers.
+    const bool enabled = p.boolean("enabled", true);
     Operation op = spec->parse(p);
     p.done();
     grid.trace = nullptr;
+    if (!enabled) continue;  // validated above; a hidden layer has no support and runs nothing
     out.supports.push_back(support_of(name, j, trace, grid));
     out.traces.push_back(std::move(trace));
     out.ops.emplace_back(name, std::move(op));
@@ -224,6 +228,7 @@ const ReconstructResult& EditSession::solve(bool warm) {
 }
 GradientField EditSession::gradient() { return m_state->download(); }
 size_t EditSession::hard_cells() const { return m_state->hard_count(); }
+const std::vector<float>& EditSession::hard_constraints() const { return m_state->hard(); }
 const nlohmann::json& EditSession::log() const { return m_state->log(); }
 
 nlohmann::json EditSession::report() const {

@@ -1,4 +1,5 @@
 #include "edit/state.hpp"
+#include "edit/ops_erode.hpp"
 
 #include "edit/locality.hpp"
 
@@ -437,6 +438,7 @@ const std::vector<OpSpec>& operations() {
     add_composite_ops(v);
     add_paste_ops(v);
     add_fit_ops(v);
+    add_erode_ops(v);
     return v;
   }();
   return ops;

@@ -1,0 +1,47 @@
+// `terracl studio [BASE] [--script S.json] [--port 8080] [--bind 127.0.0.1] [--workspace DIR]`:
+// the interactive sketching page and its JSON API (docs/studio.md).
+#include <fmt/format.h>
+
+#include <chrono>
+#include <filesystem>
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+#include <terracl/studio.hpp>
+#include <thread>
+
+#include "cli.hpp"
+
+namespace terracl::cli {
+namespace {
+
+CommandRegistrar reg(45, [](CLI::App& app) {
+  auto o = std::make_shared<StudioOptions>();
+  auto* sub = app.add_subcommand("studio", "Sketch a terrain interactively in the browser (docs/studio.md)");
+  sub->add_option("base", o->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE] (metres)")
+      ->capture_default_str();
+  sub->add_option("--script", o->script, "Edit script to start from (JSON, as `terracl edit`)");
+  sub->add_option("--port", o->port, "TCP port (0: any free port)")->capture_default_str();
+  sub->add_option("--bind", o->bind, "Address to listen on (default: this machine only)")->capture_default_str();
+  sub->add_option("--workspace", o->workspace, "Folder that saves, loads and exports are confined to")
+      ->capture_default_str();
+  sub->add_option("--three", o->three_dir, "Folder of three.js (Debian's libjs-three)")->capture_default_str();
+  sub->callback([o, sub] {
+    // Like `terracl edit`: without BASE, a script's own "base" (relative to the script) is used.
+    if (sub->count("base") == 0 && !o->script.empty()) {
+      const nlohmann::json script = read_edit_script(o->script);
+      if (script.is_object() && script.contains("base") && script["base"].is_string())
+        o->base =
+            resolve_path(script["base"].get<std::string>(), std::filesystem::path(o->script).parent_path().string());
+    }
+    StudioServer server(device(), *o);
+    const int port = server.start();
+    // One line a script can read to find the server (tests start it on port 0).
+    fmt::print("studio: http://{}:{}/  (workspace {}; Ctrl-C stops)\n", o->bind, port, o->workspace);
+    std::fflush(stdout);
+    while (!interrupted()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    server.stop();
+  });
+});
+
+}  // namespace
+}  // namespace terracl::cli

@@ -1,0 +1,73 @@
+// The "erode" operation: solve, erode on the device, and replace the gradient field by the eroded
+// terrain's (its reconstruction is the eroded terrain; hard cells have weight 0 and keep their
+// elevation). Recorded in scripts like any operation, so a studio session with erosion replays.
+#include "edit/ops_erode.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <terracl/gradient.hpp>
+
+namespace terracl::edit {
+
+ErodeSpec parse_erode_spec(Params& p) {
+  ErodeSpec e;
+  e.params = ErosionParams::defaults();
+  e.steps = p.integer("steps", {}, 1, 100000);
+  e.params.rain = p.number("rain", e.params.rain, 0.0, 1.0);
+  e.params.capacity = p.number("capacity", e.params.capacity, 0.0, 1e6);
+  e.params.dissolve = p.number("dissolve", e.params.dissolve, 0.0, 100.0);
+  e.params.deposit = p.number("deposit", e.params.deposit, 0.0, 100.0);
+  e.params.evaporation = p.number("evaporation", e.params.evaporation, 0.0, 100.0);
+  e.params.thermal_rate = p.number("thermal_rate", e.params.thermal_rate, 0.0, 100.0);
+  e.params.talus_deg = p.number("talus", e.params.talus_deg, 0.0, 89.0);
+  e.region = parse_region(p, true);
+  e.falloff = p.hlength("falloff", 0.0);
+  return e;
+}
+
+std::vector<float> erode_weight(const ErodeSpec& e, const Grid& g, const std::vector<float>& hard) {
+  const size_t n = size_t(g.width) * g.height;
+  std::vector<float> w(n, e.region.kind == Region::Everywhere ? 1.f : 0.f);
+  if (e.region.kind == Region::Disc) {
+    const double r0 = e.region.radius, r1 = e.region.radius + e.falloff;
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        const double d = std::hypot(x * g.cell_x - e.region.center.x, y * g.cell_y - e.region.center.y);
+        double v = d <= r0 ? 1.0 : (d >= r1 ? 0.0 : 1.0 - (d - r0) / (r1 - r0));
+        v = v * v * (3 - 2 * v);  // smoothstep: no crease at the brush edge
+        w[size_t(y) * g.width + x] = float(v);
+      }
+  } else if (e.region.kind == Region::Polygon) {
+    for (size_t i : region_cells(e.region, g)) w[i] = 1.f;
+  }
+  for (size_t i = 0; i < n && i < hard.size(); ++i)
+    if (!std::isnan(hard[i])) w[i] = 0.f;
+  return w;
+}
+
+namespace {
+
+Operation parse_erode(Params& p) {
+  const ErodeSpec e = parse_erode_spec(p);
+  return [e](EditState& s) {
+    const Heightfield h = s.height();
+    const std::vector<float> w = erode_weight(e, s.grid(), s.hard());
+    const Heightfield bed = erode(s.device(), h, e.params, e.steps, &w);
+    double mean = 0;
+    for (float z : bed.z) mean += z;
+    s.upload(extract_gradient(s.device(), bed));
+    s.set_mean(mean / double(std::max<size_t>(1, bed.z.size())));
+    s.changed();
+    s.log().back()["steps"] = e.steps;
+  };
+}
+
+}  // namespace
+
+void add_erode_ops(std::vector<OpSpec>& ops) {
+  ops.push_back({"erode",
+                 "virtual-pipe erosion of the current terrain (steps, rain, capacity, ...; optional brush region)",
+                 parse_erode});
+}
+
+}  // namespace terracl::edit

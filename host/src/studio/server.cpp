@@ -1,0 +1,354 @@
+// terracl studio's HTTP server (cpp-httplib): the embedded page, three.js from libjs-three, and
+// the JSON API of docs/studio.md over one shared Session, serialised by one mutex (the OpenCL
+// queue and the session are not thread-safe; edits are short).
+#include <fmt/format.h>
+#include <httplib.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+#include <terracl/studio.hpp>
+#include <thread>
+
+#include "studio/session.hpp"
+
+namespace terracl::detail {
+const std::map<std::string, std::string>& embedded_web();
+}
+
+namespace fs = std::filesystem;
+
+namespace terracl {
+
+using studio::json;
+using studio::RequestError;
+
+namespace {
+
+std::string mime_of(const std::string& name) {
+  const std::string ext = fs::path(name).extension().string();
+  if (ext == ".html") return "text/html; charset=utf-8";
+  if (ext == ".js") return "text/javascript; charset=utf-8";
+  if (ext == ".css") return "text/css; charset=utf-8";
+  if (ext == ".png") return "image/png";
+  return "application/octet-stream";
+}
+
+json parse_body(const httplib::Request& req) {
+  if (req.body.empty()) return json::object();
+  try {
+    return json::parse(req.body);
+  } catch (const json::parse_error& e) {
+    throw RequestError(400, fmt::format("malformed JSON: {}", e.what()));
+  }
+}
+
+size_t parse_index(const std::string& s, const char* what) {
+  if (s.empty() || s.size() > 9) throw RequestError(404, fmt::format("{}: no operation '{}'", what, s));
+  return size_t(std::stoul(s));
+}
+
+size_t index_field(const json& b, const char* key) {
+  if (!b.contains(key) || !b[key].is_number_unsigned())
+    throw RequestError(400, fmt::format("/{}: expected a non-negative integer", key));
+  return b[key].get<size_t>();
+}
+
+/// Every `step`-th cell so that the preview has at most `max_side` cells per side.
+std::string f32_body(const Heightfield& h, int max_side, httplib::Response& res) {
+  const int side = std::max(h.width, h.height);
+  const int step = std::max(1, (side + max_side - 2) / std::max(1, max_side - 1));
+  const int w = (h.width - 1) / step + 1, hh = (h.height - 1) / step + 1;
+  std::string out(size_t(w) * hh * sizeof(float), '\0');
+  float* o = reinterpret_cast<float*>(out.data());
+  for (int y = 0; y < hh; ++y)
+    for (int x = 0; x < w; ++x) *o++ = h.at(x * step, y * step);
+  res.set_header("X-Width", std::to_string(w));
+  res.set_header("X-Height", std::to_string(hh));
+  res.set_header("X-Cell-X", fmt::format("{}", h.georef.cell_x * step));
+  res.set_header("X-Cell-Y", fmt::format("{}", h.georef.cell_y * step));
+  res.set_header("X-Step", std::to_string(step));
+  return out;
+}
+
+int int_param(const httplib::Request& req, const char* key, int def, int lo, int hi) {
+  if (!req.has_param(key)) return def;
+  const std::string v = req.get_param_value(key);
+  char* end = nullptr;
+  const long n = std::strtol(v.c_str(), &end, 10);
+  if (v.empty() || *end || n < lo || n > hi)
+    throw RequestError(400, fmt::format("?{}: expected an integer in [{}, {}], got '{}'", key, lo, hi, v));
+  return int(n);
+}
+
+std::string read_file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// A temp file name for in-memory answers written by the io code (which writes files).
+std::string temp_name(const std::string& ext) {
+  static std::atomic<int> n{0};
+  return (fs::temp_directory_path() / fmt::format("terracl-studio-{}-{}{}", ::getpid(), n++, ext)).string();
+}
+
+}  // namespace
+
+struct StudioServer::Impl {
+  Device& device;
+  StudioOptions opts;
+  std::unique_ptr<studio::Session> session;
+  std::mutex mutex;
+  httplib::Server server;
+  std::thread thread;
+  int port = 0;
+
+  Impl(Device& d, StudioOptions o) : device(d), opts(std::move(o)) {}
+
+  void routes();
+  /// Runs `f` under the session lock and answers its JSON (or the error with its status).
+  template <typename F>
+  void api(httplib::Response& res, F&& f) {
+    try {
+      std::lock_guard<std::mutex> lock(mutex);
+      json out = f();
+      if (!out.is_null()) res.set_content(out.dump(), "application/json");
+    } catch (const RequestError& e) {
+      res.status = e.status;
+      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+    } catch (const Error& e) {  // validation (JSON paths) and library errors
+      res.status = 400;
+      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+    } catch (const std::exception& e) {
+      res.status = 500;
+      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+    }
+  }
+};
+
+void StudioServer::Impl::routes() {
+  server.set_payload_max_length(16u << 20);
+  auto& s = server;
+  s.Get("/", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(detail::embedded_web().at("index.html"), mime_of("index.html"));
+  });
+  s.Get(R"(/web/([A-Za-z0-9_.-]+))", [](const httplib::Request& req, httplib::Response& res) {
+    const auto& web = detail::embedded_web();
+    auto it = web.find(req.matches[1].str());
+    if (it == web.end()) {
+      res.status = 404;
+      return;
+    }
+    res.set_content(it->second, mime_of(it->first));
+  });
+  s.Get("/favicon.ico", [](const httplib::Request&, httplib::Response& res) { res.status = 204; });
+  // three.js from libjs-three; the pattern admits no "..".
+  s.Get(R"(/three/((?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-]+(?:\.[A-Za-z0-9_-]+)*\.js))",
+        [this](const httplib::Request& req, httplib::Response& res) {
+          const fs::path p = fs::path(opts.three_dir) / req.matches[1].str();
+          if (!fs::is_regular_file(p)) {
+            res.status = 404;
+            res.set_content(fmt::format("{} not found (install libjs-three)", p.string()), "text/plain");
+            return;
+          }
+          res.set_content(read_file_bytes(p.string()), "text/javascript; charset=utf-8");
+        });
+
+  s.Get("/api/state",
+        [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->state(); }); });
+  s.Get("/api/script",
+        [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->script(); }); });
+  s.Get("/api/catalog", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      json c = json::array();
+      for (const auto& [name, summary] : edit_operations()) c.push_back({{"op", name}, {"summary", summary}});
+      return c;
+    });
+  });
+  s.Post("/api/operations", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const json b = parse_body(req);
+      if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
+      std::optional<size_t> at;
+      if (b.contains("index")) at = index_field(b, "index");
+      session->add(b["op"], at);
+      return session->state();
+    });
+  });
+  s.Put(R"(/api/operations/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const json b = parse_body(req);
+      if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
+      session->update(parse_index(req.matches[1], "index"), b["op"]);
+      return session->state();
+    });
+  });
+  s.Delete(R"(/api/operations/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      session->remove(parse_index(req.matches[1], "index"));
+      return session->state();
+    });
+  });
+  s.Post(R"(/api/operations/(\d+)/move)", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const json b = parse_body(req);
+      session->move(parse_index(req.matches[1], "index"), index_field(b, "to"));
+      return session->state();
+    });
+  });
+  s.Post(R"(/api/operations/(\d+)/visible)", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const json b = parse_body(req);
+      if (!b.contains("visible") || !b["visible"].is_boolean())
+        throw RequestError(400, "/visible: expected true or false");
+      session->set_visible(parse_index(req.matches[1], "index"), b["visible"].get<bool>());
+      return session->state();
+    });
+  });
+  s.Post("/api/undo", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      session->undo();
+      return session->state();
+    });
+  });
+  s.Post("/api/redo", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      session->redo();
+      return session->state();
+    });
+  });
+  s.Post("/api/script", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      session->load_script(parse_body(req));
+      return session->state();
+    });
+  });
+  auto path_of = [](const json& b) {
+    if (!b.is_object() || !b.contains("path") || !b["path"].is_string())
+      throw RequestError(400, "/path: expected a file name (string) inside the workspace");
+    return b["path"].get<std::string>();
+  };
+  s.Post("/api/save", [this, path_of](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      session->save(path_of(parse_body(req)));
+      return session->state();
+    });
+  });
+  s.Post("/api/load", [this, path_of](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      session->load(path_of(parse_body(req)));
+      return session->state();
+    });
+  });
+  s.Post("/api/export", [this, path_of](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const std::string p = session->export_to(path_of(parse_body(req)));
+      return json{{"written", p}};
+    });
+  });
+  s.Get("/api/terrain.f32", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
+      res.set_content(f32_body(session->terrain(), max_side, res), "application/octet-stream");
+      res.set_header("X-Version", std::to_string(session->version()));
+      return json();
+    });
+  });
+  s.Get("/api/terrain.tif", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      Heightfield h = session->canonical();
+      h.georef = session->base().georef;
+      const std::string tmp = temp_name(".tif");
+      write_heightfield(h, tmp);
+      res.set_content(read_file_bytes(tmp), "image/tiff");
+      fs::remove(tmp);
+      return json();
+    });
+  });
+  s.Get("/api/preview.png", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      render::Options ro;
+      ro.mode = render::Mode::ShadedRelief;
+      const std::string tmp = temp_name(".png");
+      render::write_image(render::render(session->terrain(), ro, device), tmp);
+      res.set_content(read_file_bytes(tmp), "image/png");
+      fs::remove(tmp);
+      return json();
+    });
+  });
+  s.Post("/api/erosion/start", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      session->erosion_start(parse_body(req));
+      return session->state();
+    });
+  });
+  s.Post("/api/erosion/step", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const int steps = int_param(req, "steps", 1, 1, 1000);
+      const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
+      const Heightfield bed = session->erosion_step(steps);
+      res.set_content(f32_body(bed, max_side, res), "application/octet-stream");
+      return json();
+    });
+  });
+  s.Post("/api/erosion/commit", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      session->erosion_commit();
+      return session->state();
+    });
+  });
+  s.Post("/api/erosion/cancel", [this](const httplib::Request&, httplib::Response& res) {
+    api(res, [&] {
+      session->erosion_cancel();
+      return session->state();
+    });
+  });
+}
+
+StudioServer::StudioServer(Device& d, StudioOptions o) : m(std::make_unique<Impl>(d, std::move(o))) {
+  m->session = std::make_unique<studio::Session>(d, m->opts.base, m->opts.workspace);
+  if (!m->opts.script.empty()) {
+    try {
+      m->session->load_script(read_edit_script(m->opts.script));
+    } catch (const RequestError& e) {
+      throw Error("studio", fmt::format("{}: {}", m->opts.script, e.what()));
+    }
+  }
+  m->routes();
+}
+
+StudioServer::~StudioServer() { stop(); }
+
+int StudioServer::start() {
+  if (m->opts.port < 0 || m->opts.port > 65535) throw UsageError("studio", "--port must be in [0, 65535]");
+  if (m->opts.port == 0) {
+    m->port = m->server.bind_to_any_port(m->opts.bind);
+  } else {
+    m->port = m->server.bind_to_port(m->opts.bind, m->opts.port) ? m->opts.port : -1;
+  }
+  if (m->port <= 0)
+    fail("studio", "cannot listen on {}:{} (in use, or not an address of this machine)", m->opts.bind, m->opts.port);
+  m->thread = std::thread([this] { m->server.listen_after_bind(); });
+  return m->port;
+}
+
+void StudioServer::stop() {
+  if (m->thread.joinable()) {
+    m->server.stop();
+    m->thread.join();
+  }
+}
+
+bool StudioServer::running() const { return m->server.is_running(); }
+
+}  // namespace terracl

@@ -1,0 +1,339 @@
+// The studio session: operation list, undo/redo, warm incremental edits and replays, workspace
+// files, live erosion.
+#include "studio/session.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
+
+#include "edit/ops_erode.hpp"
+
+namespace fs = std::filesystem;
+
+namespace terracl::studio {
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Undo history is bounded so a long session cannot grow without limit.
+constexpr size_t kMaxUndo = 200;
+// A script may hold at most this many operations (each is validated and replayed).
+constexpr size_t kMaxOps = 1000;
+
+}  // namespace
+
+Session::Session(Device& d, const std::string& base, const std::string& workspace) : m_device(d), m_base_spec(base) {
+  fs::create_directories(workspace);
+  m_workspace = fs::canonical(workspace).string();
+  if (auto flat = parse_flat_spec(base)) {
+    m_base = std::move(*flat);
+  } else {
+    if (!fs::exists(base)) throw UsageError("studio", fmt::format("base terrain '{}' not found", base));
+    m_base_spec = fs::absolute(base).string();  // the saved script replays from anywhere
+    m_base = read_heightfield(base);
+    if (m_base.count_nodata()) fill_nodata_harmonic(m_base);  // as `terracl edit` does
+  }
+  m_header = {{"units", "m"}, {"seed", 1}};
+  replay(m_ops);
+  m_last = {{"mode", "start"}};
+}
+
+Session::~Session() = default;
+
+json Session::full_script(const json& ops) const {
+  json s = m_header;
+  s["base"] = m_base_spec;
+  s["operations"] = ops;
+  return s;
+}
+
+json Session::script() const { return full_script(m_ops); }
+
+json Session::state() const {
+  return {{"version", m_version},
+          {"width", m_base.width},
+          {"height", m_base.height},
+          {"cell_x", m_base.georef.cell_x},
+          {"cell_y", m_base.georef.cell_y},
+          {"base", m_base_spec},
+          {"units", m_header.value("units", "m")},
+          {"operations", m_ops},
+          {"can_undo", !m_undo.empty()},
+          {"can_redo", !m_redo.empty()},
+          {"eroding", bool(m_erosion)},
+          {"erosion_steps", m_erosion_steps},
+          {"last", m_last}};
+}
+
+json Session::appended_only(const json& ops) const {
+  // The operations already applied become disabled placeholders, so the new ones keep their script
+  // index (their default noise seeds depend on it) and nothing runs, or is parsed (copy_paste reads
+  // its file when parsed), twice.
+  json tail = ops;
+  for (size_t i = 0; i < m_ops.size(); ++i) tail[i] = {{"op", "regularize"}, {"enabled", false}};
+  return tail;
+}
+
+void Session::apply_ops(const json& tail) {
+  m_edit->apply(full_script(tail));
+  m_edit->height();
+}
+
+void Session::replay(const json& ops) {
+  EditOptions o;
+  o.base_dir = m_workspace;
+  auto fresh = std::make_unique<EditSession>(m_device, m_base, o);
+  fresh->apply(full_script(ops));
+  fresh->height();
+  m_edit = std::move(fresh);
+  m_canonical = true;
+}
+
+void Session::commit(const json& ops, bool record_undo) {
+  if (!ops.is_array()) throw RequestError(400, "/operations: expected an array of operations");
+  if (ops.size() > kMaxOps) throw RequestError(413, fmt::format("/operations: at most {} operations", kMaxOps));
+  const auto t0 = std::chrono::steady_clock::now();
+  bool append = ops.size() > m_ops.size();
+  for (size_t i = 0; append && i < m_ops.size(); ++i) append = ops[i] == m_ops[i];
+  const json tail = append ? appended_only(ops) : json();
+  m_edit->validate(full_script(append ? tail : ops));  // throws with the JSON path; nothing changed yet
+  erosion_cancel();
+  std::string mode;
+  try {
+    if (append) {
+      apply_ops(tail);
+      m_canonical = false;
+      mode = "append";
+    } else {
+      replay(ops);
+      mode = "replay";
+    }
+    // A validated script can still solve to non-finite elevations (extreme parameters): refuse it.
+    for (float z : m_edit->height().z)
+      if (!std::isfinite(z)) throw RequestError(400, "/operations: these operations give non-finite elevations");
+  } catch (...) {
+    // Validated operations can still fail while running (a file vanished): go back to the
+    // previous list so the session stays consistent.
+    replay(m_ops);
+    throw;
+  }
+  if (record_undo) {
+    m_undo.push_back(m_ops);
+    if (m_undo.size() > kMaxUndo) m_undo.erase(m_undo.begin());
+    m_redo.clear();
+  }
+  m_ops = ops;
+  ++m_version;
+  m_last = {{"mode", mode}, {"ms", ms_since(t0)}, {"operations", m_ops.size()}};
+}
+
+namespace {
+size_t check_index(const json& ops, size_t i, const char* what, bool allow_end = false) {
+  if (i > ops.size() || (!allow_end && i == ops.size()))
+    throw RequestError(404, fmt::format("{}: no operation {} (the script has {})", what, i, ops.size()));
+  return i;
+}
+void check_op(const json& op) {
+  if (!op.is_object()) throw RequestError(400, "/op: expected an operation object {\"op\": ...}");
+}
+}  // namespace
+
+void Session::add(const json& op, std::optional<size_t> index) {
+  check_op(op);
+  json ops = m_ops;
+  const size_t at = index ? check_index(ops, *index, "index", true) : ops.size();
+  ops.insert(ops.begin() + long(at), op);
+  commit(ops);
+}
+
+void Session::update(size_t index, const json& op) {
+  check_op(op);
+  json ops = m_ops;
+  ops[check_index(ops, index, "index")] = op;
+  commit(ops);
+}
+
+void Session::remove(size_t index) {
+  json ops = m_ops;
+  ops.erase(ops.begin() + long(check_index(ops, index, "index")));
+  commit(ops);
+}
+
+void Session::move(size_t from, size_t to) {
+  json ops = m_ops;
+  check_index(ops, from, "from");
+  check_index(ops, to, "to");
+  json op = ops[from];
+  ops.erase(ops.begin() + long(from));
+  ops.insert(ops.begin() + long(to), op);
+  commit(ops);
+}
+
+void Session::set_visible(size_t index, bool visible) {
+  json ops = m_ops;
+  json& op = ops[check_index(ops, index, "index")];
+  if (visible)
+    op.erase("enabled");
+  else
+    op["enabled"] = false;
+  commit(ops);
+}
+
+void Session::undo() {
+  if (m_undo.empty()) throw RequestError(409, "nothing to undo");
+  json prev = m_undo.back();
+  json cur = m_ops;
+  commit(prev, false);
+  m_undo.pop_back();
+  m_redo.push_back(cur);
+}
+
+void Session::redo() {
+  if (m_redo.empty()) throw RequestError(409, "nothing to redo");
+  json next = m_redo.back();
+  json cur = m_ops;
+  commit(next, false);
+  m_redo.pop_back();
+  m_undo.push_back(cur);
+}
+
+void Session::load_script(const json& script) {
+  json ops;
+  json header = {{"units", "m"}, {"seed", 1}};
+  if (script.is_array()) {
+    ops = script;
+  } else if (script.is_object()) {
+    if (!script.contains("operations"))
+      throw RequestError(400, "/operations: missing (required): the array of operations");
+    ops = script["operations"];
+    for (const char* k : {"units", "seed", "description"})
+      if (script.contains(k)) header[k] = script[k];
+  } else {
+    throw RequestError(400, "/: expected an edit script (an object with operations, or an array)");
+  }
+  const json old_header = m_header;
+  m_header = header;
+  try {
+    commit(ops);
+  } catch (...) {
+    m_header = old_header;
+    throw;
+  }
+}
+
+std::string Session::resolve(const std::string& rel, bool must_exist) const {
+  if (rel.empty()) throw RequestError(400, "/path: expected a file name inside the workspace");
+  if (rel.size() > 1024 || rel.find('\0') != std::string::npos) throw RequestError(400, "/path: invalid file name");
+  const fs::path p(rel);
+  if (p.is_absolute())
+    throw RequestError(403, fmt::format("/path: '{}' is absolute: only names inside the workspace", rel));
+  const fs::path full = fs::weakly_canonical(fs::path(m_workspace) / p);
+  const std::string f = full.string();
+  if (f.size() <= m_workspace.size() || f.compare(0, m_workspace.size(), m_workspace) != 0 ||
+      f[m_workspace.size()] != '/')
+    throw RequestError(403, fmt::format("/path: '{}' is outside the workspace", rel));
+  if (must_exist && !fs::is_regular_file(full))
+    throw RequestError(404, fmt::format("/path: '{}' not found in the workspace", rel));
+  return f;
+}
+
+void Session::save(const std::string& rel) {
+  const std::string path = resolve(rel, false);
+  if (fs::path(path).extension() != ".json") throw RequestError(400, "/path: a script is saved as .json");
+  fs::create_directories(fs::path(path).parent_path());
+  write_text_file_atomic(path, script().dump(2) + "\n");
+}
+
+void Session::load(const std::string& rel) {
+  const std::string path = resolve(rel, true);
+  json s;
+  try {
+    s = read_edit_script(path);
+  } catch (const Error& e) {
+    throw RequestError(400, e.what());
+  }
+  load_script(s);
+}
+
+std::string Session::export_to(const std::string& rel) {
+  const std::string path = resolve(rel, false);
+  const std::string ext = fs::path(path).extension().string();
+  if (ext != ".tif" && ext != ".tiff" && ext != ".exr" && ext != ".png" && ext != ".r16" && ext != ".glb")
+    throw RequestError(400, fmt::format("/path: '{}': export as .tif, .exr, .png, .r16 or .glb", rel));
+  fs::create_directories(fs::path(path).parent_path());
+  Heightfield h = canonical();
+  h.georef = m_base.georef;
+  h.metadata = m_base.metadata;
+  h.metadata["terracl:edit_script"] = script().dump();
+  if (ext == ".glb")
+    mesh::write_mesh(mesh::triangulate_simplified(h, 0.5), path, h.metadata);
+  else
+    write_heightfield(h, path);
+  return path;
+}
+
+const Heightfield& Session::terrain() { return m_edit->height(); }
+
+const Heightfield& Session::canonical() {
+  if (!m_canonical) replay(m_ops);
+  return m_edit->height();
+}
+
+// ---- live erosion ----
+
+void Session::erosion_start(const json& params) {
+  if (!params.is_object()) throw RequestError(400, "/: expected erosion parameters {\"rain\": ..., ...}");
+  json op = params;
+  op["op"] = "erode";
+  op["steps"] = 1;  // the number of steps is known at commit
+  json ops = m_ops;
+  ops.push_back(op);
+  m_edit->validate(full_script(ops));
+  edit::Grid g;
+  g.width = m_base.width;
+  g.height = m_base.height;
+  g.cell_x = m_base.georef.cell_x;
+  g.cell_y = m_base.georef.cell_y;
+  if (m_header.value("units", "m") == "cells") g.unit = g.cell_x, g.unit_y = g.cell_y;
+  edit::Params p(op, "/operations/" + std::to_string(m_ops.size()), g);
+  p.string("op");
+  const edit::ErodeSpec spec = edit::parse_erode_spec(p);
+  const Heightfield& h = m_edit->height();
+  const std::vector<float> w = edit::erode_weight(spec, g, m_edit->hard_constraints());
+  m_erosion = std::make_unique<Erosion>(m_device, h, spec.params, &w);
+  m_erosion_op = op;
+  m_erosion_steps = 0;
+}
+
+Heightfield Session::erosion_step(int steps) {
+  if (!m_erosion) throw RequestError(409, "no erosion running (POST /api/erosion/start first)");
+  if (steps < 1 || steps > 1000) throw RequestError(400, "/steps: expected an integer in [1, 1000]");
+  m_erosion->run(steps);
+  m_erosion_steps += steps;
+  return m_erosion->bed();
+}
+
+void Session::erosion_commit() {
+  if (!m_erosion) throw RequestError(409, "no erosion running");
+  if (m_erosion_steps == 0) throw RequestError(409, "no erosion step run yet");
+  json op = m_erosion_op;
+  op["steps"] = m_erosion_steps;
+  json ops = m_ops;
+  ops.push_back(op);
+  commit(ops);  // records the operation; cancels the preview
+}
+
+void Session::erosion_cancel() {
+  m_erosion.reset();
+  m_erosion_steps = 0;
+}
+
+}  // namespace terracl::studio

@@ -1,0 +1,99 @@
+#pragma once
+// The studio's one shared session (docs/studio.md): the operation list IS an edit script (the JSON
+// of `terracl edit`), replayed on an EditSession that re-solves warm on the device. Every method
+// validates its input before changing anything, so a rejected request leaves the session as it was.
+// Not thread-safe by itself: the server serialises requests with one mutex.
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <terracl/device.hpp>
+#include <terracl/edit.hpp>
+#include <terracl/erosion.hpp>
+#include <terracl/heightfield.hpp>
+#include <vector>
+
+namespace terracl::studio {
+
+using json = nlohmann::json;
+
+/// Thrown for bad requests (HTTP 400 unless `status` says otherwise); message names the field.
+struct RequestError : std::runtime_error {
+  RequestError(int status, const std::string& msg) : std::runtime_error(msg), status(status) {}
+  int status;
+};
+
+class Session {
+ public:
+  /// `base`: a raster path or flat:WxH[@cell]; `workspace`: the only folder scripts and exports
+  /// may be read from or written to.
+  Session(Device& d, const std::string& base, const std::string& workspace);
+  ~Session();
+
+  /// {version, width, height, cell_x, cell_y, operations, can_undo, can_redo, last}
+  json state() const;
+  /// The script as `terracl edit` reads it (base, units, seed, operations).
+  json script() const;
+
+  void add(const json& op, std::optional<size_t> index);
+  void update(size_t index, const json& op);
+  void remove(size_t index);
+  void move(size_t from, size_t to);
+  void set_visible(size_t index, bool visible);
+  void undo();
+  void redo();
+  /// Replaces the operation list (and units/seed) with `script`'s (its "base" is ignored: the
+  /// session keeps its own base).
+  void load_script(const json& script);
+
+  /// Workspace-relative file names; anything outside the workspace is refused (403).
+  void save(const std::string& rel);
+  void load(const std::string& rel);
+  /// .tif .exr .png .r16 .glb, of the canonical terrain (the script replayed from the base, as
+  /// `terracl edit` computes it).
+  std::string export_to(const std::string& rel);
+  std::string resolve(const std::string& rel, bool must_exist) const;
+
+  /// The live terrain (warm-solved after each edit).
+  const Heightfield& terrain();
+  /// The terrain `terracl edit` computes for script(): replays from the base when the live one
+  /// was reached incrementally.
+  const Heightfield& canonical();
+  const Heightfield& base() const { return m_base; }
+
+  // ---- live erosion (docs/studio.md): a preview that becomes an "erode" operation on commit ----
+  void erosion_start(const json& params);
+  /// Runs `steps` steps; returns the current bed.
+  Heightfield erosion_step(int steps);
+  void erosion_commit();
+  void erosion_cancel();
+  bool eroding() const { return bool(m_erosion); }
+
+  long long version() const { return m_version; }
+
+ private:
+  json full_script(const json& ops) const;
+  /// Validates `ops`, then makes them current: incremental (apply the new tail warm) when the
+  /// current list is a prefix of `ops`, else a replay from the base. Pushes the undo state.
+  void commit(const json& ops, bool record_undo = true);
+  json appended_only(const json& ops) const;
+  void apply_ops(const json& tail);
+  void replay(const json& ops);
+
+  Device& m_device;
+  std::string m_base_spec, m_workspace;
+  Heightfield m_base;
+  json m_header;  ///< units, seed, description of the script (everything but operations and base)
+  json m_ops = json::array();
+  std::vector<json> m_undo, m_redo;
+  std::unique_ptr<EditSession> m_edit;
+  bool m_canonical = true;  ///< m_edit was built by a replay (no incremental step since)
+  long long m_version = 0;
+  json m_last;  ///< mode and timings of the last change
+
+  std::unique_ptr<Erosion> m_erosion;
+  json m_erosion_op;
+  int m_erosion_steps = 0;
+};
+
+}  // namespace terracl::studio

@@ -1,0 +1,174 @@
+#!/usr/bin/python3
+"""terracl studio in a real browser: Debian's chromium, headless (no display), driven by
+python3-selenium through chromium-driver. Loads the page, draws a crest with mouse events, checks
+that the terrain changed (API state and the map canvas), undoes and redoes it, saves the script from
+the page and replays it with `terracl edit`: the studio's export and the CLI's output must be equal
+bit for bit.
+
+usage: test_studio_browser.py TERRACL_CLI [--screenshots DIR]
+"""
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+import numpy as np
+from osgeo import gdal
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.by import By
+
+gdal.UseExceptions()
+
+
+def fail(msg):
+    print("FAIL:", msg)
+    sys.exit(1)
+
+
+def check(cond, msg):
+    if not cond:
+        fail(msg)
+    print("ok:", msg)
+
+
+def get_json(url):
+    with urllib.request.urlopen(url, timeout=60) as r:
+        return json.load(r)
+
+
+def start_studio(cli, ws):
+    p = subprocess.Popen([cli, "-q", "studio", "flat:257x257@10", "--port", "0", "--workspace", ws],
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    t0 = time.time()
+    while time.time() - t0 < 60:
+        line = p.stdout.readline()
+        if not line:
+            break
+        m = re.search(r"(http://127\.0\.0\.1:\d+/)", line)
+        if m:
+            return p, m.group(1)
+    p.kill()
+    fail("the studio did not print its URL: " + (p.stdout.read() or ""))
+
+
+def wait_version(driver, old, timeout=60):
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        v = driver.execute_script("return document.body.dataset.version")
+        if v is not None and v != old:
+            return v
+        time.sleep(0.05)
+    fail(f"the page did not refresh (version stayed {old})")
+
+
+CANVAS_STATS = """
+const c = document.getElementById('map'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+let n = 0, s = 0, s2 = 0;
+for (let i = 0; i < d.length; i += 4) { const v = d[i] + d[i + 1] + d[i + 2]; if (v > 0) n++; s += v; s2 += v * v; }
+const m = s / (d.length / 4);
+return [n, Math.sqrt(Math.max(0, s2 / (d.length / 4) - m * m))];
+"""
+
+
+def main():
+    cli = sys.argv[1]
+    shots = sys.argv[sys.argv.index("--screenshots") + 1] if "--screenshots" in sys.argv else None
+    tmp = tempfile.mkdtemp(prefix="terracl-browser-")
+    ws = os.path.join(tmp, "ws")
+    studio, url = start_studio(cli, ws)
+    opts = webdriver.ChromeOptions()
+    for a in ["--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1700,860",
+              "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]:
+        opts.add_argument(a)
+    opts.binary_location = "/usr/bin/chromium"
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=opts)
+    try:
+        driver.get(url)
+        v0 = wait_version(driver, None)
+        lit, flat_std = driver.execute_script(CANVAS_STATS)
+        check(lit > 0, f"the map canvas is drawn ({lit} lit pixels)")
+
+        # Draw a crest across the map with the mouse (offsets from the canvas centre).
+        canvas = driver.find_element(By.ID, "map")
+        driver.find_element(By.CSS_SELECTOR, "#tool option[value=crest]").click()
+        chain = ActionChains(driver).move_to_element_with_offset(canvas, -220, 60).click_and_hold()
+        for i in range(1, 23):
+            chain.move_by_offset(20, -6 if i < 12 else 4)
+        chain.release().perform()
+        v1 = wait_version(driver, v0)
+        st = get_json(url + "api/state")
+        check(len(st["operations"]) == 1 and st["operations"][0]["op"] == "crest", "the stroke posted a crest operation")
+        check(len(st["operations"][0]["points"]) >= 2, f"the crest has {len(st['operations'][0]['points'])} vertices")
+        with urllib.request.urlopen(url + "api/terrain.f32", timeout=60) as r:
+            z = np.frombuffer(r.read(), dtype=np.float32)
+        check(abs(float(z.max()) - 150.0) < 0.01, f"the terrain rose to the crest's elevation (max {z.max():.3f} m)")
+        lit, std = driver.execute_script(CANVAS_STATS)
+        check(std > flat_std + 5, f"the map shows the crest (pixel std {flat_std:.1f} -> {std:.1f})")
+        has3d = driver.execute_script("return !!document.querySelector('#view3d canvas')")
+        print("3D view:", "WebGL canvas present" if has3d else "no WebGL in this browser")
+        if shots:
+            os.makedirs(shots, exist_ok=True)
+            driver.find_element(By.ID, "contours").click()
+            v1 = wait_version(driver, None)
+            time.sleep(1.0)
+            driver.save_screenshot(os.path.join(shots, "studio.png"))
+
+        driver.find_element(By.ID, "undo").click()
+        v2 = wait_version(driver, v1)
+        st = get_json(url + "api/state")
+        check(len(st["operations"]) == 0 and st["can_redo"], "undo removed the crest")
+        driver.find_element(By.ID, "redo").click()
+        wait_version(driver, v2)
+        check(len(get_json(url + "api/state")["operations"]) == 1, "redo restored it")
+
+        name = driver.find_element(By.ID, "file")
+        name.clear()
+        name.send_keys("sketch.json")
+        driver.find_element(By.ID, "save").click()
+        driver.find_element(By.ID, "export").click()
+        script, exported = os.path.join(ws, "sketch.json"), os.path.join(ws, "sketch.tif")
+        t0 = time.time()
+        while not (os.path.exists(script) and os.path.exists(exported)) and time.time() - t0 < 60:
+            time.sleep(0.1)
+        check(os.path.exists(script) and os.path.exists(exported), "the page saved the script and exported the terrain")
+        out = os.path.join(tmp, "cli.tif")
+        r = subprocess.run([cli, "-q", "edit", "--script", script, "-o", out], capture_output=True, text=True)
+        check(r.returncode == 0, "terracl edit replays the saved script " + r.stderr)
+        a = gdal.Open(exported).ReadAsArray()
+        b = gdal.Open(out).ReadAsArray()
+        check(a.shape == b.shape and np.array_equal(a, b), "the studio's export equals terracl edit's output bit for bit")
+
+        if shots:  # a second picture: a mountain range being eroded live
+            from selenium.webdriver.support.ui import Select
+            Select(driver.find_element(By.ID, "tool")).select_by_value("mountain_range")
+            v = driver.execute_script("return document.body.dataset.version")
+            chain = ActionChains(driver).move_to_element_with_offset(canvas, -200, -150).click_and_hold()
+            for i in range(1, 16):
+                chain.move_by_offset(12, 20)
+            chain.release().perform()
+            wait_version(driver, v)
+            driver.find_element(By.ID, "erode_all").click()
+            time.sleep(8)
+            driver.find_element(By.ID, "erode_stop").click()
+            time.sleep(1)
+            driver.save_screenshot(os.path.join(shots, "studio_erosion.png"))
+            driver.find_element(By.ID, "erode_cancel").click()
+
+        errors = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        check(not errors, f"no errors in the browser console {errors}")
+    finally:
+        driver.quit()
+        studio.terminate()
+        studio.wait(10)
+    print("studio browser test: all checks passed")
+
+
+if __name__ == "__main__":
+    main()

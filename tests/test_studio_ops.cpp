@@ -1,0 +1,82 @@
+// The two edit-script additions the studio relies on: the "erode" operation and "enabled": false.
+#include <cmath>
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+
+#include "test_helpers.hpp"
+
+namespace terracl {
+namespace {
+
+using json = nlohmann::json;
+
+Heightfield run_script(const json& script, size_t* hard = nullptr) {
+  EditSession s(test::device(), *parse_flat_spec("flat:65x65@30"));
+  s.apply(script);
+  Heightfield h = s.height();
+  if (hard) *hard = s.hard_cells();
+  return h;
+}
+
+const json kRange = {{"op", "mountain_range"}, {"points", {{300, 900, 400}, {1600, 1000, 500}}}, {"radius", 600}};
+const json kCrest = {{"op", "crest"}, {"points", {{200, 300}, {1700, 300}}}, {"elevation", 250}, {"radius", 300}};
+
+TEST(EditErode, ErodesTheTerrainAndKeepsHardConstraintsExact) {
+  size_t hard = 0;
+  const Heightfield before = run_script({{"operations", {kRange, kCrest}}});
+  const Heightfield after =
+      run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}, &hard);
+  ASSERT_GT(hard, 0u);
+  double change = 0;
+  size_t at_crest = 0;
+  for (size_t i = 0; i < after.z.size(); ++i) {
+    ASSERT_TRUE(std::isfinite(after.z[i]));
+    change = std::max(change, double(std::fabs(after.z[i] - before.z[i])));
+    if (before.z[i] == 250.f) {  // a crest cell: hard constraints stay exact through the erosion
+      EXPECT_EQ(after.z[i], 250.f);
+      ++at_crest;
+    }
+  }
+  EXPECT_GT(at_crest, 10u);
+  EXPECT_GT(change, 0.01) << "40 erosion steps left the terrain unchanged";
+  // Deterministic: the same script gives the same bits (what makes studio sessions replay).
+  EXPECT_EQ(after.z,
+            run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}).z);
+}
+
+TEST(EditErode, ABrushRegionLeavesTheRestAlone) {
+  const Heightfield before = run_script({{"operations", {kRange}}});
+  const json brush = {{"op", "erode"},        {"steps", 40},   {"rain", 0.02},
+                      {"center", {600, 950}}, {"radius", 300}, {"falloff", 100}};
+  const Heightfield after = run_script({{"operations", {kRange, brush}}});
+  double inside = 0, outside = 0;
+  for (int y = 0; y < 65; ++y)
+    for (int x = 0; x < 65; ++x) {
+      const double d = std::hypot(x * 30.0 - 600, y * 30.0 - 950), c = std::fabs(after.at(x, y) - before.at(x, y));
+      if (d < 300) inside = std::max(inside, c);
+      if (d > 700) outside = std::max(outside, c);
+    }
+  EXPECT_GT(inside, 0.01);
+  // Outside the brush only the re-solve's round-off (and the mean) moves.
+  EXPECT_LT(outside, 0.1 * inside);
+}
+
+TEST(EditScript, DisabledOperationsAreValidatedButNotRun) {
+  json noise = {{"op", "noise"}, {"amplitude", 20}, {"wavelength", 300}};
+  json hidden = kCrest;
+  hidden["enabled"] = false;
+  // A hidden crest changes nothing, and the noise after it keeps its script index (its default seed):
+  // equal to the noise alone with that seed given explicitly.
+  const Heightfield with_hidden = run_script({{"operations", {hidden, noise}}});
+  json noise_seeded = noise;
+  noise_seeded["seed"] = int((1u * 1000003u + 1u) % 1000000007u);  // the default seed of index 1
+  const Heightfield plain = run_script({{"operations", {noise_seeded}}});
+  EXPECT_EQ(with_hidden.z, plain.z);
+  hidden["enabled"] = "no";
+  EXPECT_THROW(run_script({{"operations", {hidden}}}), Error);
+  json bad_hidden = {{"op", "crest"}, {"radius", -1}, {"enabled", false}};
+  EXPECT_THROW(run_script({{"operations", {bad_hidden}}}), Error);
+}
+
+}  // namespace
+}  // namespace terracl
