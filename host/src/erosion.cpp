@@ -115,8 +115,7 @@ struct Erosion::Impl {
     std::vector<float> rows(size_t(2) * H * chunks);
     dev.queue().enqueueReadBuffer(drain, CL_TRUE, 0, rows.size() * 4, rows.data());
     for (size_t k = 0; k < rows.size() / 2; ++k) drained[0] += rows[2 * k], drained[1] += rows[2 * k + 1];
-    const float zero = 0.0f;
-    dev.queue().enqueueFillBuffer(drain, zero, 0, rows.size() * 4);
+    dev.fill(drain, 0.0f, 0, rows.size());
   }
 };
 

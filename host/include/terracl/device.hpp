@@ -67,6 +67,10 @@ class Device {
   /// Bytes currently allocated through buffer() on this physical device (by every Device object
   /// opened on it) and not yet released (approximate accounting).
   uint64_t allocated_bytes() const;
+  /// Enqueues `count` floats of `value` into `buf` from float offset `offset` (no wait). A kernel
+  /// writes them, not clEnqueueFillBuffer: strict devices (oclgrind) do not count a fill as an
+  /// initialisation, and then flag every later read of the buffer.
+  void fill(const cl::Buffer& buf, float value, size_t offset, size_t count);
 
  private:
   Device() = default;

@@ -193,6 +193,17 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   }
 }
 
+void Device::fill(const cl::Buffer& buf, float value, size_t offset, size_t count) {
+  if (count == 0) return;
+  cl::Kernel k = kernel("raster", "fill_value");
+  k.setArg(0, buf);
+  k.setArg(1, value);
+  k.setArg(2, cl_ulong(offset));
+  k.setArg(3, cl_ulong(count));
+  const size_t ls = 64;
+  m_queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(count, ls)), cl::NDRange(ls));
+}
+
 uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, m_allocated->load())); }
 
 }  // namespace terracl
