@@ -197,3 +197,15 @@ TEST(Kernels, GridIndexProductsAre64Bit) {
               std::regex_search(std::string("    const float c = z[y * w + x];"), sub));
   EXPECT_TRUE(std::regex_search(std::string("  const int row = (y + 1) * P + PAD;"), decl));
 }
+
+// Launch shapes (issue 19): chosen from the device's properties (CPU bit of CL_DEVICE_TYPE), shown
+// by `terracl devices`, forced by TERRACL_LAUNCH so that both shapes run on PoCL.
+TEST(Device, LaunchShapeFromPropertiesAndForced) {
+  unsetenv("TERRACL_LAUNCH");
+  for (const auto& d : list_devices()) EXPECT_EQ(d.launch, d.type == "CPU" ? "rows" : "wide") << d.name;
+  setenv("TERRACL_LAUNCH", "wide", 1);
+  for (const auto& d : list_devices()) EXPECT_EQ(d.launch, "wide") << d.name;
+  setenv("TERRACL_LAUNCH", "sideways", 1);
+  EXPECT_THROW(list_devices(), Error);
+  unsetenv("TERRACL_LAUNCH");
+}

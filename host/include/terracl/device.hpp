@@ -26,6 +26,11 @@ struct DeviceInfo {
   std::string opencl_c_version;
   std::string driver_version;
   std::string device_version;
+  /// Launch shape the launchers use (issue 19): "rows" (one work-item per row with the x-loop
+  /// inside: PoCL's fastest form for stencils) on CPU devices, "wide" (many work-items per row,
+  /// larger groups) on GPUs, accelerators and anything else. Chosen from CL_DEVICE_TYPE's CPU
+  /// bit, not from the type string; TERRACL_LAUNCH=rows|wide forces one (tests run both on PoCL).
+  std::string launch = "rows";
 };
 
 /// All devices of all platforms, in a stable order. Empty when no ICD/platform is installed.

@@ -71,6 +71,12 @@ std::vector<Entry> enumerate() {
       e.info.opencl_c_version = trim(d.getInfo<CL_DEVICE_OPENCL_C_VERSION>());
       e.info.driver_version = trim(d.getInfo<CL_DRIVER_VERSION>());
       e.info.device_version = trim(d.getInfo<CL_DEVICE_VERSION>());
+      e.info.launch = (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) ? "rows" : "wide";
+      if (const char* forced = std::getenv("TERRACL_LAUNCH")) {
+        const std::string f = lower(forced);
+        if (f != "rows" && f != "wide") throw Error("device", "TERRACL_LAUNCH must be rows or wide, got '" + f + "'");
+        e.info.launch = f;
+      }
       out.push_back(std::move(e));
     }
   }
