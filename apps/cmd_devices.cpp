@@ -13,12 +13,12 @@ CommandRegistrar reg(10, [](CLI::App& app) {
       fmt::print("no OpenCL device found (install an ICD such as pocl-opencl-icd; check `clinfo -l`)\n");
       return;
     }
-    fmt::print("{:>3}  {:<28} {:<40} {:<5} {:>4} {:>10} {:>10}  {:<12} {}\n", "idx", "platform", "device", "type", "CUs",
-               "global MB", "maxalloc", "OpenCL C", "driver");
+    fmt::print("{:>3}  {:<28} {:<40} {:<5} {:>4} {:>10} {:>10}  {:<12} {:<6} {}\n", "idx", "platform", "device", "type",
+               "CUs", "global MB", "maxalloc", "OpenCL C", "launch", "driver");
     for (const auto& d : devs)
-      fmt::print("{:>3}  {:<28} {:<40} {:<5} {:>4} {:>10} {:>10}  {:<12} {}\n", d.index, d.platform.substr(0, 28),
+      fmt::print("{:>3}  {:<28} {:<40} {:<5} {:>4} {:>10} {:>10}  {:<12} {:<6} {}\n", d.index, d.platform.substr(0, 28),
                  d.name.substr(0, 40), d.type, d.compute_units, d.global_mem >> 20, d.max_alloc >> 20,
-                 d.opencl_c_version.substr(0, 12), d.driver_version);
+                 d.opencl_c_version.substr(0, 12), d.launch, d.driver_version);
   });
 });
 

@@ -54,9 +54,9 @@ __kernel void erosion_flux(__global const float* restrict b, __global const floa
                            const float area_over_dt) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const int row = (y + 1) * P + PAD;
+  const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
   for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
-    const int i = row + x0;
+    const size_t i = row + x0;
     const VI xi = (VI)(x0) + LANES;
     const V bc = LD(b, i);
     const V dc = LD(d, i) + rain_dt;
@@ -120,12 +120,12 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
                                 const float rock_factor) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const int row = (y + 1) * P + PAD;
+  const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
 #ifdef OPEN_BORDER
   V drained_w = (V)(0.0f), drained_s = (V)(0.0f);
 #endif
   for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
-    const int i = row + x0;
+    const size_t i = row + x0;
     const VI xi = (VI)(x0) + LANES;
     const VI valid = xi < W;
 
@@ -244,10 +244,10 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
                               const float dtx, const float dty, const float dtdiag) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const int row = (y + 1) * P + PAD;
+  const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
   const int up = y > 0, down = y < H - 1;
   for (int x0 = X_BEGIN; x0 < X_END; x0 += 8) {
-    const int i = row + x0;
+    const size_t i = row + x0;
     const VI xi = (VI)(x0) + LANES;
     const VI valid = xi < W;
     const VI left = xi > 0, right = xi < W - 1;

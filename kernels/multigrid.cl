@@ -380,7 +380,7 @@ __kernel void prolong_correct9(__global float* e, const int W, const int H, __gl
 __kernel void coarse_solve(__global float* e, __global const float* r, __global const float* pinv, const int W,
                            const int H) {
   const int i = get_global_id(0);
-  const int n = W * H;
+  const int n = W * H;  // index-ok: the coarsest level has a few hundred nodes
   if (i >= n) return;
   const int P = W + 2;
   float s = 0.0f;
@@ -765,11 +765,11 @@ __kernel void galerkin9(__global const float* st, const int W, const int H, __gl
     float d_, we_, ws_, wse_, wsw_, s_;
     if (rows_in && bx - 2 >= -1 && bx + 2 <= W) {
       __global const float* c = st + GI(bx, by, P);
-#define WE(a, b) c[N + (b) * P + (a)]
-#define WS(a, b) c[2 * N + (b) * P + (a)]
-#define WSE(a, b) c[3 * N + (b) * P + (a)]
-#define WSW(a, b) c[4 * N + (b) * P + (a)]
-#define S(a, b) c[5 * N + (b) * P + (a)]
+#define WE(a, b) c[N + (b) * P + (a)]  // index-ok: |b| <= 2
+#define WS(a, b) c[2 * N + (b) * P + (a)]  // index-ok: |b| <= 2
+#define WSE(a, b) c[3 * N + (b) * P + (a)]  // index-ok: |b| <= 2
+#define WSW(a, b) c[4 * N + (b) * P + (a)]  // index-ok: |b| <= 2
+#define S(a, b) c[5 * N + (b) * P + (a)]  // index-ok: |b| <= 2
       GALERKIN_LOADS;
       d_ = GALERKIN_D;
       we_ = GALERKIN_WE;

@@ -2,9 +2,10 @@
 // OpenCL C 1.2; no fast-math; FMA contraction off so results match a plain C++ loop bit for bit.
 #pragma OPENCL FP_CONTRACT OFF
 
-__kernel void fill_value(__global float* dst, const float value, const int n) {
-  const int i = get_global_id(0);
-  if (i < n) dst[i] = value;
+// dst[offset + i] = value for i < n; 64-bit offsets and counts (buffers may pass 2^31 floats).
+__kernel void fill_value(__global float* dst, const float value, const ulong offset, const ulong n) {
+  const size_t i = get_global_id(0);
+  if (i < n) dst[offset + i] = value;
 }
 
 // dst = a * x + y

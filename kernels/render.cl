@@ -11,7 +11,7 @@
 // Neighbour value; outside the grid or nodata -> the centre value (as the host version).
 inline float nb(__global const float* z, const int w, const int h, const int x, const int y, const float c) {
   if (x < 0 || y < 0 || x >= w || y >= h) return c;
-  const float v = z[y * w + x];
+  const float v = z[(size_t)y * w + x];
   return isnan(v) ? c : v;
 }
 
@@ -54,8 +54,10 @@ __kernel void render_rows(__global const float* z, const int w, const int h, con
   const int y = get_global_id(0);
   if (y >= h) return;
   for (int x = 0; x < w; ++x) {
-    const float c = z[y * w + x];
-    __global uchar* p = out + 3 * (y * w + x);
+    // 64-bit: 3 * cells passes 2^31 from 716 M cells (a 26800^2 grid).
+    const size_t o = (size_t)y * w + x;
+    const float c = z[o];
+    __global uchar* p = out + 3 * o;
     uchar rgb[3] = {0, 0, 0};
     if (mode == MODE_RELIEF || mode == MODE_SHADED_RELIEF) ramp_color(c, ramp_z, ramp_rgb, nramp, nodata_rgb, rgb);
     if (isnan(c)) {

@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 
 using namespace terracl;
 
@@ -134,12 +136,8 @@ TEST(Device, ProgramBinaryCacheOnDisk) {
   {
     // A second device object loads the binary and its kernels still compute correctly.
     auto d = Device::open();
-    cl::Kernel k = d->kernel("raster", "fill_value");
     cl::Buffer b = d->buffer(64 * 4, CL_MEM_READ_WRITE, "b");
-    k.setArg(0, b);
-    k.setArg(1, 7.5f);
-    k.setArg(2, 64);
-    d->queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(64));
+    d->fill(b, 7.5f, 0, 64);
     std::vector<float> out(64);
     d->queue().enqueueReadBuffer(b, CL_TRUE, 0, 256, out.data());
     for (float v : out) ASSERT_EQ(v, 7.5f);
@@ -163,4 +161,51 @@ TEST(Device, ProgramBinaryCacheOnDisk) {
     setenv("XDG_CACHE_HOME", saved.c_str(), 1);
   else
     unsetenv("XDG_CACHE_HOME");
+}
+
+// Static check (DESIGN.md, "Devices"): element indices that scale with the grid are computed in
+// 64 bits. A product of an int row/column with a pitch (`y * W`, `(y + 1) * P`) overflows past
+// 2^31 cells (render's 3 * (y * w + x) at 716 M cells), which no test can allocate on this machine.
+// Flags int declarations and array subscripts that multiply by a grid dimension without size_t;
+// a line may opt out with "index-ok:" and its reason.
+TEST(Kernels, GridIndexProductsAre64Bit) {
+  const std::regex decl(R"(\bint\s+\w+\s*=\s*[^;]*\*\s*\(?\s*(W|H|P|w|h|Wc|Hc|Pc|width|height|pitch|N)\b)");
+  const std::regex sub(R"(\[([^\[\]]*\*\s*\(?\s*(W|w|P|Pc|Wc|width|pitch)\b[^\[\]]*)\])");
+  std::vector<std::string> bad;
+  for (const auto& f : kernel_files()) {
+    std::istringstream in(kernel_source(f));
+    std::string line;
+    for (int no = 1; std::getline(in, line); ++no) {
+      const auto t = line.find_first_not_of(" \t");
+      if (t == std::string::npos || line.compare(t, 2, "//") == 0 || line.find("index-ok:") != std::string::npos)
+        continue;
+      bool flag = std::regex_search(line, decl) && line.find("size_t") == std::string::npos;
+      for (std::sregex_iterator m(line.begin(), line.end(), sub), e; m != e && !flag; ++m) {
+        const std::string s = (*m)[1];
+        flag = s.find("size_t") == std::string::npos && s.find("long") == std::string::npos;
+      }
+      if (flag) bad.push_back(f + ".cl:" + std::to_string(no) + ": " + line);
+    }
+  }
+  EXPECT_TRUE(bad.empty()) << "32-bit grid index products:\n" << [&] {
+    std::string s;
+    for (auto& b : bad) s += b + "\n";
+    return s;
+  }();
+  // The check itself catches the pattern it is for.
+  EXPECT_TRUE(std::regex_search(std::string("    __global uchar* p = out + 3 * (y * w + x);"), decl) ||
+              std::regex_search(std::string("    const float c = z[y * w + x];"), sub));
+  EXPECT_TRUE(std::regex_search(std::string("  const int row = (y + 1) * P + PAD;"), decl));
+}
+
+// Launch shapes (issue 19): chosen from the device's properties (CPU bit of CL_DEVICE_TYPE), shown
+// by `terracl devices`, forced by TERRACL_LAUNCH so that both shapes run on PoCL.
+TEST(Device, LaunchShapeFromPropertiesAndForced) {
+  unsetenv("TERRACL_LAUNCH");
+  for (const auto& d : list_devices()) EXPECT_EQ(d.launch, d.type == "CPU" ? "rows" : "wide") << d.name;
+  setenv("TERRACL_LAUNCH", "wide", 1);
+  for (const auto& d : list_devices()) EXPECT_EQ(d.launch, "wide") << d.name;
+  setenv("TERRACL_LAUNCH", "sideways", 1);
+  EXPECT_THROW(list_devices(), Error);
+  unsetenv("TERRACL_LAUNCH");
 }

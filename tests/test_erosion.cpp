@@ -593,3 +593,26 @@ TEST(Erosion, T6RandomParametersNeverProduceNan) {
     }
   }
 }
+
+TEST(Erosion, T7WideLaunchShapeGivesTheSameBits) {
+  // The launch shape GPUs get (issue 19: 32 cells per work-item, warp-sized groups, 64-row
+  // groups elsewhere), forced on PoCL with TERRACL_LAUNCH=wide, against the CPU row shape.
+  Heightfield t = base_terrain(77, 29, 10.0, 150.0, 5);
+  const auto water = water_blob(77, 29, 0.2f, 2.0f);
+  ErosionParams p = ErosionParams::defaults();
+  p.boundary = ErosionBoundary::Open;
+  Erosion rows(test::device(), t, p, nullptr, &water);
+  ASSERT_EQ(test::device().info().launch, "rows");
+  rows.run(60);
+  setenv("TERRACL_LAUNCH", "wide", 1);
+  auto wide_dev = Device::open();
+  unsetenv("TERRACL_LAUNCH");
+  ASSERT_EQ(wide_dev->info().launch, "wide");
+  Erosion wide(*wide_dev, t, p, nullptr, &water);
+  wide.run(60);
+  const ErosionState a = rows.state(), b = wide.state();
+  EXPECT_EQ(0, std::memcmp(a.bed.data(), b.bed.data(), a.bed.size() * 4));
+  EXPECT_EQ(0, std::memcmp(a.water.data(), b.water.data(), a.water.size() * 4));
+  EXPECT_EQ(0, std::memcmp(a.sediment.data(), b.sediment.data(), a.sediment.size() * 4));
+  EXPECT_NEAR(wide.totals().drained_water, rows.totals().drained_water, 1e-5 * (1 + rows.totals().drained_water));
+}

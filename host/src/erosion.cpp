@@ -115,8 +115,7 @@ struct Erosion::Impl {
     std::vector<float> rows(size_t(2) * H * chunks);
     dev.queue().enqueueReadBuffer(drain, CL_TRUE, 0, rows.size() * 4, rows.data());
     for (size_t k = 0; k < rows.size() / 2; ++k) drained[0] += rows[2 * k], drained[1] += rows[2 * k + 1];
-    const float zero = 0.0f;
-    dev.queue().enqueueFillBuffer(drain, zero, 0, rows.size() * 4);
+    dev.fill(drain, 0.0f, 0, rows.size());
   }
 };
 
@@ -174,12 +173,12 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
   // Work split (see XCHUNK in kernels/erosion.cl).
   int chunk = params.cells_per_item;
   if (chunk < 0) fail(kStage, "cells_per_item must be >= 0, got {}", chunk);
-  if (chunk == 0) chunk = dev.info().type == "GPU" ? 32 : 0;
+  if (chunk == 0) chunk = dev.info().launch == "wide" ? 32 : 0;
   chunk = int(round_up(size_t(chunk), 8));
   std::string split_opts;
   if (chunk > 0 && chunk < s.W) {
     s.local_rows = 1;
-    s.local_chunks = 16;
+    s.local_chunks = dev.info().launch == "wide" ? 32 : 16;  // a whole warp on wide devices
     s.chunks = round_up((size_t(s.W) + chunk - 1) / chunk, s.local_chunks);
     split_opts = fmt::format(" -DXCHUNK={}", chunk);
   }

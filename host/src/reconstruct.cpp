@@ -102,7 +102,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       set_args(sh, p.u, W, H, float(m));
       launch_rows(d, sh, size_t(H));
     } else {
-      q.enqueueFillBuffer(p.u, 0.0f, 0, bytes);
+      d.fill(p.u, 0.0f, 0, size_t(W) * H);
     }
     make_rhs(d, p.g);
     peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);

@@ -7,7 +7,7 @@
 
 namespace terracl {
 
-inline size_t row_local_size(Device& d) { return d.info().type == "GPU" ? 64 : 4; }
+inline size_t row_local_size(Device& d) { return d.info().launch == "wide" ? 64 : 4; }
 
 /// Sets the arguments of `k` in order (the types must match the kernel's: cast doubles to float).
 template <typename... A>

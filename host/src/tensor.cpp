@@ -140,9 +140,9 @@ GradientBuffers GradientBuffers::upload(Device& d, const GradientField& g) {
   q.enqueueWriteBuffer(b.gx, CL_FALSE, 0, bytes, g.gx.data());
   q.enqueueWriteBuffer(b.gy, CL_FALSE, 0, bytes, g.gy.data());
   const float zero = 0.f;
-  q.enqueueFillBuffer(b.tx, zero, 0, bytes);
-  q.enqueueFillBuffer(b.ty, zero, 0, bytes);
-  q.enqueueFillBuffer(b.mask, zero, 0, bytes);
+  d.fill(b.tx, zero, 0, b.cells());
+  d.fill(b.ty, zero, 0, b.cells());
+  d.fill(b.mask, zero, 0, b.cells());
   q.finish();
   return b;
 }
@@ -157,10 +157,9 @@ void GradientBuffers::download(Device& d, GradientField& g) const {
 void GradientBuffers::clear_scratch(Device& d, const Box& box) {
   const int r0 = std::max(0, box.y0 - 1), r1 = std::min(height, box.y0 + box.h + 1);
   if (r1 <= r0) return;
-  const size_t off = size_t(r0) * width * sizeof(float), bytes = size_t(r1 - r0) * width * sizeof(float);
-  const float zero = 0.f;
-  d.queue().enqueueFillBuffer(tx, zero, off, bytes);
-  d.queue().enqueueFillBuffer(ty, zero, off, bytes);
+  const size_t off = size_t(r0) * width, n = size_t(r1 - r0) * width;
+  d.fill(tx, 0.0f, off, n);
+  d.fill(ty, 0.0f, off, n);
 }
 
 namespace {

@@ -26,6 +26,11 @@ struct DeviceInfo {
   std::string opencl_c_version;
   std::string driver_version;
   std::string device_version;
+  /// Launch shape the launchers use (issue 19): "rows" (one work-item per row with the x-loop
+  /// inside: PoCL's fastest form for stencils) on CPU devices, "wide" (many work-items per row,
+  /// larger groups) on GPUs, accelerators and anything else. Chosen from CL_DEVICE_TYPE's CPU
+  /// bit, not from the type string; TERRACL_LAUNCH=rows|wide forces one (tests run both on PoCL).
+  std::string launch = "rows";
 };
 
 /// All devices of all platforms, in a stable order. Empty when no ICD/platform is installed.
@@ -67,6 +72,10 @@ class Device {
   /// Bytes currently allocated through buffer() on this physical device (by every Device object
   /// opened on it) and not yet released (approximate accounting).
   uint64_t allocated_bytes() const;
+  /// Enqueues `count` floats of `value` into `buf` from float offset `offset` (no wait). A kernel
+  /// writes them, not clEnqueueFillBuffer: strict devices (oclgrind) do not count a fill as an
+  /// initialisation, and then flag every later read of the buffer.
+  void fill(const cl::Buffer& buf, float value, size_t offset, size_t count);
 
  private:
   Device() = default;

@@ -71,6 +71,12 @@ std::vector<Entry> enumerate() {
       e.info.opencl_c_version = trim(d.getInfo<CL_DEVICE_OPENCL_C_VERSION>());
       e.info.driver_version = trim(d.getInfo<CL_DRIVER_VERSION>());
       e.info.device_version = trim(d.getInfo<CL_DEVICE_VERSION>());
+      e.info.launch = (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) ? "rows" : "wide";
+      if (const char* forced = std::getenv("TERRACL_LAUNCH")) {
+        const std::string f = lower(forced);
+        if (f != "rows" && f != "wide") throw Error("device", "TERRACL_LAUNCH must be rows or wide, got '" + f + "'");
+        e.info.launch = f;
+      }
       out.push_back(std::move(e));
     }
   }
@@ -191,6 +197,17 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   } catch (const cl::Error& err) {
     throw Error("device", fmt::format("allocating {} ({:.1f} MiB): {}", what, bytes / 1048576.0, describe(err)));
   }
+}
+
+void Device::fill(const cl::Buffer& buf, float value, size_t offset, size_t count) {
+  if (count == 0) return;
+  cl::Kernel k = kernel("raster", "fill_value");
+  k.setArg(0, buf);
+  k.setArg(1, value);
+  k.setArg(2, cl_ulong(offset));
+  k.setArg(3, cl_ulong(count));
+  const size_t ls = 64;
+  m_queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(count, ls)), cl::NDRange(ls));
 }
 
 uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, m_allocated->load())); }

@@ -120,9 +120,8 @@ Operation parse_fit(Params& p) {
     Device& d = s.device();
     GradientBuffers& b = s.buffers();
     if (clear) {
-      const float zero = 0.f;
-      d.queue().enqueueFillBuffer(b.gx, zero, 0, b.cells() * sizeof(float));
-      d.queue().enqueueFillBuffer(b.gy, zero, 0, b.cells() * sizeof(float));
+      d.fill(b.gx, 0.0f, 0, b.cells());
+      d.fill(b.gy, 0.0f, 0, b.cells());
     }
     if (noise) {
       std::vector<Primitive> feats;
@@ -137,8 +136,7 @@ Operation parse_fit(Params& p) {
           feats.push_back(pr);
         }
       const Box box = primitives_box(feats, b.width, b.height, b.cell_x, b.cell_y);
-      const float zero = 0.f;
-      d.queue().enqueueFillBuffer(b.mask, zero, 0, b.cells() * sizeof(float));
+      d.fill(b.mask, 0.0f, 0, b.cells());
       primitive_weight(d, b, feats, box, false);
       b.clear_scratch(d, box);
       noise_gradient(d, b, np, box, true, true);

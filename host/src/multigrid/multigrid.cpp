@@ -98,7 +98,7 @@ class Solver {
       const size_t n = size_t(L.W + 2) * (L.H + 2) * sizeof(float);
       auto zeroed = [&](size_t bytes, const char* what) {
         cl::Buffer b = m_d.buffer(bytes, CL_MEM_READ_WRITE, what);
-        m_q.enqueueFillBuffer(b, 0.0f, 0, bytes);
+        m_d.fill(b, 0.0f, 0, bytes / sizeof(float));
         return b;
       };
       L.e = zeroed(n, "multigrid correction");
