@@ -236,13 +236,25 @@ void register_reconstruct_stages(StageRegistry& r) {
               "warm start / current elevations (for 'freeze' polygons and a Dirichlet border)"},
              {"cycle", OptionType::Enum, "fmg", "", "multigrid schedule", {"v", "w", "fmg", "cascade"}},
              {"smoother", OptionType::Enum, "rbgs", "", "smoother", {"rbgs", "jacobi"}},
-             {"tolerance", OptionType::Float, 1e-6, "", "relative residual to stop at"},
-             {"max_cycles", OptionType::Int, 50, "", "maximum number of cycles"},
+             OptionSpec{"tolerance", OptionType::Float, 1e-6, "", "relative residual to stop at"}.range(1e-15, 1),
+             OptionSpec{"max_cycles", OptionType::Int, 50, "", "maximum number of cycles"}.range(1, 100000),
              {"mean", OptionType::Float, nullptr, "m", "mean elevation when no cell is fixed (default: the source's)"},
              {"border", OptionType::Enum, "neumann", "", "grid border condition", {"neumann", "dirichlet"}},
              {"report", OptionType::OutputPath, nullptr, "", "write cycles, residuals, times and device as JSON"},
          },
-         run_reconstruct});
+         run_reconstruct,
+         true,
+         // --validate: a reconstruction needs something to integrate (docs/pipelines.md promises this).
+         [](const json& o, DataKind input, const std::string& where) {
+           const bool given = (o.contains("gradient") && !o["gradient"].is_null()) ||
+                              (o.contains("divergence") && !o["divergence"].is_null());
+           if (o.contains("gradient") && !o["gradient"].is_null() && o.contains("divergence") && !o["divergence"].is_null())
+             fail("pipeline", "{}: give either \"gradient\" or \"divergence\", not both", where);
+           if (!given && input != DataKind::Gradient)
+             fail("pipeline", "{}: reconstruct needs a gradient: a previous stage producing one (extract, a gradient "
+                  ".exr) or the \"gradient\" or \"divergence\" option", where);
+           return DataKind::Heightfield;
+         }});
 }
 
 void register_reconstruct_benches(BenchRegistry& r) {

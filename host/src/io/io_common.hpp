@@ -22,6 +22,12 @@ nlohmann::json read_sidecar(const std::string& path);
 nlohmann::json georef_to_json(const Georef& g);
 void georef_from_json(const nlohmann::json& j, Georef& g, const std::string& where);
 
+/// Throws naming `where` unless zmin and zmax are finite and zmin <= zmax (a swapped range would
+/// turn the terrain upside down without a word).
+void check_vertical_range(double zmin, double zmax, const std::string& where);
+/// Throws when the sidecar `sc` of `path` states a width/height other than the image's.
+void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long long width, long long height);
+
 /// Min/max of the finite values; {0, 0} when none are finite.
 std::pair<double, double> finite_range(const std::vector<float>& z);
 
