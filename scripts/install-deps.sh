@@ -12,6 +12,7 @@ PACKAGES=(
   libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libbenchmark-dev
   libtinygltf-dev
+  clang libclang-rt-14-dev
 )
 
 missing=()
