@@ -24,7 +24,9 @@ fi
 cmake --build "$BUILD" -j "${JOBS:-$(nproc)}" --target "${TARGETS[@]}"
 echo "fuzz.sh: build took $(( $(date +%s) - start )) s"
 
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
+# Full unwinding on malloc so that leaks in third-party code match tests/fuzz/lsan.supp.
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1:fast_unwind_on_malloc=0}
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/fuzz/lsan.supp:print_suppressions=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # GDAL and OIIO are not built with the sanitizers; keep their own caches and threads quiet.
 export GDAL_NUM_THREADS=1 OIIO_THREADS=1 GDAL_CACHEMAX=64

@@ -343,6 +343,12 @@ TEST(Reliability, RasterHeadersClaimingHugeSizesAreRefusedBeforeAllocating) {
   std::ofstream(dir.path("huge.png.json")) << R"({"zmin": 0, "zmax": 1000, "cell_x": 1, "cell_y": 1})";
   const auto r = test::run_cli("info " + q(png));
   expect_clean_error(r, 1, "100000 x 100000 cells; each side may be at most 65536", "PNG 100000^2");
+  // A GeoTIFF claiming 10^6 x 10^6 float cells (sparse: 180 KB on disk) was std::bad_alloc.
+  const std::string tif = dir.path("huge.tif");
+  ASSERT_EQ(std::system(("gdal_create -q -of GTiff -outsize 1000000 1000000 -ot Float32 -co SPARSE_OK=TRUE -co TILED=YES "
+                         "-co BIGTIFF=YES -co BLOCKXSIZE=8192 -co BLOCKYSIZE=8192 " + q(tif)).c_str()),
+            0);
+  expect_clean_error(test::run_cli("info " + q(tif)), 1, "1000000 x 1000000 cells; each side may be at most 65536", "tif");
   const auto m = test::run_cli("amplify -q " + q(test::data_path("dem/N44W072.hgt")) + " -o " + q(dir.path("a.tif")) + " --dictionary " + q(crop()) +
                                " --factor 256");
   expect_clean_error(m, 1, "the x256 output of a 1201 x 1201 input", "amplify x256");
