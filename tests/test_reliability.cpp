@@ -132,6 +132,23 @@ TEST(Reliability, EditOfAHugeFlatBaseIsRefusedBeforeAllocating) {
   EXPECT_EQ(WEXITSTATUS(status), 1) << out;
   EXPECT_NE(out.find("TERRACL_MAX_MEMORY"), std::string::npos) << out;
   EXPECT_FALSE(fs::exists(dir.path("z.tif")));
+  // Erosion and reconstruction check too, before they allocate.
+  for (const std::string& args :
+       {"erode -q " + q(crop()) + " -o " + q(dir.path("e.tif")) + " --steps 1",
+        "reconstruct -q --gradient " + q(dir.path("g.exr")) + " -o " + q(dir.path("r.tif"))}) {
+    if (args.rfind("reconstruct", 0) == 0) write_gradient(GradientField(128, 96), dir.path("g.exr"));
+    // 250 KiB: enough to read the 128 x 96 input (the readers check too), not to run the stage.
+    const std::string cmd = "env TERRACL_MAX_MEMORY=250K " + std::string(TERRACL_CLI) + " " + args + " 2>&1";
+    FILE* p2 = popen(cmd.c_str(), "r");
+    std::string o2;
+    while ((n = fread(buf, 1, sizeof buf, p2)) > 0) o2.append(buf, n);
+    EXPECT_EQ(WEXITSTATUS(pclose(p2)), 1) << o2;
+    EXPECT_NE(o2.find("128 x 96"), std::string::npos) << o2;
+    EXPECT_NE(o2.find("needs about"), std::string::npos) << o2;
+    EXPECT_NE(o2.find(args.substr(0, args.find(' ')) + ": "), std::string::npos) << "the stage's own check\n" << o2;
+  }
+  EXPECT_FALSE(fs::exists(dir.path("e.tif")));
+  EXPECT_FALSE(fs::exists(dir.path("r.tif")));
 }
 
 // --- 2. data destroyed -------------------------------------------------------------------------

@@ -4,6 +4,7 @@
 #include <terracl/constraints.hpp>
 #include <terracl/erosion.hpp>
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/io.hpp>
 
 #include <fmt/format.h>
@@ -148,6 +149,10 @@ void run_erode(StageContext& c) {
       if (fixed[i]) weight[i] = 0.0f;
   }
   ErosionOutputs out;
+  // Before the simulation allocates (terracl/memory.hpp): ~14 float fields on the device (terrain,
+  // water, sediment, 4 fluxes, velocity, deposit, temporaries), the result and optional outputs here.
+  require_memory(c.tag, fmt::format("eroding a {} x {} raster", h.width, h.height), double(h.size()) * 24,
+                 double(h.size()) * 56, double(h.size()) * 16, &c.device(), "crop the raster or erode it in pieces");
   Heightfield result = erode(c.device(), h, p, steps, weight.empty() ? nullptr : &weight, &out, c.progress);
   // No wall-clock time here: this goes into the outputs' metadata, which must be byte-reproducible.
   json summary = {{"steps", steps},

@@ -2,6 +2,7 @@
 #include "pipeline/builtin.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/gradient.hpp>
 #include <terracl/io.hpp>
 #include <terracl/reconstruct.hpp>
@@ -48,6 +49,10 @@ void run_reconstruct(StageContext& c) {
   }
   const int W = use_div ? f.width : g.width, H = use_div ? f.height : g.height;
   const Georef& geo = use_div ? f.georef : g.georef;
+  // Before the solver allocates (terracl/memory.hpp): the multigrid hierarchy (4/3 of ~7 float
+  // fields of the finest level) on the device, the constraints and the result here.
+  require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid", W, H), double(W) * H * 24,
+                 double(W) * H * 40, double(W) * H * 4, &c.device(), "reconstruct a smaller grid (crop it)");
   if (initial && (initial->width != W || initial->height != H))
     fail("reconstruct", "the initial heightfield is {}x{}, the gradient {}x{}", initial->width, initial->height, W, H);
 
