@@ -452,3 +452,18 @@ TEST(Reliability, UnwritableCacheFolderTurnsTheCacheOffNotTheDevice) {
   EXPECT_NE(out.find("is not writable; kernel caches are off"), std::string::npos) << out;
   EXPECT_TRUE(fs::exists(dir.path("e.tif")));
 }
+
+// Found by fuzz_raster: an EXR header attribute claiming 1.7 GB made OpenEXR allocate it (1.8 GB
+// resident, 6 s) before failing on a 1.5 KB file.
+TEST(Reliability, ExrHeaderClaimingHugeAttributesIsRefusedBeforeOpenExrAllocates) {
+  test::TempDir dir;
+  write_heightfield(read_heightfield(crop()), dir.path("a.exr"));
+  std::string bytes = file_text(dir.path("a.exr"));
+  const std::string key = std::string("terracl:georef") + '\0' + "string" + '\0';
+  const size_t at = bytes.find(key);
+  ASSERT_NE(at, std::string::npos);
+  for (int i = 0; i < 4; ++i) bytes[at + key.size() + i] = char(i == 3 ? 0x65 : 0x78);  // 0x65787878 bytes
+  std::ofstream(dir.path("a.exr"), std::ios::binary) << bytes;
+  const auto r = test::run_cli("info " + q(dir.path("a.exr")));
+  expect_clean_error(r, 1, "EXR header attribute 'terracl:georef' (string) claims 1702393976 bytes", "exr");
+}

@@ -33,6 +33,33 @@ std::string sniff_magic(const std::string& path) {
   return "";
 }
 
+void check_exr_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const auto file_size = fs::file_size(path, ec);
+  if (!in || ec) return;  // the reader reports it
+  char magic_version[8];
+  if (!in.read(magic_version, 8)) return;
+  // Attributes: name\0 type\0 int32 size, then size bytes; an empty name ends the header.
+  for (int attribute = 0; attribute < 10000; ++attribute) {
+    std::string name, type;
+    for (std::string* s : {&name, &type}) {
+      char c;
+      while (in.get(c) && c != '\0' && s->size() < 256) *s += c;
+      if (!in) return;
+      if (s == &name && name.empty()) return;  // end of the header
+    }
+    unsigned char b[4];
+    if (!in.read(reinterpret_cast<char*>(b), 4)) return;
+    const int64_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    const int64_t left = int64_t(file_size) - int64_t(in.tellg());
+    if (size < 0 || size > left)
+      fail("io", "{}: EXR header attribute '{}' ({}) claims {} bytes, and {} bytes are left in the file", path,
+           abbreviate(name, 40), abbreviate(type, 40), size, left);
+    in.seekg(size, std::ios::cur);
+  }
+}
+
 void require_readable(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail("io", "{}: no such file", path);

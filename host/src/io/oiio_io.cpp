@@ -56,6 +56,7 @@ void write_image(const std::string& tmp_path, const ImageSpec& spec, TypeDesc ty
 }  // namespace
 
 Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
+  if (sniff_magic(path) == "EXR") check_exr_header(path);
   auto in = ImageInput::open(path);
   if (!in) fail("io", "{}: not an image OpenImageIO can read ({})", path, OIIO::geterror());
   const ImageSpec& spec = in->spec();
@@ -134,6 +135,7 @@ namespace terracl {
 
 bool is_gradient_file(const std::string& path) {
   if (io::sniff_magic(path) != "EXR") return false;
+  io::check_exr_header(path);
   auto in = OIIO::ImageInput::open(path);
   if (!in) return false;
   return in->spec().nchannels == 2;
@@ -142,6 +144,7 @@ bool is_gradient_file(const std::string& path) {
 GradientField read_gradient(const std::string& path) {
   io::require_readable(path);
   if (io::sniff_magic(path) != "EXR") fail("io", "{}: a gradient field must be a two-channel float EXR", path);
+  io::check_exr_header(path);
   auto in = OIIO::ImageInput::open(path);
   if (!in) fail("io", "{}: cannot open EXR ({})", path, OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();
