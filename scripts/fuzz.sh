@@ -38,7 +38,7 @@ for t in "${TARGETS[@]}"; do
   mkdir -p "$work" "$findings"
   log=$BUILD/$t.log
   echo "fuzz.sh: $t for ${SECONDS_PER_TARGET} s"
-  if ! "$BUILD/$t" "$work" "$seeds" -max_total_time="$SECONDS_PER_TARGET" -timeout=60 -rss_limit_mb=2048 \
+  if ! "$BUILD/$t" "$work" "$seeds" -max_total_time="$SECONDS_PER_TARGET" -timeout=60 -rss_limit_mb=4096 -malloc_limit_mb=4096 \
        -max_len=65536 -artifact_prefix="$findings/" -print_final_stats=1 >"$log" 2>&1; then
     echo "fuzz.sh: $t FOUND A PROBLEM (input in $findings):"
     tail -40 "$log"
