@@ -38,6 +38,8 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     ReadOptions ro;
     ro.fill_nodata = a->fill_nodata;
     if (name == "metrics") {
+      if (opts.contains("json") && opts["json"].is_string())
+        check_output_paths(name, {{"input", a->input}}, {{"--json", opts["json"].get<std::string>()}});
       // The report goes to stdout; --json also writes it as a file.
       const Heightfield h = read_heightfield(a->input, ro);
       json report = analysis::terrain_metrics(h, make_progress(name));
@@ -52,6 +54,12 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     json resolved;
     try {
       resolved = resolve_options(s, opts, s.name);
+      check_stage_files(s, resolved, {{"input", a->input}}, {});
+      if ((name == "render" || name == "sketch") && resolved.contains("file") && resolved["file"].is_string() &&
+          format_from_extension(resolved["file"].get<std::string>()) != FileFormat::PNG)
+        throw UsageError(name, fmt::format("-o {}: {} writes a PNG; use a .png name", resolved["file"].get<std::string>(), name));
+    } catch (const UsageError&) {
+      throw;
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }

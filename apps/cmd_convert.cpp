@@ -26,6 +26,7 @@ CommandRegistrar reg(12, [](CLI::App& app) {
   sub->add_option("--out-zmax", a->out_zmax, "Output PNG16/RAW16: elevation of code 65535 (default: data maximum)");
   sub->add_flag("--fill-nodata", a->fill, "Fill nodata cells by harmonic interpolation");
   sub->callback([a] {
+    check_output_paths("convert", {{"input", a->input}}, {{"output", a->output}});
     if (is_gradient_file(a->input)) {
       GradientField g = read_gradient(a->input);
       for (const auto& [k, v] : provenance()) g.metadata[k] = v;

@@ -87,6 +87,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   learn->callback([la] {
     LearnOptions o = la->o;
     o.method = !la->method.empty() ? la->method : la->constrained ? "constrained" : "ksvd";
+    std::vector<NamedPath> inputs;
+    for (const auto& f : la->exemplars) inputs.push_back({"exemplar", f});
+    check_output_paths("dictionary", inputs, {{"-o", la->output}});
     std::vector<Heightfield> ex;
     for (const auto& f : la->exemplars) ex.push_back(read_heightfield(f, filled()));
     auto t0 = std::chrono::steady_clock::now();
@@ -136,6 +139,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       ->capture_default_str();
   sk->add_option("--seed", sa->amp.seed, "Seed of FLANN's randomized trees")->capture_default_str();
   sk->callback([sa] {
+    check_output_paths("dictionary", {{"input", sa->input}, {"--dictionary", sa->dictionary}}, {{"-o", sa->output}});
     ReadOptions r;
     r.zmin = sa->zmin;
     r.zmax = sa->zmax;

@@ -5,6 +5,7 @@
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
 #include <terracl/io.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/render.hpp>
 
 #include <fmt/format.h>
@@ -47,6 +48,14 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     if (a->base.empty())
       throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE]), or \"base\" in the script");
     if (a->output.empty() && !a->validate) throw UsageError("edit", "needs -o OUTPUT");
+    check_output_paths("edit", {{"BASE", a->base.rfind("flat:", 0) == 0 ? "" : a->base}, {"--script", a->script}},
+                       {{"-o", a->output},
+                        {"--preview", a->preview},
+                        {"--report", a->report},
+                        {"--gradient-out", a->gradient_out},
+                        {"--gradient-image", a->gradient_image}});
+    if (!a->preview.empty() && format_from_extension(a->preview) != FileFormat::PNG)
+      throw UsageError("edit", fmt::format("--preview {}: the preview is a PNG; use a .png name", a->preview));
     // The preview's ramp is checked before any work (a bad ramp must not leave a half-done run).
     render::ColorRamp ramp = render::ColorRamp::default_ramp();
     if (!a->ramp.empty()) ramp = render::ColorRamp::from_spec(a->ramp);
@@ -61,6 +70,10 @@ CommandRegistrar reg(40, [](CLI::App& app) {
         fill_nodata_harmonic(base);
       }
     }
+    // Before the session allocates: a 20000 x 20000 base ran the device out of memory half-way.
+    require_memory("edit", fmt::format("a {} x {} edit", base.width, base.height),
+                   double(base.size()) * edit_host_bytes_per_cell, double(base.size()) * edit_device_bytes_per_cell,
+                   double(base.size()) * 8, &device(), "use a smaller base (flat:WxH, or crop the DEM)");
     EditOptions o;
     o.progress = make_progress("edit");
     o.base_dir = std::filesystem::path(a->script).parent_path().string();

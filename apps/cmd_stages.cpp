@@ -49,6 +49,8 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
           fail(s.name, "-o {}: cannot write a {} with this extension; use {}", a->output, gradient_out ? "gradient" : "heightfield",
                gradient_out ? ".exr" : ".tif, .exr, .png or .r16");
       }
+      // The same check as a pipeline's: no output may replace an input, another output or a device.
+      check_stage_files(s, resolved, {{"input", a->input}}, {{"-o", a->output}});
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }

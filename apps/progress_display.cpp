@@ -2,6 +2,8 @@
 // JSON lines for machines, nothing with -q. Ctrl-C turns the next callback into a cancel.
 #include "cli.hpp"
 
+#include <terracl/io.hpp>
+
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -17,15 +19,30 @@ std::atomic<bool> g_interrupted{false};
 bool g_bar_open = false;
 
 void on_sigint(int) {
-  if (g_interrupted.exchange(true)) std::_Exit(130);  // a second Ctrl-C stops at once
+  if (g_interrupted.exchange(true)) {
+    // A second Ctrl-C stops at once; the output being written is a temporary: unlink it first.
+    remove_temporaries_signal_safe();
+    std::_Exit(130);
+  }
   // write(2) is async-signal-safe; stdio is not.
   static const char msg[] = "\nterracl: Ctrl-C: stopping at the next safe point (Ctrl-C again to quit at once)\n";
   [[maybe_unused]] const auto n = ::write(STDERR_FILENO, msg, sizeof msg - 1);
 }
 
+// SIGTERM / SIGHUP (kill, a closed terminal, a CI timeout) stop at once, leaving no temporary.
+void on_terminate(int sig) {
+  remove_temporaries_signal_safe();
+  std::_Exit(128 + sig);
+}
+
 }  // namespace
 
-void install_interrupt_handler() { std::signal(SIGINT, on_sigint); }
+void install_interrupt_handler() {
+  std::signal(SIGINT, on_sigint);
+  std::signal(SIGTERM, on_terminate);
+  std::signal(SIGHUP, on_terminate);
+}
+
 bool interrupted() { return g_interrupted.load(); }
 
 void finish_progress() {

@@ -33,6 +33,17 @@ void StageFlags::add(CLI::App* sub, const StageInfo& stage, const std::string& o
   }
 }
 
+void check_stage_files(const StageInfo& stage, const json& resolved, std::vector<NamedPath> inputs,
+                       std::vector<NamedPath> outputs) {
+  for (const auto& o : stage.options) {
+    if (!resolved.contains(o.name) || !resolved.at(o.name).is_string()) continue;
+    const std::string file = resolved.at(o.name).get<std::string>();
+    if (o.type == OptionType::Path && file.rfind("flat:", 0) != 0) inputs.push_back({"--" + kebab(o.name), file});
+    if (o.type == OptionType::OutputPath) outputs.push_back({"--" + kebab(o.name), file});
+  }
+  check_output_paths(stage.name, inputs, outputs);
+}
+
 json StageFlags::given(const CLI::App* sub, const StageInfo& stage) const {
   json opts = json::object();
   for (const auto& o : stage.options) {

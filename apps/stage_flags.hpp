@@ -1,6 +1,7 @@
 #pragma once
 // Command-line flags generated from a stage's option table, shared by every subcommand that
 // runs a stage, so the CLI and pipelines accept the same names, types and units.
+#include <terracl/io.hpp>
 #include <terracl/stage.hpp>
 
 #include <CLI/CLI.hpp>
@@ -12,6 +13,11 @@ namespace terracl::cli {
 
 /// "fixed_mask" -> "fixed-mask".
 std::string kebab(std::string s);
+
+/// check_output_paths over a stage's files: `inputs`/`outputs` (positional arguments, -o) plus
+/// the stage's Path / OutputPath options in `resolved`, labelled by their --flag.
+void check_stage_files(const StageInfo& stage, const json& resolved, std::vector<NamedPath> inputs,
+                       std::vector<NamedPath> outputs);
 
 class StageFlags {
  public:

@@ -3,9 +3,14 @@
 #include "cli.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/version.hpp>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
 
 namespace terracl::cli {
@@ -35,12 +40,53 @@ std::vector<std::pair<int, Setup>>& command_setups() {
 
 CommandRegistrar::CommandRegistrar(int order, Setup setup) { command_setups().emplace_back(order, std::move(setup)); }
 
+namespace {
+
+// PoCL keeps its own kernel cache under $XDG_CACHE_HOME too, and reports no device at all when it
+// cannot write there; so an unwritable cache folder turns both caches off (with a warning) instead
+// of "no OpenCL device found".
+void disable_caches_if_unwritable() {
+  namespace fs = std::filesystem;
+  fs::path base;
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) base = x;
+  else if (const char* home = std::getenv("HOME"); home && *home) base = fs::path(home) / ".cache";
+  if (base.empty()) return;
+  std::error_code ec;
+  fs::create_directories(base, ec);
+  bool writable = !ec && fs::is_directory(base, ec) && ::access(base.c_str(), W_OK) == 0;
+  if (writable) {
+    // access() says yes to root on a read-only mount: try a file.
+    std::string probe = (base / ".terracl-probe-XXXXXX").string();
+    const int fd = ::mkstemp(probe.data());
+    writable = fd >= 0;
+    if (fd >= 0) ::close(fd), ::unlink(probe.c_str());
+  }
+  if (writable) return;
+  std::cerr << "terracl: warning: cache folder " << base.string()
+            << " is not writable; kernel caches are off for this run (kernels are compiled each time)\n";
+  ::setenv("TERRACL_NO_CACHE", "1", 1);
+  ::setenv("POCL_KERNEL_CACHE", "0", 0);
+  if (!std::getenv("POCL_CACHE_DIR")) {
+    static std::string dir = (fs::temp_directory_path(ec) / "terracl-pocl-XXXXXX").string();
+    if (::mkdtemp(dir.data())) {
+      ::setenv("POCL_CACHE_DIR", dir.c_str(), 1);
+      std::atexit([] {
+        std::error_code e;
+        fs::remove_all(dir, e);
+      });
+    }
+  }
+}
+
+}  // namespace
+
 }  // namespace terracl::cli
 
 int main(int argc, char** argv) {
   using namespace terracl;
   auto& g = cli::globals();
   for (int i = 0; i < argc; ++i) g.command_line += (i ? " " : "") + std::string(argv[i]);
+  cli::disable_caches_if_unwritable();
 
   CLI::App app{"terracl: terrain authoring and amplification in the gradient domain, on any OpenCL device"};
   app.set_version_flag("--version", std::string("terracl ") + terracl::version());
@@ -50,6 +96,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Validator(
           [](std::string& spec) -> std::string {
             // Checked up front so that every command, not only those that open the device, refuses it.
+            // An all-digit spec is an index; one too long for an int is refused here (not "stol").
+            if (!spec.empty() && spec.size() > 9 && spec.find_first_not_of("0123456789") == std::string::npos)
+              return "device index " + terracl::abbreviate(spec, 20) + " is out of range (see `terracl devices`)";
             try {
               (void)Device::open(spec);
             } catch (const std::exception& e) {

@@ -14,6 +14,7 @@ PACKAGES=(
   libtinygltf-dev
   libcpp-httplib-dev libjs-three
   chromium chromium-driver python3-selenium python3-gdal python3-numpy
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -12,3 +12,10 @@ start=$(date +%s)
 export CI=${CI:-false}
 (cd "${BUILD_DIR:-build}" && ctest --output-on-failure -j "${JOBS:-$(nproc)}" --timeout 900)
 echo "test.sh: tests took $(( $(date +%s) - start )) s"
+# libFuzzer smoke run (ASan + UBSan) of the raster readers, the edit-script and pipeline parsers, in
+# its own small build folder (only the sources the harnesses need; docs/reliability.md).
+if [ "${SKIP_FUZZ:-0}" != "1" ]; then
+  start=$(date +%s)
+  FUZZ_SECONDS=${FUZZ_SECONDS:-10} bash scripts/fuzz.sh
+  echo "test.sh: fuzzing (build + run) took $(( $(date +%s) - start )) s"
+fi

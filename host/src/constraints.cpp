@@ -1,6 +1,7 @@
 // Hard-constraint rasterisation and the constraint JSON format (priority rule in constraints.hpp).
 #include <terracl/constraints.hpp>
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -332,12 +333,7 @@ void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Geo
 void add_constraints_file(ConstraintSet& c, const std::string& path, const Georef& georef, const Heightfield* current) {
   std::ifstream in(path);
   if (!in) fail("constraints", "{}: cannot open the constraint file", path);
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    fail("constraints", "{}: not valid JSON: {}", path, e.what());
-  }
+  const nlohmann::json doc = read_json_file(path, "constraints");
   add_constraints_json(c, doc, georef, current, path);
 }
 

@@ -4,6 +4,7 @@
 #include <terracl/constraints.hpp>
 #include <terracl/erosion.hpp>
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/io.hpp>
 
 #include <fmt/format.h>
@@ -63,6 +64,11 @@ std::vector<float> read_region_weight(const std::string& path, const Heightfield
       const double v = (1 - ty) * ((1 - tx) * val(x0, y0) + tx * val(x1, y0)) + ty * ((1 - tx) * val(x0, y1) + tx * val(x1, y1));
       w[size_t(y) * g.width + x] = float(v);
     }
+  // 1e9 overflowed the kernel radius (a crash) and 1e5 blurred for minutes without a check for
+  // Ctrl-C: the direct blur costs 6 * feather operations per cell, so the width is bounded.
+  if (!(feather >= 0 && feather <= max_region_feather))
+    fail("erode", "region feather {} cells is out of range; expected 0..{} cells (blur a wider edge into the mask itself)",
+         feather, max_region_feather);
   if (feather > 0) {
     // Separable Gaussian blur (clamped border) for the brush's smooth edge.
     const int r = int(std::ceil(3 * feather));
@@ -143,14 +149,16 @@ void run_erode(StageContext& c) {
       if (fixed[i]) weight[i] = 0.0f;
   }
   ErosionOutputs out;
-  const auto t0 = std::chrono::steady_clock::now();
+  // Before the simulation allocates (terracl/memory.hpp): ~14 float fields on the device (terrain,
+  // water, sediment, 4 fluxes, velocity, deposit, temporaries), the result and optional outputs here.
+  require_memory(c.tag, fmt::format("eroding a {} x {} raster", h.width, h.height), double(h.size()) * 24,
+                 double(h.size()) * 56, double(h.size()) * 16, &c.device(), "crop the raster or erode it in pieces");
   Heightfield result = erode(c.device(), h, p, steps, weight.empty() ? nullptr : &weight, &out, c.progress);
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // No wall-clock time here: this goes into the outputs' metadata, which must be byte-reproducible.
   json summary = {{"steps", steps},
                   {"substeps_per_step", out.substeps},
                   {"substep_dt_s", out.substep_dt},
                   {"simulated_time_s", steps * out.substeps * out.substep_dt},
-                  {"seconds", secs},
                   {"water_m3", out.totals.water},
                   {"suspended_sediment_m3", out.totals.sediment},
                   {"drained_water_m3", out.totals.drained_water},
@@ -239,10 +247,10 @@ void register_erosion_stages(StageRegistry& r) {
          DataKind::Heightfield,
          DataKind::Heightfield,
          {
-             opt("steps", OptionType::Int, 400, "", "Number of time steps"),
+             opt("steps", OptionType::Int, 400, "", "Number of time steps").range(0, 100000000),
              opt("time", OptionType::Float, nullptr, "s", "Simulated time; overrides steps (steps = ceil(time / dt))"),
              opt("dt", OptionType::Float, 0.0, "s",
-              "Time step; 0 = half the stability limit sqrt(l*a/(2*A*g)); a larger dt is split into sub-steps"),
+              "Time step; 0 = half the stability limit sqrt(l*a/(2*A*g)); a larger dt is split into sub-steps").range(0, {}),
              opt("rain", OptionType::Float, d.rain, "m/s", "Rain added uniformly to every cell (e.g. \"36000 mm/h\")"),
              opt("evaporation", OptionType::Float, d.evaporation, "1/s", "Evaporation rate: depth decays by (1 - rate*dt)"),
              opt("thermal_only", OptionType::Bool, false, "", "Only thermal erosion (no water)"),
@@ -266,7 +274,8 @@ void register_erosion_stages(StageRegistry& r) {
              opt("boundary", OptionType::Enum, "closed", "", "closed: nothing leaves; open: water and sediment drain over the edge",
               {"closed", "open"}),
              opt("region", OptionType::Path, nullptr, "", "Brush mask raster (PNG grey 0..1, or float); erosion only where painted"),
-             opt("region_feather", OptionType::Float, 3.0, "cells", "Gaussian blur (sigma) of the region mask for a smooth edge"),
+             opt("region_feather", OptionType::Float, 3.0, "cells", "Gaussian blur (sigma) of the region mask for a smooth edge")
+                 .range(0, max_region_feather),
              opt("keep_constraints", OptionType::Path, nullptr, "",
               "Constraints JSON (points/polygons/polylines, pixels or \"units\": \"georeferenced\"): those cells stay fixed"),
              opt("water", OptionType::OutputPath, nullptr, "", "Write the final water depth (m), e.g. water.exr"),

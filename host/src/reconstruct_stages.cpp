@@ -2,6 +2,7 @@
 #include "pipeline/builtin.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/gradient.hpp>
 #include <terracl/io.hpp>
 #include <terracl/reconstruct.hpp>
@@ -48,6 +49,10 @@ void run_reconstruct(StageContext& c) {
   }
   const int W = use_div ? f.width : g.width, H = use_div ? f.height : g.height;
   const Georef& geo = use_div ? f.georef : g.georef;
+  // Before the solver allocates (terracl/memory.hpp): the multigrid hierarchy (4/3 of ~7 float
+  // fields of the finest level) on the device, the constraints and the result here.
+  require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid", W, H), double(W) * H * 24,
+                 double(W) * H * 40, double(W) * H * 4, &c.device(), "reconstruct a smaller grid (crop it)");
   if (initial && (initial->width != W || initial->height != H))
     fail("reconstruct", "the initial heightfield is {}x{}, the gradient {}x{}", initial->width, initial->height, W, H);
 
@@ -236,13 +241,25 @@ void register_reconstruct_stages(StageRegistry& r) {
               "warm start / current elevations (for 'freeze' polygons and a Dirichlet border)"},
              {"cycle", OptionType::Enum, "fmg", "", "multigrid schedule", {"v", "w", "fmg", "cascade"}},
              {"smoother", OptionType::Enum, "rbgs", "", "smoother", {"rbgs", "jacobi"}},
-             {"tolerance", OptionType::Float, 1e-6, "", "relative residual to stop at"},
-             {"max_cycles", OptionType::Int, 50, "", "maximum number of cycles"},
+             OptionSpec{"tolerance", OptionType::Float, 1e-6, "", "relative residual to stop at"}.range(1e-15, 1),
+             OptionSpec{"max_cycles", OptionType::Int, 50, "", "maximum number of cycles"}.range(1, 100000),
              {"mean", OptionType::Float, nullptr, "m", "mean elevation when no cell is fixed (default: the source's)"},
              {"border", OptionType::Enum, "neumann", "", "grid border condition", {"neumann", "dirichlet"}},
              {"report", OptionType::OutputPath, nullptr, "", "write cycles, residuals, times and device as JSON"},
          },
-         run_reconstruct});
+         run_reconstruct,
+         true,
+         // --validate: a reconstruction needs something to integrate (docs/pipelines.md promises this).
+         [](const json& o, DataKind input, const std::string& where) {
+           const bool given = (o.contains("gradient") && !o["gradient"].is_null()) ||
+                              (o.contains("divergence") && !o["divergence"].is_null());
+           if (o.contains("gradient") && !o["gradient"].is_null() && o.contains("divergence") && !o["divergence"].is_null())
+             fail("pipeline", "{}: give either \"gradient\" or \"divergence\", not both", where);
+           if (!given && input != DataKind::Gradient)
+             fail("pipeline", "{}: reconstruct needs a gradient: a previous stage producing one (extract, a gradient "
+                  ".exr) or the \"gradient\" or \"divergence\" option", where);
+           return DataKind::Heightfield;
+         }});
 }
 
 void register_reconstruct_benches(BenchRegistry& r) {

@@ -41,6 +41,11 @@ struct EditOptions {
 /// when `spec` does not start with "flat:"; throws on a malformed spec.
 std::optional<Heightfield> parse_flat_spec(const std::string& spec);
 
+/// Checks every operation of `script` against a width x height grid of `cell` metres without a
+/// device (what EditSession::validate does); throws the same errors. Used by the fuzz harness.
+void validate_edit_script(const nlohmann::json& script, int width, int height, double cell,
+                          const std::string& base_dir = "");
+
 /// `path` when it exists, else `base_dir`/`path` when that exists, else `path`.
 std::string resolve_path(const std::string& path, const std::string& base_dir);
 

@@ -135,6 +135,8 @@ std::vector<unsigned char> read_fixed_cells(const std::string& path, const Heigh
 /// Brush weight from a mask raster (any format read_heightfield reads; values scaled so the mask's
 /// maximum is 1, resampled bilinearly when its size differs), blurred with a Gaussian of `feather`
 /// cells for a smooth edge.
+/// Largest region feather (cells) accepted: the blur costs 6 * feather operations per cell.
+constexpr double max_region_feather = 100;
 std::vector<float> read_region_weight(const std::string& path, const Heightfield& grid, double feather);
 
 }  // namespace terracl

@@ -9,6 +9,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace terracl {
 
@@ -44,6 +45,23 @@ void write_gradient(const GradientField& g, const std::string& path);
 /// True when the file is an EXR with two channels named gx/gy (or any two channels).
 bool is_gradient_file(const std::string& path);
 
+/// A file named on the command line or in a pipeline, with the flag or JSON path that named it.
+struct NamedPath {
+  std::string label;  ///< "-o", "--delta", "/2/file"
+  std::string path;
+};
+/// Throws UsageError(stage, ...) when a component of `path` is longer than the file system allows
+/// (255 bytes) or the whole path longer than 4095 bytes (a 5,000-character name).
+void check_path_length(const std::string& stage, const std::string& label, const std::string& path);
+/// True when `a` and `b` name the same file: the same inode when both exist, else the same
+/// canonical path ("out/a.tif" and "./out/../out/a.tif").
+bool same_file(const std::string& a, const std::string& b);
+/// The one check every command and pipeline makes before running: refuses (UsageError naming the
+/// labels) an output that is also an input or another output, and an output that exists and is
+/// not a regular file (a device such as /dev/null, a folder, a pipe), which a rename would replace.
+void check_output_paths(const std::string& stage, const std::vector<NamedPath>& inputs,
+                        const std::vector<NamedPath>& outputs);
+
 /// Writes `content` to `path` atomically (temporary name in the same folder, then rename).
 void write_text_file_atomic(const std::string& path, const std::string& content);
 
@@ -55,6 +73,9 @@ void write_atomically(const std::string& path, F&& writer);
 std::string temporary_path_for(const std::string& path);
 void commit_temporary(const std::string& tmp, const std::string& path);
 void discard_temporary(const std::string& tmp);
+/// Unlinks every temporary output not yet committed or discarded. Async-signal-safe (no
+/// allocation, no locks): the CLI calls it from its SIGTERM / second-Ctrl-C handler.
+void remove_temporaries_signal_safe();
 
 template <typename F>
 void write_atomically(const std::string& path, F&& writer) {

@@ -29,6 +29,16 @@ struct OptionSpec {
   std::string help;
   std::vector<std::string> choices = {};  ///< for Enum
   bool required = false;
+  /// Smallest / largest value accepted (Int and Float, in `unit`); checked by resolve_options, so
+  /// `--validate` and every subcommand refuse it before any work. Ints are always within int32.
+  std::optional<double> min = std::nullopt, max = std::nullopt;
+  /// A copy with the range [lo, hi] (either may be nullopt).
+  OptionSpec range(std::optional<double> lo, std::optional<double> hi) const {
+    OptionSpec c = *this;
+    c.min = lo;
+    c.max = hi;
+    return c;
+  }
 };
 
 /// What a stage consumes from the previous one and produces for the next.

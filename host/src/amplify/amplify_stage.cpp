@@ -3,6 +3,7 @@
 
 #include <terracl/amplify.hpp>
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/io.hpp>
 
 #include <fmt/format.h>
@@ -53,6 +54,9 @@ AmplifyOptions amplify_options(const StageContext& c) {
 void run_amplify(StageContext& c) {
   Heightfield& low = c.height();
   const AmplifyOptions o = amplify_options(c);
+  // Before any work: x256 of a 1201^2 tile asked for 10+ GB and failed after 27 s.
+  require_raster_size("amplify", fmt::format("the x{} output of a {} x {} input", o.factor, low.width, low.height),
+                      int64_t(low.width) * o.factor, int64_t(low.height) * o.factor, 8);
   const bool has_ex = c.has("exemplar"), has_dict = c.has("dictionary");
   if (has_ex == has_dict) throw UsageError("amplify", "give exactly one of --exemplar FILE[,FILE...] or --dictionary FILE");
   Heightfield out;
@@ -94,27 +98,27 @@ void register_amplify_stages(StageRegistry& r) {
          DataKind::Heightfield,
          DataKind::Heightfield,
          {
-             {"factor", OptionType::Int, 4, "", "Total amplification factor (power of 4)", {}},
+             OptionSpec{"factor", OptionType::Int, 4, "", "Total amplification factor (power of 4)", {}}.range(2, 256),
              {"exemplar", OptionType::String, nullptr, "", "High-resolution exemplar file(s), comma-separated", {}},
              {"dictionary", OptionType::Path, nullptr, "", "Dictionary file (.tdic) from `terracl dictionary learn`", {}},
-             {"patch", OptionType::Int, 16, "cells", "Patch size P at the output resolution (with --exemplar)", {}},
-             {"atoms", OptionType::Int, 1024, "", "Dictionary atoms (with --exemplar, constrained/ksvd)", {}},
+             OptionSpec{"patch", OptionType::Int, 16, "cells", "Patch size P at the output resolution (with --exemplar)", {}}.range(2, 256),
+             OptionSpec{"atoms", OptionType::Int, 1024, "", "Dictionary atoms (with --exemplar, constrained/ksvd)", {}}.range(1, 1 << 20),
              {"method", OptionType::Enum, "complete", "", "Learning method with --exemplar", {"complete", "constrained", "ksvd"}},
-             {"spacing", OptionType::Int, 8, "cells", "Spacing of output patches (multiple of 4, <= patch)", {}},
-             {"sparsity", OptionType::Int, 1, "", "Atoms per patch", {}},
+             OptionSpec{"spacing", OptionType::Int, 8, "cells", "Spacing of output patches (multiple of 4, <= patch)", {}}.range(1, 256),
+             OptionSpec{"sparsity", OptionType::Int, 1, "", "Atoms per patch", {}}.range(1, 64),
              {"search", OptionType::Enum, "auto", "", "Atom search for sparsity 1", {"auto", "flann", "exact", "omp"}},
-             {"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}},
-             {"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}},
-             {"neighbours", OptionType::Int, 0, "", "Sparsity 1: average of the k best atoms (0: the dictionary's, 3 when learned now)", {}},
-             {"candidates", OptionType::Int, 0, "", "Pool of nearest atoms each patch draws its neighbours from, by position (0: the nearest)", {}},
-             {"magnitude_weight", OptionType::Float, -1.0, "", "Weight of the atom search's magnitude term (0: off; -1: the dictionary's, 0.4 when learned now)", {}},
-             {"seed", OptionType::Int, 1, "", "Seed of FLANN's trees, the candidate draw and (--exemplar) the training subset: same seed, same output", {}},
-             {"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}},
-             {"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}},
+             OptionSpec{"trees", OptionType::Int, 2, "", "FLANN kd-trees", {}}.range(1, 64),
+             OptionSpec{"checks", OptionType::Int, 8, "", "FLANN leaf checks (-1: unlimited, exact)", {}}.range(-1, 1 << 20),
+             OptionSpec{"neighbours", OptionType::Int, 0, "", "Sparsity 1: average of the k best atoms (0: the dictionary's, 3 when learned now)", {}}.range(0, 64),
+             OptionSpec{"candidates", OptionType::Int, 0, "", "Pool of nearest atoms each patch draws its neighbours from, by position (0: the nearest)", {}}.range(0, 4096),
+             OptionSpec{"magnitude_weight", OptionType::Float, -1.0, "", "Weight of the atom search's magnitude term (0: off; -1: the dictionary's, 0.4 when learned now)", {}}.range(-1, 100),
+             OptionSpec{"seed", OptionType::Int, 1, "", "Seed of FLANN's trees, the candidate draw and (--exemplar) the training subset: same seed, same output", {}}.range(0, {}),
+             OptionSpec{"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}}.range(16, 65536),
+             OptionSpec{"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}}.range(-1, 100),
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
              {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
-             {"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}},
+             OptionSpec{"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}}.range(0, 1000),
          },
          run_amplify});
 }

@@ -6,6 +6,7 @@
 #include "edit/state.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/gradient.hpp>
 #include <terracl/noise.hpp>
 
@@ -69,9 +70,9 @@ Operation parse_fit(Params& p) {
     if (!in) param_error(p.where("file"), fmt::format("cannot open '{}'", given));
     json doc;
     try {
-      doc = json::parse(in);
-    } catch (const json::exception& e) {
-      param_error(p.where("file"), fmt::format("'{}' is not valid JSON: {}", given, e.what()));
+      doc = read_json_file(path, "edit");  // depth and size limits (terracl/json_limits.hpp)
+    } catch (const Error& e) {
+      param_error(p.where("file"), fmt::format("'{}': {}", given, std::string(e.what()).substr(6)));
     }
     // The analysis module's `terracl sketch --json` files (format "terracl-sketch") give pixel
     // coordinates of their own grid: scale them onto ours; their extra keys are ignored.

@@ -4,12 +4,15 @@
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
+#include <terracl/json_limits.hpp>
+#include <terracl/memory.hpp>
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <regex>
 
@@ -20,11 +23,15 @@ std::optional<Heightfield> parse_flat_spec(const std::string& spec) {
   static const std::regex re(R"(flat:(\d+)x(\d+)(?:@([0-9]*\.?[0-9]+(?:[eE][-+]?\d+)?))?)");
   std::smatch m;
   if (!std::regex_match(spec, m, re))
-    throw UsageError("edit", fmt::format("'{}': expected flat:WIDTHxHEIGHT or flat:WIDTHxHEIGHT@CELLSIZE (metres)", spec));
-  const long w = std::stol(m[1]), h = std::stol(m[2]);
-  const double cell = m[3].matched ? std::stod(m[3]) : 1.0;
-  if (w < 2 || h < 2 || w > 65536 || h > 65536 || !(cell > 0))
-    throw UsageError("edit", fmt::format("'{}': size must be 2..65536 per side and the cell size > 0", spec));
+    throw UsageError("edit", fmt::format("'{}': expected flat:WIDTHxHEIGHT or flat:WIDTHxHEIGHT@CELLSIZE (metres)", abbreviate(spec)));
+  // strtod/strtoll, not stol/stod: an overlong number is out of range, not "internal: stol".
+  const long long w = std::strtoll(m[1].str().c_str(), nullptr, 10), h = std::strtoll(m[2].str().c_str(), nullptr, 10);
+  const double cell = m[3].matched ? std::strtod(m[3].str().c_str(), nullptr) : 1.0;
+  if (w < 2 || h < 2 || w > 65536 || h > 65536 || !(cell > 0) || !std::isfinite(cell))
+    throw UsageError("edit", fmt::format("'{}': size must be 2..65536 per side and the cell size > 0", abbreviate(spec)));
+  // Before allocating the base (terracl/memory.hpp): 20000^2 exhausted memory half-way.
+  require_memory("edit", fmt::format("a {} x {} edit", w, h), double(w) * double(h) * edit_host_bytes_per_cell, 0, 0,
+                 nullptr, "use a smaller base (flat:WxH, or crop the DEM)");
   Heightfield f(int(w), int(h), 0.f);
   f.georef.cell_x = f.georef.cell_y = cell;
   f.georef.geotransform = {0, cell, 0, 0, 0, -cell};
@@ -34,11 +41,7 @@ std::optional<Heightfield> parse_flat_spec(const std::string& spec) {
 nlohmann::json read_edit_script(const std::string& path) {
   std::ifstream in(path);
   if (!in) fail("edit", "cannot open script '{}'", path);
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    fail("edit", "{}: malformed JSON: {}", path, e.what());
-  }
+  return read_json_file(path, "edit");  // depth and size limits (terracl/json_limits.hpp)
 }
 
 namespace {
@@ -167,6 +170,15 @@ EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_
 }
 
 EditSession::~EditSession() = default;
+
+void validate_edit_script(const nlohmann::json& script, int width, int height, double cell, const std::string& base_dir) {
+  Grid g;
+  g.width = width;
+  g.height = height;
+  g.cell_x = g.cell_y = cell;
+  g.base_dir = base_dir;
+  parse_script(script, g);
+}
 
 namespace {
 Grid script_grid(const edit::EditState& s, const EditOptions& o, const Georef& geo) {

@@ -4,6 +4,7 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -56,6 +57,7 @@ Heightfield read_gdal(const std::string& path) {
   const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
   if (w <= 0 || h <= 0 || ds->GetRasterCount() < 1)
     fail("io", "{}: raster has no cells ({} x {}, {} bands)", path, w, h, ds->GetRasterCount());
+  require_raster_size("io", path, w, h, 8);  // before allocating: a header may claim 10^6 x 10^6
   Heightfield out(w, h);
   GDALRasterBand* band = ds->GetRasterBand(1);
   if (band->RasterIO(GF_Read, 0, 0, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)

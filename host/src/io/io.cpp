@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -109,9 +110,21 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
   if (h.width <= 0 || h.height <= 0) fail("io", "{}: raster has no cells", path);
   if (f == FileFormat::GeoTIFF && !h.georef.has_geotransform) {
     // Our own non-georeferenced outputs keep their metric cell size as metadata.
-    if (auto it = h.metadata.find("terracl:cell_x"); it != h.metadata.end()) h.georef.cell_x = std::stod(it->second);
-    if (auto it = h.metadata.find("terracl:cell_y"); it != h.metadata.end()) h.georef.cell_y = std::stod(it->second);
+    // strtod, not stod: a hostile tag is ignored rather than an "internal: stod".
+    auto cell = [&](const char* key, double& v) {
+      if (auto it = h.metadata.find(key); it != h.metadata.end()) {
+        const double d = std::strtod(it->second.c_str(), nullptr);
+        if (std::isfinite(d) && d > 0) v = d;
+      }
+    };
+    cell("terracl:cell_x", h.georef.cell_x);
+    cell("terracl:cell_y", h.georef.cell_y);
   }
+  // NaN is nodata; +-Inf is no elevation at all and made invalid meshes (glb "max": null).
+  for (size_t i = 0; i < h.z.size(); ++i)
+    if (std::isinf(h.z[i]))
+      fail("io", "{}: cell ({}, {}) holds an infinite elevation ({}); a DEM must hold finite numbers or nodata", path,
+           i % size_t(h.width), i / size_t(h.width), h.z[i]);
   h.metadata.erase("terracl:cell_x");
   h.metadata.erase("terracl:cell_y");
   if (opts.fill_nodata) fill_nodata_harmonic(h);

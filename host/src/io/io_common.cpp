@@ -1,10 +1,13 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 
 #include <fmt/format.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -30,6 +33,33 @@ std::string sniff_magic(const std::string& path) {
   return "";
 }
 
+void check_exr_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const auto file_size = fs::file_size(path, ec);
+  if (!in || ec) return;  // the reader reports it
+  char magic_version[8];
+  if (!in.read(magic_version, 8)) return;
+  // Attributes: name\0 type\0 int32 size, then size bytes; an empty name ends the header.
+  for (int attribute = 0; attribute < 10000; ++attribute) {
+    std::string name, type;
+    for (std::string* s : {&name, &type}) {
+      char c;
+      while (in.get(c) && c != '\0' && s->size() < 256) *s += c;
+      if (!in) return;
+      if (s == &name && name.empty()) return;  // end of the header
+    }
+    unsigned char b[4];
+    if (!in.read(reinterpret_cast<char*>(b), 4)) return;
+    const int64_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    const int64_t left = int64_t(file_size) - int64_t(in.tellg());
+    if (size < 0 || size > left)
+      fail("io", "{}: EXR header attribute '{}' ({}) claims {} bytes, and {} bytes are left in the file", path,
+           abbreviate(name, 40), abbreviate(type, 40), size, left);
+    in.seekg(size, std::ios::cur);
+  }
+}
+
 void require_readable(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail("io", "{}: no such file", path);
@@ -52,13 +82,9 @@ nlohmann::json read_sidecar(const std::string& path) {
   const std::string sc = sidecar_path(path);
   std::ifstream in(sc);
   if (!in) return nullptr;
-  try {
-    nlohmann::json j = nlohmann::json::parse(in);
-    if (!j.is_object()) fail("io", "{}: sidecar must be a JSON object", sc);
-    return j;
-  } catch (const nlohmann::json::exception& e) {
-    fail("io", "{}: malformed sidecar JSON: {}", sc, e.what());
-  }
+  nlohmann::json j = read_json_file(sc, "io");  // depth and size limits
+  if (!j.is_object()) fail("io", "{}: sidecar must be a JSON object", sc);
+  return j;
 }
 
 nlohmann::json georef_to_json(const Georef& g) {
@@ -92,6 +118,21 @@ void georef_from_json(const nlohmann::json& j, Georef& g, const std::string& whe
     fail("io", "{}: cell_x/cell_y must be positive numbers", where);
 }
 
+void check_vertical_range(double zmin, double zmax, const std::string& where) {
+  if (!std::isfinite(zmin) || !std::isfinite(zmax) || zmin > zmax)
+    fail("io", "{}: the vertical range zmin {} .. zmax {} must be finite with zmin <= zmax", where, zmin, zmax);
+}
+
+void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long long width, long long height) {
+  for (const auto& [key, actual] : {std::pair<const char*, long long>{"width", width}, {"height", height}}) {
+    if (!sc.contains(key)) continue;
+    const auto& v = sc.at(key);
+    if (!v.is_number_integer() || v.get<long long>() != actual)
+      fail("io", "{}: sidecar says {} {}, the image has {}; the sidecar belongs to another file", sidecar_path(path), key,
+           abbreviate(v.dump(), 30), actual);
+  }
+}
+
 std::pair<double, double> finite_range(const std::vector<float>& z) {
   double lo = INFINITY, hi = -INFINITY;
   for (float v : z)
@@ -102,26 +143,124 @@ std::pair<double, double> finite_range(const std::vector<float>& z) {
 
 }  // namespace io
 
+namespace {
+
+// Temporary outputs being written, for a signal handler to unlink (SIGTERM, a second Ctrl-C).
+// Fixed storage and atomics only: the handler may not allocate or lock.
+struct TempSlot {
+  std::atomic<int> state{0};  // 0 free, 1 claimed (being filled), 2 holds a live temporary
+  char path[4096];
+};
+TempSlot g_temp_slots[64];
+
+void register_temporary(const std::string& tmp) {
+  if (tmp.size() >= sizeof(g_temp_slots[0].path)) return;
+  for (auto& s : g_temp_slots) {
+    int expected = 0;
+    if (!s.state.compare_exchange_strong(expected, 1)) continue;
+    std::memcpy(s.path, tmp.c_str(), tmp.size() + 1);
+    s.state.store(2);
+    return;
+  }
+}
+
+void unregister_temporary(const std::string& tmp) {
+  for (auto& s : g_temp_slots)
+    if (s.state.load() == 2 && tmp == s.path) {
+      s.state.store(0);
+      return;
+    }
+}
+
+}  // namespace
+
+void remove_temporaries_signal_safe() {
+  for (auto& s : g_temp_slots)
+    if (s.state.load() == 2) ::unlink(s.path);
+}
+
 std::string temporary_path_for(const std::string& path) {
   static std::atomic<unsigned> counter{0};
   fs::path p(path);
   // Keep the extension last so that libraries choosing the format by extension still work.
   const std::string name = fmt::format(".{}.tmp{}-{}{}", p.stem().string(), ::getpid(), counter++, p.extension().string());
-  return (p.parent_path() / name).string();
+  const std::string tmp = (p.parent_path() / name).string();
+  register_temporary(tmp);
+  return tmp;
+}
+
+bool same_file(const std::string& a, const std::string& b) {
+  struct stat sa {}, sb {};
+  if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  std::error_code ec1, ec2;
+  const fs::path ca = fs::weakly_canonical(fs::absolute(a), ec1), cb = fs::weakly_canonical(fs::absolute(b), ec2);
+  if (ec1 || ec2) return fs::absolute(a).lexically_normal() == fs::absolute(b).lexically_normal();
+  return ca == cb;
+}
+
+namespace {
+
+// An existing path that a rename would replace although it is not a regular file.
+bool exists_not_regular(const std::string& path) {
+  struct stat s {};
+  return ::stat(path.c_str(), &s) == 0 && !S_ISREG(s.st_mode);
+}
+
+}  // namespace
+
+void check_path_length(const std::string& stage, const std::string& label, const std::string& path) {
+  size_t longest = 0;
+  for (const auto& part : fs::path(path)) longest = std::max(longest, part.string().size());
+  // The temporary output name adds ".NAME.tmpPID-N" to the stem: leave room for it.
+  if (longest > 200 || path.size() > 4000)
+    throw UsageError(stage, fmt::format("{} {}: file name too long ({} characters{}); at most 200 per name and 4000 in all",
+                                        label, abbreviate(path, 60), path.size(),
+                                        longest > 200 ? fmt::format(", one name of {}", longest) : ""));
+}
+
+void check_output_paths(const std::string& stage, const std::vector<NamedPath>& inputs,
+                        const std::vector<NamedPath>& outputs) {
+  for (const NamedPath& in : inputs)
+    if (!in.path.empty()) check_path_length(stage, in.label, in.path);
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const NamedPath& o = outputs[i];
+    if (o.path.empty()) continue;
+    check_path_length(stage, o.label, o.path);
+    if (exists_not_regular(o.path))
+      throw UsageError(stage, fmt::format("{} {}: exists and is not a regular file (a folder, device or pipe); "
+                                          "terracl only replaces regular files",
+                                          o.label, o.path));
+    for (const NamedPath& in : inputs)
+      if (!in.path.empty() && same_file(o.path, in.path))
+        throw UsageError(stage, fmt::format("{} {}: is also an input ({}); write to another file", o.label, o.path,
+                                            in.label));
+    for (size_t j = 0; j < i; ++j)
+      if (!outputs[j].path.empty() && same_file(o.path, outputs[j].path))
+        throw UsageError(stage, fmt::format("{} {}: is also written by {}; write to another file", o.label, o.path,
+                                            outputs[j].label));
+  }
 }
 
 void commit_temporary(const std::string& tmp, const std::string& path) {
+  // Last line of defence (the commands check earlier): never replace a device or a folder.
+  if (exists_not_regular(path)) {
+    discard_temporary(tmp);
+    fail("io", "{}: exists and is not a regular file (a folder, device or pipe); not replaced", path);
+  }
   std::error_code ec;
   fs::rename(tmp, path, ec);
+  unregister_temporary(tmp);
   if (ec) {
-    fs::remove(tmp, ec);
-    fail("io", "cannot move the finished output into place at {}: {}", path, ec.message());
+    const std::string why = ec.message();  // before remove() overwrites ec ("...: Success")
+    discard_temporary(tmp);
+    fail("io", "cannot move the finished output into place at {}: {}", path, why);
   }
 }
 
 void discard_temporary(const std::string& tmp) {
   std::error_code ec;
   fs::remove(tmp, ec);
+  unregister_temporary(tmp);
 }
 
 void write_text_file_atomic(const std::string& path, const std::string& content) {

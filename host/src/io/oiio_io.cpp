@@ -3,6 +3,7 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
@@ -55,10 +56,15 @@ void write_image(const std::string& tmp_path, const ImageSpec& spec, TypeDesc ty
 }  // namespace
 
 Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
+  if (sniff_magic(path) == "EXR") check_exr_header(path);
   auto in = ImageInput::open(path);
   if (!in) fail("io", "{}: not an image OpenImageIO can read ({})", path, OIIO::geterror());
   const ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0) fail("io", "{}: image has no pixels", path);
+  require_raster_size("io", path, spec.width, spec.height, 8);  // a PNG header may claim 100000^2
+  if (io::sniff_magic(path) == "EXR" && spec.nchannels == 2)
+    fail("io", "{}: is a gradient field (2 channels, gx and gy), not a heightfield; reconstruct it first "
+         "(terracl reconstruct --gradient {} -o height.tif)", path, path);
   Heightfield h(spec.width, spec.height);
   const bool is_float = spec.format.basetype == TypeDesc::FLOAT || spec.format.basetype == TypeDesc::HALF ||
                         spec.format.basetype == TypeDesc::DOUBLE;
@@ -84,6 +90,7 @@ Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
       } catch (const nlohmann::json::exception& e) {
         fail("io", "{}: sidecar fields zmin/zmax must be numbers ({})", sidecar_path(path), e.what());
       }
+      check_sidecar_size(sc, path, spec.width, spec.height);
       georef_from_json(sc, h.georef, sidecar_path(path));
       if (sc.contains("metadata") && sc["metadata"].is_object())
         for (auto& [k, v] : sc["metadata"].items())
@@ -91,6 +98,7 @@ Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
     }
     if (opts.zmin) zmin = *opts.zmin;
     if (opts.zmax) zmax = *opts.zmax;
+    check_vertical_range(zmin, zmax, sc.is_null() ? path : sidecar_path(path));
     for (size_t i = 0; i < codes.size(); ++i)
       h.z[i] = float(zmin + std::round(codes[i] * scale_back) / max_code * (zmax - zmin));
   }
@@ -127,6 +135,7 @@ namespace terracl {
 
 bool is_gradient_file(const std::string& path) {
   if (io::sniff_magic(path) != "EXR") return false;
+  io::check_exr_header(path);
   auto in = OIIO::ImageInput::open(path);
   if (!in) return false;
   return in->spec().nchannels == 2;
@@ -135,11 +144,13 @@ bool is_gradient_file(const std::string& path) {
 GradientField read_gradient(const std::string& path) {
   io::require_readable(path);
   if (io::sniff_magic(path) != "EXR") fail("io", "{}: a gradient field must be a two-channel float EXR", path);
+  io::check_exr_header(path);
   auto in = OIIO::ImageInput::open(path);
   if (!in) fail("io", "{}: cannot open EXR ({})", path, OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.nchannels != 2)
     fail("io", "{}: a gradient field has 2 channels (gx, gy), this file has {}", path, spec.nchannels);
+  require_raster_size("io", path, spec.width, spec.height, 16);
   GradientField g(spec.width, spec.height);
   std::vector<float> px(size_t(spec.width) * spec.height * 2);
   if (!in->read_image(0, 0, 0, 2, OIIO::TypeDesc::FLOAT, px.data()))

@@ -3,6 +3,7 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/memory.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -36,10 +37,12 @@ Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
   if (*w <= 0 || *h <= 0) fail("io", "{}: RAW16 size must be positive, got {} x {}", path, *w, *h);
   if (opts.zmin) zmin = *opts.zmin;
   if (opts.zmax) zmax = *opts.zmax;
+  check_vertical_range(zmin, zmax, sc.is_null() ? path : sidecar_path(path));
   const uint64_t expected = uint64_t(*w) * uint64_t(*h) * 2;
   const uint64_t actual = std::filesystem::file_size(path);
   if (actual != expected)
     fail("io", "{}: RAW16 of {} x {} must be {} bytes, the file has {}", path, *w, *h, expected, actual);
+  require_raster_size("io", path, *w, *h, 6);
   std::ifstream in(path, std::ios::binary);
   std::vector<unsigned char> bytes(expected);
   in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(expected));

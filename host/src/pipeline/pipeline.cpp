@@ -12,6 +12,7 @@
 #include <sstream>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/pipeline.hpp>
 #include <terracl/version.hpp>
 
@@ -68,7 +69,7 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
         p.error(
             fmt::format("/{}: unknown key; a pipeline object has \"pipeline\" (the stages), \"description\" (text) and "
                         "\"terracl\" (run information)",
-                        key));
+                        abbreviate(key)));
     if (!doc.contains("pipeline")) p.error("expected a JSON array of stages, or an object with a \"pipeline\" array");
     stages = &doc.at("pipeline");
     prefix = "/pipeline";
@@ -92,7 +93,7 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
         st.type = s;
         st.options = json::object();
       } else if (fs::path(s).extension().empty()) {
-        p.error(fmt::format("{}: '{}' is neither a stage nor a file name with an extension (stages: {})", st.where, s,
+        p.error(fmt::format("{}: '{}' is neither a stage nor a file name with an extension (stages: {})", st.where, abbreviate(s),
                             stage_names(registry)));
       } else {
         st.type = file_stage;
@@ -101,10 +102,10 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
     } else if (e.is_object()) {
       if (e.contains("type")) {
         if (!e.at("type").is_string())
-          p.error(fmt::format("{}/type: expected a stage name, got {}", st.where, e.at("type").dump()));
+          p.error(fmt::format("{}/type: expected a stage name, got {}", st.where, abbreviate(e.at("type").dump())));
         st.type = e.at("type").get<std::string>();
         if (!registry.find(st.type))
-          p.error(fmt::format("{}/type: unknown stage '{}' (stages: {})", st.where, st.type, stage_names(registry)));
+          p.error(fmt::format("{}/type: unknown stage '{}' (stages: {})", st.where, abbreviate(st.type), stage_names(registry)));
       } else if (e.contains("filename")) {
         st.type = file_stage;
       } else {
@@ -113,14 +114,14 @@ Pipeline Pipeline::parse(const json& doc, const std::string& name, const std::st
       if (e.contains("tag")) {
         if (!e.at("tag").is_string() || !valid_tag(e.at("tag").get<std::string>()))
           p.error(fmt::format("{}/tag: a tag is a non-empty string of letters, digits, '_' and '-', got {}", st.where,
-                              e.at("tag").dump()));
+                              abbreviate(e.at("tag").dump())));
         st.tag = e.at("tag").get<std::string>();
       }
       st.options = json::object();
       for (auto& [key, value] : e.items())
         if (key != "type" && key != "tag") st.options[key] = value;
     } else {
-      p.error(fmt::format("{}: expected a stage object or a file name, got {}", st.where, e.dump()));
+      p.error(fmt::format("{}: expected a stage object or a file name, got {}", st.where, abbreviate(e.dump())));
     }
     st.info = registry.find(st.type);
     p.m_stages.push_back(std::move(st));
@@ -152,12 +153,7 @@ Pipeline Pipeline::load(const std::string& path, const StageRegistry& registry) 
   std::ifstream in(path);
   if (!in || fs::is_directory(path))
     throw UsageError("pipeline", fmt::format("{}: cannot read the pipeline file", path));
-  json doc;
-  try {
-    doc = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw UsageError("pipeline", fmt::format("{}: not valid JSON: {}", path, e.what()));
-  }
+  const json doc = read_json_file(path, "pipeline", true);  // depth and size limits
   std::string name = fs::path(path).stem().string();
   const std::string suffix = ".resolved";
   if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
@@ -169,7 +165,7 @@ void Pipeline::set(const std::string& assignment) {
   const auto eq = assignment.find('=');
   const auto dot = assignment.find('.');
   if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || dot + 1 == eq)
-    throw UsageError("run", fmt::format("--set expects TAG.OPTION=VALUE, got '{}'", assignment));
+    throw UsageError("run", fmt::format("--set expects TAG.OPTION=VALUE, got '{}'", abbreviate(assignment)));
   const std::string tag = assignment.substr(0, dot), option = assignment.substr(dot + 1, eq - dot - 1),
                     value = assignment.substr(eq + 1);
   for (auto& st : m_stages) {
@@ -261,10 +257,16 @@ void Pipeline::validate() {
       if (written_by.count(key)) error(fmt::format("{}: {} is also written by {}", path, file, written_by[key]));
       if (inputs.count(key))
         error(fmt::format("{}: {} is an input of this pipeline ({}); write to another file", path, file, inputs[key]));
+      try {
+        check_output_paths("pipeline", {}, {{path, file}});  // the subcommands' check: no devices, folders
+      } catch (const Error& e) {
+        error(bare_message(e));
+      }
       // The folder is created when missing; an existing one must be writable.
+      std::error_code ec;
       fs::path dir = fs::absolute(file).parent_path();
-      while (!dir.empty() && !fs::exists(dir) && dir != dir.parent_path()) dir = dir.parent_path();
-      if (!fs::is_directory(dir) || ::access(dir.c_str(), W_OK) != 0)
+      while (!dir.empty() && !fs::exists(dir, ec) && dir != dir.parent_path()) dir = dir.parent_path();
+      if (!fs::is_directory(dir, ec) || ::access(dir.c_str(), W_OK) != 0)
         error(fmt::format("{}: cannot write {}: {} is not a writable folder", path, file, dir.string()));
       written_by[key] = path;
       pending_kind[key] = out;

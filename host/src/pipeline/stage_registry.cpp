@@ -2,12 +2,15 @@
 // path of the offending value, so that a pipeline author can find it.
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/stage.hpp>
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -93,12 +96,12 @@ const std::map<std::string, Unit>& unit_table() {
 
 double convert_unit(const json& value, const std::string& unit, const std::string& where) {
   if (value.is_number()) return value.get<double>();
-  if (!value.is_string()) fail("pipeline", "{}: expected a number{}, got {}", where, unit.empty() ? "" : " in " + unit, value.dump());
+  if (!value.is_string()) fail("pipeline", "{}: expected a number{}, got {}", where, unit.empty() ? "" : " in " + unit, abbreviate(value.dump()));
   const std::string s = value.get<std::string>();
   const char* begin = s.c_str();
   char* end = nullptr;
   const double v = std::strtod(begin, &end);
-  if (end == begin || !std::isfinite(v)) fail("pipeline", "{}: '{}' is not a number with a unit", where, s);
+  if (end == begin || !std::isfinite(v)) fail("pipeline", "{}: '{}' is not a number with a unit", where, abbreviate(s));
   std::string u(end);
   u.erase(0, u.find_first_not_of(" \t"));
   u.erase(u.find_last_not_of(" \t") + 1);
@@ -132,8 +135,8 @@ json option_from_text(const OptionSpec& o, const std::string& text) {
       return text;
     case OptionType::Json:
       try {
-        return json::parse(text);
-      } catch (const json::exception&) {
+        return parse_json_limited(text, "pipeline", "value");  // depth and size limits
+      } catch (const Error&) {
         return text;
       }
     default:
@@ -152,13 +155,16 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
     if (!known) {
       std::string names;
       for (const auto& o : stage.options) names += (names.empty() ? "" : ", ") + o.name;
-      fail("pipeline", "{}/{}: stage '{}' has no option '{}' (options: {})", where, key, stage.name, key,
+      fail("pipeline", "{}/{}: stage '{}' has no option '{}' (options: {})", where, abbreviate(key), stage.name, abbreviate(key),
            names.empty() ? "none" : names);
     }
   }
   for (const auto& o : stage.options) {
     const std::string path = where + "/" + o.name;
     json v = options.contains(o.name) ? options.at(o.name) : o.default_value;
+    if (v.is_null() && options.contains(o.name) && !o.default_value.is_null())
+      fail("pipeline", "{}: null is not a value for '{}'; leave the option out to get its default {}", path, o.name,
+           o.default_value.dump());
     if (v.is_null()) {
       if (o.required) fail("pipeline", "{}: required option '{}' of stage '{}' is missing", path, o.name, stage.name);
       out[o.name] = nullptr;
@@ -166,44 +172,61 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
     }
     switch (o.type) {
       case OptionType::Int: {
-        if (v.is_number_integer()) break;
-        if (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()) {
-          v = int64_t(v.get<double>());
-          break;
+        // Every int option is read as a C int: refuse what does not fit instead of wrapping
+        // (4294967297 steps ran as 1, 2e300 became 0).
+        double d = 0;
+        if (v.is_number_integer()) {
+          d = v.is_number_unsigned() ? double(v.get<uint64_t>()) : double(v.get<int64_t>());
+        } else if (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()) {
+          d = v.get<double>();
+        } else if (v.is_string()) {
+          d = convert_unit(v, o.unit, path);
+          if (std::floor(d) != d)
+            fail("pipeline", "{}: expected a whole number{}, got {}", path, o.unit.empty() ? "" : " of " + o.unit, d);
+        } else {
+          fail("pipeline", "{}: expected an integer, got {}", path, abbreviate(v.dump()));
         }
-        if (v.is_string() && !o.unit.empty()) {
-          const double d = convert_unit(v, o.unit, path);
-          if (std::floor(d) != d) fail("pipeline", "{}: expected a whole number of {}, got {}", path, o.unit, d);
-          v = int64_t(d);
-          break;
-        }
-        fail("pipeline", "{}: expected an integer, got {}", path, v.dump());
-      }
-      case OptionType::Float:
-        v = convert_unit(v, o.unit, path);
-        if (!std::isfinite(v.get<double>())) fail("pipeline", "{}: must be finite", path);
+        const double lo = o.min ? std::max(*o.min, double(INT32_MIN)) : double(INT32_MIN);
+        const double hi = o.max ? std::min(*o.max, double(INT32_MAX)) : double(INT32_MAX);
+        if (!(d >= lo && d <= hi))
+          fail("pipeline", "{}: {} is out of range; expected an integer from {} to {}", path, abbreviate(v.dump(), 40),
+               int64_t(lo), int64_t(hi));
+        v = int64_t(d);
         break;
+      }
+      case OptionType::Float: {
+        v = convert_unit(v, o.unit, path);
+        const double d = v.get<double>();
+        if (!std::isfinite(d)) fail("pipeline", "{}: must be finite", path);
+        if ((o.min && d < *o.min) || (o.max && d > *o.max))
+          fail("pipeline", "{}: {} is out of range; expected {}{}{}{}", path, d, o.min ? fmt::format(">= {}", *o.min) : "",
+               o.min && o.max ? " and " : "", o.max ? fmt::format("<= {}", *o.max) : "", o.unit.empty() ? "" : " " + o.unit);
+        break;
+      }
       case OptionType::Bool:
-        if (!v.is_boolean()) fail("pipeline", "{}: expected true or false, got {}", path, v.dump());
+        if (!v.is_boolean()) fail("pipeline", "{}: expected true or false, got {}", path, abbreviate(v.dump()));
         break;
       case OptionType::String:
-        if (!v.is_string()) fail("pipeline", "{}: expected a string, got {}", path, v.dump());
+        if (!v.is_string()) fail("pipeline", "{}: expected a string, got {}", path, abbreviate(v.dump()));
         break;
       case OptionType::Path: {
         if (!v.is_string() || v.get<std::string>().empty())
-          fail("pipeline", "{}: expected a file name, got {}", path, v.dump());
+          fail("pipeline", "{}: expected a file name, got {}", path, abbreviate(v.dump()));
         const std::string p = v.get<std::string>();
+        check_path_length("pipeline", path, p);
         const bool pending = std::find(pending_outputs.begin(), pending_outputs.end(), p) != pending_outputs.end();
-        if (p.rfind("flat:", 0) != 0 && !pending && !std::filesystem::exists(p))
+        std::error_code ec;
+        if (p.rfind("flat:", 0) != 0 && !pending && !std::filesystem::exists(p, ec))
           fail("pipeline", "{}: input file {} does not exist", path, p);
         break;
       }
       case OptionType::OutputPath:
         if (!v.is_string() || v.get<std::string>().empty())
-          fail("pipeline", "{}: expected an output file name, got {}", path, v.dump());
+          fail("pipeline", "{}: expected an output file name, got {}", path, abbreviate(v.dump()));
+        check_path_length("pipeline", path, v.get<std::string>());
         break;
       case OptionType::Enum: {
-        if (!v.is_string()) fail("pipeline", "{}: expected one of {}, got {}", path, fmt::join(o.choices, "|"), v.dump());
+        if (!v.is_string()) fail("pipeline", "{}: expected one of {}, got {}", path, fmt::join(o.choices, "|"), abbreviate(v.dump()));
         bool ok = false;
         for (const auto& c : o.choices) ok = ok || c == v.get<std::string>();
         if (!ok) fail("pipeline", "{}: '{}' is not one of {}", path, v.get<std::string>(), fmt::join(o.choices, "|"));

@@ -252,6 +252,8 @@ Image render(const Heightfield& h, const Options& opt) {
 
 void write_image(const Image& img, const std::string& path, const Metadata& meta) {
   if (img.pixels.size() != size_t(img.width) * img.height * img.channels) fail("render", "inconsistent image buffer");
+  if (format_from_extension(path) != FileFormat::PNG)  // OIIO would write a JPEG for x.jpg
+    fail("render", "{}: previews are written as PNG; use a .png name", path);
   write_atomically(path, [&](const std::string& tmp) {
     auto out = OIIO::ImageOutput::create(tmp);
     if (!out) fail("render", "cannot write {}: {}", path, OIIO::geterror());

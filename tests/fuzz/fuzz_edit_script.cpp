@@ -1,0 +1,21 @@
+// libFuzzer harness: JSON text -> limited parser -> every edit operation's parameter parsing and
+// validation against a 65 x 49 grid (validate_edit_script: what `terracl edit --validate` runs,
+// without a device).
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
+
+#include <cstdint>
+#include <string>
+
+using namespace terracl;
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  try {
+    const nlohmann::json doc =
+        parse_json_limited(std::string(reinterpret_cast<const char*>(data), size), "fuzz", "input");
+    validate_edit_script(doc, 65, 49, 30.0, "/nonexistent-fuzz-dir");
+  } catch (const Error&) {
+  }
+  return 0;
+}

@@ -1,0 +1,469 @@
+// Hostile input and interrupted runs (issue 14), run as a careless or hostile user would: every
+// case here crashed, hung, destroyed data, wrapped a number or gave an unhelpful message before.
+// Each test states the exit code and the words of the message it expects, and that nothing
+// partial (or nothing at all) was written.
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/json_limits.hpp>
+#include <terracl/stage.hpp>
+
+#include "test_helpers.hpp"
+
+using namespace terracl;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string crop() { return test::data_path("crops/presidential_128x96.tif"); }
+std::string q(const std::string& s) { return "'" + s + "'"; }
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string write_text(const test::TempDir& dir, const std::string& name, const std::string& text) {
+  std::ofstream(dir.path(name), std::ios::binary) << text;
+  return dir.path(name);
+}
+
+std::string deep_json(size_t n) { return std::string(n, '[') + std::string(n, ']'); }
+
+bool has_temporary(const fs::path& dir) {
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.path().filename().string().find(".tmp") != std::string::npos) return true;
+  return false;
+}
+
+// A usage or run error with our prefix, never a crash, an "internal:" error or an echo of a
+// huge value.
+void expect_clean_error(const test::CmdResult& r, int code, const std::string& words, const std::string& what) {
+  EXPECT_EQ(r.exit_code, code) << what << "\n" << r.out.substr(0, 2000);
+  EXPECT_NE(r.out.find("terracl ERROR: "), std::string::npos) << what << "\n" << r.out.substr(0, 2000);
+  EXPECT_NE(r.out.find(words), std::string::npos) << what << "\n" << r.out.substr(0, 2000);
+  EXPECT_EQ(r.out.find("internal:"), std::string::npos) << what << "\n" << r.out.substr(0, 2000);
+  EXPECT_LT(r.out.size(), 2000u) << what << ": the message echoes the bad value";
+}
+
+}  // namespace
+
+// --- 1. crashes and hangs ------------------------------------------------------------------------
+
+TEST(Reliability, CropWindowPastIntMaxIsAnErrorNotACrash) {
+  test::TempDir dir;
+  const auto r = test::run_cli("crop -q " + q(crop()) + " -o " + q(dir.path("c.tif")) + " --x 2147483647 --width 2 --height 2");
+  expect_clean_error(r, 1, "does not fit in the 128 x 96 raster", "crop --x 2147483647");
+  // The pipeline form passes --validate (the raster's size is not known yet) and fails cleanly at run time.
+  const std::string p = write_text(
+      dir, "crop.json",
+      json::array({crop(), json{{"type", "crop"}, {"x", 2147483647}, {"width", 2}, {"height", 2}}, dir.path("o.tif")}).dump());
+  const auto v = test::run_cli("run -q " + q(p));
+  expect_clean_error(v, 1, "does not fit", "pipeline crop x 2147483647");
+  // Past int32 the option itself is out of range.
+  const auto big = test::run_cli("crop -q " + q(crop()) + " -o " + q(dir.path("c.tif")) + " --x 2147483648 --width 2");
+  expect_clean_error(big, 2, "out of range", "crop --x 2147483648");
+  EXPECT_EQ(dir.count(), 1u) << "nothing but the pipeline file may be left";
+}
+
+TEST(Reliability, ErodeRegionFeatherOutOfRangeIsRefusedAtOnce) {
+  test::TempDir dir;
+  for (const std::string f : {"1e9", "100000", "-1"}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = test::run_cli("erode -q " + q(crop()) + " -o " + q(dir.path("e.tif")) + " --region " + q(crop()) +
+                                 " --region-feather " + f + " --steps 2");
+    expect_clean_error(r, 2, "/region_feather", "--region-feather " + f);
+    EXPECT_NE(r.out.find("out of range"), std::string::npos) << r.out;
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 20.0) << f;
+  }
+  EXPECT_EQ(dir.count(), 0u);
+}
+
+TEST(Reliability, DeeplyNestedJsonIsRefusedEverywhere) {
+  test::TempDir dir;
+  const std::string deep = write_text(dir, "deep.json", deep_json(100000));
+  for (const std::string flag : {"--validate", "--print-resolved", ""}) {
+    const auto r = test::run_cli("run -q " + q(deep) + " " + flag);
+    expect_clean_error(r, 2, "nested deeper than 64 levels", "run " + flag);
+    EXPECT_NE(r.out.find(deep), std::string::npos) << "names the file\n" << r.out;
+  }
+  const auto e = test::run_cli("edit -q flat:33x33 --script " + q(deep) + " -o " + q(dir.path("x.tif")));
+  expect_clean_error(e, 1, "nested deeper than 64 levels", "edit --script");
+  // An edit stage naming such a script: refused when the stage runs, with the pipeline path.
+  const std::string p = dir.path("p.json");
+  std::ofstream(p) << json::array({crop(), json{{"type", "edit"}, {"script", deep}}, dir.path("o.tif")}).dump();
+  const auto s = test::run_cli("run -q " + q(p));
+  expect_clean_error(s, 1, "nested deeper than 64 levels", "edit stage");
+  EXPECT_FALSE(fs::exists(dir.path("o.tif")));
+  EXPECT_FALSE(fs::exists(dir.path("x.tif")));
+  // Just inside the limit parses (the limit is documented, not accidental).
+  EXPECT_NO_THROW(parse_json_limited(deep_json(max_json_depth), "test", "inline"));
+  EXPECT_THROW(parse_json_limited(deep_json(max_json_depth + 1), "test", "inline"), Error);
+}
+
+TEST(Reliability, EditOfAHugeFlatBaseIsRefusedBeforeAllocating) {
+  test::TempDir dir;
+  const std::string script = write_text(dir, "s.json", R"([{"op": "scale_slopes", "factor": 2}])");
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r = test::run_cli("edit -q flat:60000x60000 --script " + q(script) + " -o " + q(dir.path("x.tif")));
+  expect_clean_error(r, 1, "needs about", "edit flat:60000x60000");
+  EXPECT_NE(r.out.find("use a smaller base"), std::string::npos) << r.out;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 30.0);
+  // The same refusal under a memory cap the user sets.
+  const std::string env_cmd = "env TERRACL_MAX_MEMORY=64M " + std::string(TERRACL_CLI) + " edit -q flat:2000x2000 --script " +
+                              q(script) + " -o " + q(dir.path("z.tif")) + " 2>&1";
+  FILE* pipe = popen(env_cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
+  const int status = pclose(pipe);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("TERRACL_MAX_MEMORY"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir.path("z.tif")));
+  // Erosion and reconstruction check too, before they allocate.
+  for (const std::string& args :
+       {"erode -q " + q(crop()) + " -o " + q(dir.path("e.tif")) + " --steps 1",
+        "reconstruct -q --gradient " + q(dir.path("g.exr")) + " -o " + q(dir.path("r.tif"))}) {
+    if (args.rfind("reconstruct", 0) == 0) write_gradient(GradientField(128, 96), dir.path("g.exr"));
+    // 250 KiB: enough to read the 128 x 96 input (the readers check too), not to run the stage.
+    const std::string cmd = "env TERRACL_MAX_MEMORY=250K " + std::string(TERRACL_CLI) + " " + args + " 2>&1";
+    FILE* p2 = popen(cmd.c_str(), "r");
+    std::string o2;
+    while ((n = fread(buf, 1, sizeof buf, p2)) > 0) o2.append(buf, n);
+    EXPECT_EQ(WEXITSTATUS(pclose(p2)), 1) << o2;
+    EXPECT_NE(o2.find("128 x 96"), std::string::npos) << o2;
+    EXPECT_NE(o2.find("needs about"), std::string::npos) << o2;
+    EXPECT_NE(o2.find(args.substr(0, args.find(' ')) + ": "), std::string::npos) << "the stage's own check\n" << o2;
+  }
+  EXPECT_FALSE(fs::exists(dir.path("e.tif")));
+  EXPECT_FALSE(fs::exists(dir.path("r.tif")));
+}
+
+// --- 2. data destroyed -------------------------------------------------------------------------
+
+TEST(Reliability, OutputsNeverAliasInputsOrEachOther) {
+  test::TempDir dir;
+  const std::string a = dir.path("a.tif");
+  fs::copy_file(crop(), a);
+  const std::string before = file_text(a);
+  const std::string script = write_text(dir, "s.json", R"([{"op": "scale_slopes", "factor": 2}])");
+  struct Case {
+    std::string args, words;
+  };
+  const std::vector<Case> cases = {
+      {"metrics -q " + q(a) + " --json " + q(a), "--json " + a + ": is also an input"},
+      {"render -q " + q(a) + " -o " + q(a), "is also an input"},
+      {"erode -q " + q(a) + " -o " + q(dir.path("o.tif")) + " --delta " + q(a), "--delta " + a + ": is also an input"},
+      {"erode -q " + q(a) + " -o " + q(dir.path("o.tif")) + " --water " + q(dir.path("o.tif")),
+       ": is also written by -o"},
+      {"erode -q " + q(a) + " -o " + q(dir.path("./o.tif")) + " --sediment " + q(dir.path("x/../o.tif")),
+       "is also written by"},
+      {"edit -q " + q(a) + " --script " + q(script) + " -o " + q(dir.path("e.tif")) + " --preview " +
+           q(dir.path("e.tif")),
+       "--preview " + dir.path("e.tif") + ": is also written by -o"},
+      {"edit -q " + q(a) + " --script " + q(script) + " -o " + q(a), "-o " + a + ": is also an input (BASE)"},
+      {"convert -q " + q(a) + " " + q(a), "is also an input"},
+  };
+  fs::create_directories(dir.path("x"));
+  for (const auto& c : cases) expect_clean_error(test::run_cli(c.args), 2, c.words, c.args);
+  EXPECT_EQ(file_text(a), before) << "the input was changed";
+  EXPECT_FALSE(fs::exists(dir.path("o.tif")));
+  EXPECT_FALSE(fs::exists(dir.path("e.tif")));
+}
+
+TEST(Reliability, OutputsNeverReplaceDevicesOrFolders) {
+  test::TempDir dir;
+  fs::create_directories(dir.path("folder.tif"));
+  // A FIFO stands for a device: a rename onto it replaces it with a regular file.
+  ASSERT_EQ(::mkfifo(dir.path("fifo.json").c_str(), 0600), 0);
+  for (const std::string& args :
+       {"metrics -q " + q(crop()) + " --json " + q(dir.path("fifo.json")),
+        "convert -q " + q(crop()) + " " + q(dir.path("folder.tif")),
+        "erode -q " + q(crop()) + " -o " + q(dir.path("folder.tif")) + " --steps 1",
+        "metrics -q " + q(crop()) + " --json /dev/null"})
+    expect_clean_error(test::run_cli(args), 2, "is not a regular file", args);
+  struct stat st {};
+  ASSERT_EQ(::stat(dir.path("fifo.json").c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the FIFO was replaced";
+  EXPECT_TRUE(fs::is_directory(dir.path("folder.tif")));
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  // Pipelines make the same check.
+  std::ofstream(dir.path("p2.json")) << json::array({crop(), json{{"type", "metrics"}, {"json", dir.path("fifo.json")}}, dir.path("o.tif")}).dump();
+  expect_clean_error(test::run_cli("run --validate " + q(dir.path("p2.json"))), 2, "is not a regular file", "pipeline");
+}
+
+// --- 3. temporary files ------------------------------------------------------------------------
+
+TEST(Reliability, SignalHandlerUnlinksRegisteredTemporaries) {
+  test::TempDir dir;
+  const std::string tmp = temporary_path_for(dir.path("out.tif"));
+  std::ofstream(tmp) << "partial";
+  const std::string done = temporary_path_for(dir.path("done.tif"));
+  std::ofstream(done) << "complete";
+  commit_temporary(done, dir.path("done.tif"));
+  ASSERT_TRUE(fs::exists(tmp));
+  remove_temporaries_signal_safe();
+  EXPECT_FALSE(fs::exists(tmp)) << "a registered temporary survived";
+  EXPECT_TRUE(fs::exists(dir.path("done.tif"))) << "a committed output was removed";
+}
+
+TEST(Reliability, SigtermStopsWithExit143AndLeavesNoTemporary) {
+  test::TempDir dir;
+  const std::string out = dir.path("e.tif");
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::execl(TERRACL_CLI, TERRACL_CLI, "erode", "-q", crop().c_str(), "-o", out.c_str(), "--steps", "100000000",
+            "--delta", dir.path("d.exr").c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::sleep(3);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << "terminated by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+  EXPECT_FALSE(has_temporary(dir.dir()));
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Reliability, FailedRenameSaysWhyNotSuccess) {
+  test::TempDir dir;
+  const std::string tmp = temporary_path_for(dir.path("x.tif"));
+  std::ofstream(tmp) << "data";
+  try {
+    commit_temporary(tmp, dir.path("missing/x.tif"));
+    FAIL() << "rename into a missing folder succeeded";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).find("Success"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("No such file"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(tmp));
+}
+
+// --- 4. numbers and messages -------------------------------------------------------------------
+
+TEST(Reliability, NumbersThatWouldWrapAreRefused) {
+  test::TempDir dir;
+  const std::string o = " -o " + q(dir.path("o.tif"));
+  const std::string in = q(crop());
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"amplify -q " + in + o + " --dictionary " + in + " --factor 4294967300", "amplify/factor"},
+      {"amplify -q " + in + o + " --dictionary " + in + " --factor 1024", "amplify/factor"},
+      {"amplify -q " + in + o + " --dictionary " + in + " --trees -3", "amplify/trees"},
+      {"amplify -q " + in + o + " --dictionary " + in + " --checks -5", "amplify/checks"},
+      {"amplify -q " + in + o + " --dictionary " + in + " --style-blend -1", "amplify/style_blend"},
+      {"amplify -q " + in + o + " --dictionary " + in + " --detail-gain 1e30", "amplify/detail_gain"},
+      {"erode -q " + in + o + " --steps 4294967297", "erode/steps"},
+      {"erode -q " + in + o + " --steps 1e12", "erode/steps"},
+      {"erode -q " + in + o + " --steps -3", "erode/steps"},
+      {"downsample -q " + in + o + " --factor 9223372036854775807", "downsample/factor"},
+  };
+  for (const auto& [args, path] : cases) {
+    const auto r = test::run_cli(args);
+    expect_clean_error(r, 2, path + ": ", args);
+    EXPECT_NE(r.out.find("out of range"), std::string::npos) << args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("-727379968"), std::string::npos) << r.out;
+  }
+  // The same in a pipeline, caught by --validate.
+  for (const json& v : {json(9223372036854775807LL), json(2e300), json(-1)}) {
+    std::ofstream(dir.path("p.json")) << json::array({crop(), json{{"type", "downsample"}, {"factor", v}}, dir.path("o.tif")}).dump();
+    expect_clean_error(test::run_cli("run --validate " + q(dir.path("p.json"))), 2, "/1/factor: ", v.dump());
+  }
+  EXPECT_EQ(dir.count(), 1u);
+}
+
+TEST(Reliability, ValidateCatchesNullsAndRanges) {
+  test::TempDir dir;
+  std::ofstream(dir.path("p.json")) << R"([")" << crop() << R"(", {"type": "erode", "steps": null}, ")" << dir.path("o.tif") << R"("])";
+  const auto r = test::run_cli("run --validate " + q(dir.path("p.json")));
+  expect_clean_error(r, 2, "/1/steps: null is not a value", "steps null");
+  std::ofstream(dir.path("q.json")) << json::array({crop(), json{{"type", "erode"}, {"steps", -4}}, dir.path("o.tif")}).dump();
+  expect_clean_error(test::run_cli("run --validate " + q(dir.path("q.json"))), 2, "/1/steps: -4 is out of range", "steps -4");
+  // 1e400 does not fit a double: an error naming the file, not json.exception.out_of_range.
+  std::ofstream(dir.path("n.json")) << R"([")" << crop() << R"(", {"type": "erode", "steps": 1e400}, "o.tif"])";
+  const auto n = test::run_cli("run --validate " + q(dir.path("n.json")));
+  expect_clean_error(n, 2, dir.path("n.json") + ": a number in the JSON is out of range", "1e400");
+}
+
+TEST(Reliability, OverlongNamesAndNumbersGiveClearErrors) {
+  test::TempDir dir;
+  const std::string long_name = dir.path(std::string(5000, 'a') + ".tif");
+  expect_clean_error(test::run_cli("convert -q " + q(crop()) + " " + q(long_name)), 2, "file name too long", "5000 chars");
+  std::ofstream(dir.path("p.json")) << json::array({crop(), long_name}).dump();
+  expect_clean_error(test::run_cli("run --validate " + q(dir.path("p.json"))), 2, "file name too long", "pipeline");
+  const std::string script = write_text(dir, "s.json", R"([{"op": "scale_slopes", "factor": 2}])");
+  for (const std::string& spec : std::vector<std::string>{"flat:99999999999999999999999x4", "flat:4x4@1" + std::string(400, '0'),
+                                                         "flat:4x4@1e999"})
+    expect_clean_error(test::run_cli("edit -q " + q(spec) + " --script " + q(script) + " -o " + q(dir.path("x.tif"))), 2,
+                       "size must be 2..65536", spec);
+  expect_clean_error(test::run_cli("--device 99999999999999999999999 info " + q(crop())), 2, "out of range", "--device");
+}
+
+TEST(Reliability, DownsampleErrorsNameDownsample) {
+  test::TempDir dir;
+  const auto r = test::run_cli("downsample -q " + q(crop()) + " -o " + q(dir.path("d.tif")) + " --factor 200");
+  expect_clean_error(r, 1, "terracl ERROR: downsample: a 128 x 96 raster has no complete 200 x 200 block", "factor 200");
+  EXPECT_EQ(r.out.find("amplify"), std::string::npos) << r.out;
+}
+
+// --- 5. sizes checked before allocating ----------------------------------------------------------
+
+namespace {
+uint32_t crc32_png(const unsigned char* p, size_t n) {
+  uint32_t c = 0xffffffffu;
+  for (size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return c ^ 0xffffffffu;
+}
+void put32(std::string& s, uint32_t v) {
+  for (int i = 3; i >= 0; --i) s += char((v >> (8 * i)) & 0xff);
+}
+// A PNG whose header claims w x h 16-bit grey cells, with no pixel data.
+std::string png_header_only(uint32_t w, uint32_t h) {
+  std::string s = "\x89PNG\r\n\x1a\n";
+  std::string ihdr = "IHDR";
+  put32(ihdr, w);
+  put32(ihdr, h);
+  ihdr += std::string("\x10\x00\x00\x00\x00", 5);
+  put32(s, 13);
+  s += ihdr;
+  put32(s, crc32_png(reinterpret_cast<const unsigned char*>(ihdr.data()), ihdr.size()));
+  put32(s, 0);  // an empty IDAT: libpng stops reading the header there
+  s += "IDAT";
+  put32(s, crc32_png(reinterpret_cast<const unsigned char*>("IDAT"), 4));
+  put32(s, 0);
+  s += "IEND";
+  put32(s, crc32_png(reinterpret_cast<const unsigned char*>("IEND"), 4));
+  return s;
+}
+}  // namespace
+
+TEST(Reliability, RasterHeadersClaimingHugeSizesAreRefusedBeforeAllocating) {
+  test::TempDir dir;
+  const std::string png = write_text(dir, "huge.png", png_header_only(100000, 100000));
+  std::ofstream(dir.path("huge.png.json")) << R"({"zmin": 0, "zmax": 1000, "cell_x": 1, "cell_y": 1})";
+  const auto r = test::run_cli("info " + q(png));
+  expect_clean_error(r, 1, "100000 x 100000 cells; each side may be at most 65536", "PNG 100000^2");
+  // A GeoTIFF claiming 10^6 x 10^6 float cells (sparse: 180 KB on disk) was std::bad_alloc.
+  const std::string tif = dir.path("huge.tif");
+  ASSERT_EQ(std::system(("gdal_create -q -of GTiff -outsize 1000000 1000000 -ot Float32 -co SPARSE_OK=TRUE -co TILED=YES "
+                         "-co BIGTIFF=YES -co BLOCKXSIZE=8192 -co BLOCKYSIZE=8192 " + q(tif)).c_str()),
+            0);
+  expect_clean_error(test::run_cli("info " + q(tif)), 1, "1000000 x 1000000 cells; each side may be at most 65536", "tif");
+  const auto m = test::run_cli("amplify -q " + q(test::data_path("dem/N44W072.hgt")) + " -o " + q(dir.path("a.tif")) + " --dictionary " + q(crop()) +
+                               " --factor 256");
+  expect_clean_error(m, 1, "the x256 output of a 1201 x 1201 input", "amplify x256");
+  EXPECT_FALSE(fs::exists(dir.path("a.tif")));
+}
+
+// --- 6. wrong data accepted ---------------------------------------------------------------------
+
+TEST(Reliability, GradientExrIsNotReadAsAHeightfield) {
+  test::TempDir dir;
+  GradientField g(8, 6);
+  write_gradient(g, dir.path("g.exr"));
+  for (const std::string cmd : {"info", "metrics"}) {
+    const auto r = test::run_cli(cmd + " " + q(dir.path("g.exr")));
+    expect_clean_error(r, 1, "is a gradient field (2 channels", cmd);
+  }
+  EXPECT_THROW(read_heightfield(dir.path("g.exr")), Error);
+}
+
+TEST(Reliability, SingleCommandErodeIsByteReproducible) {
+  test::TempDir dir;
+  // The same command line (it is part of the provenance) run in two folders.
+  for (const std::string sub : {"a", "b"}) {
+    fs::create_directories(dir.path(sub));
+    const std::string cmd = "cd " + q(dir.path(sub)) + " && " + TERRACL_CLI + " erode -q " + q(crop()) + " -o o.tif --steps 2";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  }
+  ASSERT_TRUE(fs::exists(dir.path("a/o.tif")));
+  EXPECT_EQ(file_text(dir.path("a/o.tif")), file_text(dir.path("b/o.tif")));
+}
+
+TEST(Reliability, BadSidecarsAndInfiniteElevationsAreRefused) {
+  test::TempDir dir;
+  const Heightfield h = read_heightfield(crop());
+  write_heightfield(h, dir.path("a.png"));
+  json sc = json::parse(file_text(dir.path("a.png.json")));
+  sc["width"] = 64;  // the sidecar of another file
+  std::ofstream(dir.path("a.png.json")) << sc.dump();
+  expect_clean_error(test::run_cli("info " + q(dir.path("a.png"))), 1, "sidecar says width 64, the image has 128", "size");
+  sc["width"] = 128;
+  sc["zmin"] = 2000;
+  sc["zmax"] = 1000;
+  std::ofstream(dir.path("a.png.json")) << sc.dump();
+  expect_clean_error(test::run_cli("info " + q(dir.path("a.png"))), 1, "zmin <= zmax", "zmin > zmax");
+  Heightfield inf = h;
+  inf.z[5] = INFINITY;
+  inf.z[7] = -INFINITY;
+  write_heightfield(inf, dir.path("inf.exr"));
+  expect_clean_error(test::run_cli("mesh -q " + q(dir.path("inf.exr")) + " -o " + q(dir.path("m.glb"))), 1,
+                     "holds an infinite elevation", "inf");
+  EXPECT_FALSE(fs::exists(dir.path("m.glb")));
+}
+
+TEST(Reliability, PreviewsAreOnlyWrittenAsPng) {
+  test::TempDir dir;
+  expect_clean_error(test::run_cli("render -q " + q(crop()) + " -o " + q(dir.path("x.jpg"))), 2, "use a .png name", "jpg");
+  EXPECT_FALSE(fs::exists(dir.path("x.jpg")));
+}
+
+TEST(Reliability, ValidateCatchesAReconstructWithoutGradientAndToleranceIsOneKindOfError) {
+  test::TempDir dir;
+  std::ofstream(dir.path("r.json")) << json::array({json{{"type", "reconstruct"}}, dir.path("o.tif")}).dump();
+  expect_clean_error(test::run_cli("run --validate " + q(dir.path("r.json"))), 2, "reconstruct needs a gradient", "no gradient");
+  GradientField g(16, 16);
+  write_gradient(g, dir.path("g.exr"));
+  for (const std::string t : {"0", "nan", "-1"})
+    expect_clean_error(test::run_cli("reconstruct -q --gradient " + q(dir.path("g.exr")) + " -o " + q(dir.path("o.tif")) +
+                                     " --tolerance " + t),
+                       2, "reconstruct/tolerance", "tolerance " + t);
+}
+
+TEST(Reliability, UnwritableCacheFolderTurnsTheCacheOffNotTheDevice) {
+  test::TempDir dir;
+  std::ofstream(dir.path("file")) << "x";  // a cache folder below a file cannot be created, even by root
+  const std::string cmd = "env XDG_CACHE_HOME=" + q(dir.path("file/cache")) + " " + TERRACL_CLI + " erode -q " + q(crop()) +
+                          " -o " + q(dir.path("e.tif")) + " --steps 1 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
+  const int status = pclose(pipe);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << out;
+  EXPECT_NE(out.find("is not writable; kernel caches are off"), std::string::npos) << out;
+  EXPECT_TRUE(fs::exists(dir.path("e.tif")));
+}
+
+// Found by fuzz_raster: an EXR header attribute claiming 1.7 GB made OpenEXR allocate it (1.8 GB
+// resident, 6 s) before failing on a 1.5 KB file.
+TEST(Reliability, ExrHeaderClaimingHugeAttributesIsRefusedBeforeOpenExrAllocates) {
+  test::TempDir dir;
+  write_heightfield(read_heightfield(crop()), dir.path("a.exr"));
+  std::string bytes = file_text(dir.path("a.exr"));
+  const std::string key = std::string("terracl:georef") + '\0' + "string" + '\0';
+  const size_t at = bytes.find(key);
+  ASSERT_NE(at, std::string::npos);
+  for (int i = 0; i < 4; ++i) bytes[at + key.size() + i] = char(i == 3 ? 0x65 : 0x78);  // 0x65787878 bytes
+  std::ofstream(dir.path("a.exr"), std::ios::binary) << bytes;
+  const auto r = test::run_cli("info " + q(dir.path("a.exr")));
+  expect_clean_error(r, 1, "EXR header attribute 'terracl:georef' (string) claims 1702393976 bytes", "exr");
+}
