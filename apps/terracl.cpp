@@ -21,7 +21,11 @@ Globals& globals() {
 }
 
 Device& device() {
-  static std::shared_ptr<Device> d;
+  // Never destroyed: OpenCL platforms (oclgrind's, some GPU drivers) tear down their own state in
+  // static destructors or atexit handlers, and releasing our objects after that corrupts their
+  // heap. The process exit reclaims everything anyway.
+  static auto* holder = new std::shared_ptr<Device>();
+  auto& d = *holder;
   if (!d) {
     d = Device::open(globals().device);
     if (globals().verbose) std::cerr << "terracl: using device " << d->info().name << " (" << d->info().platform << ")\n";

@@ -46,24 +46,30 @@ run reconstruct_central reconstruct --gradient "$OUT/gc.exr" -o "$OUT/rc.tif"
 run reconstruct_jacobi_w reconstruct --gradient "$OUT/g.exr" -o "$OUT/rj.tif" --smoother jacobi --cycle w
 run reconstruct_cascade reconstruct --gradient "$OUT/g.exr" -o "$OUT/rk.tif" --cycle cascade
 run reconstruct_dirichlet reconstruct --gradient "$OUT/g.exr" -o "$OUT/rd.tif" --border dirichlet --initial "$OUT/c65.tif" --cycle v
-# The authoring examples scaled from their 513^2 bases to 65^2 (coordinates / 8, cells x 8), so that
-# every operation lands on the small grid. volcanic_island runs without its `fit` operation: with
-# it, oclgrind 21.10 aborts in its own oclgrind::Program destructor at exit ("corrupted
-# double-linked list"), after the output is written and with zero reports.
+# The authoring examples shrunk to 65 cells across over the same extent (metre coordinates stay,
+# cell coordinates are scaled), so that every operation lands on the small grid. volcanic_island
+# runs without its `fit` operation: with it, oclgrind 21.10 aborted in its own oclgrind::Program
+# destructor at exit ("corrupted double-linked list"), after the output was written, zero reports.
 for e in volcanic_island canyon cliff mountain_range mountain_chain_tensors; do
   /usr/bin/python3 - "data/examples/$e.json" "$OUT/$e.json" <<'PY'
-import json, sys
+import json, re, sys
 d = json.load(open(sys.argv[1]))
+w, h, cell = re.fullmatch(r"flat:(\d+)x(\d+)@([0-9.]+)", d["base"]).groups()
+w, h, cell = int(w), int(h), float(cell)
+k = 64.0 / (w - 1)  # new cells per old cell
+in_cells = d.get("units") == "cells"
+HORIZONTAL = {"radius", "width", "disc_radius", "wavelength", "falloff", "floor", "feather", "fade"}
 def walk(v, key=None):
     if isinstance(v, dict):
-        return {k: walk(x, k) for k, x in v.items()}
+        return {k2: walk(x, k2) for k2, x in v.items()}
     if isinstance(v, list):
-        if len(v) == 2 and all(isinstance(x, (int, float)) for x in v):
-            return [x / 8 for x in v]
+        if in_cells and len(v) in (2, 3) and all(isinstance(x, (int, float)) for x in v):
+            return [x * k for x in v[:2]] + v[2:]
         return [walk(x, key) for x in v]
+    if in_cells and key in HORIZONTAL and isinstance(v, (int, float)):
+        return v * k
     return v
-cell = float(d.get("base", "flat:513x513@10").split("@")[1]) if "@" in d.get("base", "") else 1.0
-d["base"] = "flat:65x65@%g" % (cell * 8)
+d["base"] = "flat:65x%d@%g" % (max(9, round((h - 1) * k) + 1), cell / k)
 d["operations"] = [walk(o) for o in d["operations"] if o.get("op") != "fit"]
 json.dump(d, open(sys.argv[2], "w"))
 PY
