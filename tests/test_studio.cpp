@@ -205,6 +205,19 @@ TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
   EXPECT_EQ(terrain(c), t0);
 }
 
+// An operation whose support is smaller than a cell is accepted with a warning the page shows.
+TEST(StudioApi, SubCellSupportIsAWarningInTheState) {
+  Studio s;
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", {{"op", "scale_slopes"}, {"center", {300, 300}}, {"radius", 2}, {"factor", 2}}}});
+  const json st = body(c.Get("/api/state"));
+  ASSERT_TRUE(st["last"].contains("warnings")) << st;
+  ASSERT_EQ(st["last"]["warnings"].size(), 1u) << st;
+  EXPECT_NE(st["last"]["warnings"][0].get<std::string>().find("/operations/0/radius"), std::string::npos) << st;
+  post(c, "/api/operations", {{"op", kNoise}});
+  EXPECT_TRUE(body(c.Get("/api/state"))["last"]["warnings"].empty());
+}
+
 TEST(StudioApi, LiveErosionBecomesAnErodeOperationThatReplays) {
   Studio s("flat:65x65@30");
   auto c = s.client();

@@ -87,7 +87,8 @@ async function change(method, path, body) {
   const s = await api(method, path, body);
   await refresh(s);
   const last = s.last || {};
-  status(`${last.mode || ''} ${last.ms ? last.ms.toFixed(0) + ' ms solve' : ''}, ${(performance.now() - t0).toFixed(0)} ms to preview`);
+  const warn = (last.warnings || []).length ? ' | warning: ' + last.warnings.join('; ') : '';
+  status(`${last.mode || ''} ${last.ms ? last.ms.toFixed(0) + ' ms solve' : ''}, ${(performance.now() - t0).toFixed(0)} ms to preview${warn}`);
 }
 
 async function refresh(s) {

@@ -104,7 +104,8 @@ void Session::commit(const json& ops, bool record_undo) {
   bool append = ops.size() > m_ops.size();
   for (size_t i = 0; append && i < m_ops.size(); ++i) append = ops[i] == m_ops[i];
   const json tail = append ? appended_only(ops) : json();
-  m_edit->validate(full_script(append ? tail : ops));  // throws with the JSON path; nothing changed yet
+  // Throws with the JSON path (nothing changed yet); warnings (a support under one cell) are shown.
+  const std::vector<std::string> warnings = m_edit->check(full_script(append ? tail : ops));
   erosion_cancel();
   std::string mode;
   try {
@@ -132,7 +133,7 @@ void Session::commit(const json& ops, bool record_undo) {
   }
   m_ops = ops;
   ++m_version;
-  m_last = {{"mode", mode}, {"ms", ms_since(t0)}, {"operations", m_ops.size()}};
+  m_last = {{"mode", mode}, {"ms", ms_since(t0)}, {"operations", m_ops.size()}, {"warnings", warnings}};
 }
 
 namespace {
