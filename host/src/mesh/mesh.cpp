@@ -5,7 +5,6 @@
 // error is only the midpoint's deviation, we store the largest vertical deviation of every grid
 // point inside the triangle from its plane, so --max-error is a guarantee.
 #include <fmt/format.h>
-#include <tiny_gltf.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,6 +14,8 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
+
+#include "mesh/mesh_gltf.hpp"
 
 namespace terracl::mesh {
 
@@ -165,8 +166,6 @@ Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Prog
   return m;
 }
 
-namespace {
-
 /// Unit vertex normals: area-weighted sums of the adjacent faces' normals (smooth shading in
 /// viewers; without normals glTF viewers must shade flat facets).
 std::vector<float> vertex_normals(const Mesh& m) {
@@ -189,6 +188,8 @@ std::vector<float> vertex_normals(const Mesh& m) {
   }
   return out;
 }
+
+namespace {
 
 void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
   write_atomically(path, [&](const std::string& tmp) {
@@ -227,87 +228,6 @@ void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
     }
     flush();
     if (std::fclose(f) != 0) fail("mesh", "cannot write {}", path);
-  });
-}
-
-void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metadata& meta) {
-  tinygltf::Model model;
-  tinygltf::Buffer buffer;
-  const size_t pos_bytes = m.positions.size() * sizeof(float), idx_bytes = m.indices.size() * sizeof(uint32_t);
-  const std::vector<float> normals = vertex_normals(m);
-  buffer.data.resize(2 * pos_bytes + idx_bytes);
-  std::memcpy(buffer.data.data(), m.positions.data(), pos_bytes);
-  std::memcpy(buffer.data.data() + pos_bytes, m.indices.data(), idx_bytes);
-  std::memcpy(buffer.data.data() + pos_bytes + idx_bytes, normals.data(), pos_bytes);
-  model.buffers.push_back(std::move(buffer));
-
-  tinygltf::BufferView pos_view;
-  pos_view.buffer = 0;
-  pos_view.byteOffset = 0;
-  pos_view.byteLength = pos_bytes;
-  pos_view.target = TINYGLTF_TARGET_ARRAY_BUFFER;
-  tinygltf::BufferView idx_view;
-  idx_view.buffer = 0;
-  idx_view.byteOffset = pos_bytes;
-  idx_view.byteLength = idx_bytes;
-  idx_view.target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
-  tinygltf::BufferView nrm_view = pos_view;
-  nrm_view.byteOffset = pos_bytes + idx_bytes;
-  model.bufferViews = {pos_view, idx_view, nrm_view};
-
-  tinygltf::Accessor pos;
-  pos.bufferView = 0;
-  pos.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-  pos.count = m.vertex_count();
-  pos.type = TINYGLTF_TYPE_VEC3;
-  pos.minValues = {INFINITY, INFINITY, INFINITY};
-  pos.maxValues = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t v = 0; v < m.vertex_count(); ++v)
-    for (int c = 0; c < 3; ++c) {
-      pos.minValues[c] = std::min(pos.minValues[c], double(m.positions[3 * v + c]));
-      pos.maxValues[c] = std::max(pos.maxValues[c], double(m.positions[3 * v + c]));
-    }
-  tinygltf::Accessor idx;
-  idx.bufferView = 1;
-  idx.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-  idx.count = m.indices.size();
-  idx.type = TINYGLTF_TYPE_SCALAR;
-  tinygltf::Accessor nrm;
-  nrm.bufferView = 2;
-  nrm.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-  nrm.count = m.vertex_count();
-  nrm.type = TINYGLTF_TYPE_VEC3;
-  model.accessors = {pos, idx, nrm};
-
-  tinygltf::Primitive prim;
-  prim.attributes["POSITION"] = 0;
-  prim.attributes["NORMAL"] = 2;
-  prim.indices = 1;
-  prim.mode = TINYGLTF_MODE_TRIANGLES;
-  tinygltf::Mesh mesh;
-  mesh.name = "terrain";
-  mesh.primitives.push_back(prim);
-  model.meshes.push_back(mesh);
-  tinygltf::Node node;
-  node.mesh = 0;
-  node.name = "terrain";
-  model.nodes.push_back(node);
-  tinygltf::Scene scene;
-  scene.nodes.push_back(0);
-  model.scenes.push_back(scene);
-  model.defaultScene = 0;
-  model.asset.version = "2.0";
-  model.asset.generator = "terracl";
-  if (!meta.empty()) {  // provenance in asset.extras (glTF's place for application data)
-    tinygltf::Value::Object extras;
-    for (const auto& [k, v] : meta) extras[k] = tinygltf::Value(v);
-    model.asset.extras = tinygltf::Value(extras);
-  }
-
-  write_atomically(path, [&](const std::string& tmp) {
-    tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToFile(&model, tmp, true, true, !binary, binary))
-      fail("mesh", "tinygltf could not write {}", path);
   });
 }
 

@@ -2,7 +2,6 @@
 // constants, same 1 + 254 * cos mapping, same rounding) so that `gdaldem hillshade` and
 // `terracl render --mode hillshade` agree within one grey level (gdaldem uses an approximate
 // inverse square root).
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
@@ -248,23 +247,6 @@ Image render(const Heightfield& h, const Options& opt) {
       }
   }
   return img;
-}
-
-void write_image(const Image& img, const std::string& path, const Metadata& meta) {
-  if (img.pixels.size() != size_t(img.width) * img.height * img.channels) fail("render", "inconsistent image buffer");
-  if (format_from_extension(path) != FileFormat::PNG)  // OIIO would write a JPEG for x.jpg
-    fail("render", "{}: previews are written as PNG; use a .png name", path);
-  write_atomically(path, [&](const std::string& tmp) {
-    auto out = OIIO::ImageOutput::create(tmp);
-    if (!out) fail("render", "cannot write {}: {}", path, OIIO::geterror());
-    OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
-    spec.attribute("Software", "terracl");
-    for (const auto& [k, v] : meta) spec.attribute(k, v);  // PNG text chunks
-    if (!out->open(tmp, spec)) fail("render", "cannot write {}: {}", path, out->geterror());
-    if (!out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()))
-      fail("render", "cannot write {}: {}", path, out->geterror());
-    if (!out->close()) fail("render", "cannot write {}: {}", path, out->geterror());
-  });
 }
 
 }  // namespace terracl::render

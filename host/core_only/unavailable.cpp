@@ -1,0 +1,54 @@
+// The core build (TERRACL_CORE_ONLY, cmake/CoreOnly.cmake) leaves out every source that needs a
+// GIS, image, mesh or nearest-neighbour library. These definitions stand in for their entry
+// points so that everything else links unchanged; each says what is missing instead of crashing.
+// RAW16 (.r16/.raw, host/src/io/raw16.cpp) stays available.
+#include "io/io_common.hpp"
+#include "mesh/mesh_gltf.hpp"
+#include "pipeline/builtin.hpp"
+
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+
+namespace terracl {
+namespace {
+
+[[noreturn]] void unavailable(const std::string& what, const std::string& path) {
+  fail("io", "{}: {} is not available in the core build (TERRACL_CORE_ONLY); use .r16/.raw rasters "
+       "or the full build", path, what);
+}
+
+}  // namespace
+
+namespace io {
+Heightfield read_gdal(const std::string& path) { unavailable("GDAL reading", path); }
+void write_geotiff(const Heightfield&, const std::string& tmp_path) { unavailable("GeoTIFF writing", tmp_path); }
+Heightfield read_oiio(const std::string& path, const ReadOptions&) { unavailable("PNG/EXR reading", path); }
+void write_png16(const Heightfield&, const std::string& tmp_path, double, double) {
+  unavailable("PNG writing", tmp_path);
+}
+void write_exr(const Heightfield&, const std::string& tmp_path) { unavailable("EXR writing", tmp_path); }
+}  // namespace io
+
+bool is_gradient_file(const std::string&) { return false; }
+GradientField read_gradient(const std::string& path) { unavailable("EXR gradient reading", path); }
+void write_gradient(const GradientField&, const std::string& path) { unavailable("EXR gradient writing", path); }
+void write_gradient_image(const GradientField&, const std::string& path) { unavailable("gradient PNG writing", path); }
+GradientField read_gradient_image(const std::string& path) { unavailable("gradient PNG reading", path); }
+
+namespace render {
+void write_image(const Image&, const std::string& path, const Metadata&) { unavailable("PNG preview writing", path); }
+}  // namespace render
+
+namespace mesh {
+void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&) {
+  unavailable("glTF writing (use .obj)", path);
+}
+}  // namespace mesh
+
+// Amplification needs FLANN: no stages, no benchmarks in the core build.
+void register_amplify_stages(StageRegistry&) {}
+void register_amplify_benches(BenchRegistry&) {}
+
+}  // namespace terracl
