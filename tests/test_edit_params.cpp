@@ -75,6 +75,8 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "erode"}}, "/operations/0/steps"},
       {{{"op", "erode"}, {"steps", 10}, {"rain", -1}}, "/operations/0/rain"},
       {{{"op", "erode"}, {"steps", 10}, {"center", {5, 5}}, {"radius", 0}}, "/operations/0/radius"},
+      {{{"op", "amplify"}, {"exemplar", "/nonexistent/dem.tif"}}, "/operations/0/exemplar"},
+      {{{"op", "amplify"}, {"exemplar", dem}, {"factor", 3}}, "/operations/0/factor"},
   };
   std::set<std::string> covered;
   for (const auto& c : cases) {

@@ -32,12 +32,15 @@ const TOOLS = {
   point: { radius: 0.06, elevation: 200 },
   copy_paste: { rotate: 0, height_scale: 1 },
   erode: { radius: 0.1, falloff: 0.03 },
+  amplify: { exemplar: '', factor: 4, strength: 1, falloff: 0.03 },
 };
 const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength']);
 let scaled = false;
 
 function scaleTools() {
   const ext = state.width * state.cell_x;
+  // Amplification borrows the base DEM's own texture unless another exemplar is typed in.
+  if (!state.base.startsWith('flat:')) TOOLS.amplify.exemplar = state.base;
   for (const t of Object.values(TOOLS))
     for (const k of Object.keys(t))
       if (LENGTHS.has(k) && t[k] > 0) t[k] = Math.round(t[k] * ext);
@@ -54,7 +57,7 @@ function showParams() {
     const i = document.createElement('input');
     i.value = v;
     i.id = 'p_' + k;
-    i.onchange = () => { t[k] = parseFloat(i.value); };
+    i.onchange = () => { t[k] = typeof v === 'string' ? i.value : parseFloat(i.value); };
     div.append(l, i);
   }
 }
@@ -227,7 +230,7 @@ function simplify(pts, eps) {
 }
 
 const CURVES = new Set(['crest', 'river', 'ravine', 'cliff', 'fault', 'free_crest', 'mountain_range']);
-const REGIONS = new Set(['copy_paste', 'erode']);
+const REGIONS = new Set(['copy_paste', 'erode', 'amplify']);
 
 function num(k, v) { return Number.isFinite(v) ? v : undefined; }
 
@@ -286,6 +289,7 @@ map.addEventListener('mouseup', async (e) => {
       rect = null;
       if (tool === 'copy_paste') await copyRect(r);
       else if (tool === 'erode') await erodeBrush(r);
+      else if (tool === 'amplify') await amplifyRegion(r);
     } else if (tool === 'copy_paste' && clip) {
       const p = TOOLS.copy_paste;
       const op = { op: 'copy_paste', source: clip.source, from: clip.from, to: toMetres(x, y), rotate: p.rotate, height_scale: p.height_scale };
@@ -309,6 +313,19 @@ async function copyRect(r) {
   clip = { source, from: [c0, r0, c1 - c0 + 1, r1 - r0 + 1] };
   drawMap();
   status('copied; click where to paste');
+}
+
+// Amplification of the dragged region (or of everything for a click): detail finer than `factor`
+// cells replaced by sparse-dictionary detail learned from the exemplar (docs/authoring.md).
+async function amplifyRegion(r) {
+  const p = TOOLS.amplify;
+  if (!p.exemplar) { status('amplify: type an exemplar DEM (a file path) in the tool parameters', true); drawMap(); return; }
+  const [x0, y0] = toMetres(r.x0, r.y0), [x1, y1] = toMetres(r.x1, r.y1);
+  const radius = Math.hypot(x1 - x0, y1 - y0) / 2;
+  const op = { op: 'amplify', exemplar: p.exemplar, factor: p.factor, strength: p.strength };
+  if (radius > 2 * state.cell_x) Object.assign(op, { center: [round1((x0 + x1) / 2), round1((y0 + y1) / 2)], radius: round1(radius), falloff: L(p.falloff) });
+  status('amplify: learning the dictionary on first use...');
+  await change('POST', '/api/operations', { op });
 }
 
 // ---- erosion ----

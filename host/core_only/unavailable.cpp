@@ -2,6 +2,7 @@
 // GIS, image, mesh or nearest-neighbour library. These definitions stand in for their entry
 // points so that everything else links unchanged; each says what is missing instead of crashing.
 // RAW16 (.r16/.raw, host/src/io/raw16.cpp) stays available.
+#include "edit/state.hpp"
 #include "io/io_common.hpp"
 #include "mesh/mesh_gltf.hpp"
 #include "pipeline/builtin.hpp"
@@ -50,5 +51,7 @@ void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&) {
 // Amplification needs FLANN: no stages, no benchmarks in the core build.
 void register_amplify_stages(StageRegistry&) {}
 void register_amplify_benches(BenchRegistry&) {}
+// ... and no "amplify" edit operation (scripts using it get "unknown operation").
+void edit::add_amplify_ops(std::vector<edit::OpSpec>&) {}
 
 }  // namespace terracl

@@ -22,6 +22,10 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
+from selenium.webdriver.common.keys import Keys
+from selenium.webdriver.support.ui import Select
+
+EXEMPLAR = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", "data", "crops", "presidential_128x96.tif"))
 
 gdal.UseExceptions()
 
@@ -128,6 +132,20 @@ def main():
         wait_version(driver, v2)
         check(len(get_json(url + "api/state")["operations"]) == 1, "redo restored it")
 
+        # Amplify a dragged region with an exemplar DEM typed into the tool's parameters.
+        Select(driver.find_element(By.ID, "tool")).select_by_value("amplify")
+        ex = driver.find_element(By.ID, "p_exemplar")
+        ex.clear()
+        ex.send_keys(EXEMPLAR + Keys.TAB)
+        v = driver.execute_script("return document.body.dataset.version")
+        ActionChains(driver).move_to_element_with_offset(canvas, -90, -30).click_and_hold() \
+            .move_by_offset(90, 30).move_by_offset(90, 30).release().perform()
+        wait_version(driver, v)
+        st = get_json(url + "api/state")
+        ops = st["operations"]
+        check(len(ops) == 2 and ops[1]["op"] == "amplify" and ops[1]["exemplar"] == EXEMPLAR and "radius" in ops[1],
+              f"the drag posted an amplify operation of a region ({ops[-1]})")
+
         name = driver.find_element(By.ID, "file")
         name.clear()
         name.send_keys("sketch.json")
@@ -146,7 +164,6 @@ def main():
         check(a.shape == b.shape and np.array_equal(a, b), "the studio's export equals terracl edit's output bit for bit")
 
         if shots:  # a second picture: a mountain range being eroded live
-            from selenium.webdriver.support.ui import Select
             Select(driver.find_element(By.ID, "tool")).select_by_value("mountain_range")
             v = driver.execute_script("return document.body.dataset.version")
             chain = ActionChains(driver).move_to_element_with_offset(canvas, -200, -150).click_and_hold()

@@ -439,6 +439,7 @@ const std::vector<OpSpec>& operations() {
     add_paste_ops(v);
     add_fit_ops(v);
     add_erode_ops(v);
+    add_amplify_ops(v);
     return v;
   }();
   return ops;
