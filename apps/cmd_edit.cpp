@@ -17,7 +17,7 @@ namespace {
 
 struct EditArgs {
   std::string base, script, output, preview, ramp, report, gradient_out, gradient_image;
-  bool validate = false, list = false;
+  bool validate = false, list = false, keep_filled = false;
 };
 
 CommandRegistrar reg(40, [](CLI::App& app) {
@@ -31,6 +31,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("--report", a->report, "Write per-operation timings and solver figures (JSON)");
   sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr)");
   sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
+  sub->add_flag("--keep-filled", a->keep_filled,
+                "Write the harmonically filled elevations where the base has nodata (default: those cells stay nodata)");
   sub->add_flag("--validate", a->validate, "Check the script against BASE and exit");
   sub->add_flag("--list", a->list, "List the operations and exit");
   sub->callback([a] {
@@ -60,6 +62,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     render::ColorRamp ramp = render::ColorRamp::default_ramp();
     if (!a->ramp.empty()) ramp = render::ColorRamp::from_spec(a->ramp);
     Heightfield base;
+    std::vector<size_t> nodata;  // the base's nodata cells, nodata again in the output
     if (auto flat = parse_flat_spec(a->base)) {
       base = std::move(*flat);
     } else {
@@ -67,6 +70,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       base = read_heightfield(a->base);
       if (base.count_nodata()) {
         if (!globals().quiet) fmt::print(stderr, "edit: filling {} nodata cells of {} harmonically\n", base.count_nodata(), a->base);
+        nodata = nodata_cells(base);
         fill_nodata_harmonic(base);
       }
     }
@@ -95,6 +99,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     h.metadata = base.metadata;
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
     h.metadata["terracl:edit_script"] = a->script;
+    if (!a->keep_filled) restore_nodata(h, nodata);
     write_heightfield(h, a->output);
     if (!a->preview.empty()) {
       render::Options ro;

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 using namespace terracl;
 using json = nlohmann::json;
@@ -306,4 +307,34 @@ TEST(EditLocality, EachOperationFadesOverItsOwnFalloff) {
     }
   EXPECT_GT(near_crest, 200u);
   EXPECT_EQ(s.report()["locality"]["falloffs_m"].size(), 2u);
+}
+
+// A new user's finding: `terracl edit` filled a DEM's nodata corners for the solve and wrote them
+// out as elevations under the input's nodata value. The output keeps the base's mask unless
+// --keep-filled asks for the filled cells.
+TEST(EditLocality, CliOutputKeepsTheBaseNodataMask) {
+  test::TempDir tmp;
+  Heightfield base = dem("N44W072.hgt", 600, 300, 65);
+  base.georef.nodata = -9999.0;
+  size_t holes = 0;
+  for (int y = 0; y < 65; ++y)
+    for (int x = 0; x < 65; ++x)
+      if (x + y < 20) base.at(x, y) = std::numeric_limits<float>::quiet_NaN(), ++holes;
+  write_heightfield(base, tmp.path("base.tif"));
+  {
+    std::ofstream f(tmp.path("s.json"));
+    f << R"({"units": "cells", "operations": [{"op": "crest", "points": [[25, 40], [50, 40]], "elevation": 900, "radius": 6}]})";
+  }
+  auto run = [&](const std::string& extra) {
+    const auto r = test::run_cli("-q edit " + tmp.path("base.tif") + " --script " + tmp.path("s.json") + " -o " +
+                                 tmp.path("out.tif") + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.out;
+    return read_heightfield(tmp.path("out.tif"));
+  };
+  const Heightfield out = run("");
+  EXPECT_EQ(out.count_nodata(), holes);
+  for (int y = 0; y < 65; ++y)
+    for (int x = 0; x < 65; ++x) EXPECT_EQ(std::isnan(out.at(x, y)), x + y < 20) << x << "," << y;
+  EXPECT_NEAR(out.at(35, 40), 900.0, 1.0) << "the edit itself happened";
+  EXPECT_EQ(run(" --keep-filled").count_nodata(), 0u);
 }

@@ -85,6 +85,11 @@ struct GradientField {
 /// cells as Dirichlet values and a natural border, solved exactly (sparse Cholesky). Throws if no
 /// cell is valid.
 void fill_nodata_harmonic(Heightfield& h);
+/// Indices of the nodata (NaN) cells: taken before fill_nodata_harmonic, so that a stage that needs
+/// a complete grid (edit, studio) can give its output the input's nodata mask back.
+std::vector<size_t> nodata_cells(const Heightfield& h);
+/// Marks `cells` nodata (NaN) again.
+void restore_nodata(Heightfield& h, const std::vector<size_t>& cells);
 
 /// Throws a clear error naming `stage` and `what` when `h` has NaN/Inf cells.
 void require_finite(const Heightfield& h, const std::string& stage, const std::string& what);

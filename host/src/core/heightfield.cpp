@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace terracl {
 
@@ -99,6 +100,18 @@ void require_finite(const Heightfield& h, const std::string& stage, const std::s
 // instead of a sparse Cholesky factorisation, whose memory grows faster than the void. Measured on
 // a 724k-cell void in N44W072: Cholesky 7.5 s, 0.66 GB; conjugate gradients 80 s, 0.40 GB.
 constexpr size_t kDirectFillCells = 2000000;
+
+std::vector<size_t> nodata_cells(const Heightfield& h) {
+  std::vector<size_t> cells;
+  for (size_t i = 0; i < h.z.size(); ++i)
+    if (std::isnan(h.z[i])) cells.push_back(i);
+  return cells;
+}
+
+void restore_nodata(Heightfield& h, const std::vector<size_t>& cells) {
+  for (size_t i : cells)
+    if (i < h.z.size()) h.z[i] = std::numeric_limits<float>::quiet_NaN();
+}
 
 void fill_nodata_harmonic(Heightfield& h) {
   const size_t bad = h.count_nodata();

@@ -39,7 +39,8 @@ Session::Session(Device& d, const std::string& base, const std::string& workspac
     if (!fs::exists(base)) throw UsageError("studio", fmt::format("base terrain '{}' not found", base));
     m_base_spec = fs::absolute(base).string();  // the saved script replays from anywhere
     m_base = read_heightfield(base);
-    if (m_base.count_nodata()) fill_nodata_harmonic(m_base);  // as `terracl edit` does
+    m_nodata = nodata_cells(m_base);
+    if (!m_nodata.empty()) fill_nodata_harmonic(m_base);  // as `terracl edit` does
   }
   m_header = {{"units", "m"}, {"seed", 1}};
   replay(m_ops);
@@ -274,6 +275,7 @@ std::string Session::export_to(const std::string& rel) {
   h.georef = m_base.georef;
   h.metadata = m_base.metadata;
   h.metadata["terracl:edit_script"] = script().dump();
+  if (ext != ".glb") restore_nodata(h, m_nodata);  // as `terracl edit` writes it (a mesh needs every cell)
   if (ext == ".glb")
     mesh::write_mesh(mesh::triangulate_simplified(h, 0.5), path, h.metadata);
   else

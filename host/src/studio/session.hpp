@@ -83,6 +83,7 @@ class Session {
   Device& m_device;
   std::string m_base_spec, m_workspace;
   Heightfield m_base;
+  std::vector<size_t> m_nodata;  ///< the base's nodata cells (filled for editing, nodata in exports)
   json m_header;  ///< units, seed, description of the script (everything but operations and base)
   json m_ops = json::array();
   std::vector<json> m_undo, m_redo;
