@@ -21,6 +21,7 @@
 
 namespace terracl {
 
+/// Column-major float matrices of patches and atoms: one signal (a flattened patch) per column.
 using MatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic>;
 using VectorF = Eigen::Matrix<float, Eigen::Dynamic, 1>;
 
@@ -65,6 +66,7 @@ MatrixF decode(const MatrixF& D, const SparseCodes& codes);
 
 // ---------------------------------------------------------------- K-SVD (ksvd.cpp)
 
+/// K-SVD settings: dictionary size, sparsity of the codes, iterations, seed and threads.
 struct KsvdOptions {
   int atoms = 256;
   int sparsity = 2;
@@ -74,6 +76,7 @@ struct KsvdOptions {
   unsigned seed = 1;
   int threads = 0;
 };
+/// A learned dictionary and its training error per iteration.
 struct KsvdResult {
   MatrixF D;                 ///< K x N, unit-norm columns
   std::vector<int> source;   ///< constrained: training column of each atom; else -1
@@ -85,6 +88,8 @@ KsvdResult learn_ksvd(const MatrixF& F, const KsvdOptions& o, const Progress& pr
 
 // ---------------------------------------------------------------- dictionaries (dictionary.cpp)
 
+/// Coupled high/low-resolution patch dictionary (a .tdic file): atom i of `low` is matched
+/// against the input, atom i of `high` supplies the detail.
 struct Dictionary {
   int patch = 16;        ///< P: high-resolution patch size (cells)
   int factor = 4;        ///< f: resolution ratio between H and L (1: single resolution)
@@ -114,6 +119,7 @@ void save_dictionary(const Dictionary& d, const std::string& path);
 /// or inconsistent file.
 Dictionary load_dictionary(const std::string& path);
 
+/// How a dictionary is learned from an exemplar (`terracl dictionary learn`).
 struct LearnOptions {
   int patch = 16;
   int factor = 4;
@@ -187,6 +193,7 @@ class AtomIndex {
   float m_weight = 0;
 };
 
+/// Quality and speed of the approximate (FLANN) atom search against the exact scan.
 struct RecallReport {
   int samples = 0;
   double recall = 0;            ///< fraction of queries where FLANN picks the exact best atom
@@ -198,6 +205,7 @@ RecallReport measure_recall(const MatrixF& D, const MatrixF& Q, int trees, int c
 
 // ---------------------------------------------------------------- amplification (amplify.cpp)
 
+/// Settings of amplify() (`terracl amplify`); 0 / negative values mean "the dictionary's".
 struct AmplifyOptions {
   int factor = 4;          ///< total factor: 4, 16, 64, 256 (x4 steps)
   int spacing = 8;         ///< spacing of output patches (high-resolution cells, multiple of 4)
@@ -237,6 +245,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
 double calibrate_detail_gain(const Heightfield& exemplar, const LearnOptions& o);
 /// z minus its (f+1) x (f+1) box mean (relief finer than one input cell), and its RMS.
 std::vector<double> highpass(const Heightfield& h, int f);
+/// RMS of highpass(h, f) (m): the relief amplification should restore.
 double roughness(const Heightfield& h, int f);
 /// Spatialised style: amplifies with each dictionary and blends by `mask` (values in [0, 1] at the
 /// input resolution, 1 selects dicts[1]), smoothed over `blend_cells` input cells.
@@ -262,6 +271,7 @@ void correct_block_means(Heightfield& high, const Heightfield& low, int f, int s
 
 // ---------------------------------------------------------------- evaluation (eval.cpp)
 
+/// Quality of an amplified raster against the true fine raster (`scripts/eval-amplify.sh`).
 struct AmplifyMetrics {
   double rmse = 0, psnr = 0;
   double hf_ratio = 0;         ///< spectral energy above the low-resolution Nyquist, output / truth
@@ -277,6 +287,7 @@ struct EncodeReport {
   int sparsity = 0, atoms = 0, patch = 0, patches = 0;
   double rho = 0, psnr = 0, rmse = 0;
 };
+/// Learns and encodes `h` as described on EncodeReport (`terracl dictionary encode`).
 EncodeReport encode_report(const Heightfield& h, int sparsity, int atoms, int patch, int iterations = 8,
                            const Progress& progress = {});
 

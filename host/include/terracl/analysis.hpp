@@ -17,6 +17,7 @@
 
 namespace terracl::analysis {
 
+/// D8 neighbour offsets by direction code 0..7: 0 = east, then clockwise on the map (y grows south).
 constexpr int kDx[8] = {1, 1, 0, -1, -1, -1, 0, 1};
 constexpr int kDy[8] = {0, 1, 1, 1, 0, -1, -1, -1};
 /// Flow direction codes besides 0..7: water leaves the grid here / nodata cell.
@@ -90,6 +91,7 @@ struct DinfResult {
   double outflow_cells = 0;
   size_t valid_cells = 0;
 };
+/// Tarboton's D-infinity flow directions and accumulation on the metric grid.
 DinfResult dinf_flow(const Heightfield& h, const Progress& progress = {});
 
 // ---------------------------------------------------------------------------------------------
@@ -117,6 +119,7 @@ std::string format_metrics(const nlohmann::json& report);
 // ---------------------------------------------------------------------------------------------
 // Sketch extraction
 
+/// Thresholds of the sketch extraction (`terracl sketch`).
 struct SketchOptions {
   double river_fraction = 0.002;  ///< rivers: D8 accumulation >= this fraction of the valid cells
   double ridge_fraction = 0.002;  ///< ridges: the same on the inverted terrain
@@ -148,6 +151,7 @@ struct Sketch {
   /// the normalised elevation (1..255, the paper's elevation target layer).
   std::vector<uint8_t> rgb;
 };
+/// Rivers, ridges, peaks and basins of `h` (the inputs of the edit operation `fit`).
 Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt = {}, const Progress& progress = {});
 
 /// The JSON document described in docs/analysis.md ("terracl-sketch", version 1).

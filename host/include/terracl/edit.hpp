@@ -28,6 +28,7 @@ namespace edit {
 class EditState;
 }
 
+/// Settings of an EditSession (`terracl edit`).
 struct EditOptions {
   SolverOptions solver;   ///< initial/progress are managed by the session
   Progress progress;
@@ -99,6 +100,7 @@ std::vector<std::pair<std::string, std::string>> edit_operations();
 /// [0, 2^p - 1], p = 16 bits, m = the largest |component| (stored in the sidecar "<file>.json" with
 /// the cell size). Decoding error is at most m / 2^(p-1) per component.
 void write_gradient_image(const GradientField& g, const std::string& path);
+/// Reads a gradient image written by write_gradient_image (the sidecar gives m and the cell size).
 GradientField read_gradient_image(const std::string& path);
 
 }  // namespace terracl

@@ -17,6 +17,8 @@
 
 namespace terracl {
 
+/// Closed: no flux leaves the grid (water and solid conserved). Open: water and sediment drain
+/// out at the border and are counted in ErosionTotals.
 enum class ErosionBoundary { Closed, Open };
 
 /// Parameters in SI units. Defaults carve visible gullies on 30-100 m DEMs in a few hundred steps.
@@ -137,6 +139,7 @@ std::vector<unsigned char> read_fixed_cells(const std::string& path, const Heigh
 /// cells for a smooth edge.
 /// Largest region feather (cells) accepted: the blur costs 6 * feather operations per cell.
 constexpr double max_region_feather = 100;
+/// Brush weight (width*height values in [0, 1]) read from `path` as described above.
 std::vector<float> read_region_weight(const std::string& path, const Heightfield& grid, double feather);
 
 }  // namespace terracl

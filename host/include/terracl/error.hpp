@@ -8,6 +8,7 @@
 
 namespace terracl {
 
+/// Base of every error the library throws; what() is "<stage>: <message>".
 class Error : public std::runtime_error {
  public:
   Error(const std::string& stage, const std::string& message)
@@ -30,6 +31,7 @@ class Cancelled : public Error {
   explicit Cancelled(const std::string& stage, const std::string& message = "cancelled") : Error(stage, message) {}
 };
 
+/// Throws Error(stage, fmt::format(f, args...)).
 template <typename... Args>
 [[noreturn]] void fail(const std::string& stage, fmt::format_string<Args...> f, Args&&... args) {
   throw Error(stage, fmt::format(f, std::forward<Args>(args)...));

@@ -59,6 +59,7 @@ struct HeightStats {
   size_t valid = 0, nodata = 0;
   double mean_slope_deg = 0, max_slope_deg = 0;
 };
+/// Statistics of the valid cells; slopes use the metric cell size.
 HeightStats compute_stats(const Heightfield& h);
 
 /// Gradient in metres per metre on the staggered (face) grid:

@@ -13,6 +13,7 @@
 
 namespace terracl {
 
+/// What the file cannot say itself (sizes and ranges of RAW16/PNG), and nodata filling.
 struct ReadOptions {
   /// Vertical range that 0 and the largest code of a PNG/RAW16 map to (overrides the sidecar).
   std::optional<double> zmin, zmax;
@@ -32,9 +33,12 @@ struct WriteOptions {
 enum class FileFormat { GeoTIFF, HGT, AsciiGrid, PNG, EXR, TIFF, RAW16, GDALOther, Unknown };
 /// Format from the extension (lower-cased); Unknown when not recognised.
 FileFormat format_from_extension(const std::string& path);
+/// "GeoTIFF", "PNG", ... for messages.
 const char* format_name(FileFormat f);
 
+/// Reads elevations in metres (nodata cells NaN, georeferencing kept); errors name the file.
 Heightfield read_heightfield(const std::string& path, const ReadOptions& opts = {});
+/// Writes in the format of the extension, with georeferencing and provenance, atomically.
 void write_heightfield(const Heightfield& h, const std::string& path, const WriteOptions& opts = {});
 
 /// Gradient fields travel as two-channel float EXR ("gx", "gy"), with the cell size, georef and
@@ -70,6 +74,8 @@ void write_text_file_atomic(const std::string& path, const std::string& content)
 template <typename F>
 void write_atomically(const std::string& path, F&& writer);
 
+/// The pieces of write_atomically for writers that cannot take a callback: a registered
+/// temporary name beside `path`, its rename to `path`, or its removal.
 std::string temporary_path_for(const std::string& path);
 void commit_temporary(const std::string& tmp, const std::string& path);
 void discard_temporary(const std::string& tmp);

@@ -10,6 +10,7 @@
 
 namespace terracl::mesh {
 
+/// An indexed triangle mesh in metres (axes as above).
 struct Mesh {
   std::vector<float> positions;   ///< x, y, z per vertex
   std::vector<uint32_t> indices;  ///< three per triangle, counter-clockwise seen from above (+Y)

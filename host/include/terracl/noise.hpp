@@ -10,9 +10,11 @@
 
 namespace terracl {
 
+/// Single lattice noise, its fractal sum, or the ridged multifractal (sharp crests).
 enum class NoiseType { Perlin, Fbm, Ridged };
 NoiseType parse_noise_type(const std::string& s);  ///< "perlin" | "fbm" | "ridged"
 
+/// Parameters of the `noise` edit operation, in metres.
 struct NoiseParams {
   NoiseType type = NoiseType::Fbm;
   double amplitude = 10;    ///< metres (Perlin values are about +-0.7 times this)

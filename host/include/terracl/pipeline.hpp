@@ -16,6 +16,7 @@
 
 namespace terracl {
 
+/// One stage of a parsed pipeline.
 struct PipelineStage {
   std::string type;
   std::string tag;    ///< unique; defaults to the type, or type + occurrence (write1, write2) when repeated
@@ -34,6 +35,7 @@ struct StageRun {
   std::vector<std::string> outputs;  ///< files completed by this stage
 };
 
+/// What a run did, also when it stopped early.
 struct RunReport {
   std::vector<StageRun> stages;  ///< stages completed so far (filled while running)
   std::string running;           ///< tag of the stage running when an error or Ctrl-C stopped the run
@@ -42,6 +44,7 @@ struct RunReport {
   std::vector<std::string> outputs() const;
 };
 
+/// How a pipeline runs: its device, progress reporting and the resolved file.
 struct RunOptions {
   /// Opens the device on first use (stages that need none never open it).
   std::function<Device&()> device;
@@ -53,6 +56,7 @@ struct RunOptions {
   bool write_resolved = true;
 };
 
+/// A JSON pipeline (docs/pipelines.md): parse or load, optionally set overrides, validate, run.
 class Pipeline {
  public:
   /// Parses a pipeline document: a JSON array of stages, or an object with a "pipeline" array (and

@@ -6,6 +6,7 @@
 
 namespace terracl {
 
+/// An empty function means "no reporting".
 using Progress = std::function<bool(double fraction, const std::string& message)>;
 
 /// Calls `p` when set; throws Cancelled(stage) when it returns false.

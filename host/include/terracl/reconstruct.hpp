@@ -28,9 +28,11 @@ enum class Smoother { Rbgs, Jacobi };
 
 Cycle parse_cycle(const std::string& s);          ///< "v" | "w" | "fmg" | "cascade"
 Smoother parse_smoother(const std::string& s);    ///< "rbgs" | "jacobi"
+/// Names as the parsers take them (reports, --help).
 const char* cycle_name(Cycle c);
 const char* smoother_name(Smoother s);
 
+/// Multigrid settings (defaults: FMG then V-cycles, red-black Gauss-Seidel, 1e-6 relative residual).
 struct SolverOptions {
   Cycle cycle = Cycle::Fmg;
   Smoother smoother = Smoother::Rbgs;
@@ -50,6 +52,7 @@ struct SolverOptions {
   Progress progress;
 };
 
+/// The solved heightfield and the solver's figures (the --report file).
 struct ReconstructResult {
   Heightfield height;
   int cycles = 0;                    ///< fine-level cycles (FMG's initial pass not counted)

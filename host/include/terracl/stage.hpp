@@ -16,11 +16,14 @@
 
 namespace terracl {
 
+/// Stage options are JSON values (pipelines are JSON; the CLI converts flags to JSON).
 using json = nlohmann::json;
 
+/// Type of a stage option; Path options must exist, OutputPath options are written by the stage.
 enum class OptionType { String, Int, Float, Bool, Path, OutputPath, Enum, Json };
 const char* option_type_name(OptionType t);
 
+/// One declared stage option: it drives --help, pipeline validation and docs/stages.md.
 struct OptionSpec {
   std::string name;            ///< snake_case in JSON; the CLI flag is --kebab-case
   OptionType type = OptionType::String;
@@ -56,6 +59,7 @@ struct StageData {
   DataKind current = DataKind::None;  ///< what the last stage produced
 };
 
+/// What a stage's run function receives.
 struct StageContext {
   StageData& data;
   const json& options;         ///< validated, defaults filled in, units converted to the spec's unit
@@ -72,6 +76,7 @@ struct StageContext {
   GradientField& gradient();
 };
 
+/// A self-describing stage (PDAL's convention): name, summary, data kinds, options, run.
 struct StageInfo {
   std::string name;
   std::string description;
@@ -88,6 +93,7 @@ struct StageInfo {
   std::function<DataKind(const json& options, DataKind input, const std::string& where)> check = nullptr;
 };
 
+/// Every stage the CLI and pipelines know, by name.
 class StageRegistry {
  public:
   static StageRegistry& instance();  ///< with all built-in stages registered
@@ -123,11 +129,13 @@ struct BenchArgs {
   std::string device;
   json extra;  ///< benchmark-specific options
 };
+/// One `terracl bench` benchmark.
 struct BenchInfo {
   std::string name;
   std::string description;
   std::function<void(const BenchArgs&)> run;
 };
+/// Every benchmark, by name.
 class BenchRegistry {
  public:
   static BenchRegistry& instance();

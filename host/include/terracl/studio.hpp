@@ -7,6 +7,7 @@
 
 namespace terracl {
 
+/// Settings of `terracl studio`.
 struct StudioOptions {
   std::string base = "flat:513x513@10";  ///< raster path or flat:WxH[@cell]
   std::string script;                    ///< optional edit script loaded at start (any path)
@@ -16,6 +17,7 @@ struct StudioOptions {
   std::string three_dir = "/usr/share/javascript/three";  ///< Debian's libjs-three
 };
 
+/// The server; stop() (or the destructor) ends the background thread.
 class StudioServer {
  public:
   StudioServer(Device& d, StudioOptions o);

@@ -15,10 +15,12 @@
 
 namespace terracl {
 
+/// A position or direction in metres.
 struct Vec2 {
   double x = 0, y = 0;
 };
 
+/// Geometry of a tensor primitive.
 enum class PrimitiveShape { Point, Polyline, Disc, Polygon };
 
 /// What T_i is. Directional: the constant R(2 theta) = [[cos 2t, sin 2t], [sin 2t, -cos 2t]], so a
@@ -40,6 +42,7 @@ enum class Profile { Round, Sharp, Step, Drop, V, U };
 double profile_value(Profile p, double d, double s, double r, double a, double floor_half_width = 0,
                      double face_fraction = 1, double scree = 0);
 
+/// One tensor primitive: a shape with a radius of influence, strength and tensor kind.
 struct Primitive {
   PrimitiveShape shape = PrimitiveShape::Point;
   std::vector<Vec2> points;         ///< metres; 1 for point/disc (centre), >= 2 polyline, >= 3 polygon
@@ -79,6 +82,7 @@ struct Box {
 };
 /// Cells that the primitives can influence (plus a margin of one cell), clipped to the grid.
 Box primitives_box(const std::vector<Primitive>& prims, int width, int height, double cell_x, double cell_y);
+/// The whole grid.
 Box full_box(int width, int height);
 
 /// A gradient field resident on the device, with scratch buffers for the authoring kernels.
