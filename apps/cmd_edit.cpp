@@ -1,5 +1,6 @@
 // `terracl edit BASE --script edits.json -o out.tif [--preview out.png]`: gradient-domain authoring.
 #include "cli.hpp"
+#include "stage_flags.hpp"
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
@@ -18,6 +19,8 @@ namespace {
 struct EditArgs {
   std::string base, script, output, preview, ramp, report, gradient_out, gradient_image;
   bool validate = false, list = false;
+  InputScaleFlags in;
+  OutputFlags out;
 };
 
 CommandRegistrar reg(40, [](CLI::App& app) {
@@ -33,6 +36,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
   sub->add_flag("--validate", a->validate, "Check the script against BASE and exit");
   sub->add_flag("--list", a->list, "List the operations and exit");
+  a->in.add(sub);
+  a->out.add(sub);
   sub->callback([a] {
     if (a->list) {
       for (const auto& [name, summary] : edit_operations()) fmt::print("{:<16} {}\n", name, summary);
@@ -64,7 +69,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       base = std::move(*flat);
     } else {
       if (!std::filesystem::exists(a->base)) throw UsageError("edit", fmt::format("base terrain '{}' not found", a->base));
-      base = read_heightfield(a->base);
+      base = read_heightfield(a->base, a->in.read_options());
       if (base.count_nodata()) {
         if (!globals().quiet) fmt::print(stderr, "edit: filling {} nodata cells of {} harmonically\n", base.count_nodata(), a->base);
         fill_nodata_harmonic(base);
@@ -95,7 +100,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     h.metadata = base.metadata;
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
     h.metadata["terracl:edit_script"] = a->script;
-    write_heightfield(h, a->output);
+    write_heightfield(h, a->output, a->out.write_options());
     if (!a->preview.empty()) {
       render::Options ro;
       ro.mode = render::Mode::ShadedRelief;

@@ -105,6 +105,7 @@ void run_write(StageContext& c) {
 
 void register_crop_stage(StageRegistry& r);  // crop_stage.cpp
 void register_downsample_stage(StageRegistry& r);  // downsample_stage.cpp
+void register_warp_stages(StageRegistry& r);  // warp_stage.cpp
 
 void register_io_stages(StageRegistry& r) {
   StageInfo read{
@@ -148,6 +149,7 @@ void register_io_stages(StageRegistry& r) {
   r.add(std::move(write));
   register_crop_stage(r);
   register_downsample_stage(r);
+  register_warp_stages(r);
 }
 
 }  // namespace terracl
