@@ -190,7 +190,14 @@ TEST(Warp, PipelineStagesAndCogWriter) {
   const Heightfield h = read_heightfield(dir.path("out.tif"));
   EXPECT_EQ(h.width, 513);
   EXPECT_FALSE(h.georef.geographic);
-  EXPECT_TRUE(h.metadata.count("terracl:unreal_z_scale"));
+  r = {0, ""};
+  FILE* g = popen(("gdalinfo " + q(dir.path("out.tif"))).c_str(), "r");
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, g)) > 0;) r.out.append(buf, n);
+  pclose(g);
+  EXPECT_NE(r.out.find("engine_unreal_z_scale="), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("LAYOUT=COG"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("COMPRESSION=LZW"), std::string::npos) << r.out;
   // Bad stage options are refused by --validate with the JSON path.
   p["pipeline"][1]["tr"] = {90};
   p["pipeline"][3]["filename"] = dir.path("out.png");

@@ -62,7 +62,7 @@ EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double c
 /// The sidecar / metadata entries of engine_scale ("unreal_z_scale", ...).
 std::vector<std::pair<std::string, double>> engine_scale_entries(const EngineScale& s);
 /// engine_scale of `h` written to 16 bits over its data range (code 0 reserved when it has
-/// nodata), recorded as "terracl:<entry>" metadata (GeoTIFF tags; PNG16/RAW16 sidecars recompute
+/// nodata), recorded as "engine:<entry>" metadata (GeoTIFF tag engine_<entry>, EXR attribute; PNG16/RAW16 sidecars recompute
 /// it for the range they are written with).
 EngineScale record_engine_scale(Heightfield& h);
 

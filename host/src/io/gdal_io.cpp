@@ -130,8 +130,12 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   const std::vector<float>* src = &h.z;
   if (g.nodata || h.count_nodata() > 0) {
     double nd = g.nodata ? *g.nodata : double(NAN);
-    if (is_int && std::isnan(nd))  // an integer band cannot hold NaN: the type's conventional code
-      nd = type == GDT_UInt16 ? 65535.0 : type == GDT_Int16 ? -32768.0 : type == GDT_Int32 ? -2147483648.0 : 0.0;
+    // An integer band cannot hold NaN, nor a value outside its range (-32768 in UInt16): the
+    // type's conventional code then.
+    const double tmin = type == GDT_UInt16 ? 0.0 : type == GDT_Int16 ? -32768.0 : -2147483648.0;
+    const double tmax = type == GDT_UInt16 ? 65535.0 : type == GDT_Int16 ? 32767.0 : 2147483647.0;
+    if (is_int && !(nd >= tmin && nd <= tmax && nd == std::round(nd)))
+      nd = type == GDT_UInt16 ? 65535.0 : tmin;
     band->SetNoDataValue(nd);
     if (!std::isnan(nd) && h.count_nodata() > 0) {
       data = h.z;

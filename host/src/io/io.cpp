@@ -171,7 +171,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
                                     h.georef.cell_x, h.georef.cell_y);
   sc["engine"] = engine;
   Metadata md = h.metadata;
-  for (const auto& [k, v] : engine_scale_entries(es)) md.erase("terracl:" + k);
+  for (const auto& [k, v] : engine_scale_entries(es)) md.erase("engine:" + k);
   sc["metadata"] = md;
   const std::string sc_path = io::sidecar_path(path);
   const std::string sc_tmp = temporary_path_for(sc_path);

@@ -69,7 +69,7 @@ EngineScale record_engine_scale(Heightfield& h) {
     if (std::isfinite(v)) lo = std::min<double>(lo, v), hi = std::max<double>(hi, v);
   if (lo > hi) lo = hi = 0.0;
   const EngineScale s = engine_scale(lo, hi, h.count_nodata() > 0, h.georef.cell_x);
-  for (const auto& [k, v] : engine_scale_entries(s)) h.metadata["terracl:" + k] = fmt::format("{:.6f}", v);
+  for (const auto& [k, v] : engine_scale_entries(s)) h.metadata["engine:" + k] = fmt::format("{:.6f}", v);
   return s;
 }
 
