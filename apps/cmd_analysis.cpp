@@ -20,6 +20,7 @@ struct Args {
   std::string input;
   bool fill_nodata = false;
   StageFlags flags;
+  InputScaleFlags in;
 };
 
 /// One subcommand for stage `name`; `-o` maps to option `output_option` ("" for none).
@@ -32,11 +33,11 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
   sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first (harmonic)");
   // metrics prints its report, so its file option is optional here.
   a->flags.add(sub, *sp, output_option, name != "metrics");
+  a->in.add(sub);
   sub->callback([a, sp, sub, name] {
     const StageInfo& s = *sp;
     const json opts = a->flags.given(sub, s);
-    ReadOptions ro;
-    ro.fill_nodata = a->fill_nodata;
+    const ReadOptions ro = a->in.read_options(a->fill_nodata);
     if (name == "metrics") {
       if (opts.contains("json") && opts["json"].is_string())
         check_output_paths(name, {{"input", a->input}}, {{"--json", opts["json"].get<std::string>()}});

@@ -1,4 +1,5 @@
 #include "cli.hpp"
+#include "stage_flags.hpp"
 
 #include <terracl/io.hpp>
 
@@ -10,6 +11,7 @@ struct ConvertArgs {
   std::optional<double> zmin, zmax, out_zmin, out_zmax, cell;
   std::optional<int> width, height;
   bool fill = false;
+  OutputFlags out;
 };
 
 CommandRegistrar reg(12, [](CLI::App& app) {
@@ -25,6 +27,7 @@ CommandRegistrar reg(12, [](CLI::App& app) {
   sub->add_option("--out-zmin", a->out_zmin, "Output PNG16/RAW16: elevation of code 0 (default: data minimum)");
   sub->add_option("--out-zmax", a->out_zmax, "Output PNG16/RAW16: elevation of code 65535 (default: data maximum)");
   sub->add_flag("--fill-nodata", a->fill, "Fill nodata cells by harmonic interpolation");
+  a->out.add(sub);
   sub->callback([a] {
     check_output_paths("convert", {{"input", a->input}}, {{"output", a->output}});
     if (is_gradient_file(a->input)) {
@@ -42,7 +45,7 @@ CommandRegistrar reg(12, [](CLI::App& app) {
     ro.fill_nodata = a->fill;
     Heightfield h = read_heightfield(a->input, ro);
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
-    WriteOptions wo;
+    WriteOptions wo = a->out.write_options();
     wo.zmin = a->out_zmin;
     wo.zmax = a->out_zmax;
     write_heightfield(h, a->output, wo);

@@ -1,5 +1,6 @@
 // `terracl edit BASE --script edits.json -o out.tif [--preview out.png]`: gradient-domain authoring.
 #include "cli.hpp"
+#include "stage_flags.hpp"
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
@@ -18,6 +19,8 @@ namespace {
 struct EditArgs {
   std::string base, script, output, preview, ramp, report, gradient_out, gradient_image;
   bool validate = false, list = false, keep_filled = false;
+  InputScaleFlags in;
+  OutputFlags out;
 };
 
 CommandRegistrar reg(40, [](CLI::App& app) {
@@ -35,6 +38,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                 "Write the harmonically filled elevations where the base has nodata (default: those cells stay nodata)");
   sub->add_flag("--validate", a->validate, "Check the script against BASE and exit");
   sub->add_flag("--list", a->list, "List the operations and exit");
+  a->in.add(sub);
+  a->out.add(sub);
   sub->callback([a] {
     if (a->list) {
       for (const auto& [name, summary] : edit_operations()) fmt::print("{:<16} {}\n", name, summary);
@@ -67,7 +72,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       base = std::move(*flat);
     } else {
       if (!std::filesystem::exists(a->base)) throw UsageError("edit", fmt::format("base terrain '{}' not found", a->base));
-      base = read_heightfield(a->base);
+      base = read_heightfield(a->base, a->in.read_options());
       if (base.count_nodata()) {
         if (!globals().quiet) fmt::print(stderr, "edit: filling {} nodata cells of {} harmonically\n", base.count_nodata(), a->base);
         nodata = nodata_cells(base);
@@ -100,7 +105,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
     h.metadata["terracl:edit_script"] = a->script;
     if (!a->keep_filled) restore_nodata(h, nodata);
-    write_heightfield(h, a->output);
+    write_heightfield(h, a->output, a->out.write_options());
     if (!a->preview.empty()) {
       render::Options ro;
       ro.mode = render::Mode::ShadedRelief;

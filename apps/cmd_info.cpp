@@ -1,8 +1,13 @@
 #include "cli.hpp"
+#include "stage_flags.hpp"
 
+#include <terracl/analysis.hpp>
 #include <terracl/io.hpp>
 
 #include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 namespace terracl::cli {
@@ -18,6 +23,7 @@ std::string crs_name(const std::string& wkt) {
 struct InfoArgs {
   std::string input;
   bool json = false;
+  InputScaleFlags in;
 };
 
 CommandRegistrar reg(11, [](CLI::App& app) {
@@ -25,9 +31,18 @@ CommandRegistrar reg(11, [](CLI::App& app) {
   auto* sub = app.add_subcommand("info", "Size, georeferencing, elevation and slope statistics of a raster");
   sub->add_option("input", args->input, "Raster file")->required();
   sub->add_flag("--json", args->json, "Print JSON");
+  args->in.add(sub);
   sub->callback([args] {
-    const Heightfield h = read_heightfield(args->input);
-    const HeightStats s = compute_stats(h);
+    const Heightfield h = read_heightfield(args->input, args->in.read_options());
+    HeightStats s = compute_stats(h);
+    // The slope of `metrics` and gdaldem (Horn's 3x3 weighted differences), so both commands report
+    // the same figures; compute_stats' 4-neighbour differences gave a steeper maximum.
+    double slope_sum = 0, slope_max = 0;
+    size_t slope_n = 0;
+    for (float v : analysis::slope_degrees(h))
+      if (std::isfinite(v)) slope_sum += v, slope_max = std::max<double>(slope_max, v), ++slope_n;
+    s.mean_slope_deg = slope_n ? slope_sum / double(slope_n) : 0.0;
+    s.max_slope_deg = slope_max;
     const Georef& g = h.georef;
     if (args->json) {
       nlohmann::json j = {{"file", args->input},       {"width", h.width},      {"height", h.height},
@@ -55,7 +70,8 @@ CommandRegistrar reg(11, [](CLI::App& app) {
     fmt::print("elevation:     min {:.2f}  max {:.2f}  mean {:.2f} {}\n", s.min, s.max, s.mean, g.vertical_units);
     fmt::print("nodata:        {} cell{}{}\n", s.nodata, s.nodata == 1 ? "" : "s",
                g.nodata ? fmt::format(" (value {})", *g.nodata) : "");
-    fmt::print("slope:         mean {:.2f} deg  steepest {:.2f} deg\n", s.mean_slope_deg, s.max_slope_deg);
+    fmt::print("slope:         mean {:.2f} deg  steepest {:.2f} deg (Horn 3x3, as metrics and gdaldem)\n",
+               s.mean_slope_deg, s.max_slope_deg);
     for (const auto& [k, v] : h.metadata) fmt::print("{}: {}\n", k, v);
   });
 });

@@ -2,6 +2,7 @@
 // prints what it wrote with per-stage times (docs/pipelines.md).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
@@ -32,10 +33,18 @@ bool json_progress() { return !globals().quiet && globals().progress == "json"; 
 void print_validation(const Pipeline& p) {
   fmt::print("{}: valid pipeline, {} stage{}, hash {}\n", p.source(), p.stages().size(),
              p.stages().size() == 1 ? "" : "s", p.hash());
-  fmt::print("  {:<6} {:<18} {:<14} {:<34} {}\n", "path", "tag", "type", "data", "writes");
+  // Columns as wide as their longest entry: "/pipeline/10" and long tags pushed the rest right.
+  size_t wp = 4, wt = 3, wy = 4, wd = 4;
   for (const auto& st : p.stages()) {
     const std::string data = fmt::format("{} -> {}", data_kind_name(st.input), data_kind_name(st.output));
-    fmt::print("  {:<6} {:<18} {:<14} {:<34} {}\n", st.where, st.tag, st.type, data, fmt::join(st.outputs, " "));
+    wp = std::max(wp, st.where.size()), wt = std::max(wt, st.tag.size()), wy = std::max(wy, st.type.size());
+    wd = std::max(wd, data.size());
+  }
+  fmt::print("  {:<{}} {:<{}} {:<{}} {:<{}} {}\n", "path", wp, "tag", wt, "type", wy, "data", wd, "writes");
+  for (const auto& st : p.stages()) {
+    const std::string data = fmt::format("{} -> {}", data_kind_name(st.input), data_kind_name(st.output));
+    fmt::print("  {:<{}} {:<{}} {:<{}} {:<{}} {}\n", st.where, wp, st.tag, wt, st.type, wy, data, wd,
+               fmt::join(st.outputs, " "));
   }
   fmt::print("resolved pipeline would be written to {}\n", p.resolved_path());
 }
@@ -57,12 +66,14 @@ void print_report(const Pipeline& p, const RunReport& r) {
   }
   fmt::print("{}: {} stage{} in {:.2f} s (pipeline hash {})\n", p.source(), r.stages.size(),
              r.stages.size() == 1 ? "" : "s", r.seconds, p.hash());
-  fmt::print("  {:>2}  {:<18} {:<14} {:>9}  {}\n", "#", "tag", "type", "time", "wrote");
+  size_t wt = 3, wy = 4;
+  for (const auto& s : r.stages) wt = std::max(wt, s.tag.size()), wy = std::max(wy, s.type.size());
+  fmt::print("  {:>2}  {:<{}} {:<{}} {:>9}  {}\n", "#", "tag", wt, "type", wy, "time", "wrote");
   for (size_t i = 0; i < r.stages.size(); ++i) {
     const StageRun& s = r.stages[i];
     std::string wrote;
     for (const auto& f : s.outputs) wrote += fmt::format("{}{} ({})", wrote.empty() ? "" : ", ", f, human_size(f));
-    fmt::print("  {:>2}  {:<18} {:<14} {:>7.3f} s  {}\n", i + 1, s.tag, s.type, s.seconds, wrote);
+    fmt::print("  {:>2}  {:<{}} {:<{}} {:>7.3f} s  {}\n", i + 1, s.tag, wt, s.type, wy, s.seconds, wrote);
   }
   if (!r.resolved_path.empty()) fmt::print("resolved pipeline: {}\n", r.resolved_path);
 }

@@ -19,6 +19,8 @@ struct StageArgs {
   std::string input, output;
   bool fill_nodata = false;
   StageFlags flags;
+  InputScaleFlags in;
+  OutputFlags out;
 };
 
 void add_stage_command(CLI::App& app, const StageInfo& s) {
@@ -33,6 +35,8 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   if (!passes) out->required();
   if (s.input == DataKind::Heightfield) sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first");
   a->flags.add(sub, s);
+  if (s.input == DataKind::Heightfield || s.input == DataKind::Any) a->in.add(sub);
+  if (s.output == DataKind::Heightfield) a->out.add(sub);
   const StageInfo* sp = &s;
   sub->callback([a, sp, sub] {
     const StageInfo& s = *sp;
@@ -60,9 +64,7 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
         data.gradient = read_gradient(a->input);
         data.current = DataKind::Gradient;
       } else {
-        ReadOptions ro;
-        ro.fill_nodata = a->fill_nodata;
-        data.height = read_heightfield(a->input, ro);
+        data.height = read_heightfield(a->input, a->in.read_options(a->fill_nodata));
         data.current = DataKind::Heightfield;
       }
     }
@@ -84,9 +86,15 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       if (!data.height) fail(s.name, "produced no heightfield to write");
       Heightfield& h = *data.height;
       for (const auto& [k, v] : ctx.provenance) h.metadata[k] = v;
-      write_heightfield(h, a->output);
+      write_heightfield(h, a->output, a->out.write_options());
     }
   });
+}
+
+bool has_subcommand(const CLI::App& app, const std::string& name) {
+  for (const CLI::App* sub : app.get_subcommands({}))
+    if (sub->get_name() == name) return true;
+  return false;
 }
 
 struct StagesArgs {
@@ -96,14 +104,18 @@ struct StagesArgs {
 CommandRegistrar reg(50, [](CLI::App& app) {
   auto a = std::make_shared<StagesArgs>();
   auto* sub = app.add_subcommand("stages", "List the pipeline stages and their options");
+  CLI::App* app_ptr = &app;
   sub->add_flag("--markdown", a->markdown, "Print docs/stages.md");
-  sub->callback([a] {
+  sub->callback([a, app_ptr] {
     if (a->markdown) {
-      fmt::print("{}", stages_markdown());
+      std::vector<std::string> commands;
+      for (const CLI::App* c : app_ptr->get_subcommands({})) commands.push_back(c->get_name());
+      fmt::print("{}", stages_markdown(commands));
       return;
     }
+    // Stages without a generated subcommand may still have a hand-written one (render, warp, ...).
     for (const auto& s : StageRegistry::instance().all())
-      fmt::print("{:<16} {}{}\n", s.name, s.description, s.cli ? "" : " (pipeline only)");
+      fmt::print("{:<16} {}{}\n", s.name, s.description, has_subcommand(*app_ptr, s.name) ? "" : " (pipeline only)");
   });
   for (const auto& s : StageRegistry::instance().all())
     if (s.cli) add_stage_command(app, s);

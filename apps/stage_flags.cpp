@@ -57,4 +57,37 @@ json StageFlags::given(const CLI::App* sub, const StageInfo& stage) const {
   return opts;
 }
 
+void InputScaleFlags::add(CLI::App* sub) {
+  sub->add_option("--zmin", zmin, "Input PNG/RAW16: elevation of code 0 [m] (default: from the sidecar)");
+  sub->add_option("--zmax", zmax, "Input PNG/RAW16: elevation of the largest code [m] (default: from the sidecar)");
+  sub->add_option("--cell-size", cell_size, "Input cell size [m] for rasters without georeferencing")
+      ->check(CLI::PositiveNumber);
+}
+
+ReadOptions InputScaleFlags::read_options(bool fill_nodata) const {
+  ReadOptions ro;
+  ro.zmin = zmin;
+  ro.zmax = zmax;
+  ro.cell_size = cell_size;
+  ro.fill_nodata = fill_nodata;
+  return ro;
+}
+
+void OutputFlags::add(CLI::App* sub) {
+  sub->add_option("--co", creation_options, "GeoTIFF output: GDAL creation option KEY=VALUE (repeatable; as gdal_translate -co)")
+      ->type_name("KEY=VALUE");
+  sub->add_flag("--cog", cog, "GeoTIFF output: write a Cloud Optimized GeoTIFF (GDAL's COG driver)");
+  sub->add_option("--ot", output_type, "GeoTIFF output: band type (rounded for integer types)")
+      ->check(CLI::IsMember({"Float32", "Float64", "Int16", "UInt16", "Int32"}))
+      ->capture_default_str();
+}
+
+WriteOptions OutputFlags::write_options() const {
+  WriteOptions wo;
+  wo.creation_options = creation_options;
+  wo.cog = cog;
+  wo.output_type = output_type;
+  return wo;
+}
+
 }  // namespace terracl::cli

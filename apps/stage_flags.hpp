@@ -7,6 +7,8 @@
 #include <CLI/CLI.hpp>
 
 #include <map>
+#include <optional>
+#include <vector>
 #include <string>
 
 namespace terracl::cli {
@@ -18,6 +20,23 @@ std::string kebab(std::string s);
 /// the stage's Path / OutputPath options in `resolved`, labelled by their --flag.
 void check_stage_files(const StageInfo& stage, const json& resolved, std::vector<NamedPath> inputs,
                        std::vector<NamedPath> outputs);
+
+/// --zmin/--zmax/--cell-size for the raster a command reads: the scale of a 16-bit PNG or RAW16
+/// written without a sidecar (Gaea, World Machine), as convert and the pipeline read stage take it.
+struct InputScaleFlags {
+  std::optional<double> zmin, zmax, cell_size;
+  void add(CLI::App* sub);
+  ReadOptions read_options(bool fill_nodata = false) const;
+};
+
+/// --co KEY=VALUE (repeatable), --cog and --ot for commands that write a GeoTIFF heightfield.
+struct OutputFlags {
+  std::vector<std::string> creation_options;
+  bool cog = false;
+  std::string output_type = "Float32";
+  void add(CLI::App* sub);
+  WriteOptions write_options() const;
+};
 
 class StageFlags {
  public:

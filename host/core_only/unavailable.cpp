@@ -11,6 +11,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
+#include <terracl/warp.hpp>
 
 namespace terracl {
 namespace {
@@ -24,13 +25,17 @@ namespace {
 
 namespace io {
 Heightfield read_gdal(const std::string& path) { unavailable("GDAL reading", path); }
-void write_geotiff(const Heightfield&, const std::string& tmp_path) { unavailable("GeoTIFF writing", tmp_path); }
+void write_geotiff(const Heightfield&, const std::string& tmp_path, const WriteOptions&) { unavailable("GeoTIFF writing", tmp_path); }
 Heightfield read_oiio(const std::string& path, const ReadOptions&) { unavailable("PNG/EXR reading", path); }
 void write_png16(const Heightfield&, const std::string& tmp_path, double, double) {
   unavailable("PNG writing", tmp_path);
 }
 void write_exr(const Heightfield&, const std::string& tmp_path) { unavailable("EXR writing", tmp_path); }
 }  // namespace io
+
+Heightfield warp(const Heightfield&, const WarpOptions&, const Progress&, const std::string& stage) {
+  fail(stage, "GDAL's warper is not available in the core build (TERRACL_CORE_ONLY); use the full build");
+}
 
 bool is_gradient_file(const std::string&) { return false; }
 GradientField read_gradient(const std::string& path) { unavailable("EXR gradient reading", path); }

@@ -7,6 +7,7 @@
 /// so a failure never leaves a partial file.
 #include <terracl/heightfield.hpp>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -26,9 +27,23 @@ struct ReadOptions {
 };
 
 struct WriteOptions {
-  /// Vertical range mapped to 0..65535 in PNG16/RAW16 (default: the data's min/max).
+  /// Vertical range mapped to 0..65535 in PNG16/RAW16 (default: the data's min/max). With nodata,
+  /// code 0 is reserved for it and the range maps to 1..65535 (sidecar "nodata_code": 0).
   std::optional<double> zmin, zmax;
+  /// GeoTIFF only: GDAL creation options KEY=VALUE (gdal_translate's -co), added to and
+  /// overriding terracl's defaults (COMPRESS=DEFLATE, PREDICTOR, TILED).
+  std::vector<std::string> creation_options;
+  /// GeoTIFF only: write a Cloud Optimized GeoTIFF (GDAL's COG driver) instead of a plain GTiff.
+  bool cog = false;
+  /// GeoTIFF only: band type, Float32 (default), Float64, Int16, UInt16 or Int32 (values are
+  /// rounded; NaN cells get the nodata value, -32768 / 65535 / -2147483648 when there is none).
+  std::string output_type = "Float32";
 };
+
+/// Non-fatal I/O warnings (a 16-bit PNG read without its sidecar) go to this handler; by default
+/// they print "terracl: warning: ..." on stderr. Pass an empty function to restore the default.
+void set_warning_handler(std::function<void(const std::string&)> handler);
+void warn(const std::string& message);
 
 enum class FileFormat { GeoTIFF, HGT, AsciiGrid, PNG, EXR, TIFF, RAW16, GDALOther, Unknown };
 /// Format from the extension (lower-cased); Unknown when not recognised.

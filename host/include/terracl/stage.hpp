@@ -119,8 +119,10 @@ json option_from_text(const OptionSpec& o, const std::string& text);
 /// Converts a value with a unit ("5 km", "30 deg", 12) to `unit`; throws naming `where`.
 double convert_unit(const json& value, const std::string& unit, const std::string& where);
 
-/// Markdown table of every stage and option (docs/stages.md).
-std::string stages_markdown();
+/// Markdown table of every stage and option (docs/stages.md). Stages without a generated
+/// subcommand are marked "pipeline only" unless named in `commands` (the CLI's hand-written
+/// subcommands: render, warp, ...).
+std::string stages_markdown(const std::vector<std::string>& commands = {});
 
 /// Benchmarks for `terracl bench <name>`: print their figures on stdout.
 struct BenchArgs {

@@ -212,6 +212,15 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
   return cur;
 }
 
+// The `terracl warp` command that resamples a raster of georef `g` to cells of cx x cy metres: --tr
+// is in the raster's CRS units, so degrees scale by the metric cell size at its centre latitude.
+static std::string warp_command(const std::string& file, const Georef& g, double cx, double cy) {
+  const double sx = g.has_geotransform ? std::fabs(g.geotransform[1]) / g.cell_x : 1.0;
+  const double sy = g.has_geotransform ? std::fabs(g.geotransform[5]) / g.cell_y : 1.0;
+  return fmt::format("terracl warp {} -o {}_{:.0f}m.tif --tr {:.10g} {:.10g} --resampling average", file,
+                     file == "<input>" ? "input" : "exemplar", cx, cx * sx, cy * sy);
+}
+
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
                                    const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress) {
   require_finite(low, "amplify", "input");
@@ -232,12 +241,15 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
       // The exemplar has no detail this fine: reuse the finest dictionary (self-similarity).
       if (!dict)
         fail("amplify", "mismatched cell sizes: the exemplar's {:.3f} x {:.3f} m cells are coarser than the output's "
-             "{:.3f} x {:.3f} m", e.cell_x, e.cell_y, tx, ty);
+             "{:.3f} x {:.3f} m; coarsen the input to {:.3f} x {:.3f} m cells first: {}",
+             e.cell_x, e.cell_y, tx, ty, e.cell_x * learn.factor, e.cell_y * learn.factor,
+             warp_command("<input>", cur.georef, e.cell_x * learn.factor, e.cell_y * learn.factor));
     } else {
       const int r = int(std::lround(rx));
       if (std::fabs(rx - r) > 0.05 * rx || std::fabs(ry - r) > 0.05 * ry)
         fail("amplify", "mismatched cell sizes: output cells {:.3f} x {:.3f} m are not a whole multiple of the exemplar's "
-             "{:.3f} x {:.3f} m", tx, ty, e.cell_x, e.cell_y);
+             "{:.3f} x {:.3f} m; resample the exemplar to the output's cells first: {}", tx, ty, e.cell_x, e.cell_y,
+             warp_command("<exemplar>", e, tx, ty));
       std::vector<Heightfield> ex;
       for (const auto& h : exemplars) ex.push_back(r > 1 ? block_mean(h, r) : h);
       dict = std::make_unique<Dictionary>(learn_dictionary(ex, lo, scaled_progress(pk, 0, 0.5)));

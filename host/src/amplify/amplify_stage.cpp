@@ -83,7 +83,17 @@ void run_amplify(StageContext& c) {
     l.sparsity = o.sparsity;
     l.method = c.get<std::string>("method");
     l.seed = o.seed;
-    out = amplify_from_exemplars(low, ex, l, o, c.progress);
+    try {
+      out = amplify_from_exemplars(low, ex, l, o, c.progress);
+    } catch (const Error& e) {
+      // The library names the exemplar "<exemplar>" in its warp command; here we know the file.
+      std::string m = std::string(e.what()).substr(e.stage().size() + 2);
+      const auto files = split_list(c.get<std::string>("exemplar"));
+      if (const auto at = m.find("<exemplar>"); at != std::string::npos && files.size() == 1)
+        m.replace(at, 10, files[0]);
+      if (m == std::string(e.what()).substr(e.stage().size() + 2)) throw;
+      throw Error(e.stage(), m);
+    }
   }
   out.metadata["amplify_factor"] = std::to_string(o.factor);
   low = std::move(out);

@@ -1,9 +1,11 @@
 // GDAL backend: every georeferenced raster on read (GeoTIFF, SRTM .hgt, ESRI ASCII grid, ...),
 // float32 GeoTIFF on write. GDAL's own error messages are captured and passed on, so the user
 // sees why a file was refused.
+#include "io/gdal_common.hpp"
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/memory.hpp>
 
 #include <cpl_conv.h>
@@ -22,6 +24,15 @@ namespace {
 
 void CPL_STDCALL quiet_handler(CPLErr, CPLErrorNum, const char*) {}
 
+bool looks_like_degrees(const std::array<double, 6>& gt, int w, int h) {
+  const double x0 = gt[0], y0 = gt[3], x1 = gt[0] + gt[1] * w + gt[2] * h, y1 = gt[3] + gt[4] * w + gt[5] * h;
+  const double cell = std::max(std::fabs(gt[1]), std::fabs(gt[5]));
+  return cell > 0 && cell < 0.1 && std::fabs(x0) <= 180 && std::fabs(x1) <= 180 && std::fabs(y0) <= 90 &&
+         std::fabs(y1) <= 90;
+}
+
+}  // namespace
+
 void init_gdal() {
   static std::once_flag once;
   std::call_once(once, [] {
@@ -35,25 +46,16 @@ std::string last_gdal_error() {
   return (m && *m) ? std::string(m) : std::string("no details from GDAL");
 }
 
-struct DatasetCloser {
-  void operator()(GDALDataset* d) const { GDALClose(d); }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
-
-bool looks_like_degrees(const std::array<double, 6>& gt, int w, int h) {
-  const double x0 = gt[0], y0 = gt[3], x1 = gt[0] + gt[1] * w + gt[2] * h, y1 = gt[3] + gt[4] * w + gt[5] * h;
-  const double cell = std::max(std::fabs(gt[1]), std::fabs(gt[5]));
-  return cell > 0 && cell < 0.1 && std::fabs(x0) <= 180 && std::fabs(x1) <= 180 && std::fabs(y0) <= 90 &&
-         std::fabs(y1) <= 90;
-}
-
-}  // namespace
-
 Heightfield read_gdal(const std::string& path) {
   init_gdal();
   CPLErrorReset();
   DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
   if (!ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
+  return from_dataset(*ds, path);
+}
+
+Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
+  GDALDataset* ds = &dsr;
   const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
   if (w <= 0 || h <= 0 || ds->GetRasterCount() < 1)
     fail("io", "{}: raster has no cells ({} x {}, {} bands)", path, w, h, ds->GetRasterCount());
@@ -108,19 +110,13 @@ Heightfield read_gdal(const std::string& path) {
   return out;
 }
 
-void write_geotiff(const Heightfield& h, const std::string& tmp_path) {
+DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   init_gdal();
   CPLErrorReset();
-  GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
-  if (!drv) fail("io", "GDAL has no GTiff driver");
-  char** opts = nullptr;
-  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
-  opts = CSLSetNameValue(opts, "PREDICTOR", "3");
-  opts = CSLSetNameValue(opts, "TILED", "YES");
-  opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
-  DatasetPtr ds(drv->Create(tmp_path.c_str(), h.width, h.height, 1, GDT_Float32, opts));
-  CSLDestroy(opts);
-  if (!ds) fail("io", "cannot create GeoTIFF {} ({})", tmp_path, last_gdal_error());
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  if (!mem) fail("io", "GDAL has no MEM driver");
+  DatasetPtr ds(mem->Create("", h.width, h.height, 1, type, nullptr));
+  if (!ds) fail("io", "cannot create an in-memory raster of {} x {} ({})", h.width, h.height, last_gdal_error());
   const Georef& g = h.georef;
   if (g.has_geotransform) {
     double gt[6];
@@ -129,13 +125,19 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path) {
   }
   if (!g.crs_wkt.empty()) ds->SetProjection(g.crs_wkt.c_str());
   GDALRasterBand* band = ds->GetRasterBand(1);
-  const bool has_nan = h.count_nodata() > 0;
+  const bool is_int = GDALDataTypeIsInteger(type);
   std::vector<float> data;
   const std::vector<float>* src = &h.z;
-  if (g.nodata || has_nan) {
-    const double nd = g.nodata ? *g.nodata : double(NAN);
+  if (g.nodata || h.count_nodata() > 0) {
+    double nd = g.nodata ? *g.nodata : double(NAN);
+    // An integer band cannot hold NaN, nor a value outside its range (-32768 in UInt16): the
+    // type's conventional code then.
+    const double tmin = type == GDT_UInt16 ? 0.0 : type == GDT_Int16 ? -32768.0 : -2147483648.0;
+    const double tmax = type == GDT_UInt16 ? 65535.0 : type == GDT_Int16 ? 32767.0 : 2147483647.0;
+    if (is_int && !(nd >= tmin && nd <= tmax && nd == std::round(nd)))
+      nd = type == GDT_UInt16 ? 65535.0 : tmin;
     band->SetNoDataValue(nd);
-    if (has_nan && !std::isnan(nd)) {
+    if (!std::isnan(nd) && h.count_nodata() > 0) {
       data = h.z;
       for (float& v : data)
         if (!std::isfinite(v)) v = float(nd);
@@ -152,12 +154,46 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path) {
   ds->SetMetadataItem("TIFFTAG_SOFTWARE", ("terracl " + std::string(h.metadata.count("terracl:version") ? h.metadata.at("terracl:version") : "")).c_str());
   ds->SetMetadataItem("terracl_cell_x", fmt::format("{:.17g}", g.cell_x).c_str());
   ds->SetMetadataItem("terracl_cell_y", fmt::format("{:.17g}", g.cell_y).c_str());
+  // GDAL rounds float -> integer to the nearest and clamps to the type's range.
   if (band->RasterIO(GF_Write, 0, 0, h.width, h.height, const_cast<float*>(src->data()), h.width, h.height, GDT_Float32,
                      0, 0) != CE_None)
-    fail("io", "writing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());
-  GDALDataset* raw = ds.release();
+    fail("io", "filling an in-memory raster failed ({})", last_gdal_error());
+  return ds;
+}
+
+void write_geotiff(const Heightfield& h, const std::string& tmp_path, const WriteOptions& wo) {
+  init_gdal();
+  const GDALDataType type = GDALGetDataTypeByName(wo.output_type.c_str());
+  if (type != GDT_Float32 && type != GDT_Float64 && type != GDT_Int16 && type != GDT_UInt16 && type != GDT_Int32)
+    fail("io", "output type '{}' is not one terracl writes; use Float32, Float64, Int16, UInt16 or Int32",
+         abbreviate(wo.output_type, 30));
+  const char* driver = wo.cog ? "COG" : "GTiff";
+  GDALDriver* drv = GetGDALDriverManager()->GetDriverByName(driver);
+  if (!drv) fail("io", "GDAL has no {} driver", driver);
+  char** opts = nullptr;
+  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
+  opts = CSLSetNameValue(opts, "PREDICTOR", GDALDataTypeIsInteger(type) ? "2" : "3");
+  if (!wo.cog) opts = CSLSetNameValue(opts, "TILED", "YES");  // COG is always tiled (no such option)
+  opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
+  for (const std::string& kv : wo.creation_options) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      fail("io", "creation option '{}' must be KEY=VALUE (as gdal_translate -co)", abbreviate(kv, 60));
+    const std::string key = kv.substr(0, eq);
+    // Refuse a misspelt key instead of writing a file without it (GDAL only warns).
+    if (const char* list = drv->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
+        list && std::string(list).find("name='" + key + "'") == std::string::npos)
+      fail("io", "creation option {} is not one the {} driver knows (gdalinfo --format {} lists them)", key, driver,
+           driver);
+    opts = CSLSetNameValue(opts, key.c_str(), kv.substr(eq + 1).c_str());
+  }
+  DatasetPtr mem = to_mem_dataset(h, type);
   CPLErrorReset();
-  GDALClose(raw);
+  GDALDataset* out = drv->CreateCopy(tmp_path.c_str(), mem.get(), FALSE, opts, nullptr, nullptr);
+  CSLDestroy(opts);
+  if (!out) fail("io", "cannot create GeoTIFF {} ({})", tmp_path, last_gdal_error());
+  CPLErrorReset();
+  GDALClose(out);
   if (CPLGetLastErrorType() >= CE_Failure) fail("io", "finishing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());
 }
 

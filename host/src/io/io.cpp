@@ -4,6 +4,9 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/warp.hpp>
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -138,8 +141,10 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
          ".png (16-bit + JSON sidecar), .r16/.raw (RAW16 + JSON sidecar)", path);
   if (h.width <= 0 || h.height <= 0 || h.z.size() != size_t(h.width) * h.height)
     fail("io", "{}: refusing to write an empty or inconsistent heightfield ({} x {})", path, h.width, h.height);
+  if (f != FileFormat::GeoTIFF && (!opts.creation_options.empty() || opts.cog || opts.output_type != "Float32"))
+    fail("io", "{}: creation options, COG and output types apply to GeoTIFF outputs (.tif) only", path);
   io::require_writable_folder(path);
-  if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t); });
+  if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t, opts); });
   if (f == FileFormat::EXR) return write_atomically(path, [&](const std::string& t) { io::write_exr(h, t); });
 
   // Quantised formats: the image and its sidecar are both written under temporary names and
@@ -153,7 +158,21 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   sc["zmin"] = zmin;
   sc["zmax"] = zmax;
   sc["format"] = f == FileFormat::PNG ? "png16-linear" : "raw16-le";
-  sc["metadata"] = h.metadata;
+  // Engine import scale for the range actually written (a resize's metadata assumed the data range).
+  const bool has_nodata = h.count_nodata() > 0;
+  // Nodata keeps code 0 (io_common.hpp, Quantiser); data then use codes 1..65535.
+  if (has_nodata) sc["nodata_code"] = io::kNodataCode;
+  const EngineScale es = engine_scale(zmin, zmax, has_nodata, h.georef.cell_x);
+  nlohmann::json engine = nlohmann::json::object();
+  for (const auto& [k, v] : engine_scale_entries(es)) engine[k] = v;
+  if (std::fabs(h.georef.cell_x - h.georef.cell_y) > 1e-3 * h.georef.cell_x)
+    engine["warning"] = fmt::format("cells are {:.3f} x {:.3f} m; engines take square cells: "
+                                    "terracl warp --t-srs <a metric CRS> --tr C C first",
+                                    h.georef.cell_x, h.georef.cell_y);
+  sc["engine"] = engine;
+  Metadata md = h.metadata;
+  for (const auto& [k, v] : engine_scale_entries(es)) md.erase("engine:" + k);
+  sc["metadata"] = md;
   const std::string sc_path = io::sidecar_path(path);
   const std::string sc_tmp = temporary_path_for(sc_path);
   write_atomically(path, [&](const std::string& tmp) {

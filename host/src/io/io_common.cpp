@@ -10,7 +10,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 
@@ -141,7 +143,51 @@ std::pair<double, double> finite_range(const std::vector<float>& z) {
   return {lo, hi};
 }
 
+uint16_t Quantiser::encode(float v) const {
+  if (!std::isfinite(v)) return reserve_nodata ? uint16_t(kNodataCode) : uint16_t(0);
+  const double lo = reserve_nodata ? 1.0 : 0.0;
+  const double span = zmax - zmin;
+  const double c = span > 0 ? lo + (double(v) - zmin) / span * (max_code - lo) : lo;
+  // A value below zmin (a user-given range) clamps to the lowest data code, never to nodata.
+  return uint16_t(std::clamp(std::round(c), lo, max_code));
+}
+
+float Quantiser::decode(unsigned code) const {
+  if (reserve_nodata && code == kNodataCode) return NAN;
+  const double lo = reserve_nodata ? 1.0 : 0.0;
+  return float(zmin + (double(code) - lo) / (max_code - lo) * (zmax - zmin));
+}
+
+void quantiser_from_sidecar(const nlohmann::json& sc, Quantiser& q, const std::string& sidecar) {
+  if (sc.is_null() || !sc.contains("nodata_code") || sc.at("nodata_code").is_null()) return;
+  const auto& v = sc.at("nodata_code");
+  if (!v.is_number_integer() || v.get<long long>() != kNodataCode)
+    fail("io", "{}: nodata_code must be {} (the code terracl reserves for nodata), got {}", sidecar, kNodataCode,
+         abbreviate(v.dump(), 30));
+  q.reserve_nodata = true;
+}
+
+namespace {
+std::function<void(const std::string&)>& warning_sink() {
+  static std::function<void(const std::string&)> sink;
+  return sink;
+}
+}  // namespace
+
+void warn_sidecarless(const std::string& path, const char* kind) {
+  warn(fmt::format("{}: {} without a sidecar ({}): codes are read as metres (0..65535) on 1 m cells; "
+                   "give --zmin/--zmax/--cell-size (pipeline read stage: zmin/zmax/cell_size) for the real scale",
+                   path, kind, sidecar_path(path)));
+}
+
 }  // namespace io
+
+void set_warning_handler(std::function<void(const std::string&)> handler) { io::warning_sink() = std::move(handler); }
+
+void warn(const std::string& message) {
+  if (io::warning_sink()) return io::warning_sink()(message);
+  std::fprintf(stderr, "terracl: warning: %s\n", message.c_str());
+}
 
 namespace {
 

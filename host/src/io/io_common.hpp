@@ -34,8 +34,24 @@ void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long 
 /// Min/max of the finite values; {0, 0} when none are finite.
 std::pair<double, double> finite_range(const std::vector<float>& z);
 
+/// The 16-bit code <-> metres mapping of PNG16/RAW16. Code 0 is reserved for nodata when the
+/// raster has nodata (sidecar "nodata_code": 0): the data then use codes 1..65535, so the top of
+/// the range keeps 65535 as engines expect, and nodata reads back as NaN rather than as zmin.
+struct Quantiser {
+  double zmin = 0.0, zmax = 65535.0, max_code = 65535.0;
+  bool reserve_nodata = false;  ///< code 0 is nodata
+  uint16_t encode(float v) const;
+  float decode(unsigned code) const;
+};
+/// The code that marks nodata in PNG16/RAW16 files terracl writes.
+constexpr unsigned kNodataCode = 0;
+/// Applies a sidecar's "nodata_code" to `q` (only 0 is accepted: it is the code terracl writes).
+void quantiser_from_sidecar(const nlohmann::json& sc, Quantiser& q, const std::string& sidecar);
+/// Reports a 16-bit raster read without a sidecar and without --zmin/--zmax/--cell-size.
+void warn_sidecarless(const std::string& path, const char* kind);
+
 Heightfield read_gdal(const std::string& path);
-void write_geotiff(const Heightfield& h, const std::string& tmp_path);
+void write_geotiff(const Heightfield& h, const std::string& tmp_path, const WriteOptions& opts = {});
 
 Heightfield read_oiio(const std::string& path, const ReadOptions& opts);
 void write_png16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax);

@@ -99,8 +99,11 @@ Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
     if (opts.zmin) zmin = *opts.zmin;
     if (opts.zmax) zmax = *opts.zmax;
     check_vertical_range(zmin, zmax, sc.is_null() ? path : sidecar_path(path));
-    for (size_t i = 0; i < codes.size(); ++i)
-      h.z[i] = float(zmin + std::round(codes[i] * scale_back) / max_code * (zmax - zmin));
+    if (sc.is_null() && sixteen && !opts.zmin && !opts.zmax && !opts.cell_size) warn_sidecarless(path, "16-bit PNG");
+    Quantiser q{zmin, zmax, max_code};
+    if (sixteen) quantiser_from_sidecar(sc, q, sidecar_path(path));
+    for (size_t i = 0; i < codes.size(); ++i) h.z[i] = q.decode(unsigned(std::round(codes[i] * scale_back)));
+    if (q.reserve_nodata && !h.georef.nodata) h.georef.nodata = double(NAN);
   }
   if (opts.cell_size) h.georef.cell_x = h.georef.cell_y = *opts.cell_size;
   in->close();
@@ -109,12 +112,8 @@ Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
 
 void write_png16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax) {
   std::vector<uint16_t> codes(h.size());
-  const double span = zmax - zmin;
-  for (size_t i = 0; i < codes.size(); ++i) {
-    const double v = h.z[i];
-    double c = (std::isfinite(v) && span > 0) ? (v - zmin) / span * 65535.0 : 0.0;
-    codes[i] = uint16_t(std::clamp(std::round(c), 0.0, 65535.0));
-  }
+  const Quantiser q{zmin, zmax, 65535.0, h.count_nodata() > 0};
+  for (size_t i = 0; i < codes.size(); ++i) codes[i] = q.encode(h.z[i]);
   ImageSpec spec(h.width, h.height, 1, TypeDesc::UINT16);
   spec.attribute("oiio:ColorSpace", "Linear");
   spec.attribute("Software", "terracl");

@@ -48,10 +48,11 @@ Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
   in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(expected));
   if (!in) fail("io", "{}: read failed", path);
   Heightfield out(*w, *h);
-  for (size_t i = 0; i < out.size(); ++i) {
-    const unsigned code = unsigned(bytes[2 * i]) | (unsigned(bytes[2 * i + 1]) << 8);
-    out.z[i] = float(zmin + code / 65535.0 * (zmax - zmin));
-  }
+  if (sc.is_null() && !opts.zmin && !opts.zmax && !opts.cell_size) warn_sidecarless(path, "RAW16");
+  Quantiser q{zmin, zmax, 65535.0};
+  quantiser_from_sidecar(sc, q, sidecar_path(path));
+  for (size_t i = 0; i < out.size(); ++i) out.z[i] = q.decode(unsigned(bytes[2 * i]) | (unsigned(bytes[2 * i + 1]) << 8));
+  if (q.reserve_nodata && !g.nodata) g.nodata = double(NAN);
   out.georef = g;
   out.metadata = md;
   if (opts.cell_size) out.georef.cell_x = out.georef.cell_y = *opts.cell_size;
@@ -60,11 +61,9 @@ Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
 
 void write_raw16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax) {
   std::vector<unsigned char> bytes(h.size() * 2);
-  const double span = zmax - zmin;
+  const Quantiser q{zmin, zmax, 65535.0, h.count_nodata() > 0};
   for (size_t i = 0; i < h.size(); ++i) {
-    const double v = h.z[i];
-    const double c = (std::isfinite(v) && span > 0) ? (v - zmin) / span * 65535.0 : 0.0;
-    const unsigned code = unsigned(std::clamp(std::round(c), 0.0, 65535.0));
+    const unsigned code = q.encode(h.z[i]);
     bytes[2 * i] = static_cast<unsigned char>(code & 0xff);
     bytes[2 * i + 1] = static_cast<unsigned char>(code >> 8);
   }

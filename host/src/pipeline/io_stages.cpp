@@ -67,6 +67,10 @@ DataKind check_write(const json& o, DataKind input, const std::string& where) {
   for (const char* k : {"zmin", "zmax"})
     if (!o.at(k).is_null() && (!quantised || input != DataKind::Heightfield))
       fail("pipeline", "{}/{}: only PNG16 and RAW16 heightfield outputs take a vertical range", where, k);
+  const bool gdal_options = !o.at("creation_options").is_null() || o.at("cog").get<bool>() ||
+                            o.at("output_type").get<std::string>() != "Float32";
+  if (gdal_options && (fmt != FileFormat::GeoTIFF || input != DataKind::Heightfield))
+    fail("pipeline", "{}: creation_options, cog and output_type apply to GeoTIFF heightfield outputs (.tif) only", where);
   if (!o.at("zmin").is_null() && !o.at("zmax").is_null() && !(o.at("zmax").get<double>() > o.at("zmin").get<double>()))
     fail("pipeline", "{}/zmax: must be above zmin ({} <= {})", where, o.at("zmax").get<double>(),
          o.at("zmin").get<double>());
@@ -98,6 +102,16 @@ void run_write(StageContext& c) {
   WriteOptions wo;
   if (c.has("zmin")) wo.zmin = c.get<double>("zmin");
   if (c.has("zmax")) wo.zmax = c.get<double>("zmax");
+  wo.cog = c.get<bool>("cog");
+  wo.output_type = c.get<std::string>("output_type");
+  if (c.has("creation_options")) {
+    const json& co = c.options.at("creation_options");
+    if (!co.is_array()) fail(c.tag, "creation_options: expected an array of \"KEY=VALUE\" strings, got {}", co.dump());
+    for (const auto& kv : co) {
+      if (!kv.is_string()) fail(c.tag, "creation_options: expected \"KEY=VALUE\" strings, got {}", kv.dump());
+      wo.creation_options.push_back(kv.get<std::string>());
+    }
+  }
   with_provenance(h.metadata, [&] { write_heightfield(h, f, wo); });
 }
 
@@ -105,6 +119,7 @@ void run_write(StageContext& c) {
 
 void register_crop_stage(StageRegistry& r);  // crop_stage.cpp
 void register_downsample_stage(StageRegistry& r);  // downsample_stage.cpp
+void register_warp_stages(StageRegistry& r);  // warp_stage.cpp
 
 void register_io_stages(StageRegistry& r) {
   StageInfo read{
@@ -141,13 +156,19 @@ void register_io_stages(StageRegistry& r) {
         true},
        {"zmin", OptionType::Float, nullptr, "m", "PNG16/RAW16 output: elevation of code 0 (default: data minimum)"},
        {"zmax", OptionType::Float, nullptr, "m",
-        "PNG16/RAW16 output: elevation of code 65535 (default: data maximum)"}},
+        "PNG16/RAW16 output: elevation of code 65535 (default: data maximum)"},
+       {"creation_options", OptionType::Json, nullptr, "",
+        "GeoTIFF output: GDAL creation options [\"KEY=VALUE\", ...] (gdal_translate -co)"},
+       {"cog", OptionType::Bool, false, "", "GeoTIFF output: Cloud Optimized GeoTIFF (GDAL's COG driver)"},
+       {"output_type", OptionType::Enum, "Float32", "", "GeoTIFF output: band type (rounded for integer types)",
+        {"Float32", "Float64", "Int16", "UInt16", "Int32"}}},
       run_write,
       false,
       check_write};
   r.add(std::move(write));
   register_crop_stage(r);
   register_downsample_stage(r);
+  register_warp_stages(r);
 }
 
 }  // namespace terracl

@@ -240,7 +240,7 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
   return out;
 }
 
-std::string stages_markdown() {
+std::string stages_markdown(const std::vector<std::string>& commands) {
   std::ostringstream md;
   md << "# terracl stages\n\nGenerated from the stage table by `terracl stages --markdown`; do not edit.\n"
         "Each stage runs as `terracl <stage> [IN] -o OUT [--option value ...]` or as "
@@ -251,7 +251,10 @@ std::string stages_markdown() {
     const bool passes = s.input != DataKind::None && (s.output == DataKind::None || s.output == DataKind::Any);
     md << "\n## " << s.name << "\n\n" << s.description << "\n\nInput: " << data_kind_name(s.input)
        << "; output: " << (passes ? "its input, unchanged" : data_kind_name(s.output))
-       << (s.cli ? "" : "; pipeline only") << ".\n\n";
+       << (s.cli || std::find(commands.begin(), commands.end(), s.name) != commands.end()
+               ? ""
+               : "; pipeline only")
+       << ".\n\n";
     if (s.options.empty()) {
       md << "No options.\n";
       continue;

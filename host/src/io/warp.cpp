@@ -1,0 +1,128 @@
+// `warp` on GDAL's warper through gdal_utils' GDALWarp (the code of the gdalwarp program), so the
+// options mean and do exactly what they do in gdalwarp; no resampler of our own. The heightfield
+// travels as an in-memory (MEM) dataset both ways.
+#include "io/gdal_common.hpp"
+
+#include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
+#include <terracl/warp.hpp>
+
+#include <cpl_string.h>
+#include <gdal_utils.h>
+#include <ogr_spatialref.h>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace terracl {
+namespace {
+
+std::string num(double v) { return fmt::format("{:.17g}", v); }
+
+int CPL_STDCALL warp_progress(double fraction, const char*, void* data) {
+  const Progress& p = *static_cast<const Progress*>(data);
+  return (!p || p(fraction, "warping")) ? TRUE : FALSE;
+}
+
+void check_options(const WarpOptions& o, const std::string& stage) {
+  const auto& r = warp_resamplings();
+  if (std::find(r.begin(), r.end(), o.resampling) == r.end())
+    fail(stage, "resampling '{}' is not one of {}", abbreviate(o.resampling, 30), fmt::join(r, "|"));
+  if (o.tr && o.ts) fail(stage, "--tr and --ts exclude each other (give a cell size or a size, as in gdalwarp)");
+  if (o.tr && !((*o.tr)[0] > 0 && (*o.tr)[1] > 0 && std::isfinite((*o.tr)[0]) && std::isfinite((*o.tr)[1])))
+    fail(stage, "--tr {} {}: the target cell size must be two positive numbers", (*o.tr)[0], (*o.tr)[1]);
+  if (o.ts) {
+    const auto [w, h] = *o.ts;
+    if (w < 0 || h < 0 || (w == 0 && h == 0) || w > 65536 || h > 65536)
+      fail(stage, "--ts {} {}: the target size must be in 1..65536 cells (0 in one of them keeps the aspect ratio)", w,
+           h);
+  }
+  if (o.projwin) {
+    const auto& p = *o.projwin;
+    if (!std::all_of(p.begin(), p.end(), [](double v) { return std::isfinite(v); }) || !(p[2] > p[0]) || !(p[1] > p[3]))
+      fail(stage, "--projwin {} {} {} {}: expected ulx uly lrx lry with lrx > ulx and uly > lry", p[0], p[1], p[2], p[3]);
+  }
+  if (!o.t_srs.empty()) {
+    OGRSpatialReference srs;
+    if (srs.SetFromUserInput(o.t_srs.c_str()) != OGRERR_NONE)
+      fail(stage, "--t-srs '{}': not a CRS GDAL knows (try EPSG:32619, a WKT or a PROJ string)", abbreviate(o.t_srs, 60));
+  }
+}
+
+}  // namespace
+
+const std::vector<std::string>& warp_resamplings() {
+  static const std::vector<std::string> r = {"near", "bilinear", "cubic", "cubicspline", "lanczos", "average"};
+  return r;
+}
+
+std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_has_nodata) {
+  std::vector<std::string> a = {"-r", o.resampling, "-ot", "Float32"};
+  if (!o.t_srs.empty()) a.insert(a.end(), {"-t_srs", o.t_srs});
+  if (o.tr) a.insert(a.end(), {"-tr", num((*o.tr)[0]), num((*o.tr)[1])});
+  if (o.ts) a.insert(a.end(), {"-ts", std::to_string((*o.ts)[0]), std::to_string((*o.ts)[1])});
+  if (o.projwin) {
+    const auto& p = *o.projwin;
+    a.insert(a.end(), {"-te", num(p[0]), num(p[3]), num(p[2]), num(p[1])});
+  }
+  // Without a source nodata, gdalwarp fills cells outside the source with 0, an elevation.
+  if (!source_has_nodata) a.insert(a.end(), {"-dstnodata", "nan"});
+  return a;
+}
+
+Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& progress, const std::string& stage) {
+  io::init_gdal();
+  check_options(o, stage);
+  if (h.width <= 0 || h.height <= 0) fail(stage, "the input has no cells");
+  if (!o.t_srs.empty() && h.georef.crs_wkt.empty())
+    fail(stage, "--t-srs needs an input with a CRS; this raster has none (a PNG/RAW16 sidecar or a GeoTIFF carries it)");
+  Heightfield src_copy;
+  const Heightfield* src = &h;
+  const bool local = !h.georef.has_geotransform;
+  if (local) {
+    // A grid without georeferencing: x east, y south, in metres of its cell size.
+    src_copy = h;
+    src_copy.georef.geotransform = {0.0, h.georef.cell_x, 0.0, 0.0, 0.0, -h.georef.cell_y};
+    src_copy.georef.has_geotransform = true;
+    src = &src_copy;
+  }
+  const bool has_nodata = h.georef.nodata.has_value() || h.count_nodata() > 0;
+  io::DatasetPtr mem = io::to_mem_dataset(*src, GDT_Float32);
+
+  std::vector<std::string> args = gdalwarp_arguments(o, has_nodata);
+  args.insert(args.begin(), {"-of", "MEM"});
+  // GDAL's default of 64 MB of warp memory makes large rasters crawl in small chunks.
+  args.insert(args.end(), {"-wm", "512"});
+  CPLStringList argv;
+  for (const auto& s : args) argv.AddString(s.c_str());
+  GDALWarpAppOptions* wo = GDALWarpAppOptionsNew(argv.List(), nullptr);
+  if (!wo) fail(stage, "GDAL refused the warp options ({})", io::last_gdal_error());
+  GDALWarpAppOptionsSetProgress(wo, warp_progress, const_cast<Progress*>(&progress));
+  GDALDatasetH in = GDALDataset::ToHandle(mem.get());
+  int usage_error = FALSE;
+  CPLErrorReset();
+  GDALDatasetH out = GDALWarp("", nullptr, 1, &in, wo, &usage_error);
+  GDALWarpAppOptionsFree(wo);
+  if (!out) {
+    if (progress && !progress(1.0, "warping")) throw Cancelled(stage, "cancelled");
+    fail(stage, "GDAL's warp failed ({})", io::last_gdal_error());
+  }
+  io::DatasetPtr dst(GDALDataset::FromHandle(out));
+  Heightfield r = io::from_dataset(*dst, "warp output");
+  r.metadata = h.metadata;
+  r.georef.vertical_units = h.georef.vertical_units;
+  r.georef.nodata = h.georef.nodata;
+  if (local) {
+    r.georef.cell_x = std::fabs(r.georef.geotransform[1]);
+    r.georef.cell_y = std::fabs(r.georef.geotransform[5]);
+    r.georef.has_geotransform = false;
+    r.georef.crs_wkt.clear();
+  }
+  if (r.count_nodata() == r.size())
+    fail(stage, "every output cell is nodata: the window or CRS does not overlap the input");
+  return r;
+}
+
+}  // namespace terracl
