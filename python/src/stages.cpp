@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
 #include <filesystem>
 
 namespace terracl::python {
@@ -87,6 +88,38 @@ py::object run_stage(const std::string& name, py::object input, const py::dict& 
   if (data.height) return py::cast(std::move(*data.height));
   if (data.gradient) return py::cast(std::move(*data.gradient));
   return py::none();
+}
+
+// For python/bench_overhead.py: the same stage call made from C++ `repeats` times (options
+// resolved and the stage run, as a C++ program or the CLI does; the input's copy into the stage
+// data is not timed), so that the Python call's wall time can be compared with it.
+std::vector<double> time_stage(const std::string& name, py::object input, const py::dict& kwargs, py::object device,
+                               int repeats) {
+  const StageInfo& s = find_stage(name);
+  const json options = options_of(kwargs);
+  const std::string spec = device_spec(device);
+  StageData proto;
+  if (py::isinstance<GradientField>(input)) {
+    proto.gradient = input.cast<const GradientField&>();
+    proto.current = DataKind::Gradient;
+  } else if (!input.is_none()) {
+    proto.height = to_heightfield(input, name + " input");
+    proto.current = DataKind::Heightfield;
+  }
+  ProgressBridge bridge;
+  return run_released(nullptr, bridge, [&] {
+    std::vector<double> ms;
+    for (int i = 0; i < repeats; ++i) {
+      StageData data = proto;
+      const auto t0 = std::chrono::steady_clock::now();
+      LazyDevice lazy(spec);
+      const json resolved = resolve(s, options);
+      StageContext ctx{data, resolved, [&lazy]() -> Device& { return lazy(); }, Progress{}, s.name, Metadata{}};
+      s.run(ctx);
+      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return ms;
+  });
 }
 
 py::dict stage_table() {
@@ -248,6 +281,8 @@ void init_stages(py::module_& m) {
   m.def("_run_stage", &run_stage, py::arg("name"), py::arg("input"), py::arg("options"), py::arg("device") = py::none(),
         py::arg("progress") = py::none());
   m.def("_stage_table", &stage_table);
+  m.def("_time_stage", &time_stage, py::arg("name"), py::arg("input"), py::arg("options"), py::arg("device") = py::none(),
+        py::arg("repeats") = 1);
   m.def("_edit", &edit, py::arg("base"), py::arg("script"), py::arg("base_dir") = py::none(),
         py::arg("device") = py::none(), py::arg("progress") = py::none());
   m.def("_render", &render_image, py::arg("input"), py::arg("options"), py::arg("device") = py::none(),
