@@ -15,7 +15,7 @@ PACKAGES=(
   libcpp-httplib-dev libjs-three
   chromium chromium-driver python3-selenium python3-gdal python3-numpy
   clang libclang-rt-14-dev
-  pybind11-dev python3-pytest python3-setuptools python3-pip
+  pybind11-dev python3-dev python3-pytest python3-setuptools python3-pip
 )
 
 missing=()
