@@ -144,3 +144,18 @@ def test_session_keeps_state_and_solves_warm(tmp_path):
     assert e.value.stage == "edit"
     s.progress = None
     assert s.solve()["converged"]
+
+
+def test_ctrl_c_stops_a_long_stage(dem):
+    """SIGINT while the main thread is inside a stage (GIL released) cancels it at the next progress
+    report; the KeyboardInterrupt is the Cancelled's cause."""
+    import os
+    import signal
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.perf_counter()
+    with pytest.raises(terracl.Cancelled) as e:
+        terracl.erode(dem, steps=200000)
+    timer.join()
+    assert isinstance(e.value.__cause__, KeyboardInterrupt)
+    assert time.perf_counter() - t0 < 60
