@@ -1,0 +1,66 @@
+"""pip install --no-build-isolation .  -> the `terracl` Python package (docs/python.md).
+
+Drives CMake (the top CMakeLists.txt with only the Python module enabled) and puts the built
+extension beside python/terracl/*.py. Needs Debian's python3-setuptools, pybind11-dev and the
+build dependencies of scripts/install-deps.sh; no PyPI access (hence --no-build-isolation).
+Environment: TERRACL_CMAKE_ARGS (extra cmake arguments), TERRACL_BUILD_JOBS (default 2).
+"""
+import os
+import shlex
+import subprocess
+import sys
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+ROOT = os.path.dirname(os.path.abspath(__file__))
+
+
+def version():
+    with open(os.path.join(ROOT, "CMakeLists.txt")) as f:
+        for line in f:
+            if line.startswith("project(terracl VERSION"):
+                return line.split("VERSION")[1].split()[0]
+    return "0.0.0"
+
+
+class CMakeExtension(Extension):
+    def __init__(self, name):
+        super().__init__(name, sources=[])
+
+
+class CMakeBuild(build_ext):
+    def build_extension(self, ext):
+        out_dir = os.path.dirname(os.path.abspath(self.get_ext_fullpath(ext.name)))
+        build_dir = os.path.abspath(os.path.join(self.build_temp, "cmake"))
+        os.makedirs(build_dir, exist_ok=True)
+        args = [
+            "-DCMAKE_BUILD_TYPE=Release",
+            "-DPython3_EXECUTABLE=" + sys.executable,
+            "-DTERRACL_BUILD_PYTHON=ON",
+            "-DTERRACL_BUILD_TESTS=OFF",
+            "-DTERRACL_BUILD_APPS=OFF",
+            "-DTERRACL_BUILD_BENCHMARKS=OFF",
+        ] + shlex.split(os.environ.get("TERRACL_CMAKE_ARGS", ""))
+        subprocess.check_call(["cmake", "-S", ROOT, "-B", build_dir] + args)
+        subprocess.check_call(["cmake", "--build", build_dir, "--target", "terracl_python",
+                               "-j", os.environ.get("TERRACL_BUILD_JOBS", "2")])
+        built = os.path.join(build_dir, "python", "terracl")
+        os.makedirs(out_dir, exist_ok=True)
+        for name in os.listdir(built):
+            if name.startswith("_terracl") and name.endswith(".so"):
+                self.copy_file(os.path.join(built, name), os.path.join(out_dir, name))
+
+
+setup(
+    name="terracl",
+    version=version(),
+    description="Terrain authoring in the gradient domain on OpenCL devices (Python bindings)",
+    packages=["terracl"],
+    package_dir={"": "python"},
+    ext_modules=[CMakeExtension("terracl._terracl")],
+    cmdclass={"build_ext": CMakeBuild},
+    python_requires=">=3.9",
+    install_requires=["numpy"],
+    zip_safe=False,
+)
