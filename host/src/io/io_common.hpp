@@ -7,6 +7,8 @@
 
 #include <string>
 
+class GDALDataset;
+
 namespace terracl::io {
 
 /// What the file's first bytes say it is ("PNG", "TIFF", "EXR", "" when unknown or empty).
@@ -35,6 +37,15 @@ void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long 
 std::pair<double, double> finite_range(const std::vector<float>& z);
 
 Heightfield read_gdal(const std::string& path);
+/// GDAL set up once (drivers, quiet error handler) and its last error message, for the other GDAL
+/// users of host/src/io (gdal_window.cpp).
+void gdal_init();
+std::string gdal_last_error();
+/// Georef (metric cell size of the whole raster) and terracl metadata of an open dataset; sets
+/// georef.nodata but converts no value (convert_nodata does, on what was read).
+void read_gdal_header(GDALDataset& ds, Heightfield& out);
+/// Cells equal to georef.nodata become NaN.
+void convert_nodata(Heightfield& h);
 void write_geotiff(const Heightfield& h, const std::string& tmp_path);
 
 Heightfield read_oiio(const std::string& path, const ReadOptions& opts);
