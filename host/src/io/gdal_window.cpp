@@ -12,6 +12,8 @@
 #include <gdal_priv.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <utility>
 #include <fmt/format.h>
 
 namespace terracl::io {
@@ -29,6 +31,16 @@ GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   m_header.width = w;
   m_header.height = h;
   read_gdal_header(*m_ds, m_header);
+  // As read_heightfield: our own non-georeferenced GeoTIFFs keep their metric cell size as metadata.
+  if (!m_header.georef.has_geotransform) {
+    for (auto [key, v] : {std::pair{"terracl:cell_x", &m_header.georef.cell_x}, {"terracl:cell_y", &m_header.georef.cell_y}})
+      if (auto it = m_header.metadata.find(key); it != m_header.metadata.end()) {
+        const double d = std::strtod(it->second.c_str(), nullptr);
+        if (std::isfinite(d) && d > 0) *v = d;
+      }
+  }
+  m_header.metadata.erase("terracl:cell_x");
+  m_header.metadata.erase("terracl:cell_y");
 }
 
 GdalWindowReader::~GdalWindowReader() {
