@@ -305,7 +305,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   }
   int T = tile_size(seg, per_cell * (1 + 4.0 * (total_halo + extra_halo) / 256.0), fixed);
   if (has_global && m_t.memory_budget > 0) {
-    const double graph = 4.0 * double(levels.back().w) * levels.back().h / T * 150.0;
+    // Perimeter cells (4 per tile side cell), each with its node, about four edges while the graph
+    // is built (24 B each) and its adjacency: about 200 B per perimeter cell at the peak.
+    const double graph = 4.0 * double(levels.back().w) * levels.back().h / T * 200.0;
     if (graph + per_cell * double(T) * T > 0.5 * double(m_t.memory_budget))
       throw UsageError("run", fmt::format("--memory-budget {}: the tiled fill's perimeter graph ({} with {} tiles) and a "
                                           "tile do not fit; use a larger --tile or budget",
@@ -320,9 +322,14 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   const Progress prog = progress(seg.ops.empty() ? (global ? global->tag : "tiles") : seg.ops.front().st->tag);
   StageData data;
   const Metadata no_provenance;
+  // Cores per level (forward), then the windows each level needs (backward), for every tile; tiles
+  // that no writer needs (outside a crop) are dropped, so that progress counts real work.
+  struct TilePlan {
+    std::vector<Win> core, need;
+  };
+  std::vector<TilePlan> plans;
   for (int j = 0; j < ty && !seg.ops.empty(); ++j)
     for (int i = 0; i < tx; ++i) {
-      // Cores per level (forward), then the windows each level needs (backward).
       std::vector<Win> core(nl), need(nl);
       core[0] = {i * T, j * T, std::min(W0.w, (i + 1) * T), std::min(W0.h, (j + 1) * T)};
       for (const Op& op : seg.ops) {
@@ -356,7 +363,11 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           need[l] = unite(need[l], pre);
         }
       }
-      if (need[0].empty()) continue;
+      if (!need[0].empty()) plans.push_back({std::move(core), std::move(need)});
+    }
+  for (size_t ti = 0; ti < plans.size(); ++ti) {
+    const std::vector<Win>& core = plans[ti].core;
+    const std::vector<Win>& need = plans[ti].need;
       auto t0 = Clock::now();
       Win have = need[0];
       data = StageData{};
@@ -419,9 +430,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
         const Win& c = core[nl - 1];
         temp_writer->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
       }
-      const int k = j * tx + i + 1;
-      report_progress(prog, "tiles", double(k) / (tx * ty), fmt::format("tile {}/{}", k, tx * ty));
-    }
+      report_progress(prog, "tiles", double(ti + 1) / plans.size(), fmt::format("tile {}/{}", ti + 1, plans.size()));
+  }
   for (auto& [st, wr] : writers) {
     auto t0 = Clock::now();
     wr->commit();
