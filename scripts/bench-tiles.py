@@ -48,19 +48,19 @@ def run(name, extra):
     p = f"{a.out}/{name}.json"
     with open(p, "w") as f:
         f.write(f'["{mosaic}", "fill_depressions", "{a.out}/{name}.tif"]\n')
-    cmd = ["/usr/bin/time", "-f", "%e %M", a.terracl, "-q", "run", p] + extra
+    cmd = ["/usr/bin/time", "-f", "%e %U %S %M", a.terracl, "-q", "run", p] + extra
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed:\n{r.stdout}{r.stderr}")
-    wall, rss_kb = r.stderr.strip().splitlines()[-1].split()
+    wall, user, system, rss_kb = r.stderr.strip().splitlines()[-1].split()
     chk = subprocess.run(["gdalinfo", "-checksum", f"{a.out}/{name}.tif"], capture_output=True, text=True).stdout
     chk = [l.split("=")[1] for l in chk.splitlines() if "Checksum=" in l][0]
-    print(f"| {name} | {' '.join(extra) or '(untiled)'} | {float(wall):.1f} | {int(rss_kb) / 1024:.0f} | {chk} |")
+    print(f"| {name} | {' '.join(extra) or '(untiled)'} | {float(wall):.1f} | {float(user) + float(system):.1f} | {int(rss_kb) / 1024:.0f} | {chk} |", flush=True)
 
 
 print(f"fill_depressions of a {n} x {n} SRTM mosaic ({n * n / 1e6:.0f} M cells, {n * n * 4 / 2**20:.0f} MiB float32)")
-print("| run | options | wall s | peak RSS MiB | GDAL checksum |")
-print("|---|---|---|---|---|")
+print("| run | options | wall s | CPU s | peak RSS MiB | GDAL checksum |")
+print("|---|---|---|---|---|---|")
 if not a.skip_untiled:
     run("untiled", [])
 extra = ["--tile", str(a.tile)] + (["--memory-budget", a.budget] if a.budget else [])
