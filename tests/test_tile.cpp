@@ -1,11 +1,6 @@
 // Tiled (out-of-core) pipeline runs against untiled ones: the same cells bit for bit, the same
 // georeferencing and provenance, on rasters with many tiles, odd sizes, nodata, a VRT mosaic and
 // a global stage (fill_depressions); refusals that name the stage and the limit.
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/pipeline.hpp>
-#include <terracl/tile.hpp>
-
 #include <gdal.h>
 #include <gdal_utils.h>
 #include <gtest/gtest.h>
@@ -13,6 +8,10 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
 
@@ -139,7 +138,8 @@ TEST(Tile, FillDepressionsEqualsUntiledWithNodataAndOddSizes) {
   // Straight from the source (the fill reads it), and behind a crop and before a downsample (the
   // fill reads and writes temporary tiled files).
   const std::string doc = R"([")" + in + R"(", "fill_depressions", "OUT/f.tif",
-      {"type": "read", "filename": ")" + in + R"("}, {"type": "crop", "x": 1, "y": 2, "width": 280},
+      {"type": "read", "filename": ")" +
+                          in + R"("}, {"type": "crop", "x": 1, "y": 2, "width": 280},
       {"type": "fill_depressions", "tag": "fill2"}, "OUT/g.tif", {"type": "fill_nodata", "tag": "skip"}])";
   TileOptions to;
   to.tile = 37;
@@ -199,13 +199,14 @@ TEST(Tile, UntileableStagesAreRefusedNamingStageAndLimit) {
   struct Case {
     std::string stage, expect;
   };
-  for (const Case& c : {Case{R"({"type": "erode"})", "/1: stage 'erode' (erode) cannot run tiled"},
-                        Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"},
-                        Case{R"("extract")", "gradient field"},
-                        Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "amplify untiled"}}) {
-    Pipeline p = Pipeline::parse(json::parse("[\"" + in + "\", " + c.stage + ", \"" + dir.path("o.tif") + "\"]"),
-                                 "x", "x.json");
-    if (c.expect == "gradient field") p = Pipeline::parse(json::parse("[\"" + in + "\", \"extract\", \"" + dir.path("o.exr") + "\"]"), "x", "x.json");
+  for (const Case& c :
+       {Case{R"({"type": "erode"})", "/1: stage 'erode' (erode) cannot run tiled"},
+        Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"}, Case{R"("extract")", "gradient field"},
+        Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "amplify untiled"}}) {
+    Pipeline p =
+        Pipeline::parse(json::parse("[\"" + in + "\", " + c.stage + ", \"" + dir.path("o.tif") + "\"]"), "x", "x.json");
+    if (c.expect == "gradient field")
+      p = Pipeline::parse(json::parse("[\"" + in + "\", \"extract\", \"" + dir.path("o.exr") + "\"]"), "x", "x.json");
     p.validate();
     RunReport r;
     TileOptions to;

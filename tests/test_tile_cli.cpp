@@ -1,7 +1,5 @@
 // `terracl run --tile` as a user runs it: the memory bound (peak RSS independent of the raster
 // size, under a deliberately small --memory-budget), progress per tile, and usage errors.
-#include <terracl/io.hpp>
-
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -9,6 +7,7 @@
 
 #include <fstream>
 #include <string>
+#include <terracl/io.hpp>
 #include <vector>
 
 #include "test_helpers.hpp"
@@ -59,7 +58,10 @@ TEST(TileCli, PeakMemoryStaysBoundedUnderASmallBudget) {
   const std::string small = pipeline(dir, big_input(dir, 600, 600), "small", false);
   const std::string large = pipeline(dir, big_input(dir, 2400, 2400), "large", false);
   const std::vector<std::string> tiled = {"-q", "run", "--memory-budget", "16M"};
-  auto with = [](std::vector<std::string> v, const std::string& p) { v.push_back(p); return v; };
+  auto with = [](std::vector<std::string> v, const std::string& p) {
+    v.push_back(p);
+    return v;
+  };
   const double rss_small = peak_rss_mib(with(tiled, small));
   const double rss_large = peak_rss_mib(with(tiled, large));
   const double rss_untiled = peak_rss_mib({"-q", "run", large, "--set", "write.filename=" + dir.path("large_u.tif")});
@@ -87,7 +89,6 @@ TEST(TileCli, ProgressPerTileAndUsageErrors) {
   const auto bad_halo = test::run_cli("run " + p + " --tile 64 --halo wide");
   EXPECT_EQ(bad_halo.exit_code, 2) << bad_halo.out;
   EXPECT_NE(bad_halo.out.find("--halo"), std::string::npos);
-
 }
 
 }  // namespace

@@ -1,15 +1,14 @@
 // Exact tiled Priority-Flood (Barnes 2016) against the untiled fill: bit for bit on rasters with
 // many tiles, odd sizes, nodata and depressions spanning tiles.
-#include <terracl/analysis.hpp>
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/tile.hpp>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <terracl/analysis.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
 

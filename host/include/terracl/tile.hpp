@@ -4,14 +4,13 @@
 /// global stages use. Every stage declares how it tiles (tiling_of): local stages read their
 /// footprint as a halo and give the untiled result bit for bit; global stages either have an exact
 /// tiled algorithm or refuse with an error naming the limit.
-#include <terracl/heightfield.hpp>
-#include <terracl/pipeline.hpp>
-#include <terracl/progress.hpp>
-
 #include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
+#include <terracl/heightfield.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/progress.hpp>
 
 namespace terracl {
 
@@ -27,18 +26,18 @@ enum class TileKind {
 
 struct StageTiling {
   TileKind kind = TileKind::Untileable;
-  int halo = 0;          ///< Local: footprint radius in input cells
-  int down = 1;          ///< Local: output cell = block of down x down input cells (downsample)
-  std::string limit;     ///< Untileable: the reason, for the error message
+  int halo = 0;       ///< Local: footprint radius in input cells
+  int down = 1;       ///< Local: output cell = block of down x down input cells (downsample)
+  std::string limit;  ///< Untileable: the reason, for the error message
 };
 
 /// The stage table's tiling column: how `stage` (with its resolved options) tiles.
 StageTiling tiling_of(const PipelineStage& stage);
 
 struct TileOptions {
-  int tile = 0;                  ///< core side in cells at each segment's source (0: from the budget, else 2048)
-  std::optional<int> halo;       ///< extra halo; nullopt = auto (each stage's footprint)
-  uint64_t memory_budget = 0;    ///< bytes of host memory for tiles and GDAL's cache (0: no limit)
+  int tile = 0;                ///< core side in cells at each segment's source (0: from the budget, else 2048)
+  std::optional<int> halo;     ///< extra halo; nullopt = auto (each stage's footprint)
+  uint64_t memory_budget = 0;  ///< bytes of host memory for tiles and GDAL's cache (0: no limit)
 };
 
 /// "512M", "2G", "1.5GiB", "300000000" -> bytes; throws UsageError naming `what` otherwise.

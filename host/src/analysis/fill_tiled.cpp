@@ -10,12 +10,11 @@
 //  3. each tile is flooded again (same order, same labels) and every cell becomes
 //     max(local fill, spill of its label).
 // Only max/min of input values are taken, so the result is bit for bit the untiled fill.
-#include <terracl/error.hpp>
-#include <terracl/tile.hpp>
-
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <terracl/error.hpp>
+#include <terracl/tile.hpp>
 #include <unordered_map>
 
 #include "analysis/grid.hpp"
@@ -38,8 +37,8 @@ struct Tile {
 struct LocalFlood {
   int cw = 0, ch = 0, pw = 0;
   std::vector<float> z;
-  std::vector<uint32_t> label;       // local label: 0 ocean, k >= 1 seed k
-  std::vector<uint64_t> seed_node;   // local label -> global node id
+  std::vector<uint32_t> label;                // local label: 0 ocean, k >= 1 seed k
+  std::vector<uint64_t> seed_node;            // local label -> global node id
   std::unordered_map<uint64_t, float> pairs;  // (la << 32 | lb), la < lb -> lowest spill
   ptrdiff_t off[8];
 
@@ -182,7 +181,8 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
       }
       if (outlet) edges.push_back({0, f.seed_node[s], -INFINITY});
     }
-    report_progress(progress, "fill", (ti + 1) / n_steps, fmt::format("tile {}/{}: perimeter graph", ti + 1, tiles.size()));
+    report_progress(progress, "fill", (ti + 1) / n_steps,
+                    fmt::format("tile {}/{}: perimeter graph", ti + 1, tiles.size()));
   }
 
   // Pass 2: spill elevations, a minimax Dijkstra from the ocean over the perimeter graph.
@@ -192,7 +192,9 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
   for (const Edge& e : edges) nodes.push_back(e.a), nodes.push_back(e.b);
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-  auto node_index = [&](uint64_t id) { return uint32_t(std::lower_bound(nodes.begin(), nodes.end(), id) - nodes.begin()); };
+  auto node_index = [&](uint64_t id) {
+    return uint32_t(std::lower_bound(nodes.begin(), nodes.end(), id) - nodes.begin());
+  };
   std::vector<uint32_t> start(nodes.size() + 1, 0);
   for (const Edge& e : edges) start[node_index(e.a) + 1]++, start[node_index(e.b) + 1]++;
   for (size_t i = 0; i < nodes.size(); ++i) start[i + 1] += start[i];

@@ -3,25 +3,25 @@
 // would see; only the geotransform moves to the window.
 #include "io/gdal_window.hpp"
 
-#include "io/io_common.hpp"
-
-#include <terracl/error.hpp>
-
 #include <cpl_conv.h>
 #include <cpl_error.h>
+#include <fmt/format.h>
 #include <gdal_priv.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <terracl/error.hpp>
 #include <utility>
-#include <fmt/format.h>
+
+#include "io/io_common.hpp"
 
 namespace terracl::io {
 
 GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   gdal_init();
   CPLErrorReset();
-  m_ds = static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  m_ds =
+      static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
   if (!m_ds) fail("io", "{}: not a raster GDAL can read ({})", path, gdal_last_error());
   const int w = m_ds->GetRasterXSize(), h = m_ds->GetRasterYSize();
   if (w <= 0 || h <= 0 || m_ds->GetRasterCount() < 1) {
@@ -33,7 +33,8 @@ GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   read_gdal_header(*m_ds, m_header);
   // As read_heightfield: our own non-georeferenced GeoTIFFs keep their metric cell size as metadata.
   if (!m_header.georef.has_geotransform) {
-    for (auto [key, v] : {std::pair{"terracl:cell_x", &m_header.georef.cell_x}, {"terracl:cell_y", &m_header.georef.cell_y}})
+    for (auto [key, v] :
+         {std::pair{"terracl:cell_x", &m_header.georef.cell_x}, {"terracl:cell_y", &m_header.georef.cell_y}})
       if (auto it = m_header.metadata.find(key); it != m_header.metadata.end()) {
         const double d = std::strtod(it->second.c_str(), nullptr);
         if (std::isfinite(d) && d > 0) *v = d;

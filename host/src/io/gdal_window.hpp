@@ -2,12 +2,11 @@
 // Window-by-window raster I/O through GDAL, for tiled (out-of-core) runs: a reader that reads any
 // window of a GDAL raster (a VRT mosaic included) and a writer that fills a tiled GeoTIFF window by
 // window. Neither holds more than the window it is given (plus GDAL's block cache).
-#include <terracl/heightfield.hpp>
-
 #include <memory>
 #include <optional>
-#include <vector>
 #include <string>
+#include <terracl/heightfield.hpp>
+#include <vector>
 
 class GDALDataset;
 

@@ -11,20 +11,19 @@
 // stages give the untiled result bit for bit. A global stage (fill_depressions) runs its own
 // exact tiled algorithm from the previous segment's output (a temporary tiled GeoTIFF, or the
 // source itself) into the next segment's source.
-#include <terracl/error.hpp>
-#include <terracl/io.hpp>
-#include <terracl/memory.hpp>
-#include <terracl/tile.hpp>
-#include <terracl/version.hpp>
-
-#include <gdal.h>
 #include <fmt/format.h>
+#include <gdal.h>
 
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/memory.hpp>
+#include <terracl/tile.hpp>
+#include <terracl/version.hpp>
 
 #include "io/gdal_window.hpp"
 
@@ -193,7 +192,8 @@ void TiledRun::run() {
     }
     const StageTiling tl = tiling_of(st);
     if (tl.kind == TileKind::Untileable) refuse(st, tl.limit);
-    if (st.info->input == DataKind::None && tl.kind != TileKind::Source) refuse(st, "a tiled chain starts with a reader");
+    if (st.info->input == DataKind::None && tl.kind != TileKind::Source)
+      refuse(st, "a tiled chain starts with a reader");
   }
   size_t first = 0;
   for (size_t i = 1; i <= stages.size(); ++i)
@@ -251,9 +251,10 @@ void TiledRun::run_chain(size_t first, size_t last) {
       const int64_t w = st.options.at("width").is_null() ? level.w - x0 : st.options.at("width").get<int64_t>();
       const int64_t h = st.options.at("height").is_null() ? level.h - y0 : st.options.at("height").get<int64_t>();
       if (x0 < 0 || y0 < 0 || w < 1 || h < 1 || x0 + w > level.w || y0 + h > level.h)
-        throw Error(st.tag, fmt::format("window x {}..{}, y {}..{} does not fit in the {} x {} raster (pipeline stage {}, "
-                                        "tag '{}')",
-                                        x0, x0 + w - 1, y0, y0 + h - 1, level.w, level.h, st.where, st.tag));
+        throw Error(st.tag,
+                    fmt::format("window x {}..{}, y {}..{} does not fit in the {} x {} raster (pipeline stage {}, "
+                                "tag '{}')",
+                                x0, x0 + w - 1, y0, y0 + h - 1, level.w, level.h, st.where, st.tag));
       Georef g = georef_at(level.georef, int(x0), int(y0));
       if (g.has_geotransform) g.update_metric_cell_size(int(w), int(h));  // as crop: the window's centre latitude
       level = {int(w), int(h), g};
@@ -309,9 +310,10 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     // is built (24 B each) and its adjacency: about 200 B per perimeter cell at the peak.
     const double graph = 4.0 * double(levels.back().w) * levels.back().h / T * 200.0;
     if (graph + per_cell * double(T) * T > 0.5 * double(m_t.memory_budget))
-      throw UsageError("run", fmt::format("--memory-budget {}: the tiled fill's perimeter graph ({} with {} tiles) and a "
-                                          "tile do not fit; use a larger --tile or budget",
-                                          human_bytes(double(m_t.memory_budget)), human_bytes(graph), T));
+      throw UsageError("run",
+                       fmt::format("--memory-budget {}: the tiled fill's perimeter graph ({} with {}-cell tiles) and a "
+                                   "tile do not fit; use a larger --tile or budget",
+                                   human_bytes(double(m_t.memory_budget)), human_bytes(graph), T));
   }
 
   // Writers of this segment, created at the first tile that reaches them.
@@ -368,69 +370,71 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   for (size_t ti = 0; ti < plans.size(); ++ti) {
     const std::vector<Win>& core = plans[ti].core;
     const std::vector<Win>& need = plans[ti].need;
-      auto t0 = Clock::now();
-      Win have = need[0];
-      data = StageData{};
-      data.height = seg.source->read(have.x0, have.y0, have.w(), have.h());
-      data.height->georef = georef_at(levels[0].georef, have.x0, have.y0);
-      drop_terracl_keys(data.height->metadata);
-      m_seconds[seg.read_tag] += std::chrono::duration<double>(Clock::now() - t0).count();
-      for (const Op& op : seg.ops) {
-        const int l = op.level;
-        m_report.running = op.st->tag;
-        t0 = Clock::now();
-        if (op.tiling.kind == TileKind::Sink) {
-          if (core[l].empty()) continue;
-          auto& wr = writers[op.st];
-          if (!wr) {
-            Metadata md = data.height->metadata;
-            drop_terracl_keys(md);
-            for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
-            const std::string f = op.st->options.at("filename").get<std::string>();
-            wr = std::make_unique<io::GeoTiffWindowWriter>(f, levels[l].w, levels[l].h, levels[l].georef, md);
-          }
-          const Win& c = core[l];
-          wr->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+    auto t0 = Clock::now();
+    Win have = need[0];
+    data = StageData{};
+    data.height = seg.source->read(have.x0, have.y0, have.w(), have.h());
+    data.height->georef = georef_at(levels[0].georef, have.x0, have.y0);
+    drop_terracl_keys(data.height->metadata);
+    m_seconds[seg.read_tag] += std::chrono::duration<double>(Clock::now() - t0).count();
+    for (const Op& op : seg.ops) {
+      const int l = op.level;
+      m_report.running = op.st->tag;
+      t0 = Clock::now();
+      if (op.tiling.kind == TileKind::Sink) {
+        if (core[l].empty()) continue;
+        auto& wr = writers[op.st];
+        if (!wr) {
+          Metadata md = data.height->metadata;
+          drop_terracl_keys(md);
+          for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
+          const std::string f = op.st->options.at("filename").get<std::string>();
+          wr = std::make_unique<io::GeoTiffWindowWriter>(f, levels[l].w, levels[l].h, levels[l].georef, md);
+        }
+        const Win& c = core[l];
+        wr->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+      } else {
+        const Win& n = need[l + 1];
+        if (n.empty()) break;
+        if (op.tiling.kind == TileKind::Window) {
+          const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
+          Heightfield part =
+              extract(*data.height, have, {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0}, levels[l].georef);
+          part.georef = georef_at(levels[l + 1].georef, n.x0, n.y0);
+          data.height = std::move(part);
+          have = n;
         } else {
-          const Win& n = need[l + 1];
-          if (n.empty()) break;
-          if (op.tiling.kind == TileKind::Window) {
-            const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
-            Heightfield part = extract(*data.height, have, {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0}, levels[l].georef);
-            part.georef = georef_at(levels[l + 1].georef, n.x0, n.y0);
-            data.height = std::move(part);
-            have = n;
-          } else {
-            const int f = op.tiling.down, h = op.tiling.halo + (op.tiling.halo > 0 ? extra_halo : 0);
-            const Win in = intersect({n.x0 * f - h, n.y0 * f - h, n.x1 * f + h, n.y1 * f + h}, {0, 0, levels[l].w, levels[l].h});
-            data.height = extract(*data.height, have, in, levels[l].georef);
-            data.current = DataKind::Heightfield;
-            StageContext ctx{data, op.st->options, m_device, Progress{}, op.st->tag, no_provenance};
-            try {
-              op.st->info->run(ctx);
-            } catch (const Cancelled&) {
-              throw;
-            } catch (const Error& e) {
-              throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
-                                                 std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
-                                                 op.st->tag, in.x0, in.y0, in.w(), in.h()));
-            }
-            const Win out = {in.x0 / f, in.y0 / f, in.x0 / f + data.height->width, in.y0 / f + data.height->height};
-            data.height = extract(*data.height, out, n, levels[l + 1].georef);
-            have = n;
+          const int f = op.tiling.down, h = op.tiling.halo + (op.tiling.halo > 0 ? extra_halo : 0);
+          const Win in =
+              intersect({n.x0 * f - h, n.y0 * f - h, n.x1 * f + h, n.y1 * f + h}, {0, 0, levels[l].w, levels[l].h});
+          data.height = extract(*data.height, have, in, levels[l].georef);
+          data.current = DataKind::Heightfield;
+          StageContext ctx{data, op.st->options, m_device, Progress{}, op.st->tag, no_provenance};
+          try {
+            op.st->info->run(ctx);
+          } catch (const Cancelled&) {
+            throw;
+          } catch (const Error& e) {
+            throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
+                                               std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
+                                               op.st->tag, in.x0, in.y0, in.w(), in.h()));
           }
+          const Win out = {in.x0 / f, in.y0 / f, in.x0 / f + data.height->width, in.y0 / f + data.height->height};
+          data.height = extract(*data.height, out, n, levels[l + 1].georef);
+          have = n;
         }
-        add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
       }
-      if (to_temp && !core[nl - 1].empty()) {
-        if (!temp_writer) {
-          const Level& L = levels[nl - 1];
-          temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
-        }
-        const Win& c = core[nl - 1];
-        temp_writer->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+      add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    if (to_temp && !core[nl - 1].empty()) {
+      if (!temp_writer) {
+        const Level& L = levels[nl - 1];
+        temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
       }
-      report_progress(prog, "tiles", double(ti + 1) / plans.size(), fmt::format("tile {}/{}", ti + 1, plans.size()));
+      const Win& c = core[nl - 1];
+      temp_writer->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+    }
+    report_progress(prog, "tiles", double(ti + 1) / plans.size(), fmt::format("tile {}/{}", ti + 1, plans.size()));
   }
   for (auto& [st, wr] : writers) {
     auto t0 = Clock::now();
