@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
+#include <terracl/tile.hpp>
 
 #include "cli.hpp"
 
@@ -17,6 +18,9 @@ struct RunArgs {
   bool validate = false;
   bool print_resolved = false;
   std::vector<std::string> sets;
+  int tile = 0;                // --tile: run out of core, tile by tile (docs/scale.md)
+  std::string halo = "auto";
+  std::string memory_budget;
 };
 
 std::string human_size(const std::string& path) {
@@ -89,6 +93,14 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                   "Override an option: TAG.OPTION=VALUE (repeatable; the tag defaults to the stage type)")
       ->type_name("TAG.OPTION=VALUE")
       ->allow_extra_args(false);
+  sub->add_option("--tile", a->tile,
+                  "Run out of core, tile by tile: tile side in cells (GDAL windows in, tiled GeoTIFF out; docs/scale.md)")
+      ->type_name("CELLS");
+  sub->add_option("--halo", a->halo, "Halo around each tile: auto (each stage's footprint) or extra cells")
+      ->type_name("auto|CELLS");
+  sub->add_option("--memory-budget", a->memory_budget,
+                  "Host memory for a tiled run (512M, 2G): picks --tile when not given, refuses a tile that cannot fit")
+      ->type_name("BYTES");
   sub->callback([a] {
     Pipeline p = Pipeline::load(a->file);
     for (const auto& s : a->sets) p.set(s);
@@ -109,8 +121,29 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       return make_progress(bar_labels ? fmt::format("{}/{} {}", i + 1, n, tag) : tag);
     };
     RunReport report;
+    const bool tiled = a->tile != 0 || !a->memory_budget.empty();
+    TileOptions to;
+    if (tiled) {
+      if (a->tile < 0) throw UsageError("run", fmt::format("--tile: expected a positive number of cells, got {}", a->tile));
+      to.tile = a->tile;
+      if (a->halo != "auto") {
+        try {
+          size_t used = 0;
+          to.halo = std::stoi(a->halo, &used);
+          if (used != a->halo.size() || *to.halo < 0) throw std::invalid_argument(a->halo);
+        } catch (const std::exception&) {
+          throw UsageError("run", fmt::format("--halo: expected auto or a number of cells >= 0, got '{}'", a->halo));
+        }
+      }
+      if (!a->memory_budget.empty()) to.memory_budget = parse_memory_size(a->memory_budget, "--memory-budget");
+    } else if (a->halo != "auto") {
+      throw UsageError("run", "--halo needs --tile (or --memory-budget)");
+    }
     try {
-      p.run(ro, report);
+      if (tiled)
+        run_tiled(p, to, ro, report);
+      else
+        p.run(ro, report);
     } catch (const Cancelled&) {
       finish_progress();
       const auto done = report.outputs();

@@ -46,34 +46,18 @@ std::string last_gdal_error() {
   return (m && *m) ? std::string(m) : std::string("no details from GDAL");
 }
 
-Heightfield read_gdal(const std::string& path) {
-  init_gdal();
-  CPLErrorReset();
-  DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
-  if (!ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
-  return from_dataset(*ds, path);
-}
+// The tiled reader (gdal_window.cpp) shares the set-up and the header decoding.
+void gdal_init() { init_gdal(); }
+std::string gdal_last_error() { return last_gdal_error(); }
 
-Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
-  GDALDataset* ds = &dsr;
-  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
-  if (w <= 0 || h <= 0 || ds->GetRasterCount() < 1)
-    fail("io", "{}: raster has no cells ({} x {}, {} bands)", path, w, h, ds->GetRasterCount());
-  require_raster_size("io", path, w, h, 8);  // before allocating: a header may claim 10^6 x 10^6
-  Heightfield out(w, h);
+void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
+  GDALDataset* ds = &dataset;
   GDALRasterBand* band = ds->GetRasterBand(1);
-  if (band->RasterIO(GF_Read, 0, 0, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
-    fail("io", "{}: reading band 1 failed ({})", path, last_gdal_error());
-
+  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
   Georef& g = out.georef;
   int has_nodata = 0;
   const double nd = band->GetNoDataValue(&has_nodata);
-  if (has_nodata) {
-    g.nodata = nd;
-    const float ndf = float(nd);
-    for (float& v : out.z)
-      if (v == ndf || (std::isnan(nd) && std::isnan(v))) v = NAN;
-  }
+  if (has_nodata) g.nodata = nd;
   double gt[6];
   if (ds->GetGeoTransform(gt) == CE_None) {
     std::copy(gt, gt + 6, g.geotransform.begin());
@@ -107,6 +91,36 @@ Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
         out.metadata["terracl:" + kv.substr(8, eq - 8)] = kv.substr(eq + 1);
     }
   }
+}
+
+void convert_nodata(Heightfield& out) {
+  if (!out.georef.nodata) return;
+  const double nd = *out.georef.nodata;
+  const float ndf = float(nd);
+  for (float& v : out.z)
+    if (v == ndf || (std::isnan(nd) && std::isnan(v))) v = NAN;
+}
+
+Heightfield read_gdal(const std::string& path) {
+  init_gdal();
+  CPLErrorReset();
+  DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  if (!ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
+  return from_dataset(*ds, path);
+}
+
+Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
+  GDALDataset* ds = &dsr;
+  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
+  if (w <= 0 || h <= 0 || ds->GetRasterCount() < 1)
+    fail("io", "{}: raster has no cells ({} x {}, {} bands)", path, w, h, ds->GetRasterCount());
+  require_raster_size("io", path, w, h, 8);  // before allocating: a header may claim 10^6 x 10^6
+  Heightfield out(w, h);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  if (band->RasterIO(GF_Read, 0, 0, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+    fail("io", "{}: reading band 1 failed ({})", path, last_gdal_error());
+  read_gdal_header(*ds, out);
+  convert_nodata(out);
   return out;
 }
 

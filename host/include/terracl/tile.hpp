@@ -1,0 +1,73 @@
+#pragma once
+/// Tiled, out-of-core execution (docs/scale.md): pipelines run tile by tile through GDAL windows
+/// (`terracl run P.json --tile 2048`), and the exact tiled Priority-Flood fill (Barnes 2016) that
+/// global stages use. Every stage declares how it tiles (tiling_of): local stages read their
+/// footprint as a halo and give the untiled result bit for bit; global stages either have an exact
+/// tiled algorithm or refuse with an error naming the limit.
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <terracl/heightfield.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/progress.hpp>
+
+namespace terracl {
+
+/// How a stage runs in a tiled pipeline.
+enum class TileKind {
+  Source,     ///< a reader of a GDAL raster: reads windows
+  Sink,       ///< a writer of a GeoTIFF: writes each tile's core
+  Local,      ///< a function of a bounded neighbourhood: halo = its footprint, exact
+  Window,     ///< a window of the raster (crop): a change of domain, exact
+  Global,     ///< an exact tiled algorithm over the whole raster (file to file)
+  Untileable  ///< refused, with `limit` saying why and what to do
+};
+
+struct StageTiling {
+  TileKind kind = TileKind::Untileable;
+  int halo = 0;       ///< Local: footprint radius in input cells
+  int down = 1;       ///< Local: output cell = block of down x down input cells (downsample)
+  std::string limit;  ///< Untileable: the reason, for the error message
+};
+
+/// The stage table's tiling column: how `stage` (with its resolved options) tiles.
+StageTiling tiling_of(const PipelineStage& stage);
+
+struct TileOptions {
+  int tile = 0;                ///< core side in cells at each segment's source (0: from the budget, else 2048)
+  std::optional<int> halo;     ///< extra halo; nullopt = auto (each stage's footprint)
+  uint64_t memory_budget = 0;  ///< bytes of host memory for tiles and GDAL's cache (0: no limit)
+};
+
+/// "512M", "2G", "1.5GiB", "300000000" -> bytes; throws UsageError naming `what` otherwise.
+uint64_t parse_memory_size(const std::string& text, const std::string& what);
+
+/// Runs a validated pipeline tile by tile (same outputs as Pipeline::run, bit for bit for exact
+/// stages). Throws UsageError naming the stage, its JSON path and the limit when a stage cannot
+/// run tiled, or when the budget cannot hold one tile.
+void run_tiled(const Pipeline& pipeline, const TileOptions& tile, const RunOptions& options, RunReport& report);
+
+namespace analysis {
+
+/// Reads cells [x, x + w) x [y, y + h) of the whole raster (nodata NaN).
+using WindowReader = std::function<Heightfield(int x, int y, int w, int h)>;
+/// Receives the final values of the tile whose core starts at (x, y).
+using WindowWriter = std::function<void(int x, int y, const Heightfield& core)>;
+
+struct TiledFillStats {
+  int tiles = 0;
+  size_t graph_nodes = 0, graph_edges = 0;
+  double graph_bytes = 0;
+};
+
+/// Priority-Flood depression filling (without epsilon) of a width x height raster, tile by tile
+/// (Barnes 2016, "Parallel priority-flood depression filling for trillion cell DEMs"): each tile
+/// is flooded from its perimeter, the perimeter cells form a graph of spill elevations solved
+/// globally, and a second pass raises each tile to its spill levels. Equal, bit for bit, to
+/// priority_flood_fill(h, false). Holds one tile (plus a one-cell halo) and the perimeter graph.
+TiledFillStats priority_flood_fill_tiled(int width, int height, int tile, const WindowReader& read,
+                                         const WindowWriter& write, const Progress& progress = {});
+
+}  // namespace analysis
+}  // namespace terracl

@@ -1,0 +1,59 @@
+#pragma once
+// Window-by-window raster I/O through GDAL, for tiled (out-of-core) runs: a reader that reads any
+// window of a GDAL raster (a VRT mosaic included) and a writer that fills a tiled GeoTIFF window by
+// window. Neither holds more than the window it is given (plus GDAL's block cache).
+#include <memory>
+#include <optional>
+#include <string>
+#include <terracl/heightfield.hpp>
+#include <vector>
+
+class GDALDataset;
+
+namespace terracl::io {
+
+class GdalWindowReader {
+ public:
+  explicit GdalWindowReader(const std::string& path);
+  ~GdalWindowReader();
+  GdalWindowReader(const GdalWindowReader&) = delete;
+  GdalWindowReader& operator=(const GdalWindowReader&) = delete;
+  int width() const { return m_header.width; }
+  int height() const { return m_header.height; }
+  /// Georef and metadata of the whole raster (z is empty).
+  const Heightfield& header() const { return m_header; }
+  /// Cells [x, x + w) x [y, y + h), nodata as NaN; the georef is the whole raster's (same metric
+  /// cell size, so that stages compute what they would untiled) with the geotransform moved to
+  /// the window's corner.
+  Heightfield read(int x, int y, int w, int h) const;
+
+ private:
+  std::string m_path;
+  GDALDataset* m_ds = nullptr;
+  Heightfield m_header;
+};
+
+/// A float32 GeoTIFF (tiled, DEFLATE + floating-point predictor, BigTIFF when it may pass 4 GB)
+/// written window by window under a temporary name; finish() closes it, commit() renames it.
+class GeoTiffWindowWriter {
+ public:
+  /// `georef` and `metadata` are the whole raster's (as write_geotiff would store them).
+  GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& georef, const Metadata& metadata);
+  ~GeoTiffWindowWriter();  ///< discards the temporary file unless committed
+  GeoTiffWindowWriter(const GeoTiffWindowWriter&) = delete;
+  GeoTiffWindowWriter& operator=(const GeoTiffWindowWriter&) = delete;
+  /// Writes cells [sx, sx + w) x [sy, sy + h) of `src` at (x, y) of the output.
+  void write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h);
+  /// Closes the file and renames it to its final name.
+  void commit();
+  const std::string& path() const { return m_path; }
+
+ private:
+  std::string m_path, m_tmp;
+  GDALDataset* m_ds = nullptr;
+  std::optional<double> m_nodata;
+  bool m_any_nan = false;
+  std::vector<float> m_buffer;
+};
+
+}  // namespace terracl::io

@@ -1,0 +1,486 @@
+// Tiled, out-of-core pipeline runs (`terracl run P.json --tile N`, docs/scale.md).
+//
+// A chain (a reader and the stages after it) is cut into segments at its global stages. A segment
+// is run tile by tile: the tiles partition the segment's source grid; for each tile, the windows
+// every level needs are found backwards from the tile's core at each writer (a local stage needs
+// its footprint as a halo, a downsample whole blocks, a crop a shifted window), the first window
+// is read through GDAL, each stage runs on its window exactly as it would on the whole raster,
+// and each writer receives the tile's core. Cells within a stage's footprint of a window edge that
+// is not the raster's edge are wrong and are never written; every written cell saw all the cells
+// it depends on, with the whole raster's georeferencing (metric cell size included), so local
+// stages give the untiled result bit for bit. A global stage (fill_depressions) runs its own
+// exact tiled algorithm from the previous segment's output (a temporary tiled GeoTIFF, or the
+// source itself) into the next segment's source.
+#include <fmt/format.h>
+#include <gdal.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/memory.hpp>
+#include <terracl/tile.hpp>
+#include <terracl/version.hpp>
+
+#include "io/gdal_window.hpp"
+
+namespace terracl {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Win {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool empty() const { return x1 <= x0 || y1 <= y0; }
+  int w() const { return x1 - x0; }
+  int h() const { return y1 - y0; }
+};
+Win intersect(const Win& a, const Win& b) {
+  return {std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1), std::min(a.y1, b.y1)};
+}
+Win unite(const Win& a, const Win& b) {
+  if (a.empty()) return b;
+  if (b.empty()) return a;
+  return {std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1), std::max(a.y1, b.y1)};
+}
+
+void drop_terracl_keys(Metadata& md) {
+  for (auto it = md.begin(); it != md.end();) it = it->first.rfind("terracl:", 0) == 0 ? md.erase(it) : std::next(it);
+}
+
+// The georef of a window at (x, y) of a level: the level's, with the corner moved.
+Georef georef_at(const Georef& level, int x, int y) {
+  Georef g = level;
+  if (g.has_geotransform) {
+    auto& gt = g.geotransform;
+    gt[0] += x * gt[1] + y * gt[2];
+    gt[3] += x * gt[4] + y * gt[5];
+  }
+  return g;
+}
+
+// Cells `want` (level coordinates) out of `h`, which holds the window `have`.
+Heightfield extract(const Heightfield& h, const Win& have, const Win& want, const Georef& level) {
+  if (want.x0 < have.x0 || want.y0 < have.y0 || want.x1 > have.x1 || want.y1 > have.y1)
+    throw Error("tile", fmt::format("internal: window {},{}-{},{} outside {},{}-{},{}", want.x0, want.y0, want.x1,
+                                    want.y1, have.x0, have.y0, have.x1, have.y1));
+  Heightfield out(want.w(), want.h());
+  for (int y = 0; y < out.height; ++y)
+    std::copy_n(&h.z[size_t(want.y0 - have.y0 + y) * h.width + size_t(want.x0 - have.x0)], out.width,
+                &out.z[size_t(y) * out.width]);
+  out.georef = georef_at(level, want.x0, want.y0);
+  out.metadata = h.metadata;
+  return out;
+}
+
+struct Level {
+  int w = 0, h = 0;
+  Georef georef;
+};
+
+// One step of a segment: a stage with its tiling, the level it reads.
+struct Op {
+  const PipelineStage* st;
+  StageTiling tiling;
+  int level;  // level of its input (a sink writes this level)
+};
+
+struct Segment {
+  std::string read_tag;  // the stage its reads are counted to
+  std::shared_ptr<io::GdalWindowReader> source;
+  Level level0;
+  std::vector<Op> ops;
+};
+
+// Runs tile by tile and writes what the run needs: shared state of one run_tiled call.
+class TiledRun {
+ public:
+  TiledRun(const Pipeline& p, const TileOptions& t, const RunOptions& o, RunReport& r)
+      : m_p(p), m_t(t), m_o(o), m_report(r) {}
+  ~TiledRun() {
+    for (const auto& f : m_temporaries) {
+      std::error_code ec;
+      fs::remove(f, ec);
+    }
+  }
+
+  void run();
+
+ private:
+  void run_chain(size_t first, size_t last);
+  void run_segment(const Segment& seg, const PipelineStage* global_after, const std::string& global_out,
+                   const Metadata& global_metadata);
+  void add_seconds(const PipelineStage& st, double s) { m_seconds[st.tag] += s; }
+  [[noreturn]] void refuse(const PipelineStage& st, const std::string& why) const {
+    throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot run tiled: {}", m_p.source(), st.where, st.tag,
+                                        st.type, why));
+  }
+  int tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes) const;
+  Metadata provenance(const PipelineStage& st) const {
+    return {{"terracl:version", version()},
+            {"terracl:pipeline", m_p.name()},
+            {"terracl:pipeline_hash", m_hash},
+            {"terracl:stages", m_chain_before.at(st.tag).dump()}};
+  }
+  Progress progress(const std::string& tag) const {
+    return m_o.progress ? m_o.progress(tag, m_progress_index, m_progress_count) : Progress{};
+  }
+
+  const Pipeline& m_p;
+  const TileOptions& m_t;
+  const RunOptions& m_o;
+  RunReport& m_report;
+  std::string m_hash;
+  std::map<std::string, json> m_chain_before;  // tag -> provenance chain of its input
+  std::map<std::string, double> m_seconds;
+  std::vector<std::string> m_temporaries;
+  size_t m_progress_index = 0, m_progress_count = 1;
+  std::function<Device&()> m_device;
+};
+
+int TiledRun::tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes) const {
+  int align = 1;
+  for (const Op& op : seg.ops)
+    if (op.tiling.kind == TileKind::Local) align *= op.tiling.down;
+  auto fits = [&](double T) { return fixed_bytes + bytes_per_core_cell * T * T; };
+  int T = m_t.tile;
+  if (T <= 0) {
+    T = 2048;
+    if (m_t.memory_budget > 0) {
+      // The largest multiple of 256 whose tile fits in the half of the budget GDAL's cache leaves.
+      T = 256;
+      while (T < 16384 && fits(T + 256) <= 0.5 * double(m_t.memory_budget)) T += 256;
+    }
+  }
+  T = (T + align - 1) / align * align;
+  if (m_t.memory_budget > 0 && fits(T) > 0.5 * double(m_t.memory_budget))
+    throw UsageError("run", fmt::format("--memory-budget {}: a {} x {} tile needs about {} (half the budget goes to "
+                                        "tiles, a quarter to GDAL's cache); use a smaller --tile or a larger budget",
+                                        human_bytes(double(m_t.memory_budget)), T, T, human_bytes(fits(T))));
+  return T;
+}
+
+void TiledRun::run() {
+  if (m_t.tile < 0) throw UsageError("run", fmt::format("--tile must be a positive number of cells, got {}", m_t.tile));
+  if (m_t.halo && *m_t.halo < 0) throw UsageError("run", fmt::format("--halo must be >= 0 or auto, got {}", *m_t.halo));
+  m_hash = m_p.hash();
+  for (const auto& f : m_p.outputs()) {
+    const fs::path dir = fs::path(f).parent_path();
+    std::error_code ec;
+    if (!dir.empty()) fs::create_directories(dir, ec);
+    if (ec) fail("run", "cannot create the output folder {}: {}", dir.string(), ec.message());
+  }
+  m_device = m_o.device;
+  // GDAL's block cache defaults to 5 % of RAM: bound it by the budget.
+  const uint64_t cache = m_t.memory_budget > 0 ? m_t.memory_budget / 4 : uint64_t(256) << 20;
+  GDALSetCacheMax64(GIntBig(cache));
+  // Tileability first, so that a refusal costs nothing.
+  const auto& stages = m_p.stages();
+  json chain = json::array();
+  for (const auto& st : stages) {
+    if (st.info->input == DataKind::None) chain = json::array();
+    m_chain_before[st.tag] = chain;
+    if (st.type != "write") {
+      json set = json::object();
+      for (auto& [k, v] : st.options.items())
+        if (!v.is_null()) set[k] = v;
+      chain.push_back(json{{"type", st.type}, {"tag", st.tag}, {"options", set}});
+    }
+    const StageTiling tl = tiling_of(st);
+    if (tl.kind == TileKind::Untileable) refuse(st, tl.limit);
+    if (st.info->input == DataKind::None && tl.kind != TileKind::Source)
+      refuse(st, "a tiled chain starts with a reader");
+  }
+  size_t first = 0;
+  for (size_t i = 1; i <= stages.size(); ++i)
+    if (i == stages.size() || stages[i].info->input == DataKind::None) {
+      run_chain(first, i);
+      first = i;
+    }
+  for (const auto& st : stages) m_report.stages.push_back(StageRun{st.type, st.tag, m_seconds[st.tag], st.outputs});
+  m_report.running.clear();
+}
+
+void TiledRun::run_chain(size_t first, size_t last) {
+  const auto& stages = m_p.stages();
+  const PipelineStage& reader = stages[first];
+  m_report.running = reader.tag;
+  auto t0 = Clock::now();
+  Segment seg;
+  seg.read_tag = reader.tag;
+  seg.source = std::make_shared<io::GdalWindowReader>(reader.options.at("filename").get<std::string>());
+  seg.level0 = {seg.source->width(), seg.source->height(), seg.source->header().georef};
+  add_seconds(reader, std::chrono::duration<double>(Clock::now() - t0).count());
+  Level level = seg.level0;
+  int li = 0;
+  for (size_t i = first + 1; i < last; ++i) {
+    const PipelineStage& st = stages[i];
+    const StageTiling tl = tiling_of(st);
+    if (tl.kind == TileKind::Global) {
+      // Is the global stage's output written right away and nothing else follows? Then it writes
+      // the final file itself (no temporary copy).
+      const bool direct = i + 2 == last && tiling_of(stages[i + 1]).kind == TileKind::Sink;
+      std::string out;
+      Metadata md;
+      if (direct) {
+        out = stages[i + 1].options.at("filename").get<std::string>();
+        md = provenance(stages[i + 1]);
+      } else {
+        const fs::path ref = m_p.outputs().empty() ? fs::path(m_p.source()) : fs::path(m_p.outputs().front());
+        out = (ref.parent_path() / fmt::format(".{}.tiles-{}.tif", ref.filename().string(), st.tag)).string();
+        m_temporaries.push_back(out);
+      }
+      run_segment(seg, &st, out, md);
+      if (direct) return;
+      Segment next;
+      next.read_tag = st.tag;
+      next.source = std::make_shared<io::GdalWindowReader>(out);
+      next.level0 = level;  // the level's own georef (metric cell size), not one recomputed from the file
+      next.level0.georef.nodata = next.source->header().georef.nodata;
+      seg = std::move(next);
+      li = 0;
+      continue;
+    }
+    seg.ops.push_back({&st, tl, li});
+    if (tl.kind == TileKind::Window) {
+      const int64_t x0 = st.options.at("x").get<int64_t>(), y0 = st.options.at("y").get<int64_t>();
+      const int64_t w = st.options.at("width").is_null() ? level.w - x0 : st.options.at("width").get<int64_t>();
+      const int64_t h = st.options.at("height").is_null() ? level.h - y0 : st.options.at("height").get<int64_t>();
+      if (x0 < 0 || y0 < 0 || w < 1 || h < 1 || x0 + w > level.w || y0 + h > level.h)
+        throw Error(st.tag,
+                    fmt::format("window x {}..{}, y {}..{} does not fit in the {} x {} raster (pipeline stage {}, "
+                                "tag '{}')",
+                                x0, x0 + w - 1, y0, y0 + h - 1, level.w, level.h, st.where, st.tag));
+      Georef g = georef_at(level.georef, int(x0), int(y0));
+      if (g.has_geotransform) g.update_metric_cell_size(int(w), int(h));  // as crop: the window's centre latitude
+      level = {int(w), int(h), g};
+      ++li;
+    } else if (tl.kind == TileKind::Local) {
+      const int f = tl.down;
+      if (level.w < f || level.h < f)
+        throw Error(st.tag, fmt::format("a {} x {} raster has no complete {} x {} block (pipeline stage {}, tag '{}')",
+                                        level.w, level.h, f, f, st.where, st.tag));
+      level = {level.w / f, level.h / f, f > 1 ? level.georef.resampled(1.0 / f) : level.georef};
+      ++li;
+    }
+  }
+  run_segment(seg, nullptr, "", {});
+}
+
+void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, const std::string& global_out,
+                           const Metadata& global_md) {
+  // Levels of the segment.
+  std::vector<Level> levels{seg.level0};
+  int extra_halo = m_t.halo ? *m_t.halo : 0;
+  int total_halo = 0;
+  for (const Op& op : seg.ops) {
+    const Level& l = levels.back();
+    if (op.tiling.kind == TileKind::Window) {
+      const auto& o = op.st->options;
+      const int x0 = o.at("x").get<int>(), y0 = o.at("y").get<int>();
+      const int w = o.at("width").is_null() ? l.w - x0 : o.at("width").get<int>();
+      const int h = o.at("height").is_null() ? l.h - y0 : o.at("height").get<int>();
+      Georef g = georef_at(l.georef, x0, y0);
+      if (g.has_geotransform) g.update_metric_cell_size(w, h);
+      levels.push_back({w, h, g});
+    } else if (op.tiling.kind == TileKind::Local) {
+      const int f = op.tiling.down;
+      levels.push_back({l.w / f, l.h / f, f > 1 ? l.georef.resampled(1.0 / f) : l.georef});
+      total_halo += op.tiling.halo;
+    }
+  }
+  const size_t nl = levels.size();
+  const bool has_global = global != nullptr;
+  const bool to_temp = has_global && !seg.ops.empty();  // else the global stage reads the source directly
+  // Memory: the windows of one tile (about 3 copies of a float cell per level: the window, the
+  // extracted input, the stage's output) and the writers' buffers.
+  double per_cell = 12.0 * double(nl) + 4.0 * 2;
+  double fixed = 0;
+  if (has_global) {
+    per_cell = std::max(per_cell, 4.0 + 4 + 1 + 4 + 4 + 8);  // fill: z, labels, closed, window, core, heap share
+    fixed = 0;  // the perimeter graph is added below once the tile size is known
+  }
+  int T = tile_size(seg, per_cell * (1 + 4.0 * (total_halo + extra_halo) / 256.0), fixed);
+  if (has_global && m_t.memory_budget > 0) {
+    // Perimeter cells (4 per tile side cell), each with its node, about four edges while the graph
+    // is built (24 B each) and its adjacency: about 200 B per perimeter cell at the peak.
+    const double graph = 4.0 * double(levels.back().w) * levels.back().h / T * 200.0;
+    if (graph + per_cell * double(T) * T > 0.5 * double(m_t.memory_budget))
+      throw UsageError("run",
+                       fmt::format("--memory-budget {}: the tiled fill's perimeter graph ({} with {}-cell tiles) and a "
+                                   "tile do not fit; use a larger --tile or budget",
+                                   human_bytes(double(m_t.memory_budget)), human_bytes(graph), T));
+  }
+
+  // Writers of this segment, created at the first tile that reaches them.
+  std::map<const PipelineStage*, std::unique_ptr<io::GeoTiffWindowWriter>> writers;
+  std::unique_ptr<io::GeoTiffWindowWriter> temp_writer;
+  const Level& W0 = levels[0];
+  const int tx = (W0.w + T - 1) / T, ty = (W0.h + T - 1) / T;
+  const Progress prog = progress(seg.ops.empty() ? (global ? global->tag : "tiles") : seg.ops.front().st->tag);
+  StageData data;
+  const Metadata no_provenance;
+  // Cores per level (forward), then the windows each level needs (backward), for every tile; tiles
+  // that no writer needs (outside a crop) are dropped, so that progress counts real work.
+  struct TilePlan {
+    std::vector<Win> core, need;
+  };
+  std::vector<TilePlan> plans;
+  for (int j = 0; j < ty && !seg.ops.empty(); ++j)
+    for (int i = 0; i < tx; ++i) {
+      std::vector<Win> core(nl), need(nl);
+      core[0] = {i * T, j * T, std::min(W0.w, (i + 1) * T), std::min(W0.h, (j + 1) * T)};
+      for (const Op& op : seg.ops) {
+        const Win& c = core[op.level];
+        const Level& out = levels[op.level + 1 < int(nl) ? op.level + 1 : op.level];
+        if (op.tiling.kind == TileKind::Window) {
+          const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
+          core[op.level + 1] = intersect({c.x0 - x0, c.y0 - y0, c.x1 - x0, c.y1 - y0}, {0, 0, out.w, out.h});
+        } else if (op.tiling.kind == TileKind::Local) {
+          const int f = op.tiling.down;  // tile corners are multiples of f: blocks never straddle tiles
+          core[op.level + 1] = intersect({c.x0 / f, c.y0 / f, c.x1 / f, c.y1 / f}, {0, 0, out.w, out.h});
+        }
+      }
+      for (int l = int(nl) - 1; l >= 0; --l) {
+        for (const Op& op : seg.ops)
+          if (op.level == l && op.tiling.kind == TileKind::Sink) need[l] = unite(need[l], core[l]);
+        if (to_temp && l == int(nl) - 1) need[l] = unite(need[l], core[l]);
+        if (l + 1 < int(nl) && !need[l + 1].empty()) {
+          const Op* op = nullptr;
+          for (const Op& o : seg.ops)
+            if (o.level == l && o.tiling.kind != TileKind::Sink) op = &o;
+          const Win& n = need[l + 1];
+          Win pre;
+          if (op->tiling.kind == TileKind::Window) {
+            const int x0 = op->st->options.at("x").get<int>(), y0 = op->st->options.at("y").get<int>();
+            pre = {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0};
+          } else {
+            const int f = op->tiling.down, h = op->tiling.halo + (op->tiling.halo > 0 ? extra_halo : 0);
+            pre = intersect({n.x0 * f - h, n.y0 * f - h, n.x1 * f + h, n.y1 * f + h}, {0, 0, levels[l].w, levels[l].h});
+          }
+          need[l] = unite(need[l], pre);
+        }
+      }
+      if (!need[0].empty()) plans.push_back({std::move(core), std::move(need)});
+    }
+  for (size_t ti = 0; ti < plans.size(); ++ti) {
+    const std::vector<Win>& core = plans[ti].core;
+    const std::vector<Win>& need = plans[ti].need;
+    auto t0 = Clock::now();
+    Win have = need[0];
+    data = StageData{};
+    data.height = seg.source->read(have.x0, have.y0, have.w(), have.h());
+    data.height->georef = georef_at(levels[0].georef, have.x0, have.y0);
+    drop_terracl_keys(data.height->metadata);
+    m_seconds[seg.read_tag] += std::chrono::duration<double>(Clock::now() - t0).count();
+    for (const Op& op : seg.ops) {
+      const int l = op.level;
+      m_report.running = op.st->tag;
+      t0 = Clock::now();
+      if (op.tiling.kind == TileKind::Sink) {
+        if (core[l].empty()) continue;
+        auto& wr = writers[op.st];
+        if (!wr) {
+          Metadata md = data.height->metadata;
+          drop_terracl_keys(md);
+          for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
+          const std::string f = op.st->options.at("filename").get<std::string>();
+          wr = std::make_unique<io::GeoTiffWindowWriter>(f, levels[l].w, levels[l].h, levels[l].georef, md);
+        }
+        const Win& c = core[l];
+        wr->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+      } else {
+        const Win& n = need[l + 1];
+        if (n.empty()) break;
+        if (op.tiling.kind == TileKind::Window) {
+          const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
+          Heightfield part =
+              extract(*data.height, have, {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0}, levels[l].georef);
+          part.georef = georef_at(levels[l + 1].georef, n.x0, n.y0);
+          data.height = std::move(part);
+          have = n;
+        } else {
+          const int f = op.tiling.down, h = op.tiling.halo + (op.tiling.halo > 0 ? extra_halo : 0);
+          const Win in =
+              intersect({n.x0 * f - h, n.y0 * f - h, n.x1 * f + h, n.y1 * f + h}, {0, 0, levels[l].w, levels[l].h});
+          data.height = extract(*data.height, have, in, levels[l].georef);
+          data.current = DataKind::Heightfield;
+          StageContext ctx{data, op.st->options, m_device, Progress{}, op.st->tag, no_provenance};
+          try {
+            op.st->info->run(ctx);
+          } catch (const Cancelled&) {
+            throw;
+          } catch (const Error& e) {
+            throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
+                                               std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
+                                               op.st->tag, in.x0, in.y0, in.w(), in.h()));
+          }
+          const Win out = {in.x0 / f, in.y0 / f, in.x0 / f + data.height->width, in.y0 / f + data.height->height};
+          data.height = extract(*data.height, out, n, levels[l + 1].georef);
+          have = n;
+        }
+      }
+      add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    if (to_temp && !core[nl - 1].empty()) {
+      if (!temp_writer) {
+        const Level& L = levels[nl - 1];
+        temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
+      }
+      const Win& c = core[nl - 1];
+      temp_writer->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+    }
+    report_progress(prog, "tiles", double(ti + 1) / plans.size(), fmt::format("tile {}/{}", ti + 1, plans.size()));
+  }
+  for (auto& [st, wr] : writers) {
+    auto t0 = Clock::now();
+    wr->commit();
+    add_seconds(*st, std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  if (temp_writer) temp_writer->commit();
+  if (!global) return;
+
+  // The global stage, from the segment's last level (a temporary file or the source) to its output.
+  m_report.running = global->tag;
+  auto t0 = Clock::now();
+  // From a temporary file, the result goes to a second one that then replaces it (and becomes the
+  // next segment's source).
+  std::shared_ptr<io::GdalWindowReader> in = to_temp ? std::make_shared<io::GdalWindowReader>(global_out) : seg.source;
+  const Level& L = levels[nl - 1];
+  const std::string out_path = to_temp ? global_out + ".filled.tif" : global_out;
+  Metadata md = global_md;
+  io::GeoTiffWindowWriter out(out_path, L.w, L.h, L.georef, md);
+  auto read = [&](int x, int y, int w, int h) { return in->read(x, y, w, h); };
+  auto write = [&](int x, int y, const Heightfield& core) { out.write(x, y, core, 0, 0, core.width, core.height); };
+  analysis::priority_flood_fill_tiled(L.w, L.h, T, read, write, progress(global->tag));
+  out.commit();
+  in.reset();
+  if (to_temp) {
+    std::error_code ec;
+    fs::rename(out_path, global_out, ec);
+    if (ec) fail("run", "cannot rename {} to {}: {}", out_path, global_out, ec.message());
+  }
+  add_seconds(*global, std::chrono::duration<double>(Clock::now() - t0).count());
+}
+
+}  // namespace
+
+void run_tiled(const Pipeline& p, const TileOptions& t, const RunOptions& o, RunReport& report) {
+  const auto t_start = Clock::now();
+  report = RunReport{};
+  TiledRun run(p, t, o, report);
+  run.run();
+  if (o.write_resolved) {
+    report.resolved_path = p.resolved_path();
+    const fs::path dir = fs::path(report.resolved_path).parent_path();
+    if (!dir.empty()) fs::create_directories(dir);
+    write_text_file_atomic(report.resolved_path, p.resolved_text());
+  }
+  report.seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
+}
+
+}  // namespace terracl

@@ -1,0 +1,109 @@
+// The stage table's tiling column (terracl/tile.hpp): how each stage runs in a tiled pipeline.
+// Kept in one table beside the tile engine so that a stage's footprint and the engine that
+// honours it are read together; a stage added to the registry is untileable until it is listed
+// here with its footprint (and a test that its tiled output equals the untiled one).
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/tile.hpp>
+
+namespace terracl {
+namespace {
+
+StageTiling refuse(std::string why) { return StageTiling{TileKind::Untileable, 0, 1, std::move(why)}; }
+StageTiling kind(TileKind k, int halo = 0, int down = 1) { return StageTiling{k, halo, down, ""}; }
+
+std::string extension(const std::string& f) {
+  const std::string e = std::filesystem::path(f).extension().string();
+  return e.empty() ? "(no extension)" : e;
+}
+
+}  // namespace
+
+StageTiling tiling_of(const PipelineStage& st) {
+  const json& o = st.options;
+  const std::string& t = st.type;
+  if (t == "read") {
+    const std::string f = o.at("filename").get<std::string>();
+    const FileFormat ff = format_from_extension(f);
+    if (o.value("fill_nodata", false))
+      return refuse(
+          "fill_nodata is a global (harmonic) solve over the whole raster; fill nodata in an untiled run first");
+    if (ff == FileFormat::GeoTIFF || ff == FileFormat::HGT || ff == FileFormat::AsciiGrid ||
+        ff == FileFormat::GDALOther)
+      return kind(TileKind::Source);
+    return refuse(
+        fmt::format("tiled runs read GDAL rasters window by window (.tif .hgt .asc .vrt ...); {} files are "
+                    "read whole",
+                    extension(f)));
+  }
+  if (t == "write") {
+    const std::string f = o.at("filename").get<std::string>();
+    if (format_from_extension(f) == FileFormat::GeoTIFF) return kind(TileKind::Sink);
+    return refuse(
+        fmt::format("tiled runs write tiled GeoTIFF (.tif) window by window; {} needs the whole raster in "
+                    "memory",
+                    extension(f)));
+  }
+  if (t == "crop") return kind(TileKind::Window);
+  if (t == "downsample") return kind(TileKind::Local, 0, o.at("factor").get<int>());
+  if (t == "fill_depressions") {
+    if (o.value("epsilon", false))
+      return refuse(
+          "epsilon filling raises flats in the order of one global flood, which tiles cannot reproduce "
+          "exactly; run it tiled without epsilon, or untiled");
+    return kind(TileKind::Global);
+  }
+  if (t == "reconstruct" || t == "edit")
+    return refuse(
+        "a Poisson solve couples every cell: the whole raster must fit on one device (its largest "
+        "allocation); run it untiled (a distributed solver is not available yet)");
+  if (t == "fill_nodata") return refuse("harmonic interpolation of nodata is a global solve; run it untiled");
+  if (t == "amplify")
+    return refuse(
+        "its patch choice (hashed on the output size) and blend order depend on the whole output grid, so "
+        "tiles would differ from the untiled run; amplify untiled (its own --tile bounds its work memory)");
+  if (t == "extract") return refuse("it produces a gradient field; tiled runs carry heightfields only");
+  if (t == "render" || t == "mesh")
+    return refuse(
+        "it writes one image or mesh of the whole raster; run it untiled on the tiled GeoTIFF output or a "
+        "window of it");
+  if (t == "erode")
+    return refuse(
+        "erosion moves water and sediment across the raster for every step; a halo bounded by steps and "
+        "flux reach is not implemented yet: run it untiled");
+  if (t == "breach" || t == "drainage")
+    return refuse(
+        "breaching and flow accumulation follow paths across the whole raster; their tiled form is not "
+        "implemented yet (fill_depressions is): run it untiled");
+  return refuse("it needs the whole raster (no tiled form)");
+}
+
+uint64_t parse_memory_size(const std::string& text, const std::string& what) {
+  const char* s = text.c_str();
+  char* end = nullptr;
+  const double v = std::strtod(s, &end);
+  std::string unit = end ? std::string(end) : "";
+  while (!unit.empty() && unit.front() == ' ') unit.erase(0, 1);
+  double scale = 0;
+  if (unit.empty() || unit == "B")
+    scale = 1;
+  else if (unit == "K" || unit == "KB" || unit == "KiB")
+    scale = 1024.0;
+  else if (unit == "M" || unit == "MB" || unit == "MiB")
+    scale = 1024.0 * 1024;
+  else if (unit == "G" || unit == "GB" || unit == "GiB")
+    scale = 1024.0 * 1024 * 1024;
+  else if (unit == "T" || unit == "TB" || unit == "TiB")
+    scale = 1024.0 * 1024 * 1024 * 1024;
+  if (end == s || scale == 0 || !(v > 0) || !std::isfinite(v) || v * scale > 1e18)
+    throw UsageError("run",
+                     fmt::format("{}: '{}' is not a memory size (e.g. 512M, 2G, 1.5GiB, 300000000)", what, text));
+  return uint64_t(v * scale);
+}
+
+}  // namespace terracl
