@@ -81,6 +81,56 @@ TEST(AnalysisSketch, ValleyRiverAndHillPeak) {
   EXPECT_THROW(extract_sketch(h, SketchOptions{0.002, 0.002, 8, 1}), Error);
 }
 
+namespace {
+
+/// Share of the polyline length (in cells) on segments at exactly 0, 45, 90 or 135 degrees: D8's
+/// eight directions. Natural ridges and rivers take any direction.
+double share_at_d8_angles(const std::vector<Sketch::Line>& lines) {
+  double total = 0, d8 = 0;
+  for (const auto& l : lines)
+    for (size_t k = 1; k < l.points.size(); ++k) {
+      const double dx = l.points[k].x - l.points[k - 1].x, dy = l.points[k].y - l.points[k - 1].y;
+      const double len = std::hypot(dx, dy);
+      total += len;
+      if (std::abs(dx) < 1e-9 || std::abs(dy) < 1e-9 || std::abs(std::abs(dx) - std::abs(dy)) < 1e-9) d8 += len;
+    }
+  return total > 0 ? d8 / total : 0.0;
+}
+
+}  // namespace
+
+// Issue 15: ridge lines showed long straight D8 runs at 0/45 deg. On a real DEM the traced lines
+// must take natural directions; the raw D8 paths (line_smooth 0, the old behaviour) do not.
+TEST(AnalysisSketch, LinesHaveNoD8StaircaseOnARealDem) {
+  const Heightfield h = read_heightfield(test::data_path("crops/presidential_utm30_192.tif"));
+  SketchOptions raw;
+  raw.line_smooth_cells = 0;
+  const Sketch old_way = extract_sketch(h, raw);
+  const Sketch s = extract_sketch(h, SketchOptions{});
+  const double old_ridges = share_at_d8_angles(old_way.ridges), old_rivers = share_at_d8_angles(old_way.rivers);
+  const double ridges = share_at_d8_angles(s.ridges), rivers = share_at_d8_angles(s.rivers);
+  std::printf("length at D8 angles: ridges %.1f %% -> %.1f %%, rivers %.1f %% -> %.1f %%\n", 100 * old_ridges,
+              100 * ridges, 100 * old_rivers, 100 * rivers);
+  ASSERT_FALSE(s.ridges.empty());
+  ASSERT_FALSE(s.rivers.empty());
+  EXPECT_GT(old_ridges, 0.3);  // the artefact is real on this DEM
+  EXPECT_LT(ridges, 0.05);
+  EXPECT_LT(rivers, 0.05);
+  // Smoothing moves the lines by less than a couple of cells and keeps their ends (confluences).
+  ASSERT_EQ(s.ridges.size(), old_way.ridges.size());
+  for (size_t i = 0; i < s.ridges.size(); ++i) {
+    EXPECT_EQ(s.ridges[i].points.front().x, old_way.ridges[i].points.front().x);
+    EXPECT_EQ(s.ridges[i].points.back().y, old_way.ridges[i].points.back().y);
+  }
+  // The picture shows the smoothed lines: as many ridge pixels as before, give or take.
+  size_t px_old = 0, px_new = 0;
+  for (size_t i = 0; i < h.size(); ++i) px_old += old_way.rgb[3 * i] > 0, px_new += s.rgb[3 * i] > 0;
+  EXPECT_NEAR(double(px_new), double(px_old), 0.25 * px_old);
+  SketchOptions bad;
+  bad.line_smooth_cells = -1;
+  EXPECT_THROW(extract_sketch(h, bad), Error);
+}
+
 TEST(AnalysisCli, MetricsPrintsAndWritesJsonReport) {
   test::TempDir tmp;
   const std::string in = test::data_path("crops/frontrange_64.asc");

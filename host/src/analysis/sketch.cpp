@@ -3,7 +3,8 @@
 // threshold, ridges the same on the inverted terrain, peaks and basins come from max/min filters
 // with a relief threshold. The D8 network above a threshold is a tree of one-cell-wide paths, so it
 // is already the skeleton the paper obtains by thinning a thresholded image; we trace it into
-// polylines (split at confluences) and draw those.
+// polylines (split at confluences), smooth them along their length to remove D8's 0/45-deg
+// staircase, and draw those.
 #include <algorithm>
 #include <numeric>
 #include <terracl/error.hpp>
@@ -75,10 +76,51 @@ void simplify(const std::vector<Sketch::Point>& in, double tol, std::vector<Sket
     if (keep[i]) out.push_back(in[i]);
 }
 
-/// Traces the D8 network above `threshold` cells into polylines split at confluences; marks the
-/// network cells in `mask`.
+/// Gaussian smoothing of the (x, y) of a D8 path along its vertices, sigma in vertices. A D8 path
+/// only knows 8 directions, so a ridge or valley at 20 deg comes out as long runs at 0 deg broken by
+/// 45-deg steps (the staircase of the sketch pictures); averaging over a few cells recovers the
+/// direction in between. The window is symmetric and shrinks towards the ends, which stay where
+/// they are, so lines still meet at their confluences; a straight run keeps its coordinates exactly
+/// (the average is taken of offsets from the vertex itself).
+void smooth_path(std::vector<Sketch::Point>& pts, double sigma) {
+  const int n = int(pts.size());
+  if (sigma <= 0 || n < 3) return;
+  const int r_max = std::max(1, int(std::ceil(2.5 * sigma)));
+  std::vector<double> k(r_max + 1);
+  for (int i = 0; i <= r_max; ++i) k[i] = std::exp(-0.5 * i * i / (sigma * sigma));
+  std::vector<Sketch::Point> out = pts;
+  for (int i = 1; i + 1 < n; ++i) {
+    const int r = std::min({r_max, i, n - 1 - i});
+    double sx = 0, sy = 0, ws = k[0];
+    for (int j = 1; j <= r; ++j) {
+      sx += k[j] * ((pts[i - j].x - pts[i].x) + (pts[i + j].x - pts[i].x));
+      sy += k[j] * ((pts[i - j].y - pts[i].y) + (pts[i + j].y - pts[i].y));
+      ws += 2 * k[j];
+    }
+    out[i].x = pts[i].x + sx / ws;
+    out[i].y = pts[i].y + sy / ws;
+  }
+  pts = std::move(out);
+}
+
+/// Draws a polyline one pixel wide (steps of at most half a pixel, nearest pixel).
+void draw_line(const std::vector<Sketch::Point>& pts, int w, int h, std::vector<uint8_t>& mask) {
+  auto plot = [&](double x, double y) {
+    const long xi = std::lround(x), yi = std::lround(y);
+    if (xi >= 0 && yi >= 0 && xi < w && yi < h) mask[size_t(yi) * w + size_t(xi)] = 1;
+  };
+  if (!pts.empty()) plot(pts[0].x, pts[0].y);
+  for (size_t k = 1; k < pts.size(); ++k) {
+    const double dx = pts[k].x - pts[k - 1].x, dy = pts[k].y - pts[k - 1].y;
+    const int steps = std::max(1, int(std::ceil(2 * std::max(std::abs(dx), std::abs(dy)))));
+    for (int s = 1; s <= steps; ++s) plot(pts[k - 1].x + dx * s / steps, pts[k - 1].y + dy * s / steps);
+  }
+}
+
+/// Traces the D8 network above `threshold` cells into polylines split at confluences, smoothed
+/// along their length (`line_sigma` cells) and simplified; draws the smoothed lines into `mask`.
 std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Heightfield& original, double threshold,
-                                        double simplify_tol, std::vector<uint8_t>& mask) {
+                                        double simplify_tol, double line_sigma, std::vector<uint8_t>& mask) {
   const D8Result d8 = d8_flow(surface);
   const size_t n = surface.size();
   const int w = surface.width;
@@ -97,6 +139,7 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
       if (j >= 0) donors[size_t(j)]++;
     }
   std::vector<Sketch::Line> lines;
+  std::vector<std::vector<Sketch::Point>> smoothed;
   std::vector<Sketch::Point> pts;
   for (size_t i = 0; i < n; ++i) {
     // A segment starts at a channel head (no network donor) or just below a confluence.
@@ -115,11 +158,16 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
     }
     if (pts.size() < 2) continue;
     Sketch::Line line;
-    simplify(pts, simplify_tol, line.points);
     const size_t last = size_t(pts.back().y) * w + size_t(pts.back().x);
+    smooth_path(pts, line_sigma);
+    simplify(pts, simplify_tol, line.points);
     line.drainage_area_m2 = d8.area_m2(last);
     lines.push_back(std::move(line));
+    smoothed.push_back(pts);
   }
+  // The picture shows the smoothed lines, not the D8 cells (the same staircase otherwise).
+  mask.assign(n, 0);
+  for (const auto& p : smoothed) draw_line(p, w, surface.height, mask);
   return lines;
 }
 
@@ -187,6 +235,8 @@ Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt, const Prog
   if (opt.window < 3) fail(stage, "window must be at least 3 cells, got {}", opt.window);
   if (opt.river_fraction <= 0 || opt.ridge_fraction <= 0 || opt.river_fraction > 1 || opt.ridge_fraction > 1)
     fail(stage, "river/ridge fractions must be in (0, 1]");
+  if (!(opt.line_smooth_cells >= 0 && opt.line_smooth_cells <= 100))
+    fail(stage, "line_smooth must be in [0, 100] cells, got {}", opt.line_smooth_cells);
   const HeightStats st = compute_stats(h);
   if (st.valid == 0) fail(stage, "the heightfield has no valid cell");
   Heightfield surface = opt.smooth_cells > 0 ? gaussian_blur(h, opt.smooth_cells) : h;
@@ -196,12 +246,12 @@ Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt, const Prog
   const double valid = double(st.valid);
   std::vector<uint8_t> river_mask, ridge_mask;
   s.rivers = trace_network(surface, h, std::max<double>(opt.min_cells, opt.river_fraction * valid), opt.simplify_cells,
-                           river_mask);
+                           opt.line_smooth_cells, river_mask);
   report_progress(progress, stage, 0.4, "rivers");
   Heightfield inverted = surface;
   for (float& v : inverted.z) v = -v;
   s.ridges = trace_network(inverted, h, std::max<double>(opt.min_cells, opt.ridge_fraction * valid), opt.simplify_cells,
-                           ridge_mask);
+                           opt.line_smooth_cells, ridge_mask);
   report_progress(progress, stage, 0.8, "ridges");
   const int window = opt.window | 1;
   const std::vector<float> fmax = extremum_filter(surface, window, 1.f), fmin = extremum_filter(surface, window, -1.f);

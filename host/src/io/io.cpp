@@ -4,6 +4,7 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/mesh.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -154,6 +155,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   sc["zmax"] = zmax;
   sc["format"] = f == FileFormat::PNG ? "png16-linear" : "raw16-le";
   sc["metadata"] = h.metadata;
+  sc["engine_import"] = nlohmann::json::parse(mesh::heightmap_import_json(h, zmin, zmax));  // Unreal Z scale etc.
   const std::string sc_path = io::sidecar_path(path);
   const std::string sc_tmp = temporary_path_for(sc_path);
   write_atomically(path, [&](const std::string& tmp) {
