@@ -434,7 +434,8 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
       const float before = out.z[i];
       out.z[i] = before + w * s;
       const float landed = out.z[i] - before;  // what the float bed really took (see docs: rounding)
-      st.sediment[i] = s - landed;
+      // A full-weight cell keeps no sediment; the sub-ulp remainder of the addition is round-off.
+      st.sediment[i] = w >= 1.0f ? 0.0f : std::max(0.0f, s - landed);
       if (!st.deposit.empty()) st.deposit[i] += landed;  // settled sediment is loose: deposit layer
       settled += double(landed) * a;
       unsettled += double(st.sediment[i]) * a;

@@ -103,6 +103,67 @@ void smooth_path(std::vector<Sketch::Point>& pts, double sigma) {
   pts = std::move(out);
 }
 
+/// Moves the inner vertices of a traced path across it to the sub-cell position of the valley
+/// floor (the minimum of `surface` across the path; ridges are traced on the inverted terrain): a
+/// least-squares parabola through 5 bilinear samples at -2..2 cells along the path's normal, its
+/// vertex clamped to half a cell. A D8 run at 0 deg along a crest that really runs at 20 deg drifts
+/// across its cells, so these offsets grow along the run and restore the true direction, which
+/// smoothing alone cannot do for runs longer than its window.
+void localise_subcell(std::vector<Sketch::Point>& pts, const Heightfield& surface) {
+  const int n = int(pts.size());
+  if (n < 3) return;
+  auto sample = [&](double x, double y) {
+    x = std::clamp(x, 0.0, double(surface.width - 1));
+    y = std::clamp(y, 0.0, double(surface.height - 1));
+    const int x0 = std::clamp(int(x), 0, std::max(0, surface.width - 2));
+    const int y0 = std::clamp(int(y), 0, std::max(0, surface.height - 2));
+    const int x1 = std::min(x0 + 1, surface.width - 1), y1 = std::min(y0 + 1, surface.height - 1);
+    const double tx = x - x0, ty = y - y0;
+    const double a = surface.at(x0, y0), b = surface.at(x1, y0), c = surface.at(x0, y1), d = surface.at(x1, y1);
+    return (1 - ty) * ((1 - tx) * a + tx * b) + ty * ((1 - tx) * c + tx * d);
+  };
+  std::vector<Sketch::Point> out = pts;
+  std::vector<uint8_t> placed(n, 0);
+  placed[0] = placed[n - 1] = 1;
+  for (int i = 1; i + 1 < n; ++i) {
+    const int a = std::max(0, i - 2), b = std::min(n - 1, i + 2);
+    double tx = pts[b].x - pts[a].x, ty = pts[b].y - pts[a].y;
+    const double len = std::hypot(tx, ty);
+    if (len <= 0) continue;
+    tx /= len, ty /= len;
+    const double nx = -ty, ny = tx;
+    double f[5];
+    bool ok = true;
+    for (int k = -2; k <= 2; ++k) {
+      f[k + 2] = sample(pts[i].x + k * nx, pts[i].y + k * ny);
+      ok = ok && std::isfinite(f[k + 2]);
+    }
+    if (!ok) continue;
+    const double lin = (-2 * f[0] - f[1] + f[3] + 2 * f[4]) / 10.0;
+    const double quad = (2 * f[0] - f[1] - 2 * f[2] - f[3] + 2 * f[4]) / 14.0;
+    if (!(quad > 1e-9)) continue;  // not a trough across the path: leave the vertex
+    const double off = std::clamp(-lin / (2 * quad), -0.5, 0.5);
+    out[i].x = std::clamp(pts[i].x + off * nx, 0.0, double(surface.width - 1));
+    out[i].y = std::clamp(pts[i].y + off * ny, 0.0, double(surface.height - 1));
+    placed[i] = 1;
+  }
+  // Where there is no trough across the path (a flat, e.g. a filled depression the D8 routing
+  // crosses in straight runs), the path is straightened between the placed vertices around it.
+  for (int i = 1; i + 1 < n; ++i) {
+    if (placed[i]) continue;
+    int j = i;
+    while (!placed[j]) ++j;
+    const Sketch::Point p0 = out[i - 1], p1 = out[j];
+    for (int k = i; k < j; ++k) {
+      const double t = double(k - (i - 1)) / double(j - (i - 1));
+      out[k].x = p0.x + t * (p1.x - p0.x);
+      out[k].y = p0.y + t * (p1.y - p0.y);
+    }
+    i = j;
+  }
+  pts = std::move(out);
+}
+
 /// Draws a polyline one pixel wide (steps of at most half a pixel, nearest pixel).
 void draw_line(const std::vector<Sketch::Point>& pts, int w, int h, std::vector<uint8_t>& mask) {
   auto plot = [&](double x, double y) {
@@ -159,6 +220,7 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
     if (pts.size() < 2) continue;
     Sketch::Line line;
     const size_t last = size_t(pts.back().y) * w + size_t(pts.back().x);
+    if (line_sigma > 0) localise_subcell(pts, surface);
     smooth_path(pts, line_sigma);
     simplify(pts, simplify_tol, line.points);
     line.drainage_area_m2 = d8.area_m2(last);
