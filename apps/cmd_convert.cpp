@@ -1,7 +1,10 @@
 #include "cli.hpp"
 #include "stage_flags.hpp"
 
+#include <fmt/format.h>
+
 #include <terracl/io.hpp>
+#include <terracl/mesh.hpp>
 
 namespace terracl::cli {
 namespace {
@@ -49,6 +52,13 @@ CommandRegistrar reg(12, [](CLI::App& app) {
     wo.zmin = a->out_zmin;
     wo.zmax = a->out_zmax;
     write_heightfield(h, a->output, wo);
+    const FileFormat of = format_from_extension(a->output);
+    if ((of == FileFormat::PNG || of == FileFormat::RAW16) && !globals().quiet) {
+      // Engine heightmaps: how to import them at their true scale (also in the sidecar).
+      auto [lo, hi] = std::pair{a->out_zmin, a->out_zmax};
+      const HeightStats st = compute_stats(h);
+      fmt::print(stderr, "{}", mesh::heightmap_import_summary(h, lo.value_or(st.min), hi.value_or(st.max)));
+    }
   });
 });
 

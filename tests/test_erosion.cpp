@@ -137,7 +137,8 @@ TEST(Erosion, T4DtAboveTheLimitSubStepsAndStaysStable) {
   ErosionParams p = closed_no_rain();
   p.thermal_rate = 0;
   const double limit = erosion_stability_limit(p, 10, 10);
-  EXPECT_NEAR(limit, std::sqrt(10.0 * 100.0 / (2 * 100.0 * 9.81)), 1e-12);
+  // sqrt(l*a/(2*A*g)) with the automatic pipe area A = l * 80 m.
+  EXPECT_NEAR(limit, std::sqrt(10.0 * 100.0 / (2 * 10.0 * 80.0 * 9.81)), 1e-12);
   p.dt = 10 * limit;
   Erosion big(test::device(), t, p, nullptr, &water);
   EXPECT_EQ(big.substeps(), 20);

@@ -128,7 +128,11 @@ TEST(ErosionReference, MeasuresOnKnownAnswers) {
 // channels; a thermal-only run does none of it.
 TEST(Erosion, T9DefaultRunCarvesChannelsOnSrtm) {
   const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
-  const ErosionParams p = ErosionParams::defaults();
+  // The carving by the flow, before the suspended load settles in the closed box's lakes at the end
+  // (settling fills them flat, which splits this test's unfilled D8 flow; the filled-surface Gini
+  // below rises with settling too: 0.922 -> 0.929).
+  ErosionParams p = ErosionParams::defaults();
+  p.settle = false;
   const Heightfield eroded = erode(test::device(), dem, p, 400);
   const Measures m = measure(dem, eroded);
   std::printf("T9 default: Gini %.4f -> %.4f, mean |Laplacian| x%.2f, Spearman(depth, log A0) %.3f\n", m.gini_before,

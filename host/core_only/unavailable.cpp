@@ -48,7 +48,7 @@ void write_image(const Image&, const std::string& path, const Metadata&) { unava
 }  // namespace render
 
 namespace mesh {
-void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&) {
+void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&, const std::string&) {
   unavailable("glTF writing (use .obj)", path);
 }
 }  // namespace mesh

@@ -63,9 +63,13 @@ ErosionParams ErosionParams::defaults() {
   return p;
 }
 
+double erosion_pipe_area(const ErosionParams& p, double lx, double ly) {
+  return p.pipe_area > 0 ? p.pipe_area : std::sqrt(lx * ly) * ErosionParams::pipe_reference_length;
+}
+
 double erosion_stability_limit(const ErosionParams& p, double lx, double ly) {
   const double a = lx * ly;
-  const double area = p.pipe_area > 0 ? p.pipe_area : a;
+  const double area = erosion_pipe_area(p, lx, ly);
   return std::sqrt(a / (p.gravity * (area / lx + area / ly)));
 }
 
@@ -224,7 +228,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
     // Arguments that never change.
     const ErosionParams& p = params;
     const double h = m_dt_sub, a = lx * ly;
-    const double area = p.pipe_area > 0 ? p.pipe_area : a;
+    const double area = erosion_pipe_area(p, lx, ly);
     const float rain_dt = float(p.rain * h);
     {
       cl::Kernel& k = s.k_flux;
@@ -416,10 +420,30 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
   Erosion sim(dev, terrain, params, weight);
   sim.run(steps, progress);
   Heightfield out = sim.bed();
+  ErosionState st = sim.state();
+  double settled = 0, unsettled = 0;
+  const double a = terrain.georef.cell_x * terrain.georef.cell_y;
+  if (params.settle) {
+    // The suspended sediment settles where it is, so the output holds all the solid material
+    // (bed + sediment is what the simulation conserves). Under a brush only the cell's weight of
+    // it settles: a weight-0 cell keeps its elevation, and what stays suspended is reported.
+    for (size_t i = 0; i < out.size(); ++i) {
+      const float s = st.sediment[i];
+      if (!(s > 0)) continue;
+      const float w = weight ? std::clamp((*weight)[i], 0.0f, 1.0f) : 1.0f;
+      const float before = out.z[i];
+      out.z[i] = before + w * s;
+      const float landed = out.z[i] - before;  // what the float bed really took (see docs: rounding)
+      // A full-weight cell keeps no sediment; the sub-ulp remainder of the addition is round-off.
+      st.sediment[i] = w >= 1.0f ? 0.0f : std::max(0.0f, s - landed);
+      if (!st.deposit.empty()) st.deposit[i] += landed;  // settled sediment is loose: deposit layer
+      settled += double(landed) * a;
+      unsettled += double(st.sediment[i]) * a;
+    }
+  }
   // The bed is finite by construction; check anyway so that no NaN ever reaches a file.
   require_finite(out, kStage, "eroded bed");
   if (outputs) {
-    const ErosionState st = sim.state();
     auto field = [&](const std::vector<float>& v) {
       Heightfield h = out;
       h.z = v;
@@ -432,6 +456,10 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
     outputs->delta = field(delta);
     if (params.deposit_layer) outputs->deposit = field(st.deposit);
     outputs->totals = sim.totals();
+    if (params.settle) {
+      outputs->totals.sediment = unsettled;
+      outputs->totals.settled = settled;
+    }
     outputs->substeps = sim.substeps();
     outputs->substep_dt = sim.substep_dt();
   }

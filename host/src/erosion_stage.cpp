@@ -22,6 +22,7 @@ namespace terracl {
 namespace {
 
 constexpr const char* kStage = "erode";
+constexpr double kDefaultTime = 400.0;  // s of simulated time when neither steps nor time is given
 
 }  // namespace
 
@@ -120,6 +121,7 @@ ErosionParams params_from(const json& o) {
   if (o.contains("cells_per_item") && o.at("cells_per_item").is_number_integer())
     p.cells_per_item = o.at("cells_per_item").get<int>();
   if (o.contains("thermal_only") && o.at("thermal_only").is_boolean()) p.thermal_only = o.at("thermal_only").get<bool>();
+  if (o.contains("settle") && o.at("settle").is_boolean()) p.settle = o.at("settle").get<bool>();
   if (o.contains("boundary") && o.at("boundary").is_string())
     p.boundary = o.at("boundary").get<std::string>() == "open" ? ErosionBoundary::Open : ErosionBoundary::Closed;
   return p;
@@ -131,9 +133,11 @@ void run_erode(StageContext& c) {
   const ErosionParams p = params_from(c.options);
   const double limit = erosion_stability_limit(p, h.georef.cell_x, h.georef.cell_y);
   const double dt = p.dt > 0 ? p.dt : p.substep_fraction * limit;
-  int steps = c.get<int>("steps");
-  if (c.has("time")) {
-    const double t = c.get<double>("time");
+  // The default run is a simulated time, not a step count: the step shrinks with the cell size
+  // (docs/erosion.md), so a fixed count would erode a 10 m grid a third as long as a 30 m one.
+  int steps = c.has("steps") ? c.get<int>("steps") : 0;
+  if (c.has("time") || !c.has("steps")) {
+    const double t = c.has("time") ? c.get<double>("time") : kDefaultTime;
     if (!(t > 0)) fail(c.tag, "--time must be positive, got {} s", t);
     if (t / dt > 1e8) fail(c.tag, "--time {} s is {:.3g} steps of {} s; more than 1e8 steps is not a sensible run", t, t / dt, dt);
     steps = int(std::ceil(t / dt - 1e-9));
@@ -162,7 +166,8 @@ void run_erode(StageContext& c) {
                   {"water_m3", out.totals.water},
                   {"suspended_sediment_m3", out.totals.sediment},
                   {"drained_water_m3", out.totals.drained_water},
-                  {"drained_sediment_m3", out.totals.drained_sediment}};
+                  {"drained_sediment_m3", out.totals.drained_sediment},
+                  {"settled_sediment_m3", out.totals.settled}};
   c.provenance["terracl:erode"] = summary.dump();
   for (const auto& [key, field] : {std::pair<const char*, Heightfield*>{"water", &out.water},
                                    {"sediment", &out.sediment},
@@ -247,8 +252,9 @@ void register_erosion_stages(StageRegistry& r) {
          DataKind::Heightfield,
          DataKind::Heightfield,
          {
-             opt("steps", OptionType::Int, 400, "", "Number of time steps").range(0, 100000000),
-             opt("time", OptionType::Float, nullptr, "s", "Simulated time; overrides steps (steps = ceil(time / dt))"),
+             opt("steps", OptionType::Int, nullptr, "", "Number of time steps (default: --time 400 s)").range(0, 100000000),
+             opt("time", OptionType::Float, nullptr, "s",
+                 "Simulated time (default 400 s when --steps is not given); overrides steps (steps = ceil(time / dt))"),
              opt("dt", OptionType::Float, 0.0, "s",
               "Time step; 0 = half the stability limit sqrt(l*a/(2*A*g)); a larger dt is split into sub-steps").range(0, {}),
              opt("rain", OptionType::Float, d.rain, "m/s", "Rain added uniformly to every cell (e.g. \"36000 mm/h\")"),
@@ -262,7 +268,9 @@ void register_erosion_stages(StageRegistry& r) {
              opt("depth_ramp", OptionType::Float, d.depth_ramp, "m", "Capacity ramps up with water depth until this depth"),
              opt("max_change", OptionType::Float, d.max_change, "m", "Largest bed change of a cell in one sub-step"),
              opt("damping", OptionType::Float, d.damping, "1/s", "Pipe flux damping k_f (semi-implicit)"),
-             opt("pipe_area", OptionType::Float, 0.0, "m2", "Virtual pipe cross-section A; 0 = cell area"),
+             opt("pipe_area", OptionType::Float, 0.0, "m2",
+                 "Virtual pipe cross-section A; 0 = sqrt(cell area) x 80 m (flow speeds and dt/cell size independent of "
+                 "the cell size)"),
              opt("dry_depth", OptionType::Float, d.dry_depth, "m", "Depth below which a cell is dry (no velocity, deposits all)"),
              opt("thermal_rate", OptionType::Float, d.thermal_rate, "1/s", "Thermal erosion rate K_t (0 = off)"),
              opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
@@ -278,8 +286,10 @@ void register_erosion_stages(StageRegistry& r) {
                  .range(0, max_region_feather),
              opt("keep_constraints", OptionType::Path, nullptr, "",
               "Constraints JSON (points/polygons/polylines, pixels or \"units\": \"georeferenced\"): those cells stay fixed"),
+             opt("settle", OptionType::Bool, true, "",
+                 "At the end, settle the suspended sediment onto the bed (the output keeps all the material)"),
              opt("water", OptionType::OutputPath, nullptr, "", "Write the final water depth (m), e.g. water.exr"),
-             opt("sediment", OptionType::OutputPath, nullptr, "", "Write the final suspended sediment (m), e.g. sediment.exr"),
+             opt("sediment", OptionType::OutputPath, nullptr, "", "Write the final suspended sediment (m, after settling), e.g. sediment.exr"),
              opt("delta", OptionType::OutputPath, nullptr, "", "Write the bed change (m, + = deposition), e.g. delta.exr"),
              opt("deposit_thickness", OptionType::OutputPath, nullptr, "",
                  "With --deposit-layer: write the deposit thickness (m), e.g. deposit.exr"),

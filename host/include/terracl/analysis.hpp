@@ -128,6 +128,8 @@ struct SketchOptions {
   double prominence_m = -1;       ///< max-min difference in the window; < 0: 10 % of the relief
   double smooth_cells = 0;        ///< Gaussian blur sigma in cells before extraction (0: none)
   double simplify_cells = 0.5;    ///< Douglas-Peucker tolerance of the polylines, in cells
+  double line_smooth_cells = 3;   ///< Gaussian sigma (cells) along the traced lines against D8's
+                                  ///< 0/45-deg staircase (0: the raw D8 paths)
   int patch = 15;                 ///< size of the peak/basin squares in the picture's blue channel
 };
 

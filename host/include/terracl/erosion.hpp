@@ -28,7 +28,11 @@ struct ErosionParams {
   double rain = 0.0;           ///< m/s of rain added uniformly to every cell
   double evaporation = 0.0;    ///< 1/s, water depth decays as d *= (1 - evaporation*dt)
   double gravity = 9.81;       ///< m/s^2
-  double pipe_area = 0.0;      ///< m^2, cross-section A of a virtual pipe; 0 = cell area
+  double pipe_area = 0.0;      ///< m^2, cross-section A of a virtual pipe; 0 = automatic:
+                               ///< sqrt(cell area) x pipe_reference_length, which keeps flow speeds,
+                               ///< the time step per metre and so the result of a given simulated
+                               ///< time independent of the cell size
+  static constexpr double pipe_reference_length = 80.0;  ///< m (the tuning scale, SRTM3 cells)
   double damping = 0.0;        ///< 1/s, k_f: semi-implicit damping of the pipe fluxes
   double capacity = 0.0;       ///< s, K_c: capacity (m) per (m/s of speed x sine of slope)
   double dissolve = 0.0;       ///< 1/s, K_s: rate of picking up (C - s)
@@ -45,6 +49,8 @@ struct ErosionParams {
   double rock_erodibility = 0.3;   ///< with a deposit layer: rock dissolves at this fraction of K_s
   double deposit_talus_deg = 30.0; ///< deg, with a deposit layer: talus of the deposit
   bool thermal_only = false;   ///< no water at all: only thermal erosion
+  bool settle = true;          ///< erode(): at the end the suspended sediment settles onto the bed
+                               ///< (times the brush weight), so the output conserves the material
   ErosionBoundary boundary = ErosionBoundary::Closed;
   double substep_fraction = 0.5;  ///< sub-steps are at most this fraction of the stability limit
   int cells_per_item = 0;  ///< cells of a row per work-item (multiple of 8); 0 = automatic: the whole
@@ -53,6 +59,9 @@ struct ErosionParams {
   /// The defaults of the `erode` stage (carve gullies on the bundled SRTM tiles).
   static ErosionParams defaults();
 };
+
+/// Pipe cross-section A (m^2) used for a cell of lx x ly metres (ErosionParams::pipe_area).
+double erosion_pipe_area(const ErosionParams& p, double lx, double ly);
 
 /// Stability limit (s) of the pipe model for a cell of lx x ly metres:
 /// dt_max = sqrt(a / (g * (A/lx + A/ly))), i.e. sqrt(l*a / (2*A*g)) for square cells.
@@ -73,6 +82,7 @@ struct ErosionTotals {
   double drained_water = 0;  ///< water that left through an open border since the start
   double drained_sediment = 0;
   double rained = 0;         ///< rain added since the start
+  double settled = 0;        ///< erode() with settle: sediment settled onto the bed at the end
 };
 
 /// A running simulation on one device. Not thread-safe.
@@ -124,7 +134,8 @@ struct ErosionOutputs {
   double substep_dt = 0;
 };
 
-/// Runs `steps` steps on `terrain` and returns the eroded bed. `weight` as for Erosion.
+/// Runs `steps` steps on `terrain` and returns the eroded bed (with params.settle, the suspended
+/// sediment settled onto it). `weight` as for Erosion.
 Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& params, int steps,
                   const std::vector<float>* weight = nullptr, ErosionOutputs* outputs = nullptr,
                   const Progress& progress = {});

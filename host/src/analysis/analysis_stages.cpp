@@ -35,6 +35,7 @@ void run_sketch(StageContext& c) {
   o.prominence_m = c.has("prominence") ? c.get<double>("prominence") : -1.0;
   o.smooth_cells = c.get<double>("smooth");
   o.simplify_cells = c.get<double>("simplify");
+  o.line_smooth_cells = c.get<double>("line_smooth");
   o.patch = int(c.get<int64_t>("patch"));
   const Heightfield& h = c.height();
   const analysis::Sketch s = analysis::extract_sketch(h, o, c.progress);
@@ -62,9 +63,14 @@ void run_render(StageContext& c) {
 
 void run_mesh(StageContext& c) {
   const Heightfield& h = c.height();
-  const mesh::Mesh m = c.has("max_error") ? mesh::triangulate_simplified(h, c.get<double>("max_error"), c.progress)
-                                          : mesh::triangulate_full(h);
-  mesh::write_mesh(m, c.get<std::string>("file"), c.provenance);
+  mesh::Mesh m;
+  if (!c.has("max_error"))
+    m = mesh::triangulate_full(h);
+  else if (c.get<std::string>("simplifier") == "rtin")
+    m = mesh::triangulate_rtin(h, c.get<double>("max_error"), c.progress);
+  else  // greedy; falls back to the RTIN where the grid has nodata
+    m = mesh::triangulate_simplified(h, c.get<double>("max_error"), c.progress);
+  mesh::write_mesh(m, c.get<std::string>("file"), c.provenance, &h);
 }
 
 void run_drainage(StageContext& c) {
@@ -141,6 +147,13 @@ void register_analysis_stages(StageRegistry& r) {
            {},
            false},
           {"simplify", OptionType::Float, 0.5, "cells", "Douglas-Peucker tolerance of the polylines", {}, false},
+          {"line_smooth",
+           OptionType::Float,
+           3.0,
+           "cells",
+           "Gaussian sigma along the traced lines, against D8's 0/45-degree staircase (0: raw D8 paths)",
+           {},
+           false},
           {"patch", OptionType::Int, 15, "cells", "Size of the peak/basin squares in the picture", {}, false}},
          run_sketch,
          false});
@@ -179,8 +192,9 @@ void register_analysis_stages(StageRegistry& r) {
          run_render,
          false});
   r.add({"mesh",
-         "Export a triangle mesh in metres (.glb, .gltf or .obj), optionally simplified within a vertical "
-         "error; passes the heightfield through.",
+         "Export a triangle mesh in metres (.glb, .gltf or .obj) with texture coordinates and its map placement "
+         "(glTF node extras and a <file>.json sidecar), optionally simplified within a vertical error; passes the "
+         "heightfield through.",
          H,
          H,
          {{"file", OptionType::OutputPath, nullptr, "", "Mesh file (.glb, .gltf or .obj)", {}, true},
@@ -190,6 +204,14 @@ void register_analysis_stages(StageRegistry& r) {
            "m",
            "Simplify so that no cell is further than this from the mesh (default: full grid)",
            {},
+           false},
+          {"simplifier",
+           OptionType::Enum,
+           "greedy",
+           "",
+           "greedy: Delaunay greedy insertion, fewest vertices (the RTIN where the grid has nodata); rtin: "
+           "right-triangulated irregular network",
+           {"greedy", "rtin"},
            false}},
          run_mesh,
          false});
@@ -324,7 +346,16 @@ void register_analysis_benches(BenchRegistry& r) {
            mesh::Mesh m;
            time(
                "mesh simplify 1 m", n, [&] { m = mesh::triangulate_simplified(h, 1.0); },
-               [&] { return fmt::format("{} triangles", m.triangle_count()); });
+               [&] {
+                 return fmt::format("greedy insertion, {} triangles, {:.1f} % of the cells as vertices",
+                                    m.triangle_count(), 100.0 * m.vertex_count() / h.size());
+               });
+           time(
+               "mesh simplify 1 m RTIN", n, [&] { m = mesh::triangulate_rtin(h, 1.0); },
+               [&] {
+                 return fmt::format("{} triangles, {:.1f} % of the cells as vertices", m.triangle_count(),
+                                    100.0 * m.vertex_count() / h.size());
+               });
            time(
                "metrics (all)", std::max(1, n / 3), [&] { (void)analysis::terrain_metrics(h); },
                [] { return std::string(); });

@@ -3,7 +3,8 @@
 // threshold, ridges the same on the inverted terrain, peaks and basins come from max/min filters
 // with a relief threshold. The D8 network above a threshold is a tree of one-cell-wide paths, so it
 // is already the skeleton the paper obtains by thinning a thresholded image; we trace it into
-// polylines (split at confluences) and draw those.
+// polylines (split at confluences), smooth them along their length to remove D8's 0/45-deg
+// staircase, and draw those.
 #include <algorithm>
 #include <numeric>
 #include <terracl/error.hpp>
@@ -75,10 +76,112 @@ void simplify(const std::vector<Sketch::Point>& in, double tol, std::vector<Sket
     if (keep[i]) out.push_back(in[i]);
 }
 
-/// Traces the D8 network above `threshold` cells into polylines split at confluences; marks the
-/// network cells in `mask`.
+/// Gaussian smoothing of the (x, y) of a D8 path along its vertices, sigma in vertices. A D8 path
+/// only knows 8 directions, so a ridge or valley at 20 deg comes out as long runs at 0 deg broken by
+/// 45-deg steps (the staircase of the sketch pictures); averaging over a few cells recovers the
+/// direction in between. The window is symmetric and shrinks towards the ends, which stay where
+/// they are, so lines still meet at their confluences; a straight run keeps its coordinates exactly
+/// (the average is taken of offsets from the vertex itself).
+void smooth_path(std::vector<Sketch::Point>& pts, double sigma) {
+  const int n = int(pts.size());
+  if (sigma <= 0 || n < 3) return;
+  const int r_max = std::max(1, int(std::ceil(2.5 * sigma)));
+  std::vector<double> k(r_max + 1);
+  for (int i = 0; i <= r_max; ++i) k[i] = std::exp(-0.5 * i * i / (sigma * sigma));
+  std::vector<Sketch::Point> out = pts;
+  for (int i = 1; i + 1 < n; ++i) {
+    const int r = std::min({r_max, i, n - 1 - i});
+    double sx = 0, sy = 0, ws = k[0];
+    for (int j = 1; j <= r; ++j) {
+      sx += k[j] * ((pts[i - j].x - pts[i].x) + (pts[i + j].x - pts[i].x));
+      sy += k[j] * ((pts[i - j].y - pts[i].y) + (pts[i + j].y - pts[i].y));
+      ws += 2 * k[j];
+    }
+    out[i].x = pts[i].x + sx / ws;
+    out[i].y = pts[i].y + sy / ws;
+  }
+  pts = std::move(out);
+}
+
+/// Moves the inner vertices of a traced path across it to the sub-cell position of the valley
+/// floor (the minimum of `surface` across the path; ridges are traced on the inverted terrain): a
+/// least-squares parabola through 5 bilinear samples at -2..2 cells along the path's normal, its
+/// vertex clamped to half a cell. A D8 run at 0 deg along a crest that really runs at 20 deg drifts
+/// across its cells, so these offsets grow along the run and restore the true direction, which
+/// smoothing alone cannot do for runs longer than its window.
+void localise_subcell(std::vector<Sketch::Point>& pts, const Heightfield& surface) {
+  const int n = int(pts.size());
+  if (n < 3) return;
+  auto sample = [&](double x, double y) {
+    x = std::clamp(x, 0.0, double(surface.width - 1));
+    y = std::clamp(y, 0.0, double(surface.height - 1));
+    const int x0 = std::clamp(int(x), 0, std::max(0, surface.width - 2));
+    const int y0 = std::clamp(int(y), 0, std::max(0, surface.height - 2));
+    const int x1 = std::min(x0 + 1, surface.width - 1), y1 = std::min(y0 + 1, surface.height - 1);
+    const double tx = x - x0, ty = y - y0;
+    const double a = surface.at(x0, y0), b = surface.at(x1, y0), c = surface.at(x0, y1), d = surface.at(x1, y1);
+    return (1 - ty) * ((1 - tx) * a + tx * b) + ty * ((1 - tx) * c + tx * d);
+  };
+  std::vector<Sketch::Point> out = pts;
+  std::vector<uint8_t> placed(n, 0);
+  placed[0] = placed[n - 1] = 1;
+  for (int i = 1; i + 1 < n; ++i) {
+    const int a = std::max(0, i - 2), b = std::min(n - 1, i + 2);
+    double tx = pts[b].x - pts[a].x, ty = pts[b].y - pts[a].y;
+    const double len = std::hypot(tx, ty);
+    if (len <= 0) continue;
+    tx /= len, ty /= len;
+    const double nx = -ty, ny = tx;
+    double f[5];
+    bool ok = true;
+    for (int k = -2; k <= 2; ++k) {
+      f[k + 2] = sample(pts[i].x + k * nx, pts[i].y + k * ny);
+      ok = ok && std::isfinite(f[k + 2]);
+    }
+    if (!ok) continue;
+    const double lin = (-2 * f[0] - f[1] + f[3] + 2 * f[4]) / 10.0;
+    const double quad = (2 * f[0] - f[1] - 2 * f[2] - f[3] + 2 * f[4]) / 14.0;
+    if (!(quad > 1e-9)) continue;  // not a trough across the path: leave the vertex
+    const double off = std::clamp(-lin / (2 * quad), -0.5, 0.5);
+    out[i].x = std::clamp(pts[i].x + off * nx, 0.0, double(surface.width - 1));
+    out[i].y = std::clamp(pts[i].y + off * ny, 0.0, double(surface.height - 1));
+    placed[i] = 1;
+  }
+  // Where there is no trough across the path (a flat, e.g. a filled depression the D8 routing
+  // crosses in straight runs), the path is straightened between the placed vertices around it.
+  for (int i = 1; i + 1 < n; ++i) {
+    if (placed[i]) continue;
+    int j = i;
+    while (!placed[j]) ++j;
+    const Sketch::Point p0 = out[i - 1], p1 = out[j];
+    for (int k = i; k < j; ++k) {
+      const double t = double(k - (i - 1)) / double(j - (i - 1));
+      out[k].x = p0.x + t * (p1.x - p0.x);
+      out[k].y = p0.y + t * (p1.y - p0.y);
+    }
+    i = j;
+  }
+  pts = std::move(out);
+}
+
+/// Draws a polyline one pixel wide (steps of at most half a pixel, nearest pixel).
+void draw_line(const std::vector<Sketch::Point>& pts, int w, int h, std::vector<uint8_t>& mask) {
+  auto plot = [&](double x, double y) {
+    const long xi = std::lround(x), yi = std::lround(y);
+    if (xi >= 0 && yi >= 0 && xi < w && yi < h) mask[size_t(yi) * w + size_t(xi)] = 1;
+  };
+  if (!pts.empty()) plot(pts[0].x, pts[0].y);
+  for (size_t k = 1; k < pts.size(); ++k) {
+    const double dx = pts[k].x - pts[k - 1].x, dy = pts[k].y - pts[k - 1].y;
+    const int steps = std::max(1, int(std::ceil(2 * std::max(std::abs(dx), std::abs(dy)))));
+    for (int s = 1; s <= steps; ++s) plot(pts[k - 1].x + dx * s / steps, pts[k - 1].y + dy * s / steps);
+  }
+}
+
+/// Traces the D8 network above `threshold` cells into polylines split at confluences, smoothed
+/// along their length (`line_sigma` cells) and simplified; draws the smoothed lines into `mask`.
 std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Heightfield& original, double threshold,
-                                        double simplify_tol, std::vector<uint8_t>& mask) {
+                                        double simplify_tol, double line_sigma, std::vector<uint8_t>& mask) {
   const D8Result d8 = d8_flow(surface);
   const size_t n = surface.size();
   const int w = surface.width;
@@ -97,6 +200,7 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
       if (j >= 0) donors[size_t(j)]++;
     }
   std::vector<Sketch::Line> lines;
+  std::vector<std::vector<Sketch::Point>> smoothed;
   std::vector<Sketch::Point> pts;
   for (size_t i = 0; i < n; ++i) {
     // A segment starts at a channel head (no network donor) or just below a confluence.
@@ -115,11 +219,17 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
     }
     if (pts.size() < 2) continue;
     Sketch::Line line;
-    simplify(pts, simplify_tol, line.points);
     const size_t last = size_t(pts.back().y) * w + size_t(pts.back().x);
+    if (line_sigma > 0) localise_subcell(pts, surface);
+    smooth_path(pts, line_sigma);
+    simplify(pts, simplify_tol, line.points);
     line.drainage_area_m2 = d8.area_m2(last);
     lines.push_back(std::move(line));
+    smoothed.push_back(pts);
   }
+  // The picture shows the smoothed lines, not the D8 cells (the same staircase otherwise).
+  mask.assign(n, 0);
+  for (const auto& p : smoothed) draw_line(p, w, surface.height, mask);
   return lines;
 }
 
@@ -187,6 +297,8 @@ Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt, const Prog
   if (opt.window < 3) fail(stage, "window must be at least 3 cells, got {}", opt.window);
   if (opt.river_fraction <= 0 || opt.ridge_fraction <= 0 || opt.river_fraction > 1 || opt.ridge_fraction > 1)
     fail(stage, "river/ridge fractions must be in (0, 1]");
+  if (!(opt.line_smooth_cells >= 0 && opt.line_smooth_cells <= 100))
+    fail(stage, "line_smooth must be in [0, 100] cells, got {}", opt.line_smooth_cells);
   const HeightStats st = compute_stats(h);
   if (st.valid == 0) fail(stage, "the heightfield has no valid cell");
   Heightfield surface = opt.smooth_cells > 0 ? gaussian_blur(h, opt.smooth_cells) : h;
@@ -196,12 +308,12 @@ Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt, const Prog
   const double valid = double(st.valid);
   std::vector<uint8_t> river_mask, ridge_mask;
   s.rivers = trace_network(surface, h, std::max<double>(opt.min_cells, opt.river_fraction * valid), opt.simplify_cells,
-                           river_mask);
+                           opt.line_smooth_cells, river_mask);
   report_progress(progress, stage, 0.4, "rivers");
   Heightfield inverted = surface;
   for (float& v : inverted.z) v = -v;
   s.ridges = trace_network(inverted, h, std::max<double>(opt.min_cells, opt.ridge_fraction * valid), opt.simplify_cells,
-                           ridge_mask);
+                           opt.line_smooth_cells, ridge_mask);
   report_progress(progress, stage, 0.8, "ridges");
   const int window = opt.window | 1;
   const std::vector<float> fmax = extremum_filter(surface, window, 1.f), fmin = extremum_filter(surface, window, -1.f);

@@ -12,6 +12,9 @@ namespace terracl::edit {
 ErodeSpec parse_erode_spec(Params& p) {
   ErodeSpec e;
   e.params = ErosionParams::defaults();
+  // The studio previews this operation with the live Erosion bed, which keeps its sediment in
+  // suspension; the committed script must replay to that preview, so no settling here (yet).
+  e.params.settle = false;
   e.steps = p.integer("steps", {}, 1, 100000);
   e.params.rain = p.number("rain", e.params.rain, 0.0, 1.0);
   e.params.capacity = p.number("capacity", e.params.capacity, 0.0, 1e6);

@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <nlohmann/json.hpp>
+#include <regex>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
@@ -33,6 +35,8 @@ struct VertexMap {
       m.positions.push_back(float(x * h.georef.cell_x));
       m.positions.push_back(h.at(x, y));
       m.positions.push_back(float(y * h.georef.cell_y));
+      m.texcoords.push_back(float((x + 0.5) / h.width));
+      m.texcoords.push_back(float((y + 0.5) / h.height));
     }
     return uint32_t(v);
   }
@@ -63,6 +67,12 @@ Mesh triangulate_full(const Heightfield& h) {
 }
 
 Mesh triangulate_simplified(const Heightfield& h, double max_error_m, const Progress& progress) {
+  check_input(h);
+  const bool holes = std::any_of(h.z.begin(), h.z.end(), [](float v) { return std::isnan(v); });
+  return holes ? triangulate_rtin(h, max_error_m, progress) : triangulate_greedy(h, max_error_m, progress);
+}
+
+Mesh triangulate_rtin(const Heightfield& h, double max_error_m, const Progress& progress) {
   check_input(h);
   if (!(max_error_m >= 0)) fail("mesh", "max_error must be >= 0 m, got {}", max_error_m);
   int tile = 1;
@@ -221,9 +231,18 @@ void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
       fmt::format_to(std::back_inserter(buf), "vn {} {} {}\n", normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]);
       if (buf.size() > (1 << 20)) flush();
     }
+    // OBJ's texture v points up (OpenGL), glTF's down: flip.
+    const bool uv = m.texcoords.size() == 2 * m.vertex_count();
+    for (size_t v = 0; uv && v < m.vertex_count(); ++v) {
+      fmt::format_to(std::back_inserter(buf), "vt {} {}\n", m.texcoords[2 * v], 1.0f - m.texcoords[2 * v + 1]);
+      if (buf.size() > (1 << 20)) flush();
+    }
     for (size_t t = 0; t < m.triangle_count(); ++t) {
       const uint32_t a = m.indices[3 * t] + 1, b = m.indices[3 * t + 1] + 1, c = m.indices[3 * t + 2] + 1;
-      fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", a, a, b, b, c, c);
+      if (uv)
+        fmt::format_to(std::back_inserter(buf), "f {}/{}/{} {}/{}/{} {}/{}/{}\n", a, a, a, b, b, b, c, c, c);
+      else
+        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", a, a, b, b, c, c);
       if (buf.size() > (1 << 20)) flush();
     }
     flush();
@@ -233,17 +252,114 @@ void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
 
 }  // namespace
 
-void write_mesh(const Mesh& m, const std::string& path, const Metadata& meta) {
+std::string placement_json(const Heightfield& h) {
+  const Georef& g = h.georef;
+  nlohmann::json j;
+  j["format"] = "terracl-mesh-placement";
+  j["version"] = 1;
+  j["axes"] = "glTF: X = east, Y = up, Z = south, metres; OBJ the same";
+  j["grid"] = {{"width", h.width}, {"height", h.height}};
+  j["cell_size_m"] = {g.cell_x, g.cell_y};
+  j["z_scale"] = 1.0;  // vertex Y is the elevation in metres, not exaggerated
+  j["vertical_units"] = g.vertical_units;
+  j["texcoord"] = "TEXCOORD_0: u = (column + 0.5) / width, v = (row + 0.5) / height (v down); a picture of the "
+                  "raster at its own size drapes pixel on cell";
+  if (g.has_geotransform) {
+    const auto& t = g.geotransform;
+    // Vertex X = Z = 0 is the centre of cell (0, 0); the geotransform addresses cell corners.
+    j["origin"] = {{"x", t[0] + 0.5 * t[1] + 0.5 * t[2]}, {"y", t[3] + 0.5 * t[4] + 0.5 * t[5]}, {"z", 0.0},
+                   {"meaning", "map coordinates (CRS units) of the vertex at X = Z = 0, the north-west cell centre; "
+                               "elevation 0 at Y = 0"}};
+    j["geotransform"] = t;
+    j["cell_size_crs"] = {t[1], t[5]};
+  } else {
+    j["origin"] = nullptr;
+  }
+  j["geographic"] = g.geographic;
+  if (g.geographic)
+    j["note"] = "the CRS is in degrees: X and Z use the metric cell size at the raster's centre latitude, so the "
+                "mesh is a local tangent-plane approximation";
+  j["crs_wkt"] = g.crs_wkt.empty() ? nlohmann::json(nullptr) : nlohmann::json(g.crs_wkt);
+  // The CRS's own authority code is its last EPSG AUTHORITY (WKT1) / ID (WKT2) entry.
+  nlohmann::json epsg = nullptr;
+  static const std::regex code(R"re((?:AUTHORITY|ID)\[\s*"EPSG"\s*,\s*"?(\d+)"?\s*\])re");
+  for (auto it = std::sregex_iterator(g.crs_wkt.begin(), g.crs_wkt.end(), code); it != std::sregex_iterator(); ++it)
+    epsg = std::stoi((*it)[1].str());
+  j["epsg"] = epsg;
+  return j.dump();
+}
+
+namespace {
+
+struct ImportHints {
+  double z_scale, xy_cm[2], location_z_cm, size_m[3];
+  bool square;
+};
+
+ImportHints import_hints(const Heightfield& h, double zmin, double zmax) {
+  ImportHints r{};
+  const double range = std::max(0.0, zmax - zmin);
+  // Unreal: world Z (cm) = (code - 32768) * ZScale / 128 + LocationZ.
+  r.z_scale = range * 100.0 * 128.0 / 65535.0;
+  r.location_z_cm = zmin * 100.0 + 32768.0 * r.z_scale / 128.0;
+  r.xy_cm[0] = h.georef.cell_x * 100.0;
+  r.xy_cm[1] = h.georef.cell_y * 100.0;
+  r.size_m[0] = (h.width - 1) * h.georef.cell_x;
+  r.size_m[1] = range;
+  r.size_m[2] = (h.height - 1) * h.georef.cell_y;
+  r.square = std::abs(h.georef.cell_x - h.georef.cell_y) <= 0.01 * std::max(h.georef.cell_x, h.georef.cell_y);
+  return r;
+}
+
+}  // namespace
+
+std::string heightmap_import_json(const Heightfield& h, double zmin, double zmax) {
+  const ImportHints r = import_hints(h, zmin, zmax);
+  nlohmann::json j;
+  j["unreal"] = {{"scale", {r.xy_cm[0], r.xy_cm[1], r.z_scale}},
+                 {"location_z_cm", r.location_z_cm},
+                 {"meaning", "Landscape import: Scale X, Y, Z and Location Z; Z scale 100 spans 512 m"}};
+  j["unity"] = {{"terrain_size_m", {r.size_m[0], r.size_m[1], r.size_m[2]}},
+                {"meaning", "Terrain width, height (vertical range), length; the terrain's base at zmin"}};
+  j["square_cells"] = r.square;
+  if (!r.square)
+    j["warning"] = fmt::format("cells are {:.2f} x {:.2f} m, not square; engines stretch them to squares (resample first, "
+                               "e.g. gdalwarp -tr)",
+                               h.georef.cell_x, h.georef.cell_y);
+  return j.dump();
+}
+
+std::string heightmap_import_summary(const Heightfield& h, double zmin, double zmax) {
+  const ImportHints r = import_hints(h, zmin, zmax);
+  std::string s = fmt::format("Unreal import: scale X {:.4g} Y {:.4g} Z {:.6g}, location Z {:.6g} cm; Unity terrain "
+                              "size {:.6g} x {:.6g} x {:.6g} m\n",
+                              r.xy_cm[0], r.xy_cm[1], r.z_scale, r.location_z_cm, r.size_m[0], r.size_m[1], r.size_m[2]);
+  if (!r.square)
+    s += fmt::format("warning: cells are {:.2f} x {:.2f} m, not square (a geographic DEM?); engines stretch them to "
+                     "squares: resample to square cells first (gdalwarp -tr D D)\n",
+                     h.georef.cell_x, h.georef.cell_y);
+  return s;
+}
+
+void write_mesh(const Mesh& m, const std::string& path, const Metadata& meta, const Heightfield* grid) {
   std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".obj" && ext != ".glb" && ext != ".gltf")
+    fail("mesh", "{}: unknown mesh format '{}' (expected .glb, .gltf or .obj)", path, ext);
+  std::string placement;
+  if (grid) {
+    nlohmann::json j = nlohmann::json::parse(placement_json(*grid));
+    j["mesh"] = {{"vertices", m.vertex_count()},
+                 {"triangles", m.triangle_count()},
+                 {"vertex_share_of_cells", double(m.vertex_count()) / double(grid->size())}};
+    placement = j.dump();
+  }
   if (ext == ".obj")
     write_obj(m, path, meta);
-  else if (ext == ".glb")
-    write_gltf(m, path, true, meta);
-  else if (ext == ".gltf")
-    write_gltf(m, path, false, meta);
   else
-    fail("mesh", "{}: unknown mesh format '{}' (expected .glb, .gltf or .obj)", path, ext);
+    write_gltf(m, path, ext == ".glb", meta, placement);
+  // The sidecar after the mesh: a sidecar never describes a mesh that failed to write.
+  if (grid) write_text_file_atomic(path + ".json", nlohmann::json::parse(placement).dump(2) + "\n");
 }
 
 }  // namespace terracl::mesh

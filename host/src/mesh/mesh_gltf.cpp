@@ -6,18 +6,44 @@
 #include <tiny_gltf.h>
 
 #include <cstring>
+#include <nlohmann/json.hpp>
 
 namespace terracl::mesh {
 
-void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metadata& meta) {
+namespace {
+
+tinygltf::Value to_value(const nlohmann::json& j) {
+  if (j.is_object()) {
+    tinygltf::Value::Object o;
+    for (auto it = j.begin(); it != j.end(); ++it) o[it.key()] = to_value(it.value());
+    return tinygltf::Value(std::move(o));
+  }
+  if (j.is_array()) {
+    tinygltf::Value::Array a;
+    for (const auto& v : j) a.push_back(to_value(v));
+    return tinygltf::Value(std::move(a));
+  }
+  if (j.is_string()) return tinygltf::Value(j.get<std::string>());
+  if (j.is_boolean()) return tinygltf::Value(j.get<bool>());
+  if (j.is_number_integer()) return tinygltf::Value(j.get<int>());
+  if (j.is_number()) return tinygltf::Value(j.get<double>());
+  return tinygltf::Value();  // null
+}
+
+}  // namespace
+
+void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metadata& meta, const std::string& placement) {
   tinygltf::Model model;
   tinygltf::Buffer buffer;
   const size_t pos_bytes = m.positions.size() * sizeof(float), idx_bytes = m.indices.size() * sizeof(uint32_t);
   const std::vector<float> normals = vertex_normals(m);
-  buffer.data.resize(2 * pos_bytes + idx_bytes);
+  const bool uv = m.texcoords.size() == 2 * m.vertex_count();
+  const size_t uv_bytes = uv ? m.texcoords.size() * sizeof(float) : 0;
+  buffer.data.resize(2 * pos_bytes + idx_bytes + uv_bytes);
   std::memcpy(buffer.data.data(), m.positions.data(), pos_bytes);
   std::memcpy(buffer.data.data() + pos_bytes, m.indices.data(), idx_bytes);
   std::memcpy(buffer.data.data() + pos_bytes + idx_bytes, normals.data(), pos_bytes);
+  if (uv) std::memcpy(buffer.data.data() + 2 * pos_bytes + idx_bytes, m.texcoords.data(), uv_bytes);
   model.buffers.push_back(std::move(buffer));
 
   tinygltf::BufferView pos_view;
@@ -32,7 +58,11 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   idx_view.target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
   tinygltf::BufferView nrm_view = pos_view;
   nrm_view.byteOffset = pos_bytes + idx_bytes;
+  tinygltf::BufferView uv_view = pos_view;
+  uv_view.byteOffset = 2 * pos_bytes + idx_bytes;
+  uv_view.byteLength = uv_bytes;
   model.bufferViews = {pos_view, idx_view, nrm_view};
+  if (uv) model.bufferViews.push_back(uv_view);
 
   tinygltf::Accessor pos;
   pos.bufferView = 0;
@@ -57,10 +87,19 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   nrm.count = m.vertex_count();
   nrm.type = TINYGLTF_TYPE_VEC3;
   model.accessors = {pos, idx, nrm};
+  if (uv) {
+    tinygltf::Accessor tex;
+    tex.bufferView = 3;
+    tex.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    tex.count = m.vertex_count();
+    tex.type = TINYGLTF_TYPE_VEC2;
+    model.accessors.push_back(tex);
+  }
 
   tinygltf::Primitive prim;
   prim.attributes["POSITION"] = 0;
   prim.attributes["NORMAL"] = 2;
+  if (uv) prim.attributes["TEXCOORD_0"] = 3;
   prim.indices = 1;
   prim.mode = TINYGLTF_MODE_TRIANGLES;
   tinygltf::Mesh mesh;
@@ -70,6 +109,9 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   tinygltf::Node node;
   node.mesh = 0;
   node.name = "terrain";
+  // The map placement on the node (glTF's place for application data; Blender's importer keeps
+  // node extras as custom properties of the object).
+  if (!placement.empty()) node.extras = to_value(nlohmann::json::parse(placement));
   model.nodes.push_back(node);
   tinygltf::Scene scene;
   scene.nodes.push_back(0);

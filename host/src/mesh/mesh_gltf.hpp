@@ -9,6 +9,8 @@
 namespace terracl::mesh {
 /// Unit vertex normals: area-weighted sums of the adjacent faces' normals (mesh.cpp).
 std::vector<float> vertex_normals(const Mesh& m);
-/// Writes .glb (binary) or .gltf (JSON, buffer embedded) atomically.
-void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metadata& meta);
+/// Writes .glb (binary) or .gltf (JSON, buffer embedded) atomically; `placement` (JSON text from
+/// placement_json, may be empty) becomes the terrain node's extras.
+void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metadata& meta,
+                const std::string& placement = {});
 }  // namespace terracl::mesh

@@ -1,0 +1,89 @@
+#!/usr/bin/python3
+"""Erosion look figures (docs/erosion.md): erodes a DEM with the default parameters, prints the
+measures an artist's complaints translate to, and draws before / after hillshades and the bed change.
+
+  scripts/erosion-look.py DEM OUT.png [extra erode options...]
+
+Measures: mean elevation change (0 when the material is kept), mean |change|, share of cells at
+33-37 deg (a pile-up there means thermal erosion planed slopes into talus facets), share of cells
+flatter than 1 deg (flat ribbons), and the ratio of the RMS Laplacian (crinkle: > 1 means rougher).
+Needs build/bin/terracl, gdal-bin, python3-numpy, python3-matplotlib.
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+T = os.environ.get("TERRACL", os.path.join(ROOT, "build", "bin", "terracl"))
+
+
+def read(path, tmp):
+    """Float32 array and metric cell size (m) of a raster, through gdal_translate and terracl info."""
+    raw = os.path.join(tmp, os.path.basename(path) + ".bin")
+    subprocess.run(["gdal_translate", "-q", "-of", "ENVI", "-ot", "Float32", path, raw], check=True)
+    info = subprocess.run([T, "info", path], check=True, capture_output=True, text=True).stdout
+    size = re.search(r"size:\s+(\d+) x (\d+)", info)
+    cell = re.search(r"cell size:\s+([\d.]+) m x ([\d.]+) m", info)
+    w, h = int(size.group(1)), int(size.group(2))
+    z = np.fromfile(raw, dtype=np.float32).reshape(h, w).astype(np.float64)
+    return z, float(cell.group(1)), float(cell.group(2))
+
+
+def slope_deg(z, cx, cy):
+    gy, gx = np.gradient(z, cy, cx)
+    return np.degrees(np.arctan(np.hypot(gx, gy)))
+
+
+def laplacian_rms(z, cx, cy):
+    lap = (z[1:-1, 2:] - 2 * z[1:-1, 1:-1] + z[1:-1, :-2]) / cx**2 + (z[2:, 1:-1] - 2 * z[1:-1, 1:-1] + z[:-2, 1:-1]) / cy**2
+    return float(np.sqrt(np.mean(lap**2)))
+
+
+def main():
+    dem, out = sys.argv[1], sys.argv[2]
+    extra = sys.argv[3:]
+    with tempfile.TemporaryDirectory() as tmp:
+        eroded = os.path.join(tmp, "eroded.tif")
+        subprocess.run([T, "-q", "erode", dem, "-o", eroded] + extra, check=True)
+        z0, cx, cy = read(dem, tmp)
+        z1, _, _ = read(eroded, tmp)
+        d = z1 - z0
+        s0, s1 = slope_deg(z0, cx, cy), slope_deg(z1, cx, cy)
+        band = lambda s: 100.0 * np.mean((s >= 33) & (s <= 37))
+        flat = lambda s: 100.0 * np.mean(s < 1)
+        print(f"{os.path.basename(dem)}: {z0.shape[1]} x {z0.shape[0]} cells of {cx:.1f} x {cy:.1f} m; erode {' '.join(extra)}")
+        print(f"  mean change {d.mean():+.3f} m, mean |change| {np.abs(d).mean():.2f} m, 99th pct |change| "
+              f"{np.percentile(np.abs(d), 99):.1f} m")
+        print(f"  slope 33-37 deg: {band(s0):.2f} % -> {band(s1):.2f} %; flatter than 1 deg: {flat(s0):.2f} % -> "
+              f"{flat(s1):.2f} %; mean slope {s0.mean():.2f} -> {s1.mean():.2f} deg")
+        print(f"  RMS Laplacian x{laplacian_rms(z1, cx, cy) / laplacian_rms(z0, cx, cy):.2f}")
+        shades = []
+        for src in (dem, eroded):
+            png = os.path.join(tmp, os.path.basename(src) + ".png")
+            subprocess.run([T, "-q", "render", src, "-o", png], check=True)
+            shades.append(plt.imread(png))
+        lim = max(np.percentile(np.abs(d), 99), 1e-6)
+        aspect = z0.shape[0] * cy / (z0.shape[1] * cx)
+        fig, ax = plt.subplots(1, 3, figsize=(15, 5 * aspect + 0.6), dpi=100)
+        for a, img, title in zip(ax, shades + [None], ["before", "after", "bed change (dark = eroded)"]):
+            if img is None:
+                a.imshow(d, cmap="gray", vmin=-lim, vmax=lim, aspect=cy / cx)
+            else:
+                a.imshow(img, aspect=cy / cx)
+            a.set_title(title)
+            a.axis("off")
+        fig.tight_layout()
+        fig.savefig(out)
+        print(f"  wrote {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,134 @@
+// Erosion in physical units (issue 15): the suspended sediment settles back at the end so the output
+// keeps all the material, and the defaults give the same result in metres whatever the cell size
+// (the same terrain at SRTM3's ~80 m cells and upsampled 3x).
+#include "test_helpers.hpp"
+
+#include <terracl/erosion.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+using namespace terracl;
+
+namespace {
+
+double volume_m3(const Heightfield& h) {
+  double v = 0;
+  for (float z : h.z) v += z;
+  return v * h.georef.cell_x * h.georef.cell_y;
+}
+
+}  // namespace
+
+TEST(ErosionSettle, OutputKeepsAllTheMaterial) {
+  const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  const double a = dem.georef.cell_x * dem.georef.cell_y;
+  ErosionParams p = ErosionParams::defaults();
+  ErosionOutputs with, without;
+  const Heightfield settled = erode(test::device(), dem, p, 300, nullptr, &with);
+  p.settle = false;
+  const Heightfield suspended = erode(test::device(), dem, p, 300, nullptr, &without);
+  double moved = 0;
+  for (size_t i = 0; i < dem.size(); ++i) moved += std::fabs(double(settled.z[i]) - dem.z[i]) * a;
+  const double v0 = volume_m3(dem), drift = volume_m3(settled) - v0, lost = v0 - volume_m3(suspended);
+  std::printf("volume moved %.4g m3; output - input: %.3g m3 settled, %.4g m3 without settling (suspended %.4g m3)\n",
+              moved, drift, -lost, without.totals.sediment);
+  ASSERT_GT(moved, 1e6) << "the run must move material for this test to mean anything";
+  // Float32 beds of ~1000 m round at 6e-5 m per cell update: allow 1e-4 of the moved volume.
+  EXPECT_LE(std::fabs(drift), 1e-4 * moved);
+  // Without settling the output lost the suspended load (the old default): far above the bound.
+  EXPECT_NEAR(lost, without.totals.sediment, 1e-3 * lost + 1e-4 * moved);
+  EXPECT_GT(lost, 100 * 1e-4 * moved);
+  EXPECT_NEAR(with.totals.settled, without.totals.sediment, 1e-3 * without.totals.sediment);
+  EXPECT_LE(with.totals.sediment, 1e-6 * with.totals.settled);  // nothing left in suspension
+  for (size_t i = 0; i < dem.size(); ++i) ASSERT_EQ(with.sediment.z[i], 0.0f);
+  // The delta output includes the settled sediment.
+  for (size_t i = 0; i < dem.size(); ++i) ASSERT_NEAR(with.delta.z[i], settled.z[i] - dem.z[i], 1e-4);
+}
+
+TEST(ErosionSettle, BrushWeightZeroCellsStayFixed) {
+  const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  std::vector<float> w(dem.size(), 1.0f);
+  for (int y = 0; y < dem.height; ++y)
+    for (int x = dem.width / 2; x < dem.width; ++x) w[size_t(y) * dem.width + x] = 0.0f;
+  ErosionOutputs out;
+  const Heightfield e = erode(test::device(), dem, ErosionParams::defaults(), 200, &w, &out);
+  for (int y = 0; y < dem.height; ++y)
+    for (int x = dem.width / 2; x < dem.width; ++x) ASSERT_EQ(e.at(x, y), dem.at(x, y)) << x << "," << y;
+  EXPECT_GT(out.totals.settled, 0.0);
+}
+
+namespace {
+
+/// Catmull-Rom upsampling by an integer factor (cell centres aligned, clamped border): the same
+/// terrain on a finer grid, as `gdalwarp -r cubic -ts` makes it.
+Heightfield upsample(const Heightfield& h, int k) {
+  Heightfield out(h.width * k, h.height * k);
+  out.georef = h.georef;
+  out.georef.cell_x = h.georef.cell_x / k;
+  out.georef.cell_y = h.georef.cell_y / k;
+  auto at = [&](int x, int y) { return double(h.at(std::clamp(x, 0, h.width - 1), std::clamp(y, 0, h.height - 1))); };
+  auto cr = [](double p0, double p1, double p2, double p3, double t) {
+    return p1 + 0.5 * t * (p2 - p0 + t * (2 * p0 - 5 * p1 + 4 * p2 - p3 + t * (3 * (p1 - p2) + p3 - p0)));
+  };
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      const double fx = (x + 0.5) / k - 0.5, fy = (y + 0.5) / k - 0.5;
+      const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+      const double tx = fx - x0, ty = fy - y0;
+      double row[4];
+      for (int j = -1; j <= 2; ++j)
+        row[j + 1] = cr(at(x0 - 1, y0 + j), at(x0, y0 + j), at(x0 + 1, y0 + j), at(x0 + 2, y0 + j), tx);
+      out.at(x, y) = float(cr(row[0], row[1], row[2], row[3], ty));
+    }
+  return out;
+}
+
+double mean_abs_change(const Heightfield& a, const Heightfield& b) {
+  double s = 0;
+  for (size_t i = 0; i < a.size(); ++i) s += std::fabs(double(b.z[i]) - a.z[i]);
+  return s / double(a.size());
+}
+
+double eroded_metres(const Heightfield& h, const ErosionParams& p, int steps) {
+  return mean_abs_change(h, erode(test::device(), h, p, steps));
+}
+
+}  // namespace
+
+// The defaults are physical: 400 s on the same terrain at SRTM3 cells (~80 m) and upsampled 3x
+// (~27 m) move about the same metres of material. With the old pipe area (= cell area) and the
+// old default of 400 steps the fine grid eroded far less.
+TEST(ErosionScale, DefaultsGiveTheSameErosionAtAnyCellSize) {
+  Heightfield coarse = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  {  // a 48 x 36 window keeps the fine run small
+    Heightfield w(48, 36);
+    w.georef = coarse.georef;
+    for (int y = 0; y < 36; ++y)
+      for (int x = 0; x < 48; ++x) w.at(x, y) = coarse.at(40 + x, 30 + y);
+    coarse = w;
+  }
+  const Heightfield fine = upsample(coarse, 3);
+  const ErosionParams p = ErosionParams::defaults();
+  auto steps_for = [&](const Heightfield& h, const ErosionParams& q, double seconds) {
+    const double dt = 0.5 * erosion_stability_limit(q, h.georef.cell_x, h.georef.cell_y);
+    return int(std::ceil(seconds / dt));
+  };
+  const double m_coarse = eroded_metres(coarse, p, steps_for(coarse, p, 400));
+  const double m_fine = eroded_metres(fine, p, steps_for(fine, p, 400));
+  ErosionParams old = p;
+  old.pipe_area = coarse.georef.cell_x * coarse.georef.cell_y / 9;  // the fine grid's cell area
+  const double m_fine_old = eroded_metres(fine, old, 400);
+  std::printf("mean |bed change| over 400 s: %.2f m at %.0f m cells, %.2f m at %.0f m cells; old defaults on the "
+              "fine grid %.2f m\n",
+              m_coarse, std::sqrt(coarse.georef.cell_x * coarse.georef.cell_y), m_fine,
+              std::sqrt(fine.georef.cell_x * fine.georef.cell_y), m_fine_old);
+  EXPECT_GT(m_coarse, 1.0);
+  EXPECT_NEAR(m_fine / m_coarse, 1.0, 0.3);
+  EXPECT_FALSE(std::fabs(m_fine_old / m_coarse - 1.0) < 0.3) << "the old defaults were not scale-independent";
+}
