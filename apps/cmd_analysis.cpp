@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <future>
 #include <map>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
@@ -76,8 +77,13 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }
+    // render on the device: open it (PoCL loads its compiler, ~0.3 s of CPU) while GDAL reads.
+    std::future<void> opening;
+    if (name == "render" && resolved.value("backend", std::string("device")) == "device")
+      opening = std::async(std::launch::async, [] { (void)device(); });
     StageData data;
     data.height = read_heightfield(a->input, ro);
+    if (opening.valid()) opening.get();  // rethrows a device error
     data.current = DataKind::Heightfield;
     StageContext ctx{data, resolved, []() -> Device& { return device(); }, make_progress(s.name), s.name, provenance()};
     s.run(ctx);

@@ -39,7 +39,7 @@ inline void ramp_color(const float v, __global const float* rz, __global const u
 }
 
 // The picture of one pixel from its window `v` (ok = 0 where gdaldem writes nodata), c = centre.
-inline void render_pixel(const int mode, const int shading, const int ok, const float* v, const float c,
+__attribute__((always_inline)) inline void render_pixel(const int mode, const int shading, const int ok, const float* v, const float c,
                          __global const float* p, __global const float* ramp_z, __global const uchar* ramp_rgb,
                          const int nramp, const uint nodata_rgb, const int nch, __global uchar* o) {
   if (mode == MODE_HILLSHADE || mode == MODE_SLOPE) {

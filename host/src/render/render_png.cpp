@@ -48,7 +48,7 @@ void write_geotiff_picture(const Image& img, const std::string& path, const std:
   opts = CSLSetNameValue(opts, "INTERLEAVE", "PIXEL");
   opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
   opts = CSLSetNameValue(opts, "PHOTOMETRIC", img.channels >= 3 ? "RGB" : "MINISBLACK");
-  if (alpha) opts = CSLSetNameValue(opts, "ALPHA", "UNASSOCIATED");
+  if (alpha) opts = CSLSetNameValue(opts, "ALPHA", "YES");  // unassociated (ExtraSamples = 2)
   std::unique_ptr<GDALDataset> ds(drv->Create(tmp.c_str(), img.width, img.height, img.channels, GDT_Byte, opts));
   CSLDestroy(opts);
   if (!ds) fail("render", "cannot create {} ({})", path, gdal_error());
@@ -59,6 +59,7 @@ void write_geotiff_picture(const Image& img, const std::string& path, const std:
     ds->SetGeoTransform(gt);
   }
   if (!g.crs_wkt.empty()) ds->SetProjection(g.crs_wkt.c_str());
+  if (alpha) ds->GetRasterBand(img.channels)->SetColorInterpretation(GCI_AlphaBand);
   for (const auto& [k, v] : meta) {
     std::string key = k;
     for (char& c : key)

@@ -2,6 +2,11 @@
 // function. Pictures (hillshade, relief, slope, shaded-relief) go to .png or a georeferenced .tif;
 // value rasters (slope, aspect, tri, tpi, roughness) to a float32 GeoTIFF like gdaldem's. The
 // heightfield passes through unchanged.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
@@ -128,6 +133,60 @@ StageInfo render_stage_info() {
             false}},
           run_render,
           false};
+}
+
+// `terracl bench render`: the shading alone (no file I/O, device already open), host reference
+// against the kernels, on a DEM (--set dem=FILE, whole raster) or an N x N synthetic grid.
+void register_render_benches(BenchRegistry& r) {
+  r.add({"render",
+         "Shading time of render (hillshade, shaded-relief, tri) on the host and on the OpenCL device, file I/O "
+         "excluded; --set dem=FILE renders a whole DEM, else an N x N synthetic grid",
+         [](const BenchArgs& a) {
+           Heightfield h;
+           std::string source;
+           if (a.extra.contains("dem")) {
+             source = a.extra["dem"].get<std::string>();
+             h = read_heightfield(source);
+           } else {
+             h = Heightfield(a.size, a.size);
+             h.georef.cell_x = h.georef.cell_y = 30;
+             for (int y = 0; y < a.size; ++y)
+               for (int x = 0; x < a.size; ++x)
+                 h.at(x, y) = float(300 * std::sin(x * 0.013) * std::cos(y * 0.011) + 40 * std::sin(x * 0.1 + y * 0.07));
+             source = "synthetic sines, 30 m cells";
+           }
+           auto dev = Device::open(a.device);
+           fmt::print("render bench: {} x {} cells ({}), device {}; median of {} runs (wall s, process CPU s)\n",
+                      h.width, h.height, source, dev->info().name, a.repeats);
+           auto time = [&](const std::string& what, auto&& f) {
+             f();  // warm-up: kernel build / cache load, first-touch of the output
+             std::vector<double> wall;
+             const std::clock_t c0 = std::clock();
+             for (int k = 0; k < a.repeats; ++k) {
+               const auto t0 = std::chrono::steady_clock::now();
+               f();
+               wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+             }
+             std::sort(wall.begin(), wall.end());
+             const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC / a.repeats;
+             fmt::print("  {:<24} {:8.4f} s (cpu {:.4f} s)\n", what, wall[wall.size() / 2], cpu);
+           };
+           for (auto mode : {render::Mode::Hillshade, render::Mode::ShadedRelief, render::Mode::TRI}) {
+             render::Options o;
+             o.mode = mode;
+             o.compute_edges = false;
+             const std::string name = mode == render::Mode::Hillshade      ? "hillshade"
+                                      : mode == render::Mode::ShadedRelief ? "shaded-relief"
+                                                                           : "tri";
+             if (mode == render::Mode::TRI) {
+               time(name + " host", [&] { (void)render::values(h, o); });
+               time(name + " device", [&] { (void)render::values(h, o, *dev); });
+             } else {
+               time(name + " host", [&] { (void)render::render(h, o); });
+               time(name + " device", [&] { (void)render::render(h, o, *dev); });
+             }
+           }
+         }});
 }
 
 }  // namespace terracl
