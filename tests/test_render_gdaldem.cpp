@@ -3,10 +3,9 @@
 // (Riley, Wilson), TPI and roughness, with and without -compute_edges, on a projected crop that
 // has nodata corners (so borders and nodata neighbours are both exercised), for the host
 // reference and the OpenCL kernels. Then the georeferencing of `render -o x.tif`.
+#include <OpenImageIO/imageio.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
-
-#include <OpenImageIO/imageio.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -83,7 +82,8 @@ TEST(RenderGdaldem, HillshadeShadingsMatchWithinOneGreyLevel) {
        [](render::Options& o) { o.z_factor = 2.5, o.azimuth_deg = 200, o.altitude_deg = 30; }},
       {"hillshade -multidirectional", render::Mode::Hillshade,
        [](render::Options& o) { o.shading = render::Shading::Multidirectional; }},
-      {"hillshade -combined", render::Mode::Hillshade, [](render::Options& o) { o.shading = render::Shading::Combined; }},
+      {"hillshade -combined", render::Mode::Hillshade,
+       [](render::Options& o) { o.shading = render::Shading::Combined; }},
       {"hillshade -igor", render::Mode::Hillshade, [](render::Options& o) { o.shading = render::Shading::Igor; }},
   };
   for (const Case& c : cases)

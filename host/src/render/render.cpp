@@ -58,7 +58,8 @@ std::vector<uint8_t> hillshade(const Heightfield& h, double azimuth_deg, double 
   double w[9];
   for (int y = 0; y < h.height; ++y)
     for (int x = 0; x < h.width; ++x)
-      if (detail::window(h, x, y, true, w)) out[size_t(y) * h.width + x] = to_byte(detail::shade(w, Shading::Standard, p));
+      if (detail::window(h, x, y, true, w))
+        out[size_t(y) * h.width + x] = to_byte(detail::shade(w, Shading::Standard, p));
   return out;
 }
 
@@ -208,7 +209,10 @@ void check_options(const Heightfield& h, const Options& opt) {
 PictureLayout picture_layout(const Heightfield& h, const Options& opt) {
   if (is_value_mode(opt.mode) && opt.mode != Mode::Slope)
     fail("render", "mode {} gives values, not a picture: write it as a GeoTIFF (.tif)",
-         opt.mode == Mode::Aspect ? "aspect" : opt.mode == Mode::TRI ? "tri" : opt.mode == Mode::TPI ? "tpi" : "roughness");
+         opt.mode == Mode::Aspect ? "aspect"
+         : opt.mode == Mode::TRI  ? "tri"
+         : opt.mode == Mode::TPI  ? "tpi"
+                                  : "roughness");
   PictureLayout l;
   l.grey = opt.mode == Mode::Hillshade || opt.mode == Mode::Slope;
   bool has_nan = false, has_percent = false;

@@ -85,8 +85,8 @@ Image render(const Heightfield& h, const Options& opt, Device& device) {
     for_each_strip(
         device, h, opt, z,
         [&](const detail::Strip& st) {
-          set_args(k, z, cl_int(h.width), cl_int(h.height), cl_int(st.r0), cl_int(st.y0), cl_int(st.rows),
-                   cl_int(mode), cl_int(shading_code(opt.shading)), cl_int(opt.compute_edges ? 1 : 0), bp, bz, brgb,
+          set_args(k, z, cl_int(h.width), cl_int(h.height), cl_int(st.r0), cl_int(st.y0), cl_int(st.rows), cl_int(mode),
+                   cl_int(shading_code(opt.shading)), cl_int(opt.compute_edges ? 1 : 0), bp, bz, brgb,
                    cl_int(rz.size()), cl_uint(nodata), cl_int(l.channels), out);
           launch_rows(device, k, size_t(st.rows));
         },
@@ -123,8 +123,8 @@ Heightfield values(const Heightfield& h, const Options& opt, Device& device) {
     for_each_strip(
         device, h, opt, z,
         [&](const detail::Strip& st) {
-          set_args(k, z, cl_int(h.width), cl_int(h.height), cl_int(st.r0), cl_int(st.y0), cl_int(st.rows),
-                   cl_int(mode), cl_int(flags), cl_int(opt.compute_edges ? 1 : 0), bp, bo);
+          set_args(k, z, cl_int(h.width), cl_int(h.height), cl_int(st.r0), cl_int(st.y0), cl_int(st.rows), cl_int(mode),
+                   cl_int(flags), cl_int(opt.compute_edges ? 1 : 0), bp, bo);
           launch_rows(device, k, size_t(st.rows));
         },
         [&](const detail::Strip& st) {

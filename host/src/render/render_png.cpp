@@ -1,13 +1,12 @@
 // Picture output: PNG through OpenImageIO, GeoTIFF through GDAL. The only part of rendering that
 // needs an image library, kept apart so the core build (TERRACL_CORE_ONLY) renders to arrays
 // without them.
+#include <OpenImageIO/imageio.h>
 #include <gdal_priv.h>
 
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
-
-#include <OpenImageIO/imageio.h>
 
 namespace terracl::render {
 
@@ -80,8 +79,7 @@ void write_geotiff_picture(const Image& img, const std::string& path, const std:
 }  // namespace
 
 void write_image(const Image& img, const std::string& path, const Metadata& meta) {
-  if (img.channels < 1 || img.channels > 4 ||
-      img.pixels.size() != size_t(img.width) * img.height * img.channels)
+  if (img.channels < 1 || img.channels > 4 || img.pixels.size() != size_t(img.width) * img.height * img.channels)
     fail("render", "inconsistent image buffer");
   const FileFormat f = format_from_extension(path);
   if (f != FileFormat::PNG && f != FileFormat::GeoTIFF)  // OIIO would write a JPEG for x.jpg

@@ -152,7 +152,8 @@ void register_render_benches(BenchRegistry& r) {
              h.georef.cell_x = h.georef.cell_y = 30;
              for (int y = 0; y < a.size; ++y)
                for (int x = 0; x < a.size; ++x)
-                 h.at(x, y) = float(300 * std::sin(x * 0.013) * std::cos(y * 0.011) + 40 * std::sin(x * 0.1 + y * 0.07));
+                 h.at(x, y) =
+                     float(300 * std::sin(x * 0.013) * std::cos(y * 0.011) + 40 * std::sin(x * 0.1 + y * 0.07));
              source = "synthetic sines, 30 m cells";
            }
            auto dev = Device::open(a.device);

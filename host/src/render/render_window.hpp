@@ -73,8 +73,8 @@ struct ShadeParams {
   }
   /// The slots of render_window.clh (P_INV_EW ... P_COS_ALT_Z), as floats for the kernels.
   std::vector<float> slots() const {
-    return {float(inv_ew),  float(inv_ns),   float(zs),       float(sin_alt), float(cos_az_alt_z), float(sin_az_alt_z),
-            float(az),      float(slope_zx), float(slope_zy), float(slope_max), float(flat),       float(cos_alt_z)};
+    return {float(inv_ew), float(inv_ns),   float(zs),       float(sin_alt),   float(cos_az_alt_z), float(sin_az_alt_z),
+            float(az),     float(slope_zx), float(slope_zy), float(slope_max), float(flat),         float(cos_alt_z)};
   }
 };
 

@@ -31,7 +31,8 @@ double terrain_value(const double* v, const Options& o, const detail::ShadeParam
     }
     case Mode::TRI: {
       double s = 0;
-      for (int k = 0; k < 9; ++k) s += o.tri_alg == TriAlg::Wilson ? std::abs(v[k] - v[4]) : (v[k] - v[4]) * (v[k] - v[4]);
+      for (int k = 0; k < 9; ++k)
+        s += o.tri_alg == TriAlg::Wilson ? std::abs(v[k] - v[4]) : (v[k] - v[4]) * (v[k] - v[4]);
       return o.tri_alg == TriAlg::Wilson ? s / 8.0 : std::sqrt(s);
     }
     case Mode::TPI:
