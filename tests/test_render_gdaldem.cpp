@@ -197,6 +197,7 @@ TEST(RenderGdaldem, AspectZeroForFlatAndFlatGround) {
 }
 
 TEST(RenderGeoTiff, PictureKeepsGeoreferencingAndNodataIsTransparent) {
+  GDALAllRegister();
   test::TempDir tmp;
   const std::string in = utm_dem();
   for (const char* mode : {"hillshade", "shaded-relief"}) {
