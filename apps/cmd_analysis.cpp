@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <future>
 #include <map>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
@@ -22,6 +23,18 @@ struct Args {
   StageFlags flags;
   InputScaleFlags in;
 };
+
+/// render writes pictures as .png or .tif, value rasters (aspect, tri, tpi, roughness) as .tif only.
+void check_render_file(const json& resolved) {
+  if (!resolved.contains("file") || !resolved["file"].is_string()) return;
+  const std::string file = resolved["file"].get<std::string>();
+  const FileFormat f = format_from_extension(file);
+  const std::string mode = resolved.value("mode", std::string("hillshade"));
+  const bool values = mode == "aspect" || mode == "tri" || mode == "tpi" || mode == "roughness";
+  if (f != FileFormat::GeoTIFF && (values || f != FileFormat::PNG))
+    throw UsageError("render", values ? fmt::format("-o {}: --mode {} writes a float GeoTIFF; use a .tif name", file, mode)
+                                      : fmt::format("-o {}: render writes a PNG or a GeoTIFF; use a .png name or a .tif name", file));
+}
 
 /// One subcommand for stage `name`; `-o` maps to option `output_option` ("" for none).
 void add_command(CLI::App& app, const std::string& name, const std::string& output_option, const std::string& help) {
@@ -56,16 +69,22 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     try {
       resolved = resolve_options(s, opts, s.name);
       check_stage_files(s, resolved, {{"input", a->input}}, {});
-      if ((name == "render" || name == "sketch") && resolved.contains("file") && resolved["file"].is_string() &&
+      if (name == "sketch" && resolved.contains("file") && resolved["file"].is_string() &&
           format_from_extension(resolved["file"].get<std::string>()) != FileFormat::PNG)
         throw UsageError(name, fmt::format("-o {}: {} writes a PNG; use a .png name", resolved["file"].get<std::string>(), name));
+      if (name == "render") check_render_file(resolved);
     } catch (const UsageError&) {
       throw;
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }
+    // render on the device: open it (PoCL loads its compiler, ~0.3 s of CPU) while GDAL reads.
+    std::future<void> opening;
+    if (name == "render" && resolved.value("backend", std::string("device")) == "device")
+      opening = std::async(std::launch::async, [] { (void)device(); });
     StageData data;
     data.height = read_heightfield(a->input, ro);
+    if (opening.valid()) opening.get();  // rethrows a device error
     data.current = DataKind::Heightfield;
     StageContext ctx{data, resolved, []() -> Device& { return device(); }, make_progress(s.name), s.name, provenance()};
     s.run(ctx);

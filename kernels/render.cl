@@ -1,21 +1,16 @@
-// Per-pixel preview shading (host reference: host/src/render/render.cpp). One work-item per row
-// with an x-loop inside (fastest stencil layout on PoCL). Single precision; the host version
-// computes in double, and the two agree within one grey level.
+// Preview pictures, one work-item per row of a strip (fastest stencil layout on PoCL): hillshade
+// (gdaldem's standard, multidirectional, combined or Igor shading), colour relief, slope as grey,
+// shaded relief. Host reference: host/src/render/render.cpp (double precision; the two agree
+// within one level per channel). Output: nch interleaved bytes per pixel; grey modes write grey
+// (+ alpha when nch == 2), colour modes RGB (+ alpha when nch == 4). Alpha is 0 where gdaldem
+// writes nodata.
 #pragma OPENCL FP_CONTRACT OFF
+#include "render_window.clh"
 
 #define MODE_HILLSHADE 0
 #define MODE_RELIEF 1
 #define MODE_SLOPE 2
 #define MODE_SHADED_RELIEF 3
-
-// Neighbour value; outside the grid or nodata -> the centre value (as the host version).
-inline float nb(__global const float* z, const int w, const int h, const int x, const int y, const float c) {
-  if (x < 0 || y < 0 || x >= w || y >= h) return c;
-  const float v = z[(size_t)y * w + x];
-  return isnan(v) ? c : v;
-}
-
-inline uchar to_byte(const float v) { return (uchar)clamp(floor(v + 0.5f), 0.0f, 255.0f); }
 
 inline void ramp_color(const float v, __global const float* rz, __global const uchar* rgb, const int n,
                        const uint nodata, uchar* out) {
@@ -35,7 +30,7 @@ inline void ramp_color(const float v, __global const float* rz, __global const u
       const float t = b > a ? (v - a) / (b - a) : 1.0f;
       for (int c = 0; c < 3; ++c) {
         const float c0 = (float)rgb[3 * (k - 1) + c], c1 = (float)rgb[3 * k + c];
-        out[c] = to_byte(c0 + t * (c1 - c0));
+        out[c] = rw_byte(c0 + t * (c1 - c0));
       }
       return;
     }
@@ -43,52 +38,69 @@ inline void ramp_color(const float v, __global const float* rz, __global const u
   out[0] = rgb[3 * (n - 1)], out[1] = rgb[3 * (n - 1) + 1], out[2] = rgb[3 * (n - 1) + 2];
 }
 
-// hs: inv_ew, inv_ns (negative for north-up), zs = z_factor / 8, sin_alt254 = 254 sin(alt),
-// c_az / s_az = 254 cos|sin(az) cos(alt) zs (gdaldem's constants).
-__kernel void render_rows(__global const float* z, const int w, const int h, const int mode,
-                          const float inv_ew, const float inv_ns, const float zs, const float sin_alt254,
-                          const float c_az, const float s_az, const float slope_zx, const float slope_zy,
-                          const float slope_max, const float flat, __global const float* ramp_z,
-                          __global const uchar* ramp_rgb, const int nramp, const uint nodata_rgb,
-                          __global uchar* out) {
-  const int y = get_global_id(0);
-  if (y >= h) return;
-  for (int x = 0; x < w; ++x) {
-    // 64-bit: 3 * cells passes 2^31 from 716 M cells (a 26800^2 grid).
-    const size_t o = (size_t)y * w + x;
-    const float c = z[o];
-    __global uchar* p = out + 3 * o;
-    uchar rgb[3] = {0, 0, 0};
-    if (mode == MODE_RELIEF || mode == MODE_SHADED_RELIEF) ramp_color(c, ramp_z, ramp_rgb, nramp, nodata_rgb, rgb);
-    if (isnan(c)) {
-      p[0] = rgb[0], p[1] = rgb[1], p[2] = rgb[2];
-      continue;
+// The picture of one pixel from its window `v` (ok = 0 where gdaldem writes nodata), c = centre.
+__attribute__((always_inline)) inline void render_pixel(const int mode, const int shading, const int ok, const float* v, const float c,
+                         __global const float* p, __global const float* ramp_z, __global const uchar* ramp_rgb,
+                         const int nramp, const uint nodata_rgb, const int nch, __global uchar* o) {
+  if (mode == MODE_HILLSHADE || mode == MODE_SLOPE) {
+    uchar g = 0;
+    if (ok && mode == MODE_HILLSHADE) g = rw_byte(rw_shade(v, shading, p));
+    if (ok && mode == MODE_SLOPE) {
+      const float s = rw_slope(v, p, 0);
+      g = rw_byte(255.0f * (1.0f - fmin(s, p[P_SLOPE_MAX]) / p[P_SLOPE_MAX]));
     }
-    const float a = nb(z, w, h, x - 1, y - 1, c), b = nb(z, w, h, x, y - 1, c), cc = nb(z, w, h, x + 1, y - 1, c);
-    const float d = nb(z, w, h, x - 1, y, c), f = nb(z, w, h, x + 1, y, c);
-    const float g = nb(z, w, h, x - 1, y + 1, c), hh = nb(z, w, h, x, y + 1, c), i = nb(z, w, h, x + 1, y + 1, c);
-    if (mode == MODE_SLOPE) {
-      const float gx = ((cc + 2.0f * f + i) - (a + 2.0f * d + g)) * slope_zx;
-      const float gy = ((g + 2.0f * hh + i) - (a + 2.0f * b + cc)) * slope_zy;
-      const float s = degrees(atan(sqrt(gx * gx + gy * gy)));
-      const uchar v = to_byte(255.0f * (1.0f - fmin(s, slope_max) / slope_max));
-      p[0] = p[1] = p[2] = v;
-      continue;
+    o[0] = g;
+    if (nch == 2) o[1] = ok ? 255 : 0;
+    return;
+  }
+  uchar rgb[3];
+  ramp_color(c, ramp_z, ramp_rgb, nramp, nodata_rgb, rgb);
+  if (mode == MODE_SHADED_RELIEF && ok) {
+    const float shade = (float)rw_byte(rw_shade(v, shading, p));
+    const float k = (0.3f + 0.7f * shade / 255.0f) / (0.3f + 0.7f * p[P_FLAT] / 255.0f);
+    for (int ch = 0; ch < 3; ++ch) rgb[ch] = rw_byte((float)rgb[ch] * k);
+  }
+  o[0] = rgb[0], o[1] = rgb[1], o[2] = rgb[2];
+  if (nch == 4) o[3] = isnan(c) ? 0 : 255;
+}
+
+// z holds grid rows [r0, r0 + strip rows); this launch writes picture rows [y0, y0 + rows) into
+// `out` (row 0 of out = grid row y0). Inner cells slide a 3x3 window along the row (three new
+// loads per pixel) and take the general window (edges, nodata) only when a value is NaN.
+__kernel void render_rows(__global const float* z, const int w, const int h, const int r0, const int y0,
+                          const int rows, const int mode, const int shading, const int edges,
+                          __global const float* p, __global const float* ramp_z, __global const uchar* ramp_rgb,
+                          const int nramp, const uint nodata_rgb, const int nch, __global uchar* out) {
+  const int j = get_global_id(0);
+  if (j >= rows) return;
+  const int y = y0 + j;
+  // Shaded relief is not a gdaldem product: its shade always computes the edges, so only nodata
+  // cells are transparent.
+  const int win_edges = mode == MODE_SHADED_RELIEF ? 1 : edges;
+  const int windowed = mode != MODE_RELIEF;
+  // 64-bit offsets: nch * cells passes 2^31 from 537 M cells.
+  __global uchar* row = out + (size_t)j * w * nch;
+  float v[9];
+  const int inner = y > 0 && y < h - 1 && w > 2;
+  if (inner) {
+    __global const float* up = z + (size_t)(y - 1 - r0) * w;
+    __global const float* md = up + w;
+    __global const float* dn = md + w;
+    float a0 = up[0], a1 = md[0], a2 = dn[0], b0 = up[1], b1 = md[1], b2 = dn[1];
+    for (int x = 1; x < w - 1; ++x) {
+      const float c0 = up[x + 1], c1 = md[x + 1], c2 = dn[x + 1];
+      v[0] = a0, v[1] = b0, v[2] = c0, v[3] = a1, v[4] = b1, v[5] = c1, v[6] = a2, v[7] = b2, v[8] = c2;
+      int ok = 1;
+      if (isnan(a0 + a1 + a2 + b0 + b1 + b2 + c0 + c1 + c2)) ok = windowed && rw_window(z, w, h, r0, x, y, win_edges, v);
+      render_pixel(mode, shading, ok && windowed, v, b1, p, ramp_z, ramp_rgb, nramp, nodata_rgb, nch,
+                   row + (size_t)x * nch);
+      a0 = b0, a1 = b1, a2 = b2, b0 = c0, b1 = c1, b2 = c2;
     }
-    uchar shade = 0;
-    if (mode == MODE_HILLSHADE || mode == MODE_SHADED_RELIEF) {
-      const float gx = ((a + d + d + g) - (cc + f + f + i)) * inv_ew;
-      const float gy = ((g + hh + hh + i) - (a + b + b + cc)) * inv_ns;
-      const float cang = (sin_alt254 - (gy * c_az - gx * s_az)) / sqrt(1.0f + zs * zs * (gx * gx + gy * gy));
-      shade = to_byte(cang <= 0.0f ? 1.0f : 1.0f + cang);
-    }
-    if (mode == MODE_HILLSHADE) {
-      p[0] = p[1] = p[2] = shade;
-    } else if (mode == MODE_SHADED_RELIEF) {
-      const float k = (0.3f + 0.7f * (float)shade / 255.0f) / (0.3f + 0.7f * flat / 255.0f);
-      for (int ch = 0; ch < 3; ++ch) p[ch] = to_byte((float)rgb[ch] * k);
-    } else {
-      p[0] = rgb[0], p[1] = rgb[1], p[2] = rgb[2];
-    }
+  }
+  // The general path: every cell of the first and last rows, the two end cells of inner rows.
+  for (int x = 0; x < w; x = (inner && x == 0) ? w - 1 : x + 1) {
+    const float c = rw_z(z, w, r0, x, y);
+    const int ok = windowed && rw_window(z, w, h, r0, x, y, win_edges, v);
+    render_pixel(mode, shading, ok, v, c, p, ramp_z, ramp_rgb, nramp, nodata_rgb, nch, row + (size_t)x * nch);
   }
 }

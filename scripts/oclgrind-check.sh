@@ -81,6 +81,10 @@ run erode_thermal erode "$OUT/c45.tif" -o "$OUT/et.tif" --steps 2 --thermal-only
 for m in hillshade relief slope shaded-relief; do
   run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.png" --mode "$m"
 done
+run render_igor_edges render "$OUT/c45.tif" -o "$OUT/igor.tif" --shading igor --compute-edges
+for m in aspect tri tpi roughness; do
+  run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.tif" --mode "$m" --compute-edges
+done
 if [ $fail -ne 0 ]; then
   echo "oclgrind-check: FAILED (logs in $OUT)"
   exit 1

@@ -57,13 +57,14 @@ TEST(RenderHillshade, MatchesGdaldemOnRealDemAwayFromBorder) {
     render::Options o;
     o.z_factor = z;
     const render::Image dev = render::render(h, o, test::device());
+    ASSERT_EQ(dev.channels, 1) << "grey, no nodata: the library computes the edges by default";
     for (int backend = 0; backend < 2; ++backend) {
       int worst = 0;
       size_t differ = 0;
       for (int y = 1; y < h.height - 1; ++y)
         for (int x = 1; x < h.width - 1; ++x) {
           const size_t i = size_t(y) * w + x;
-          const int ours = backend == 0 ? host[i] : dev.pixels[3 * i];
+          const int ours = backend == 0 ? host[i] : dev.pixels[dev.channels * i];
           const int d = std::abs(ours - int(ref[i]));
           worst = std::max(worst, d);
           differ += d != 0;
@@ -88,7 +89,13 @@ TEST(RenderDevice, KernelMatchesHostForEveryMode) {
     int worst = 0;
     for (size_t i = 0; i < a.pixels.size(); ++i) worst = std::max(worst, std::abs(int(a.pixels[i]) - int(b.pixels[i])));
     EXPECT_LE(worst, 1) << "mode " << int(mode);
-    if (mode == render::Mode::Relief) EXPECT_EQ(b.pixels[3 * (31 * 64 + 11)], 9);  // nodata colour
+    EXPECT_EQ(b.channels, a.channels);
+    const bool grey = mode == render::Mode::Hillshade || mode == render::Mode::Slope;
+    ASSERT_EQ(b.channels, grey ? 2 : 4) << "alpha for the nodata cells";
+    const size_t nd = size_t(31) * 64 + 11;
+    EXPECT_EQ(b.pixels[b.channels * nd + b.channels - 1], 0) << "nodata is transparent";
+    EXPECT_EQ(b.pixels[b.channels * (nd + 20) + b.channels - 1], 255) << "valid cells are opaque";
+    if (mode == render::Mode::Relief) EXPECT_EQ(b.pixels[b.channels * nd], 9);  // nodata colour
   }
 }
 
@@ -158,7 +165,7 @@ TEST(RenderRamp, GdaldemFormatWithPercentagesAndNodata) {
   }
 }
 
-TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {
+TEST(RenderCli, WritesEightBitPngForEveryMode) {
   test::TempDir tmp;
   const std::string in = test::data_path("crops/frontrange_64.asc");
   {
@@ -177,14 +184,20 @@ TEST(RenderCli, WritesEightBitRgbPngForEveryMode) {
     const OIIO::ImageSpec& spec = img->spec();
     EXPECT_EQ(spec.width, 64);
     EXPECT_EQ(spec.height, 64);
-    EXPECT_EQ(spec.nchannels, 3);
+    // Grey pictures carry alpha for gdaldem's nodata border (no --compute-edges); the colour
+    // ones are RGB (this DEM has no nodata).
+    const bool grey = std::string(mode) == "hillshade" || std::string(mode) == "slope";
+    EXPECT_EQ(spec.nchannels, grey ? 2 : 3) << mode;
     EXPECT_EQ(spec.format, OIIO::TypeDesc::UINT8);
     EXPECT_EQ(spec.get_string_attribute("terracl:version"), terracl::version()) << "provenance in the PNG";
     EXPECT_NE(spec.get_string_attribute("terracl:command").find("render"), std::string::npos);
-    std::vector<uint8_t> px(size_t(64) * 64 * 3);
-    ASSERT_TRUE(img->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
-    const auto [lo, hi] = std::minmax_element(px.begin(), px.end());
-    EXPECT_LT(*lo, *hi) << mode;  // not a blank picture
+    std::vector<uint8_t> px(size_t(64) * 64 * spec.nchannels);
+    ASSERT_TRUE(img->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, px.data()));
+    std::vector<uint8_t> first;  // channel 0 of the interior: not a blank picture
+    for (int y = 1; y < 63; ++y)
+      for (int x = 1; x < 63; ++x) first.push_back(px[(size_t(y) * 64 + x) * spec.nchannels]);
+    const auto [lo, hi] = std::minmax_element(first.begin(), first.end());
+    EXPECT_LT(*lo, *hi) << mode;
   }
   EXPECT_EQ(tmp.count(), 5u);  // four pictures and the ramp: no heightfield, no temporaries
   const auto bad = test::run_cli("-q render " + in + " -o " + tmp.path("x.png") + " --mode glow");
@@ -218,4 +231,42 @@ TEST(RenderCli, EditPreviewIsFullSizeAndTakesARamp) {
   ASSERT_TRUE(in);
   EXPECT_EQ(in->spec().width, 67);
   EXPECT_EQ(in->spec().height, 41);
+}
+
+// The device path works strip by strip (bounded device memory) and reports progress per strip;
+// the strips' halos make the picture identical to one launch over the whole grid.
+TEST(RenderDevice, StripsReportProgressAndMatchOneLaunch) {
+  const Heightfield h = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  for (auto mode : {render::Mode::Hillshade, render::Mode::ShadedRelief, render::Mode::TRI}) {
+    render::Options o;
+    o.mode = mode;
+    o.compute_edges = false;
+    std::vector<double> fractions;
+    o.strip_rows = 10;
+    o.progress = [&](double f, const std::string&) {
+      fractions.push_back(f);
+      return true;
+    };
+    render::Options whole = o;
+    whole.strip_rows = h.height;
+    whole.progress = nullptr;
+    if (mode == render::Mode::TRI) {
+      const Heightfield a = render::values(h, o, test::device()), b = render::values(h, whole, test::device());
+      for (size_t i = 0; i < h.size(); ++i)
+        ASSERT_TRUE(a.z[i] == b.z[i] || (std::isnan(a.z[i]) && std::isnan(b.z[i]))) << i;
+    } else {
+      const render::Image a = render::render(h, o, test::device()), b = render::render(h, whole, test::device());
+      EXPECT_EQ(a.pixels, b.pixels) << int(mode);
+    }
+    ASSERT_EQ(fractions.size(), 10u) << "96 rows in strips of 10";
+    EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+    EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+    // Cancelling through the callback stops the render with an error.
+    o.progress = [](double, const std::string&) { return false; };
+    if (mode == render::Mode::TRI) {
+      EXPECT_THROW(render::values(h, o, test::device()), Cancelled);
+    } else {
+      EXPECT_THROW(render::render(h, o, test::device()), Cancelled);
+    }
+  }
 }

@@ -1,21 +1,37 @@
 #pragma once
-/// Preview pictures of a heightfield: hillshade (Horn's method, as `gdaldem hillshade`), colour
-/// relief from a gdaldem-format ramp, slope, and colour relief shaded by the hillshade. Pictures
-/// are 8-bit RGB, one pixel per cell; lengths use the metric cell size (georef.cell_x/cell_y).
+/// Preview pictures and gdaldem's terrain products of a heightfield: hillshade (Horn's method as
+/// `gdaldem hillshade`, with its -multidirectional, -combined and -igor shadings), colour relief
+/// from a gdaldem-format ramp, slope, and colour relief shaded by the hillshade as 8-bit pictures
+/// (grey or RGB, one pixel per cell, plus alpha where gdaldem writes nodata); slope, aspect, TRI,
+/// TPI and roughness as float rasters equal to gdaldem's. Lengths use the metric cell size
+/// (georef.cell_x/cell_y), so geographic rasters need no -s scale.
 #include <cstdint>
 #include <string>
 #include <terracl/device.hpp>
 #include <terracl/heightfield.hpp>
+#include <terracl/progress.hpp>
 #include <vector>
 
 namespace terracl::render {
 
-enum class Mode { Hillshade, Relief, Slope, ShadedRelief };
-Mode mode_from_name(const std::string& name);  ///< hillshade|relief|slope|shaded-relief
+enum class Mode { Hillshade, Relief, Slope, ShadedRelief, Aspect, TRI, TPI, Roughness };
+/// hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness (TRI/TPI in either case)
+Mode mode_from_name(const std::string& name);
+/// Aspect, TRI, TPI and roughness are only values (values()); slope is both a picture and values.
+bool is_value_mode(Mode m);
+
+/// gdaldem hillshade's variants: default, -multidirectional, -combined, -igor.
+enum class Shading { Standard, Multidirectional, Combined, Igor };
+Shading shading_from_name(const std::string& name);  ///< standard|multidirectional|combined|igor
+/// gdaldem TRI -alg: Riley (terrestrial, gdaldem's default) or Wilson (bathymetric).
+enum class TriAlg { Riley, Wilson };
 
 struct Image {
-  int width = 0, height = 0, channels = 3;
+  int width = 0, height = 0;
+  /// 1 grey, 2 grey + alpha, 3 RGB, 4 RGB + alpha (alpha 0 where nodata).
+  int channels = 3;
   std::vector<uint8_t> pixels;  ///< row-major, interleaved channels
+  Georef georef;                ///< the heightfield's, written into GeoTIFF pictures
 };
 
 /// Colour ramp in gdaldem color-relief's text format: one entry per line, "elevation r g b [a]",
@@ -53,22 +69,42 @@ struct Options {
   double z_factor = 1;        ///< vertical exaggeration
   double slope_max_deg = 60;  ///< slope mode: this slope and steeper are black, flat is white
   ColorRamp ramp = ColorRamp::default_ramp();
+  Shading shading = Shading::Standard;
+  /// gdaldem -compute_edges: border cells extrapolate the missing row/column and nodata
+  /// neighbours take the centre value; without it they are nodata, as in gdaldem. On by default
+  /// in the library (previews without a transparent frame); `terracl render` follows gdaldem.
+  bool compute_edges = true;
+  bool slope_percent = false;         ///< slope values in percent (gdaldem -p), else degrees
+  TriAlg tri_alg = TriAlg::Riley;     ///< TRI algorithm
+  bool aspect_trigonometric = false;  ///< aspect counter-clockwise from east (gdaldem -trigonometric)
+  bool zero_for_flat = false;         ///< aspect 0 on flat ground instead of nodata (-zero_for_flat)
+  /// Rows per device launch: bounds device memory and paces progress.
+  int strip_rows = 1024;
+  Progress progress;
 };
 
 /// Hillshade grey levels exactly as gdaldem's default (Horn) algorithm: 1 + 254 * cos(angle to the
-/// sun), clamped to 1 when facing away, 0 for nodata. Border cells use the centre value for the
-/// neighbours outside the grid (gdaldem leaves them nodata unless -compute_edges).
+/// sun), clamped to 1 when facing away, 0 for nodata. Edges computed as gdaldem -compute_edges.
 std::vector<uint8_t> hillshade(const Heightfield& h, double azimuth_deg = 315, double altitude_deg = 45,
                                double z_factor = 1);
 
-/// Host reference implementation (double precision).
+/// Host reference implementation of the pictures (double precision). Throws for value modes
+/// other than slope.
 Image render(const Heightfield& h, const Options& opt);
-/// The same picture computed by kernels/render.cl on `device` (single precision; agrees with the
-/// host version within one level per channel).
+/// The same picture computed by kernels/render.cl on `device`, strip by strip (single precision;
+/// agrees with the host version within one level per channel).
 Image render(const Heightfield& h, const Options& opt, Device& device);
 
-/// Writes an 8-bit PNG (any other extension OIIO knows works too), atomically, with `meta`
-/// (provenance) as text attributes.
+/// gdaldem's value raster for `opt.mode` (slope in degrees or percent, aspect in degrees, TRI,
+/// TPI, roughness in elevation units), NaN where gdaldem writes nodata; the georef is the
+/// input's with nodata -9999 (gdaldem's). Host reference (double precision).
+Heightfield values(const Heightfield& h, const Options& opt);
+/// The same through kernels/render_terrain.cl (within 1e-4 relative of the host version).
+Heightfield values(const Heightfield& h, const Options& opt, Device& device);
+
+/// Writes a picture atomically: .png through OpenImageIO with `meta` (provenance) as text
+/// chunks; .tif/.tiff as a GeoTIFF with the image's geotransform and CRS (like gdaldem), alpha as
+/// an unassociated alpha band, `meta` as TIFF metadata.
 void write_image(const Image& img, const std::string& path, const Metadata& meta = {});
 
 }  // namespace terracl::render

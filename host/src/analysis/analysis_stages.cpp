@@ -47,20 +47,6 @@ void run_sketch(StageContext& c) {
   if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), analysis::sketch_to_json(s, h).dump(1) + "\n");
 }
 
-void run_render(StageContext& c) {
-  render::Options o;
-  o.mode = render::mode_from_name(c.get<std::string>("mode"));
-  o.azimuth_deg = c.get<double>("azimuth");
-  o.altitude_deg = c.get<double>("altitude");
-  o.z_factor = c.get<double>("z_factor");
-  o.slope_max_deg = c.get<double>("slope_max");
-  if (c.has("ramp")) o.ramp = render::ColorRamp::from_spec(c.get<std::string>("ramp"));
-  const Heightfield& h = c.height();
-  const render::Image img =
-      c.get<std::string>("backend") == "host" ? render::render(h, o) : render::render(h, o, c.device());
-  render::write_image(img, c.get<std::string>("file"), c.provenance);
-}
-
 void run_mesh(StageContext& c) {
   const Heightfield& h = c.height();
   mesh::Mesh m;
@@ -157,40 +143,7 @@ void register_analysis_stages(StageRegistry& r) {
           {"patch", OptionType::Int, 15, "cells", "Size of the peak/basin squares in the picture", {}, false}},
          run_sketch,
          false});
-  r.add({"render",
-         "Write a preview picture (8-bit RGB PNG): hillshade (gdaldem's Horn method), colour relief, slope or "
-         "shaded relief; passes the heightfield through.",
-         H,
-         H,
-         {{"file", OptionType::OutputPath, nullptr, "", "Picture to write (.png)", {}, true},
-          {"mode",
-           OptionType::Enum,
-           "hillshade",
-           "",
-           "What to draw",
-           {"hillshade", "relief", "slope", "shaded-relief"},
-           false},
-          {"azimuth", OptionType::Float, 315.0, "deg", "Sun azimuth, clockwise from north", {}, false},
-          {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
-          {"z_factor", OptionType::Float, 1.0, "", "Vertical exaggeration", {}, false},
-          {"ramp",
-           OptionType::String,
-           nullptr,
-           "",
-           "Colour ramp: hypsometric (metres, sea below 0 m blue; the default), relative (over the data range), "
-           "grey, or a gdaldem color-relief file",
-           {},
-           false},
-          {"slope_max", OptionType::Float, 60.0, "deg", "Slope mode: this slope and steeper are black", {}, false},
-          {"backend",
-           OptionType::Enum,
-           "device",
-           "",
-           "Shade with kernels/render.cl on the OpenCL device, or with the host reference code",
-           {"device", "host"},
-           false}},
-         run_render,
-         false});
+  r.add(render_stage_info());  // host/src/render/render_stage.cpp
   r.add({"mesh",
          "Export a triangle mesh in metres (.glb, .gltf or .obj) with texture coordinates and its map placement "
          "(glTF node extras and a <file>.json sidecar), optionally simplified within a vertical error; passes the "

@@ -15,5 +15,7 @@ void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_sta
 void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_stage.cpp
 void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
+StageInfo render_stage_info();                 // host/src/render/render_stage.cpp
+void register_render_benches(BenchRegistry& r);  // host/src/render/render_stage.cpp
 void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
 }  // namespace terracl

@@ -25,6 +25,7 @@ BenchRegistry& BenchRegistry::instance() {
     register_edit_benches(reg);
     register_amplify_benches(reg);
     register_analysis_benches(reg);
+    register_render_benches(reg);
     register_erosion_benches(reg);
     return reg;
   }();

@@ -11,55 +11,55 @@
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
 
+#include "render/render_internal.hpp"
+#include "render/render_window.hpp"
+
 namespace terracl::render {
 
 namespace {
 
-/// 3x3 window around (x, y); neighbours outside the grid or nodata take the centre value.
-inline void window(const Heightfield& h, int x, int y, double w[9]) {
-  const float c = h.at(x, y);
-  for (int j = -1; j <= 1; ++j)
-    for (int i = -1; i <= 1; ++i) {
-      const int xx = x + i, yy = y + j;
-      float v = c;
-      if (xx >= 0 && yy >= 0 && xx < h.width && yy < h.height) v = h.at(xx, yy);
-      w[(j + 1) * 3 + (i + 1)] = std::isnan(v) ? c : v;
-    }
-}
-
-inline uint8_t to_byte(double v) { return uint8_t(std::clamp(std::floor(v + 0.5), 0.0, 255.0)); }
+using detail::to_byte;
 
 }  // namespace
 
 Mode mode_from_name(const std::string& name) {
-  if (name == "hillshade") return Mode::Hillshade;
-  if (name == "relief") return Mode::Relief;
-  if (name == "slope") return Mode::Slope;
-  if (name == "shaded-relief" || name == "shaded_relief") return Mode::ShadedRelief;
-  fail("render", "unknown mode '{}' (expected hillshade|relief|slope|shaded-relief)", name);
+  std::string n = name;
+  std::transform(n.begin(), n.end(), n.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+  if (n == "hillshade") return Mode::Hillshade;
+  if (n == "relief") return Mode::Relief;
+  if (n == "slope") return Mode::Slope;
+  if (n == "shaded-relief" || n == "shaded_relief") return Mode::ShadedRelief;
+  if (n == "aspect") return Mode::Aspect;
+  if (n == "tri") return Mode::TRI;
+  if (n == "tpi") return Mode::TPI;
+  if (n == "roughness") return Mode::Roughness;
+  fail("render", "unknown mode '{}' (expected hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness)", name);
+}
+
+bool is_value_mode(Mode m) {
+  return m == Mode::Slope || m == Mode::Aspect || m == Mode::TRI || m == Mode::TPI || m == Mode::Roughness;
+}
+
+Shading shading_from_name(const std::string& name) {
+  if (name == "standard") return Shading::Standard;
+  if (name == "multidirectional") return Shading::Multidirectional;
+  if (name == "combined") return Shading::Combined;
+  if (name == "igor") return Shading::Igor;
+  fail("render", "unknown shading '{}' (expected standard|multidirectional|combined|igor)", name);
 }
 
 std::vector<uint8_t> hillshade(const Heightfield& h, double azimuth_deg, double altitude_deg, double z_factor) {
-  // gdaldem: x, y are Horn's sums times 1/ewres and 1/nsres (nsres negative for north-up), the
-  // z factor is folded into z / (8 * scale), and the shade is
-  // 1 + 254 * (sin(alt) - y*cos(az)*cos(alt)*z' + x*sin(az)*cos(alt)*z') / sqrt(1 + z'^2 (x^2+y^2)).
-  const double d2r = M_PI / 180.0;
-  const double inv_ew = 1.0 / h.georef.cell_x, inv_ns = -1.0 / h.georef.cell_y;
-  const double zs = z_factor / 8.0;
-  const double sin_alt = std::sin(altitude_deg * d2r), cos_alt_z = std::cos(altitude_deg * d2r) * zs;
-  const double az = azimuth_deg * d2r;
-  const double c_az = 254.0 * std::cos(az) * cos_alt_z, s_az = 254.0 * std::sin(az) * cos_alt_z;
+  Options o;
+  o.azimuth_deg = azimuth_deg;
+  o.altitude_deg = altitude_deg;
+  o.z_factor = z_factor;
+  const detail::ShadeParams p(h, o);
   std::vector<uint8_t> out(h.size(), 0);
   double w[9];
   for (int y = 0; y < h.height; ++y)
-    for (int x = 0; x < h.width; ++x) {
-      if (std::isnan(h.at(x, y))) continue;
-      window(h, x, y, w);
-      const double gx = ((w[0] + w[3] + w[3] + w[6]) - (w[2] + w[5] + w[5] + w[8])) * inv_ew;
-      const double gy = ((w[6] + w[7] + w[7] + w[8]) - (w[0] + w[1] + w[1] + w[2])) * inv_ns;
-      const double c = (254.0 * sin_alt - (gy * c_az - gx * s_az)) / std::sqrt(1.0 + zs * zs * (gx * gx + gy * gy));
-      out[size_t(y) * h.width + x] = to_byte(c <= 0.0 ? 1.0 : 1.0 + c);
-    }
+    for (int x = 0; x < h.width; ++x)
+      if (detail::window(h, x, y, true, w))
+        out[size_t(y) * h.width + x] = to_byte(detail::shade(w, Shading::Standard, p));
   return out;
 }
 
@@ -194,57 +194,87 @@ void ColorRamp::color(double z, double zmin, double zmax, uint8_t out[3]) const 
   std::copy(entries[n - 1].rgb, entries[n - 1].rgb + 3, out);
 }
 
-Image render(const Heightfield& h, const Options& opt) {
+void check_options(const Heightfield& h, const Options& opt) {
   if (h.width <= 0 || h.height <= 0) fail("render", "empty heightfield");
   if (!(opt.altitude_deg >= 0 && opt.altitude_deg <= 90))
     fail("render", "altitude must be in 0..90 deg, got {}", opt.altitude_deg);
   if (!(opt.slope_max_deg > 0 && opt.slope_max_deg <= 90))
     fail("render", "slope_max must be in (0, 90] deg, got {}", opt.slope_max_deg);
+  if (!std::isfinite(opt.azimuth_deg) || !std::isfinite(opt.z_factor))
+    fail("render", "azimuth and z factor must be finite numbers");
+  if (!(h.georef.cell_x > 0 && h.georef.cell_y > 0))
+    fail("render", "cell size must be positive, got {} x {} m", h.georef.cell_x, h.georef.cell_y);
+}
+
+PictureLayout picture_layout(const Heightfield& h, const Options& opt) {
+  if (is_value_mode(opt.mode) && opt.mode != Mode::Slope)
+    fail("render", "mode {} gives values, not a picture: write it as a GeoTIFF (.tif)",
+         opt.mode == Mode::Aspect ? "aspect"
+         : opt.mode == Mode::TRI  ? "tri"
+         : opt.mode == Mode::TPI  ? "tpi"
+                                  : "roughness");
+  PictureLayout l;
+  l.grey = opt.mode == Mode::Hillshade || opt.mode == Mode::Slope;
+  bool has_nan = false, has_percent = false;
+  float lo = INFINITY, hi = -INFINITY;
+  for (const auto& e : opt.ramp.entries) has_percent |= e.percent;
+  const bool need_range = !l.grey && has_percent;
+  for (const float v : h.z) {
+    if (std::isnan(v)) {
+      has_nan = true;
+      continue;
+    }
+    if (!need_range) {
+      if (has_nan) break;
+      continue;
+    }
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  // gdaldem's 3x3 products leave the border nodata without -compute_edges.
+  const bool border_nodata = l.grey && (!opt.compute_edges || h.width < 2 || h.height < 2);
+  l.alpha = has_nan || border_nodata;
+  l.channels = (l.grey ? 1 : 3) + (l.alpha ? 1 : 0);
+  l.zmin = lo <= hi ? lo : 0.0;
+  l.zmax = lo <= hi ? hi : 0.0;
+  return l;
+}
+
+Image render(const Heightfield& h, const Options& opt) {
+  check_options(h, opt);
+  const PictureLayout l = picture_layout(h, opt);
   Image img;
   img.width = h.width;
   img.height = h.height;
-  img.channels = 3;
-  img.pixels.assign(size_t(3) * h.size(), 0);
-  const HeightStats st = compute_stats(h);
-  std::vector<uint8_t> grey;
-  if (opt.mode == Mode::Hillshade || opt.mode == Mode::ShadedRelief)
-    grey = hillshade(h, opt.azimuth_deg, opt.altitude_deg, opt.z_factor);
-  // Shaded relief: multiply the tint by the shade, normalised so that flat ground keeps its tint.
-  const double flat = 1.0 + 254.0 * std::sin(opt.altitude_deg * M_PI / 180.0);
-  for (size_t i = 0; i < h.size(); ++i) {
-    uint8_t* p = &img.pixels[3 * i];
-    const float z = h.z[i];
-    switch (opt.mode) {
-      case Mode::Hillshade:
-        p[0] = p[1] = p[2] = grey[i];
-        break;
-      case Mode::Relief:
-        opt.ramp.color(z, st.min, st.max, p);
-        break;
-      case Mode::ShadedRelief: {
-        opt.ramp.color(z, st.min, st.max, p);
-        if (std::isnan(z)) break;
-        const double f = (0.3 + 0.7 * grey[i] / 255.0) / (0.3 + 0.7 * flat / 255.0);
-        for (int c = 0; c < 3; ++c) p[c] = to_byte(p[c] * f);
-        break;
+  img.channels = l.channels;
+  img.georef = h.georef;
+  img.pixels.assign(size_t(l.channels) * h.size(), 0);
+  const detail::ShadeParams p(h, opt);
+  double w[9];
+  for (int y = 0; y < h.height; ++y) {
+    for (int x = 0; x < h.width; ++x) {
+      const size_t i = size_t(y) * h.width + x;
+      uint8_t* px = &img.pixels[l.channels * i];
+      const float z = h.z[i];
+      if (l.grey) {
+        const bool ok = detail::window(h, x, y, opt.compute_edges, w);
+        if (ok && opt.mode == Mode::Hillshade) px[0] = to_byte(detail::shade(w, opt.shading, p));
+        if (ok && opt.mode == Mode::Slope) {
+          const double s = detail::slope(w, p, false);
+          px[0] = to_byte(255.0 * (1.0 - std::min(s, opt.slope_max_deg) / opt.slope_max_deg));
+        }
+        if (l.alpha) px[1] = ok ? 255 : 0;
+        continue;
       }
-      case Mode::Slope:
-        break;
+      opt.ramp.color(z, l.zmin, l.zmax, px);
+      // Shaded relief is not a gdaldem product: its shade always computes the edges.
+      if (opt.mode == Mode::ShadedRelief && detail::window(h, x, y, true, w)) {
+        const double f = (0.3 + 0.7 * to_byte(detail::shade(w, opt.shading, p)) / 255.0) / (0.3 + 0.7 * p.flat / 255.0);
+        for (int c = 0; c < 3; ++c) px[c] = to_byte(px[c] * f);
+      }
+      if (l.alpha) px[3] = std::isnan(z) ? 0 : 255;
     }
-  }
-  if (opt.mode == Mode::Slope) {
-    const double cx = h.georef.cell_x, cy = h.georef.cell_y;
-    double w[9];
-    for (int y = 0; y < h.height; ++y)
-      for (int x = 0; x < h.width; ++x) {
-        if (std::isnan(h.at(x, y))) continue;
-        window(h, x, y, w);
-        const double gx = ((w[2] + 2 * w[5] + w[8]) - (w[0] + 2 * w[3] + w[6])) / (8 * cx) * opt.z_factor;
-        const double gy = ((w[6] + 2 * w[7] + w[8]) - (w[0] + 2 * w[1] + w[2])) / (8 * cy) * opt.z_factor;
-        const double s = std::atan(std::hypot(gx, gy)) * 180.0 / M_PI;
-        uint8_t* p = &img.pixels[3 * (size_t(y) * h.width + x)];
-        p[0] = p[1] = p[2] = to_byte(255.0 * (1.0 - std::min(s, opt.slope_max_deg) / opt.slope_max_deg));
-      }
+    if ((y & 255) == 255) report_progress(opt.progress, "render", double(y + 1) / h.height, "shading");
   }
   return img;
 }

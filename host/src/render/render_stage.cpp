@@ -1,0 +1,193 @@
+// The `render` stage: its option table (gdaldem's options under terracl's names) and its run
+// function. Pictures (hillshade, relief, slope, shaded-relief) go to .png or a georeferenced .tif;
+// value rasters (slope, aspect, tri, tpi, roughness) to a float32 GeoTIFF like gdaldem's. The
+// heightfield passes through unchanged.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+
+#include "pipeline/builtin.hpp"
+
+namespace terracl {
+
+namespace {
+
+render::Options render_options(const StageContext& c) {
+  render::Options o;
+  o.mode = render::mode_from_name(c.get<std::string>("mode"));
+  o.azimuth_deg = c.get<double>("azimuth");
+  o.altitude_deg = c.get<double>("altitude");
+  o.z_factor = c.get<double>("z_factor");
+  o.slope_max_deg = c.get<double>("slope_max");
+  if (c.has("ramp")) o.ramp = render::ColorRamp::from_spec(c.get<std::string>("ramp"));
+  o.shading = render::shading_from_name(c.get<std::string>("shading"));
+  o.compute_edges = c.get<bool>("compute_edges");
+  o.slope_percent = c.get<std::string>("slope_format") == "percent";
+  o.tri_alg = c.get<std::string>("tri_alg") == "wilson" ? render::TriAlg::Wilson : render::TriAlg::Riley;
+  o.aspect_trigonometric = c.get<bool>("trigonometric");
+  o.zero_for_flat = c.get<bool>("zero_for_flat");
+  o.progress = c.progress;
+  return o;
+}
+
+void run_render(StageContext& c) {
+  const render::Options o = render_options(c);
+  const std::string file = c.get<std::string>("file");
+  const bool tif = format_from_extension(file) == FileFormat::GeoTIFF;
+  const bool host = c.get<std::string>("backend") == "host";
+  const Heightfield& h = c.height();
+  // Slope to a GeoTIFF is gdaldem's float raster; to a PNG the grey picture.
+  if (render::is_value_mode(o.mode) && (tif || o.mode != render::Mode::Slope)) {
+    if (!tif) fail("render", "{}: mode {} writes values; use a .tif name", file, c.get<std::string>("mode"));
+    Heightfield v = host ? render::values(h, o) : render::values(h, o, c.device());
+    for (const auto& [k, val] : c.provenance) v.metadata[k] = val;
+    write_heightfield(v, file);
+    return;
+  }
+  const render::Image img = host ? render::render(h, o) : render::render(h, o, c.device());
+  render::write_image(img, file, c.provenance);
+}
+
+}  // namespace
+
+StageInfo render_stage_info() {
+  return {"render",
+          "Write a picture (hillshade as gdaldem's, colour relief, slope, shaded relief; 8-bit grey or RGB, alpha "
+          "where nodata) as .png or a georeferenced .tif, or gdaldem's value rasters (slope, aspect, tri, tpi, "
+          "roughness) as a float32 GeoTIFF; passes the heightfield through.",
+          DataKind::Heightfield,
+          DataKind::Heightfield,
+          {{"file", OptionType::OutputPath, nullptr, "", "Picture or value raster to write (.png or .tif)", {}, true},
+           {"mode",
+            OptionType::Enum,
+            "hillshade",
+            "",
+            "What to draw: pictures hillshade|relief|slope|shaded-relief, values (.tif) slope|aspect|tri|tpi|roughness",
+            {"hillshade", "relief", "slope", "shaded-relief", "aspect", "tri", "tpi", "roughness"},
+            false},
+           {"azimuth", OptionType::Float, 315.0, "deg", "Sun azimuth, clockwise from north", {}, false},
+           {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
+           {"z_factor", OptionType::Float, 1.0, "", "Vertical exaggeration", {}, false},
+           {"shading",
+            OptionType::Enum,
+            "standard",
+            "",
+            "Hillshade variant: gdaldem's default, -multidirectional, -combined or -igor",
+            {"standard", "multidirectional", "combined", "igor"},
+            false},
+           {"compute_edges",
+            OptionType::Bool,
+            false,
+            "",
+            "Shade the border cells too (gdaldem -compute_edges); otherwise they are nodata (transparent)",
+            {},
+            false},
+           {"ramp",
+            OptionType::String,
+            nullptr,
+            "",
+            "Colour ramp: hypsometric (metres, sea below 0 m blue; the default), relative (over the data range), "
+            "grey, or a gdaldem color-relief file",
+            {},
+            false},
+           {"slope_max", OptionType::Float, 60.0, "deg", "Slope picture: this slope and steeper are black", {}, false},
+           {"slope_format",
+            OptionType::Enum,
+            "degrees",
+            "",
+            "Slope values (.tif) in degrees or percent (gdaldem -p)",
+            {"degrees", "percent"},
+            false},
+           {"tri_alg",
+            OptionType::Enum,
+            "riley",
+            "",
+            "TRI algorithm (gdaldem -alg): riley (terrestrial) or wilson (bathymetric)",
+            {"riley", "wilson"},
+            false},
+           {"trigonometric",
+            OptionType::Bool,
+            false,
+            "",
+            "Aspect counter-clockwise from east (gdaldem -trigonometric) instead of an azimuth",
+            {},
+            false},
+           {"zero_for_flat",
+            OptionType::Bool,
+            false,
+            "",
+            "Aspect 0 on flat ground instead of nodata (gdaldem -zero_for_flat)",
+            {},
+            false},
+           {"backend",
+            OptionType::Enum,
+            "device",
+            "",
+            "Compute with kernels/render*.cl on the OpenCL device, or with the host reference code",
+            {"device", "host"},
+            false}},
+          run_render,
+          false};
+}
+
+// `terracl bench render`: the shading alone (no file I/O, device already open), host reference
+// against the kernels, on a DEM (--set dem=FILE, whole raster) or an N x N synthetic grid.
+void register_render_benches(BenchRegistry& r) {
+  r.add({"render",
+         "Shading time of render (hillshade, shaded-relief, tri) on the host and on the OpenCL device, file I/O "
+         "excluded; --set dem=FILE renders a whole DEM, else an N x N synthetic grid",
+         [](const BenchArgs& a) {
+           Heightfield h;
+           std::string source;
+           if (a.extra.contains("dem")) {
+             source = a.extra["dem"].get<std::string>();
+             h = read_heightfield(source);
+           } else {
+             h = Heightfield(a.size, a.size);
+             h.georef.cell_x = h.georef.cell_y = 30;
+             for (int y = 0; y < a.size; ++y)
+               for (int x = 0; x < a.size; ++x)
+                 h.at(x, y) =
+                     float(300 * std::sin(x * 0.013) * std::cos(y * 0.011) + 40 * std::sin(x * 0.1 + y * 0.07));
+             source = "synthetic sines, 30 m cells";
+           }
+           auto dev = Device::open(a.device);
+           fmt::print("render bench: {} x {} cells ({}), device {}; median of {} runs (wall s, process CPU s)\n",
+                      h.width, h.height, source, dev->info().name, a.repeats);
+           auto time = [&](const std::string& what, auto&& f) {
+             f();  // warm-up: kernel build / cache load, first-touch of the output
+             std::vector<double> wall;
+             const std::clock_t c0 = std::clock();
+             for (int k = 0; k < a.repeats; ++k) {
+               const auto t0 = std::chrono::steady_clock::now();
+               f();
+               wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+             }
+             std::sort(wall.begin(), wall.end());
+             const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC / a.repeats;
+             fmt::print("  {:<24} {:8.4f} s (cpu {:.4f} s)\n", what, wall[wall.size() / 2], cpu);
+           };
+           for (auto mode : {render::Mode::Hillshade, render::Mode::ShadedRelief, render::Mode::TRI}) {
+             render::Options o;
+             o.mode = mode;
+             o.compute_edges = false;
+             const std::string name = mode == render::Mode::Hillshade      ? "hillshade"
+                                      : mode == render::Mode::ShadedRelief ? "shaded-relief"
+                                                                           : "tri";
+             if (mode == render::Mode::TRI) {
+               time(name + " host", [&] { (void)render::values(h, o); });
+               time(name + " device", [&] { (void)render::values(h, o, *dev); });
+             } else {
+               time(name + " host", [&] { (void)render::render(h, o); });
+               time(name + " device", [&] { (void)render::render(h, o, *dev); });
+             }
+           }
+         }});
+}
+
+}  // namespace terracl

@@ -1,0 +1,57 @@
+// gdaldem's value rasters, one work-item per row of a strip: slope (degrees or percent), aspect,
+// TRI (Riley or Wilson), TPI, roughness, as float32 with NaN where gdaldem writes nodata. Each is
+// gdaldem's formula in the same operation order (host reference: host/src/render/terrain.cpp).
+#pragma OPENCL FP_CONTRACT OFF
+#include "render_window.clh"
+
+#define VAL_SLOPE 0
+#define VAL_ASPECT 1
+#define VAL_TRI 2
+#define VAL_TPI 3
+#define VAL_ROUGHNESS 4
+
+#define FLAG_PERCENT 1
+#define FLAG_WILSON 2
+#define FLAG_TRIGONOMETRIC 4
+#define FLAG_ZERO_FOR_FLAT 8
+
+inline float terrain_value(const float* v, const int mode, const int flags, __global const float* p) {
+  if (mode == VAL_SLOPE) return rw_slope(v, p, flags & FLAG_PERCENT);
+  if (mode == VAL_ASPECT) {
+    // gdaldem: atan2(dy, -dx) on Horn's raw sums; scaled by the cell sizes here (the same angle
+    // on square cells, the true aspect on rectangular ones).
+    const float hx = rw_horn_x(v), hy = rw_horn_y(v);
+    if (hx == 0.0f && hy == 0.0f) return (flags & FLAG_ZERO_FOR_FLAT) ? 0.0f : NAN;
+    float a = degrees(atan2(hy * -p[P_INV_NS], hx * p[P_INV_EW]));
+    if (!(flags & FLAG_TRIGONOMETRIC))
+      a = a > 90.0f ? 450.0f - a : 90.0f - a;
+    else if (a < 0.0f)
+      a += 360.0f;
+    return a == 360.0f ? 0.0f : a;
+  }
+  if (mode == VAL_TRI) {
+    if (flags & FLAG_WILSON)
+      return (fabs(v[0] - v[4]) + fabs(v[1] - v[4]) + fabs(v[2] - v[4]) + fabs(v[3] - v[4]) + fabs(v[5] - v[4]) +
+              fabs(v[6] - v[4]) + fabs(v[7] - v[4]) + fabs(v[8] - v[4])) *
+             0.125f;
+    float s = 0.0f;
+    for (int k = 0; k < 9; ++k) s += (v[k] - v[4]) * (v[k] - v[4]);
+    return sqrt(s);
+  }
+  if (mode == VAL_TPI) return v[4] - ((v[0] + v[1] + v[2] + v[3] + v[5] + v[6] + v[7] + v[8]) * 0.125f);
+  float lo = v[0], hi = v[0];
+  for (int k = 1; k < 9; ++k) lo = fmin(lo, v[k]), hi = fmax(hi, v[k]);
+  return hi - lo;
+}
+
+__kernel void terrain_rows(__global const float* z, const int w, const int h, const int r0, const int y0,
+                           const int rows, const int mode, const int flags, const int edges,
+                           __global const float* p, __global float* out) {
+  const int j = get_global_id(0);
+  if (j >= rows) return;
+  const int y = y0 + j;
+  for (int x = 0; x < w; ++x) {
+    float v[9];
+    out[(size_t)j * w + x] = rw_window(z, w, h, r0, x, y, edges, v) ? terrain_value(v, mode, flags, p) : NAN;
+  }
+}
