@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <numeric>
 
 namespace terracl {
 
@@ -73,18 +74,45 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   for (float m : lmask) lmsum += m;
   const bool use_omp = o.sparsity > 1 || o.search == "omp";
   const bool detail_blend = o.blend == "detail";
-  const float rho = std::clamp(o.detail_correlation, 0.f, 1.f);
   const MatrixF smooth = smooth_part_operator(P, f);
   // The magnitude term compares relief at the dictionary's cell size (self-similar scaling when a
   // dictionary serves a coarser step).
   const float qscale = d.cell_x > 0 && out.georef.cell_x > 0 ? float(d.cell_x / out.georef.cell_x) : 1.f;
-  const int tile = std::max(S, o.tile / S * S);
+  const int tile_unit = std::lcm(S, 64), tile = std::max(tile_unit, o.tile / tile_unit * tile_unit);
   const int tx = (W + tile - 1) / tile, ty = (H + tile - 1) / tile;
   // Patch k covers output cells [k S - Q, k S - Q + P); its low-resolution footprint starts at (k S - Q) / f.
   auto first = [&](int a) { int k = 0; while (k * S - Q + P <= a) ++k; return k; };
   auto last = [&](int b) { int k = 0; while (k * S - Q < b) ++k; return k; };  // exclusive
   const int phases = (P + S - 1) / S;  // patch rows this far apart never overlap
 
+  // Detail blend: a first pass measures, for candidate correlations rho, the squared curvature of the
+  // blended detail per phase of the patch grid (the weights repeat with the spacing); the second
+  // blends with the rho that makes it the same at every phase (the evaluation's periodic trace). The
+  // sums are per cell, so rho does not depend on the tiling.
+  float rho = std::clamp(o.detail_correlation, 0.f, 1.f);
+  const bool measure = detail_blend && o.detail_correlation < 0;
+  constexpr int kRhos = 21;
+  std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
+  for (int pass = measure ? 0 : 1; pass < 2; ++pass) {
+  if (pass == 1 && measure) {
+    std::vector<double> cv(kRhos, 0.0);
+    for (int t = 0; t < kRhos; ++t) {
+      double s = 0, s2 = 0, n = 0;
+      for (size_t k = 0; k < phase_n.size(); ++k) {
+        if (phase_n[k] == 0) continue;
+        const double e = phase_k2[size_t(t) * phase_n.size() + k] / phase_n[k];
+        s += e, s2 += e * e, n += 1;
+      }
+      cv[size_t(t)] = n > 1 && s > 0 ? (s2 / n - (s / n) * (s / n)) / ((s / n) * (s / n)) : 0;
+    }
+    const int t = int(std::min_element(cv.begin(), cv.end()) - cv.begin());
+    double r = double(t) / (kRhos - 1);
+    if (t > 0 && t < kRhos - 1) {  // parabola through the minimum and its neighbours
+      const double a = cv[size_t(t - 1)], b = cv[size_t(t)], c = cv[size_t(t + 1)], d = a - 2 * b + c;
+      if (d > 0) r += std::clamp(0.5 * (a - c) / d, -0.5, 0.5) / (kRhos - 1);
+    }
+    rho = float(r);
+  }
   for (int j = 0; j < ty; ++j)
     for (int i = 0; i < tx; ++i) {
       const int X0 = i * tile, X1 = std::min(W, X0 + tile), Y0 = j * tile, Y1 = std::min(H, Y0 + tile);
@@ -149,6 +177,7 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
       const int s = codes.sparsity;
       const int tw = X1 - X0, th = Y1 - Y0;
       std::vector<float> num(size_t(tw) * th, 0.f), den(num.size(), 0.f), den1(detail_blend ? num.size() : 0, 0.f);
+
       for (int ph = 0; ph < phases; ++ph) {
         std::vector<int> rows;
         for (int r = ph; r < ny; r += phases) rows.push_back(r);
@@ -187,6 +216,25 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
           }
         });
       }
+      if (pass == 0) {
+        std::vector<float> blended(num.size());
+        for (int t = 0; t < kRhos; ++t) {
+          const float r = float(t) / (kRhos - 1);
+          for (size_t c = 0; c < num.size(); ++c) blended[c] = num[c] / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
+          for (int y = 1; y + 1 < th; ++y)
+            for (int x = 1; x + 1 < tw; ++x) {
+              // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
+              // cells measured, and rho, are the same for every tile size.
+              const int gx = (X0 + x) % 64, gy = (Y0 + y) % 64;
+              if (gx == 0 || gx == 63 || gy == 0 || gy == 63) continue;
+              const size_t c = size_t(y) * tw + x, k = size_t((Y0 + y) % S) * S + size_t((X0 + x) % S);
+              const double lap = double(blended[c - 1]) + blended[c + 1] + blended[c - tw] + blended[c + tw] - 4.0 * blended[c];
+              phase_k2[size_t(t) * phase_n.size() + k] += lap * lap;
+              if (t == 0) phase_n[k] += 1;
+            }
+        }
+        continue;
+      }
       for (int y = 0; y < th; ++y)
         for (int x = 0; x < tw; ++x) {
           const float dn = den[size_t(y) * tw + x];
@@ -202,6 +250,8 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         }
       report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
     }
+  }
+  if (detail_blend) out.metadata["amplify_detail_correlation"] = fmt::format("{:.3f}", rho);
   const float gain = o.detail_gain < 0 ? d.detail_gain : o.detail_gain;
   if (detail_blend) {
     // out = bicubic + gain detail
@@ -387,8 +437,9 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   }
   if (!(hd > 0) || !(d2 > 0) || !(r2 > 0)) return cal;
   cal.calibrated = true;
-  // As much HF energy as the held-out truth: hd g^2 + 2 hbd g + hb = ht (the larger root).
-  const double disc = hbd * hbd - hd * (hb - ht);
+  // As much HF energy as the held-out truth (times the target): hd g^2 + 2 hbd g + hb = t ht (the
+  // larger root).
+  const double disc = hbd * hbd - hd * (hb - o.calibration_hf_target * ht);
   cal.hf_gain = disc > 0 ? (-hbd + std::sqrt(disc)) / hd : 1.0;
   // The largest g with |e0 + g cd|^2 <= (budget * rmse_bic)^2, e0 = cb - truth.
   const double lim = kRmseBudget * kRmseBudget * r2;
