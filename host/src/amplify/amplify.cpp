@@ -91,7 +91,7 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   // sums are per cell, so rho does not depend on the tiling.
   float rho = std::clamp(o.detail_correlation, 0.f, 1.f);
   const bool measure = detail_blend && o.detail_correlation < 0;
-  constexpr int kRhos = 21;
+  constexpr int kRhos = 11;
   std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
   for (int pass = measure ? 0 : 1; pass < 2; ++pass) {
   if (pass == 1 && measure) {
@@ -183,7 +183,7 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         for (int r = ph; r < ny; r += phases) rows.push_back(r);
         parallel_for(rows.size(), o.threads, [&](size_t b, size_t e) {
           VectorF patch(P * P);
-          MatrixF detail(P, P);
+          MatrixF detail(P, P), half(P, P);
           for (size_t ri = b; ri < e; ++ri) {
             const int r = rows[ri];
             for (int cx = 0; cx < nx; ++cx) {
@@ -199,7 +199,9 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
                 // Only the patch's detail (what its block means do not determine) is blended; the
                 // bicubic of the input supplies the rest.
                 Eigen::Map<MatrixF> pm(patch.data(), P, P);
-                detail = pm - smooth * pm * smooth.transpose();
+                half.noalias() = smooth * pm;  // preallocated: no allocation per patch
+                detail = pm;
+                detail.noalias() -= half * smooth.transpose();
               }
               const float* src = detail_blend ? detail.data() : patch.data();
               for (int v = std::max(0, -py); v < P && py + v < th; ++v)
@@ -217,21 +219,23 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         });
       }
       if (pass == 0) {
-        std::vector<float> blended(num.size());
-        for (int t = 0; t < kRhos; ++t) {
-          const float r = float(t) / (kRhos - 1);
-          for (size_t c = 0; c < num.size(); ++c) blended[c] = num[c] / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
-          for (int y = 1; y + 1 < th; ++y)
-            for (int x = 1; x + 1 < tw; ++x) {
-              // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
-              // cells measured, and rho, are the same for every tile size.
-              const int gx = (X0 + x) % 64, gy = (Y0 + y) % 64;
-              if (gx == 0 || gx == 63 || gy == 0 || gy == 63) continue;
-              const size_t c = size_t(y) * tw + x, k = size_t((Y0 + y) % S) * S + size_t((X0 + x) % S);
-              const double lap = double(blended[c - 1]) + blended[c + 1] + blended[c - tw] + blended[c + tw] - 4.0 * blended[c];
+        // One band of S rows in four (by the global row, every phase of the grid) is enough.
+        for (int y = 1; y + 1 < th; ++y) {
+          if (((Y0 + y) / S) % 4 != 0) continue;
+          for (int x = 1; x + 1 < tw; ++x) {
+            // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
+            // cells measured, and rho, are the same for every tile size.
+            const int gx = (X0 + x) % 64, gy = (Y0 + y) % 64;
+            if (gx == 0 || gx == 63 || gy == 0 || gy == 63) continue;
+            const size_t c = size_t(y) * tw + x, k = size_t((Y0 + y) % S) * S + size_t((X0 + x) % S);
+            phase_n[k] += 1;
+            for (int t = 0; t < kRhos; ++t) {
+              const float r = float(t) / (kRhos - 1);
+              auto blended = [&](size_t i) { return double(num[i]) / std::sqrt((1 - r) * den[i] + r * den1[i] * den1[i]); };
+              const double lap = blended(c - 1) + blended(c + 1) + blended(c - tw) + blended(c + tw) - 4.0 * blended(c);
               phase_k2[size_t(t) * phase_n.size() + k] += lap * lap;
-              if (t == 0) phase_n[k] += 1;
             }
+          }
         }
         continue;
       }
