@@ -45,6 +45,8 @@ struct EvalArgs {
   LearnOptions learn;
   AmplifyOptions amp;
   bool header = false;
+  std::string save;
+  bool no_corr = false;
   int recall_samples = 0;
   std::vector<int> recall_checks{8, 32, 128, 512};
 };
@@ -62,8 +64,9 @@ Heightfield crop(const Heightfield& h, int x0, int y0, int w, int ht) {
 }
 
 void print_row(const std::string& name, int f, const std::string& method, const AmplifyMetrics& m, double secs) {
-  fmt::print("| {:<26} | x{:<3} | {:<22} | {:8.2f} | {:6.2f} | {:5.3f} | {:5.3f} | {:5.3f} | {:7.3f} | {:6.2f} |\n",
-             name, f, method, m.rmse, m.psnr, m.hf_ratio, m.roughness_ratio, m.slope_ratio, m.lr_consistency, secs);
+  fmt::print("| {:<26} | x{:<3} | {:<22} | {:8.2f} | {:6.2f} | {:5.3f} | {:5.3f} | {:5.3f} | {:7.3f} | {:6.1f} | {:6.1f} | {:5.3f} | {:6.2f} |\n",
+             name, f, method, m.rmse, m.psnr, m.hf_ratio, m.roughness_ratio, m.slope_ratio, m.lr_consistency,
+             m.patch_peak, m.block_peak, m.d8_agreement, secs);
 }
 
 CommandRegistrar reg(40, [](CLI::App& app) {
@@ -180,9 +183,14 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       ->capture_default_str();
   ev->add_option("--magnitude-weight", va->amp.magnitude_weight, "Weight of the atom search's magnitude term (0: off; -1: 0.4)")
       ->capture_default_str();
+  ev->add_option("--mode", va->amp.mode, "detail | faithful (see amplify --mode)")->capture_default_str();
+  ev->add_option("--detail-correlation", va->amp.detail_correlation, "Detail blend: assumed correlation of overlapping details")->capture_default_str();
+  ev->add_option("--blend", va->amp.blend, "detail | average | auto (see amplify --blend)")->capture_default_str();
   ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();
   ev->add_option("--seed", va->amp.seed, "Seed of the training subset and of FLANN's trees")->capture_default_str();
   ev->add_flag("--header", va->header, "Print the table header first");
+  ev->add_flag("--no-corr", va->no_corr, "Also amplify without the bias correction (a row 'no-corr')");
+  ev->add_option("--save", va->save, "Also write truth, input, bicubic and amplified output as PREFIX_*.tif");
   ev->add_option("--recall", va->recall_samples, "Also measure FLANN recall against exact search on this many queries");
   ev->add_option("--recall-checks", va->recall_checks, "FLANN checks values for --recall")->capture_default_str();
   ev->callback([va] {
@@ -194,26 +202,38 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     const Heightfield low = block_mean(truth, f);
     std::string name = va->input.substr(va->input.find_last_of('/') + 1);
     if (va->header) {
-      fmt::print("| {:<26} | {:<4} | {:<22} | {:>8} | {:>6} | {:>5} | {:>5} | {:>5} | {:>7} | {:>6} |\n", "DEM", "f", "method",
-                 "RMSE m", "PSNR", "HF", "rough", "slope", "LR m", "time s");
-      fmt::print("|---|---|---|---|---|---|---|---|---|---|\n");
+      fmt::print("| {:<26} | {:<4} | {:<22} | {:>8} | {:>6} | {:>5} | {:>5} | {:>5} | {:>7} | {:>6} | {:>6} | {:>5} | {:>6} |\n", "DEM",
+                 "f", "method", "RMSE m", "PSNR", "HF", "rough", "slope", "LR m", "pk S", "pk f", "D8", "time s");
+      fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     }
     va->learn.seed = va->amp.seed;
     using clock = std::chrono::steady_clock;
     auto t0 = clock::now();
     const Heightfield bic = bicubic_upsample(low, f);
     const double tb = std::chrono::duration<double>(clock::now() - t0).count();
-    print_row(name, f, "bicubic", evaluate_amplification(bic, truth, low, f), tb);
+    print_row(name, f, "bicubic", evaluate_amplification(bic, truth, low, f, va->amp.spacing), tb);
     AmplifyOptions o = va->amp;
     o.factor = f;
     t0 = clock::now();
     const Heightfield out = amplify_from_exemplars(low, {west}, va->learn, o);
     const double ta = std::chrono::duration<double>(clock::now() - t0).count();
-    const std::string label = fmt::format("{} P{} S{} s{}", va->learn.method, va->learn.patch, o.spacing, o.sparsity);
-    print_row(name, f, label, evaluate_amplification(out, truth, low, f), ta);
-    o.bias_correction = false;
-    const Heightfield raw = amplify_from_exemplars(low, {west}, va->learn, o);
-    print_row(name, f, label + " no-corr", evaluate_amplification(raw, truth, low, f), 0);
+    const std::string label = o.mode == "faithful" ? fmt::format("faithful r{}", o.faithful_radius)
+                                                   : fmt::format("{} P{} S{} s{}", va->learn.method, va->learn.patch, o.spacing, o.sparsity);
+    print_row(name, f, label, evaluate_amplification(out, truth, low, f, o.spacing), ta);
+    if (!va->save.empty()) {
+      write_heightfield(truth, va->save + "_truth.tif");
+      write_heightfield(low, va->save + "_low.tif");
+      write_heightfield(bic, va->save + "_bicubic.tif");
+      write_heightfield(out, va->save + "_out.tif");
+    }
+    for (const char* key : {"amplify_detail_gain", "amplify_calibration"})
+      if (out.metadata.count(key)) fmt::print("# {} x{} {}: {}\n", name, f, key, out.metadata.at(key));
+    if (o.mode == "faithful") return;
+    if (va->no_corr) {
+      o.bias_correction = false;
+      const Heightfield raw = amplify_from_exemplars(low, {west}, va->learn, o);
+      print_row(name, f, label + " no-corr", evaluate_amplification(raw, truth, low, f, o.spacing), 0);
+    }
     if (va->recall_samples > 0) {
       // The first step's dictionary and queries: the input's low-resolution disc patches.
       LearnOptions l = va->learn;

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Evaluation of sparse-dictionary amplification (issue 6) against bicubic upsampling.
+# Evaluation of amplification (issues 6 and 16) against bicubic upsampling.
 # For each DEM in data/dem/: west half = exemplar, east half = truth, input = block means of the
-# truth (x4 and x16); prints RMSE, PSNR, HF energy ratio above the input's Nyquist, roughness ratio,
-# mean-slope ratio and LR consistency (see docs/amplify.md), FLANN recall for x4, and with --bench
-# the timings of x4 of a 1201^2 DEM and x256 of 32^2 -> 8192^2.
+# truth (x4 and x16); prints, for --mode detail and --mode faithful, RMSE, PSNR, HF energy ratio above
+# the input's Nyquist, roughness ratio, mean-slope ratio, LR consistency, the periodic peaks of the
+# squared curvature at the patch spacing and the block size, D8 river agreement with the truth (see
+# docs/amplify.md) and the calibrated gains, FLANN recall for x4, and with --bench the timings of x4
+# of a 1201^2 DEM and x256 of 32^2 -> 8192^2.
 #   scripts/eval-amplify.sh [--bench] [extra `terracl dictionary evaluate` options]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,6 +20,7 @@ for dem in data/dem/*.hgt data/dem/*.asc; do
     [[ $f == 4 ]] && recall=(--recall 2000)
     $T dictionary evaluate "$dem" --factor $f $header "${recall[@]}" "$@"
     header=
+    $T dictionary evaluate "$dem" --factor $f --mode faithful "$@"
   done
 done
 if [[ $BENCH == 1 ]]; then

@@ -103,3 +103,29 @@ TEST(AmplifyCli, SketchSynthesis) {
   EXPECT_GT(out.at(48, 40), 800.f);  // plateau centre stays high
   EXPECT_LT(out.at(4, 4), 200.f);    // the plain stays low
 }
+
+TEST(AmplifyCli, ResampleExemplarToTheOutputCellSize) {
+  // Output cells 1.5 x the exemplar's: not a whole multiple, so the exemplar is refused as it is and
+  // accepted once GDAL has averaged it to the output's cells.
+  test::TempDir tmp;
+  const std::string ex = test::data_path("crops/presidential_128x96.tif");
+  const Heightfield e = read_heightfield(ex);
+  const Heightfield low = block_mean(e, 6);
+  write_heightfield(low, tmp.path("low.tif"));
+  const auto refused = test::run_cli("amplify " + tmp.path("low.tif") + " -o " + tmp.path("a.tif") + " --exemplar " + ex);
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.out.find("mismatched cell sizes"), std::string::npos) << refused.out;
+  const auto ok = test::run_cli("amplify " + tmp.path("low.tif") + " -o " + tmp.path("b.tif") + " --exemplar " + ex +
+                                " --resample-exemplar");
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  const Heightfield out = read_heightfield(tmp.path("b.tif"));
+  EXPECT_EQ(out.width, low.width * 4);
+  EXPECT_NEAR(out.georef.cell_x, 1.5 * e.georef.cell_x, 1e-3 * e.georef.cell_x);
+  const Heightfield m = block_mean(out, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 0.05f);
+  // An exemplar coarser than the output cannot be resampled into detail.
+  const auto coarse = test::run_cli("amplify " + tmp.path("low.tif") + " -o " + tmp.path("c.tif") + " --exemplar " +
+                                    tmp.path("low.tif") + " --resample-exemplar");
+  EXPECT_NE(coarse.exit_code, 0);
+  EXPECT_NE(coarse.out.find("resampling cannot add detail"), std::string::npos) << coarse.out;
+}

@@ -14,6 +14,7 @@
 
 #include <Eigen/Dense>
 
+#include <complex>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -105,6 +106,9 @@ struct Dictionary {
   /// dictionary (AmplifyOptions::neighbours, magnitude_weight). Version 1 files: 1 and 0.
   int neighbours = 3;
   float magnitude_weight = 0.4f;
+  /// The blend the gain was calibrated for (AmplifyOptions::blend): "detail", or "average" for files
+  /// without flag bit 2 (written before the detail blend existed).
+  std::string blend = "detail";
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
@@ -142,6 +146,11 @@ struct LearnOptions {
   int calibration_neighbours = 3;
   int calibration_candidates = 0;
   float calibration_magnitude_weight = 0.4f;
+  std::string calibration_blend = "detail";
+  /// HF energy ratio the gain aims at on the held-out folds. Slightly above 1: the exemplar's own
+  /// folds resemble each other more than the input's terrain (x4 on the bundled DEMs: the ratio
+  /// against the truth is 1.16 / 0.67 of the held-out one; docs/amplify.md).
+  double calibration_hf_target = 1.1;
   /// Folds of the calibration's cross-validation (strips across the exemplar's longer axis).
   int calibration_folds = 2;
 };
@@ -226,6 +235,20 @@ struct AmplifyOptions {
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;
   float detail_gain = -1;  ///< < 0: the dictionary's calibrated gain
+  /// Patch blend. "detail": the bicubic of the input plus the patches' details (patch minus the smooth part of
+  /// its block means, smooth_part_operator) blended by sum w d / sqrt(sum w^2), variance-preserving,
+  /// so the patch grid leaves no trace; "average": the patches themselves blended by sum w p / sum w
+  /// (the paper's blend; detail fades between patch centres).
+  std::string blend = "auto";  ///< detail | average | auto (the dictionary's, see Dictionary::blend)
+  /// Detail blend: the correlation rho between overlapping patches' details that the blend's
+  /// normalisation sqrt((1 - rho) sum w^2 + rho (sum w)^2) assumes (0: independent, 1: the average);
+  /// < 0: measured on the output's own patches (a first pass over the tiles).
+  float detail_correlation = -1.f;
+  /// "detail": plausible relief transferred from the exemplar (the dictionary); "faithful": the
+  /// estimate closest to the truth, a BlockRegression per x4 step learned on the exemplar (needs
+  /// exemplars, amplify_from_exemplars), block means exact.
+  std::string mode = "detail";
+  int faithful_radius = 3;  ///< faithful: neighbourhood radius of the regression (input cells)
   int threads = 0;
 };
 
@@ -239,9 +262,17 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
                                    const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress = {});
 /// Detail gain calibrated by pooled cross-validation on the exemplar (strips across its longer axis,
 /// `calibration_folds` of them; each amplified, bias-corrected, by a dictionary learned on the others
-/// with the calibration_* search settings): the largest gain whose pooled RMSE stays within 1.14 x
-/// bicubic's, and at least the gain that matches the truth's roughness (clamped to [0.5, 4]; 1 when
-/// the exemplar is too small to split).
+/// with the calibration_* search settings): the gain whose pooled HF energy (energy_above) is
+/// calibration_hf_target times the held-out truth's, unless the pooled RMSE would then exceed 1.14 x bicubic's (then the largest
+/// gain within that budget); clamped to [0.25, 4]; 1 when the exemplar is too small to split.
+struct GainCalibration {
+  bool calibrated = false;  ///< false: the exemplar was too small to split (gain 1)
+  double gain = 1;
+  double hf_gain = 1, rmse_gain = 0;     ///< the HF-matching gain and the RMSE budget's largest gain
+  double hf_ratio = 0, rmse_ratio = 0;   ///< held-out HF energy ratio and RMSE / bicubic's at `gain`
+  std::string summary() const;
+};
+GainCalibration calibrate_detail(const Heightfield& exemplar, const LearnOptions& o);
 double calibrate_detail_gain(const Heightfield& exemplar, const LearnOptions& o);
 /// z minus its (f+1) x (f+1) box mean (relief finer than one input cell), and its RMS.
 std::vector<double> highpass(const Heightfield& h, int f);
@@ -263,11 +294,34 @@ void smooth_tent(Heightfield& h, int r);
 Heightfield block_mean(const Heightfield& h, int f);
 /// Bicubic (Catmull-Rom) upsampling by f with cell-centre alignment (the baseline).
 Heightfield bicubic_upsample(const Heightfield& h, int f);
+/// The n x n matrix M = U B of one axis (B: block means by f, U: the bicubic upsampling above, clamped
+/// at the ends): M X M^T is the smooth part of an n x n patch X, the part its block means determine;
+/// X - M X M^T is its detail.
+MatrixF smooth_part_operator(int n, int f);
 /// out += scale * bicubic_upsample(low, f), without a full-size temporary.
 void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale);
 /// Makes every f x f block mean of `high` equal the corresponding cell of `low`: a few smooth
 /// (bicubic back-projection) passes, then an exact constant shift per block.
 void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4);
+
+// ---------------------------------------------------------------- faithful mode (regression.cpp)
+
+/// Linear regression of an f x f output block (minus its input cell) from the input's (2r+1)^2
+/// neighbourhood (minus the cell), one per class of gradient direction: the least-squares linear
+/// upsampler of the exemplar's terrain. The block means of its output equal the input exactly (the
+/// training targets sum to zero per block, so do the weights).
+struct BlockRegression {
+  int factor = 4, radius = 2, classes = 1;
+  long samples = 0;                   ///< training blocks
+  std::vector<MatrixF> weights;       ///< per class: f^2 x features_count()
+  int features_count() const;
+};
+/// Learns from exemplars at the output cell size (their f x f block means are the inputs). `ridge`
+/// is relative to the mean feature energy. Throws when the exemplars hold too few blocks.
+BlockRegression learn_block_regression(const std::vector<Heightfield>& exemplars, int f, int radius = 2,
+                                       int classes = 1, double ridge = 1e-4);
+/// x f with the regression (clamped borders). Georef resampled by f.
+Heightfield apply_block_regression(const Heightfield& low, const BlockRegression& g, int threads = 0);
 
 // ---------------------------------------------------------------- evaluation (eval.cpp)
 
@@ -278,8 +332,33 @@ struct AmplifyMetrics {
   double roughness_ratio = 0;  ///< RMS of z - box(f+1) mean, output / truth
   double slope_ratio = 0;      ///< mean slope (deg), output / truth
   double lr_consistency = 0;   ///< RMSE between the output's f x f block means and the input (m)
+  double patch_peak = 0;       ///< periodic_trace(out, patch spacing).peak: patch-grid trace (~1: none)
+  double block_peak = 0;       ///< periodic_trace(out, f).peak: block-grid trace
+  double d8_agreement = 0;     ///< d8_agreement(out, truth, 0.002, f)
 };
-AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield& truth, const Heightfield& low, int f);
+AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield& truth, const Heightfield& low, int f,
+                                      int patch_spacing = 8);
+
+/// The evaluation's HF: the spectrum of h above the input's Nyquist (|fx| or |fy| > 1/(2f) cycles per
+/// cell) after removing the least-squares plane and applying a 2-D Hann window (linear in h), and
+/// its energy.
+std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f);
+double energy_above(const Heightfield& h, int f);
+
+/// Drainage kept: rivers are the cells whose D8 accumulation (analysis.hpp, d8_flow) reaches
+/// `river_fraction` of the grid; the agreement is the mean of the fraction of the truth's river cells
+/// within `tolerance` cells (Chebyshev) of an output river cell and the converse (1: same network).
+double d8_agreement(const Heightfield& out, const Heightfield& truth, double river_fraction = 0.002, int tolerance = 4);
+
+/// Periodic trace of a patch (or block) grid in a heightfield: the squared curvature (5-point
+/// Laplacian) averaged over rows gives a profile along x, averaged over columns one along y.
+/// `peak`: the power of a profile's DFT at the grid's frequency (1 / period) over the mean power of
+/// the other frequencies within a factor 1.5 of it (about 1 for no trace; the larger of x and y);
+/// `ripple`: (max - min) / mean of the profile folded modulo the period (the larger of x and y).
+struct PeriodicTrace {
+  double peak = 0, ripple = 0;
+};
+PeriodicTrace periodic_trace(const Heightfield& h, int period);
 
 /// Compression report (section 5.1): learn N atoms of P x P patches spaced P/2 on `h`, encode with
 /// sparsity s and reconstruct. rho = (K N + n (2 s + 2) + 1) / (w h).

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <numeric>
 
 namespace terracl {
 
@@ -44,6 +45,9 @@ void check_options(const AmplifyOptions& o, const Dictionary& d) {
   if (o.neighbours < 0 || o.neighbours > 64) fail("amplify", "neighbours must be between 1 and 64, or 0 for the dictionary's (got {})", o.neighbours);
   if (o.candidates < 0 || o.candidates > 256) fail("amplify", "candidates must be between 0 and 256 (got {})", o.candidates);
   if (!(o.magnitude_weight < 1e6)) fail("amplify", "magnitude weight must be finite (got {})", o.magnitude_weight);
+  if (o.mode != "detail" && o.mode != "faithful") fail("amplify", "mode '{}' is not one of detail|faithful", o.mode);
+  if (o.blend != "detail" && o.blend != "average" && o.blend != "auto")
+    fail("amplify", "blend '{}' is not one of detail|average|auto", o.blend);
   if (o.search != "auto" && o.search != "flann" && o.search != "exact" && o.search != "omp")
     fail("amplify", "search '{}' is not one of auto|flann|exact|omp", o.search);
 }
@@ -52,6 +56,7 @@ void check_options(const AmplifyOptions& o, const Dictionary& d) {
 AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
   if (o.neighbours <= 0) o.neighbours = d.neighbours;
   if (o.magnitude_weight < 0) o.magnitude_weight = d.magnitude_weight;
+  if (o.blend == "auto") o.blend = d.blend;
   return o;
 }
 
@@ -68,16 +73,46 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   double lmsum = 0;
   for (float m : lmask) lmsum += m;
   const bool use_omp = o.sparsity > 1 || o.search == "omp";
+  const bool detail_blend = o.blend == "detail";
+  const MatrixF smooth = smooth_part_operator(P, f);
   // The magnitude term compares relief at the dictionary's cell size (self-similar scaling when a
   // dictionary serves a coarser step).
   const float qscale = d.cell_x > 0 && out.georef.cell_x > 0 ? float(d.cell_x / out.georef.cell_x) : 1.f;
-  const int tile = std::max(S, o.tile / S * S);
+  const int tile_unit = std::lcm(S, 64), tile = std::max(tile_unit, o.tile / tile_unit * tile_unit);
   const int tx = (W + tile - 1) / tile, ty = (H + tile - 1) / tile;
   // Patch k covers output cells [k S - Q, k S - Q + P); its low-resolution footprint starts at (k S - Q) / f.
   auto first = [&](int a) { int k = 0; while (k * S - Q + P <= a) ++k; return k; };
   auto last = [&](int b) { int k = 0; while (k * S - Q < b) ++k; return k; };  // exclusive
   const int phases = (P + S - 1) / S;  // patch rows this far apart never overlap
 
+  // Detail blend: a first pass measures, for candidate correlations rho, the squared curvature of the
+  // blended detail per phase of the patch grid (the weights repeat with the spacing); the second
+  // blends with the rho that makes it the same at every phase (the evaluation's periodic trace). The
+  // sums are per cell, so rho does not depend on the tiling.
+  float rho = std::clamp(o.detail_correlation, 0.f, 1.f);
+  const bool measure = detail_blend && o.detail_correlation < 0;
+  constexpr int kRhos = 11;
+  std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
+  for (int pass = measure ? 0 : 1; pass < 2; ++pass) {
+  if (pass == 1 && measure) {
+    std::vector<double> cv(kRhos, 0.0);
+    for (int t = 0; t < kRhos; ++t) {
+      double s = 0, s2 = 0, n = 0;
+      for (size_t k = 0; k < phase_n.size(); ++k) {
+        if (phase_n[k] == 0) continue;
+        const double e = phase_k2[size_t(t) * phase_n.size() + k] / phase_n[k];
+        s += e, s2 += e * e, n += 1;
+      }
+      cv[size_t(t)] = n > 1 && s > 0 ? (s2 / n - (s / n) * (s / n)) / ((s / n) * (s / n)) : 0;
+    }
+    const int t = int(std::min_element(cv.begin(), cv.end()) - cv.begin());
+    double r = double(t) / (kRhos - 1);
+    if (t > 0 && t < kRhos - 1) {  // parabola through the minimum and its neighbours
+      const double a = cv[size_t(t - 1)], b = cv[size_t(t)], c = cv[size_t(t + 1)], d = a - 2 * b + c;
+      if (d > 0) r += std::clamp(0.5 * (a - c) / d, -0.5, 0.5) / (kRhos - 1);
+    }
+    rho = float(r);
+  }
   for (int j = 0; j < ty; ++j)
     for (int i = 0; i < tx; ++i) {
       const int X0 = i * tile, X1 = std::min(W, X0 + tile), Y0 = j * tile, Y1 = std::min(H, Y0 + tile);
@@ -141,12 +176,14 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
       }
       const int s = codes.sparsity;
       const int tw = X1 - X0, th = Y1 - Y0;
-      std::vector<float> num(size_t(tw) * th, 0.f), den(num.size(), 0.f);
+      std::vector<float> num(size_t(tw) * th, 0.f), den(num.size(), 0.f), den1(detail_blend ? num.size() : 0, 0.f);
+
       for (int ph = 0; ph < phases; ++ph) {
         std::vector<int> rows;
         for (int r = ph; r < ny; r += phases) rows.push_back(r);
         parallel_for(rows.size(), o.threads, [&](size_t b, size_t e) {
           VectorF patch(P * P);
+          MatrixF detail(P, P), half(P, P);
           for (size_t ri = b; ri < e; ++ri) {
             const int r = rows[ri];
             for (int cx = 0; cx < nx; ++cx) {
@@ -158,29 +195,74 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
                 const int a = codes.index[c * s + t];
                 if (a >= 0) patch += codes.coef[c * s + t] * d.high.col(a);
               }
+              if (detail_blend) {
+                // Only the patch's detail (what its block means do not determine) is blended; the
+                // bicubic of the input supplies the rest.
+                Eigen::Map<MatrixF> pm(patch.data(), P, P);
+                half.noalias() = smooth * pm;  // preallocated: no allocation per patch
+                detail = pm;
+                detail.noalias() -= half * smooth.transpose();
+              }
+              const float* src = detail_blend ? detail.data() : patch.data();
               for (int v = std::max(0, -py); v < P && py + v < th; ++v)
                 for (int u = std::max(0, -px); u < P && px + u < tw; ++u) {
                   const int k = v * P + u;
                   const float w = weights[k];
                   if (w == 0.f) continue;
                   const size_t o2 = size_t(py + v) * tw + px + u;
-                  num[o2] += w * patch[k];
-                  den[o2] += w;
+                  num[o2] += w * src[k];
+                  den[o2] += detail_blend ? w * w : w;
+                  if (detail_blend) den1[o2] += w;
                 }
             }
           }
         });
       }
+      if (pass == 0) {
+        // One band of S rows in four (by the global row, every phase of the grid) is enough.
+        for (int y = 1; y + 1 < th; ++y) {
+          if (((Y0 + y) / S) % 4 != 0) continue;
+          for (int x = 1; x + 1 < tw; ++x) {
+            // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
+            // cells measured, and rho, are the same for every tile size.
+            const int gx = (X0 + x) % 64, gy = (Y0 + y) % 64;
+            if (gx == 0 || gx == 63 || gy == 0 || gy == 63) continue;
+            const size_t c = size_t(y) * tw + x, k = size_t((Y0 + y) % S) * S + size_t((X0 + x) % S);
+            phase_n[k] += 1;
+            for (int t = 0; t < kRhos; ++t) {
+              const float r = float(t) / (kRhos - 1);
+              auto blended = [&](size_t i) { return double(num[i]) / std::sqrt((1 - r) * den[i] + r * den1[i] * den1[i]); };
+              const double lap = blended(c - 1) + blended(c + 1) + blended(c - tw) + blended(c + tw) - 4.0 * blended(c);
+              phase_k2[size_t(t) * phase_n.size() + k] += lap * lap;
+            }
+          }
+        }
+        continue;
+      }
       for (int y = 0; y < th; ++y)
         for (int x = 0; x < tw; ++x) {
           const float dn = den[size_t(y) * tw + x];
           if (!(dn > 0)) fail("amplify", "spacing {} leaves cells uncovered by {}-cell patches", S, P);
-          out.at(X0 + x, Y0 + y) = num[size_t(y) * tw + x] / dn;
+          // Detail blend: details with pairwise correlation rho have var(sum w_i d_i) = sigma^2 ((1 - rho)
+          // sum w_i^2 + rho (sum w_i)^2); dividing by its square root keeps the detail's variance the
+          // same wherever the patches overlap (a partition of unity, sum w_i d_i / sum w_i, right for
+          // rho = 1 only, halves the variance of uncorrelated details between two patch centres and
+          // quarters it between four: a ripple with the spacing).
+          const size_t c = size_t(y) * tw + x;
+          const float norm = detail_blend ? std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c]) : dn;
+          out.at(X0 + x, Y0 + y) = num[c] / norm;
         }
       report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
     }
+  }
+  if (detail_blend) out.metadata["amplify_detail_correlation"] = fmt::format("{:.3f}", rho);
   const float gain = o.detail_gain < 0 ? d.detail_gain : o.detail_gain;
-  if (gain != 1.f) {
+  if (detail_blend) {
+    // out = bicubic + gain detail
+    if (gain != 1.f)
+      for (auto& v : out.z) v *= gain;
+    add_bicubic(out, low, f, 1.f);
+  } else if (gain != 1.f) {
     // out = bicubic + gain (out - bicubic)
     for (auto& v : out.z) v *= gain;
     add_bicubic(out, low, f, 1.f - gain);
@@ -201,6 +283,8 @@ std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions&
 
 Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const Progress& progress) {
   require_finite(low, "amplify", "input");
+  if (o.mode == "faithful")
+    fail("amplify", "--mode faithful learns its regression from the exemplar: give --exemplar, not --dictionary");
   check_options(o, d);
   if (d.factor < 2) fail("amplify", "the dictionary has factor {}: amplification needs a multi-resolution dictionary", d.factor);
   const int steps = steps_for(o.factor, d.factor);
@@ -209,6 +293,10 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
   Heightfield cur = low;
   for (int k = 0; k < steps; ++k)
     cur = amplify_step(cur, d, r, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps));
+  cur.metadata["amplify_mode"] = "detail";
+  cur.metadata["amplify_blend"] = r.blend;
+  cur.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", r.detail_gain < 0 ? d.detail_gain : r.detail_gain);
+  cur.metadata["amplify_dictionary"] = d.description;
   return cur;
 }
 
@@ -225,21 +313,25 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
                                    const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress) {
   require_finite(low, "amplify", "input");
   if (exemplars.empty()) fail("amplify", "no exemplar given");
+  if (o.mode != "detail" && o.mode != "faithful") fail("amplify", "mode '{}' is not one of detail|faithful", o.mode);
   const int steps = steps_for(o.factor, learn.factor);
   const Georef& e = exemplars[0].georef;
   Heightfield cur = low;
   std::unique_ptr<Dictionary> dict;
+  std::unique_ptr<BlockRegression> reg;
+  std::vector<std::string> gains, notes;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
   if (o.neighbours > 0) lo.calibration_neighbours = o.neighbours;
   lo.calibration_candidates = o.candidates;
   if (o.magnitude_weight >= 0) lo.calibration_magnitude_weight = o.magnitude_weight;
+  if (o.blend != "auto") lo.calibration_blend = o.blend;
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
     const double rx = tx / e.cell_x, ry = ty / e.cell_y;
     const Progress pk = scaled_progress(progress, double(k) / steps, double(k + 1) / steps);
     if (rx < 0.95 || ry < 0.95) {
       // The exemplar has no detail this fine: reuse the finest dictionary (self-similarity).
-      if (!dict)
+      if (!dict && !reg)
         fail("amplify", "mismatched cell sizes: the exemplar's {:.3f} x {:.3f} m cells are coarser than the output's "
              "{:.3f} x {:.3f} m; coarsen the input to {:.3f} x {:.3f} m cells first: {}",
              e.cell_x, e.cell_y, tx, ty, e.cell_x * learn.factor, e.cell_y * learn.factor,
@@ -252,29 +344,59 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
              warp_command("<exemplar>", e, tx, ty));
       std::vector<Heightfield> ex;
       for (const auto& h : exemplars) ex.push_back(r > 1 ? block_mean(h, r) : h);
-      dict = std::make_unique<Dictionary>(learn_dictionary(ex, lo, scaled_progress(pk, 0, 0.5)));
+      if (o.mode == "faithful") {
+        reg = std::make_unique<BlockRegression>(learn_block_regression(ex, learn.factor, o.faithful_radius));
+        notes.push_back(fmt::format("step {}: regression radius {} from {} exemplar blocks", k + 1, reg->radius,
+                                    reg->samples));
+      } else {
+        dict = std::make_unique<Dictionary>(learn_dictionary(ex, lo, scaled_progress(pk, 0, 0.5)));
+        notes.push_back(fmt::format("step {}: {}", k + 1, dict->description));
+      }
+    }
+    if (reg) {
+      Heightfield next = apply_block_regression(cur, *reg, o.threads);
+      correct_block_means(next, cur, learn.factor);  // exact already but for rounding
+      cur = std::move(next);
+      report_progress(pk, "amplify", 1.0, fmt::format("step {}/{}", k + 1, steps));
+      continue;
     }
     check_options(o, *dict);
     const AmplifyOptions r = resolved(o, *dict);
     const auto index = make_index(*dict, r);
+    gains.push_back(fmt::format("{:.3f}", r.detail_gain < 0 ? dict->detail_gain : r.detail_gain));
     cur = amplify_step(cur, *dict, r, index.get(), scaled_progress(pk, 0.5, 1));
+    cur.metadata["amplify_blend"] = r.blend;
   }
+  auto join = [](const std::vector<std::string>& v, const char* sep) {
+    std::string s;
+    for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
+    return s;
+  };
+  cur.metadata["amplify_mode"] = o.mode;
+  if (!gains.empty()) cur.metadata["amplify_detail_gain"] = join(gains, ",");
+  cur.metadata["amplify_calibration"] = join(notes, " | ");
   return cur;
 }
 
-// Gain range (averaging k atoms shrinks the raw detail, hence gains above 2), and the RMSE the
-// calibration may spend (relative to bicubic's on the held-out folds) to restore relief; 1.14 leaves
-// a margin under the evaluation target (1.2) for the exemplar-to-input transfer.
-constexpr double kMinGain = 0.5, kMaxGain = 4.0, kRmseBudget = 1.14;
+// Gain range, and the RMSE the calibration may spend (relative to bicubic's on the held-out folds);
+// 1.14 leaves a margin under the evaluation target (1.2) for the exemplar-to-input transfer.
+constexpr double kMinGain = 0.25, kMaxGain = 4.0, kRmseBudget = 1.14;
 
-double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
+std::string GainCalibration::summary() const {
+  if (!calibrated) return fmt::format("gain {:.3f} (exemplar too small to calibrate)", gain);
+  return fmt::format("gain {:.3f}: held-out HF ratio {:.3f}, RMSE {:.3f} x bicubic (HF-matching gain {:.3f}, "
+                     "RMSE-budget gain {:.3f})", gain, hf_ratio, rmse_ratio, hf_gain, rmse_gain);
+}
+
+GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   const int f = o.factor;
+  GainCalibration cal;
   // Folds are strips across the longer axis; each must hold several patches.
   const bool wide = ex.width >= ex.height;
   const int len = wide ? ex.width : ex.height, other = wide ? ex.height : ex.width;
   int k = std::max(2, o.calibration_folds);
   while (k > 2 && len / k < 4 * o.patch) --k;
-  if (len / k < 4 * o.patch || other < 4 * o.patch) return 1.0;
+  if (len / k < 4 * o.patch || other < 4 * o.patch) return cal;
   auto crop = [&](int a0, int a1, int o0, int o1) {  // [a0, a1) along the long axis, [o0, o1) across
     const int w = wide ? a1 - a0 : o1 - o0, h = wide ? o1 - o0 : a1 - a0;
     const int x0 = wide ? a0 : o0, y0 = wide ? o0 : a0;
@@ -295,9 +417,10 @@ double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
   ao.neighbours = o.calibration_neighbours;
   ao.candidates = o.calibration_candidates;
   ao.magnitude_weight = o.calibration_magnitude_weight;
-  // Sums over every held-out fold (pooled cross-validation): the roughness terms aa, ab, bb, tt and
+  ao.blend = o.calibration_blend;
+  // Sums over every held-out fold (pooled cross-validation): the HF energy terms hb, hbd, hd, ht and
   // the RMSE terms e2, ed, d2, r2 defined below.
-  double aa = 0, ab = 0, bb = 0, tt = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0;
+  double hb = 0, hbd = 0, hd = 0, ht = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0;
   const int fold = len / k;
   for (int i = 0; i < k; ++i) {
     const int a0 = i * fold, a1 = i == k - 1 ? len : a0 + fold;
@@ -314,33 +437,39 @@ double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) {
     Heightfield cb = bicubic_upsample(low, f);
     const std::vector<float> bic = cb.z;
     correct_block_means(cb, low, f);
-    Heightfield co = out;
-    correct_block_means(co, low, f);
-    std::vector<float> cd(co.z.size());
-    for (size_t j = 0; j < cd.size(); ++j) cd[j] = co.z[j] - cb.z[j];
-    const auto hb = highpass(cb, f), ho = highpass(co, f), ht = highpass(b, f);
-    for (size_t j = 0; j < hb.size(); ++j) {
-      const double det = ho[j] - hb[j];
-      aa += hb[j] * hb[j], ab += hb[j] * det, bb += det * det, tt += ht[j] * ht[j];
+    Heightfield cd = out;
+    correct_block_means(cd, low, f);
+    for (size_t j = 0; j < cd.z.size(); ++j) cd.z[j] -= cb.z[j];
+    // HF energy (the evaluation's, linear in the heightfield): |Sb + g Sd|^2 against |St|^2.
+    const auto sb = spectrum_above(cb, f), sd = spectrum_above(cd, f), st = spectrum_above(b, f);
+    for (size_t j = 0; j < sb.size(); ++j) {
+      hb += std::norm(sb[j]), hbd += std::real(sb[j] * std::conj(sd[j])), hd += std::norm(sd[j]);
+      ht += std::norm(st[j]);
     }
-    for (size_t j = 0; j < cd.size(); ++j) {
+    for (size_t j = 0; j < cd.z.size(); ++j) {
       const double e0 = double(cb.z[j]) - b.z[j], rb = double(bic[j]) - b.z[j];
-      e2 += e0 * e0, ed += e0 * cd[j], d2 += double(cd[j]) * cd[j], r2 += rb * rb;
+      e2 += e0 * e0, ed += e0 * cd.z[j], d2 += double(cd.z[j]) * cd.z[j], r2 += rb * rb;
     }
   }
-  if (!(bb > 0)) return 1.0;
-  // Roughness (the high-pass is linear): solve |hp(cb) + g hp(cd)| = |hp(truth)|.
-  const double disc = ab * ab - bb * (aa - tt);
-  const double g_rough = disc > 0 ? (-ab + std::sqrt(disc)) / bb : 1.0;
-  // Spend the RMSE budget on relief: the largest g with |e0 + g cd|^2 <= (budget * rmse_bic)^2,
-  // e0 = cb - truth (the larger root of the quadratic), but never less than the roughness gain.
-  // Matching roughness alone leaves the mean slope short on some terrains (Front Range: 0.94).
+  if (!(hd > 0) || !(d2 > 0) || !(r2 > 0)) return cal;
+  cal.calibrated = true;
+  // As much HF energy as the held-out truth (times the target): hd g^2 + 2 hbd g + hb = t ht (the
+  // larger root).
+  const double disc = hbd * hbd - hd * (hb - o.calibration_hf_target * ht);
+  cal.hf_gain = disc > 0 ? (-hbd + std::sqrt(disc)) / hd : 1.0;
+  // The largest g with |e0 + g cd|^2 <= (budget * rmse_bic)^2, e0 = cb - truth.
   const double lim = kRmseBudget * kRmseBudget * r2;
   const double q = ed * ed - d2 * (e2 - lim);
-  const double g_rmse = (d2 > 0 && q > 0) ? (-ed + std::sqrt(q)) / d2 : g_rough;
-  const double g = std::max(g_rough, g_rmse);
-  return std::clamp(g, kMinGain, kMaxGain);
+  cal.rmse_gain = q > 0 ? (-ed + std::sqrt(q)) / d2 : 0.0;
+  // Real relief, not more; less only where the RMSE budget says so.
+  const double g = std::clamp(std::min(cal.hf_gain, cal.rmse_gain), kMinGain, kMaxGain);
+  cal.gain = g;
+  cal.hf_ratio = (hb + 2 * g * hbd + g * g * hd) / std::max(1e-30, ht);
+  cal.rmse_ratio = std::sqrt(std::max(0.0, e2 + 2 * g * ed + g * g * d2) / r2);
+  return cal;
 }
+
+double calibrate_detail_gain(const Heightfield& ex, const LearnOptions& o) { return calibrate_detail(ex, o).gain; }
 
 void smooth_tent(Heightfield& m, int r) {
   for (int pass = 0; pass < 2 && r > 0; ++pass) {

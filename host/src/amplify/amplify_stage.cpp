@@ -1,4 +1,5 @@
 // The `amplify` stage and the `amplify` benchmark.
+#include "amplify/exemplar_warp.hpp"
 #include "pipeline/builtin.hpp"
 
 #include <terracl/amplify.hpp>
@@ -48,6 +49,8 @@ AmplifyOptions amplify_options(const StageContext& c) {
   o.tile = c.get<int>("tile");
   o.bias_correction = c.get<bool>("bias_correction");
   o.detail_gain = float(c.get<double>("detail_gain"));
+  o.blend = c.get<std::string>("blend");
+  o.mode = c.get<std::string>("mode");
   return o;
 }
 
@@ -72,9 +75,16 @@ void run_amplify(StageContext& c) {
     out = amplify(low, d, o, c.progress);
   } else {
     std::vector<Heightfield> ex;
+    std::vector<std::string> notes;
     for (const auto& f : split_list(c.get<std::string>("exemplar"))) {
       if (!std::filesystem::exists(f)) throw UsageError("amplify", fmt::format("--exemplar: file {} does not exist", f));
       ex.push_back(read_heightfield(f, filled()));
+      if (c.get<bool>("resample_exemplar")) {
+        // To the output's cell size (the finest step's); coarser steps average it further.
+        ex.back() = resample_exemplar(ex.back(), low.georef, low.georef.cell_x / o.factor, low.georef.cell_y / o.factor, f);
+        for (const auto& [k, v] : ex.back().metadata)
+          if (k == "amplify_exemplar_resampled") notes.push_back(v);
+      }
     }
     if (ex.empty()) throw UsageError("amplify", "--exemplar: no file given");
     LearnOptions l;
@@ -93,6 +103,11 @@ void run_amplify(StageContext& c) {
         m.replace(at, 10, files[0]);
       if (m == std::string(e.what()).substr(e.stage().size() + 2)) throw;
       throw Error(e.stage(), m);
+    }
+    if (!notes.empty()) {
+      std::string s;
+      for (const auto& n : notes) s += (s.empty() ? "" : " | ") + n;
+      out.metadata["amplify_exemplar_resampled"] = s;
     }
   }
   out.metadata["amplify_factor"] = std::to_string(o.factor);
@@ -126,6 +141,9 @@ void register_amplify_stages(StageRegistry& r) {
              OptionSpec{"tile", OptionType::Int, 1024, "cells", "Output tile size (bounds memory)", {}}.range(16, 65536),
              OptionSpec{"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}}.range(-1, 100),
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
+             {"resample_exemplar", OptionType::Bool, false, "", "Warp each exemplar (GDAL, averaging) to the output's cell size, and to the input's CRS when they differ", {}},
+             {"mode", OptionType::Enum, "detail", "", "detail: plausible relief from the exemplar's patches; faithful: the estimate closest to the truth (a regression learned on the exemplar, needs --exemplar)", {"detail", "faithful"}},
+             {"blend", OptionType::Enum, "auto", "", "Patch blend: detail (bicubic + variance-preserving blend of the patches' details, no patch-grid trace), average (the paper's weighted mean of the patches) or auto (the dictionary's; detail when learned now)", {"auto", "detail", "average"}},
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
              {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
              OptionSpec{"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}}.range(0, 1000),
@@ -164,11 +182,24 @@ void register_amplify_benches(BenchRegistry& r) {
            o.trees = a.extra.value("trees", 2);
            o.neighbours = a.extra.value("neighbours", o.neighbours);
            o.magnitude_weight = a.extra.value("magnitude_weight", o.magnitude_weight);
+           o.blend = a.extra.value("blend", o.blend);
+           o.mode = a.extra.value("mode", o.mode);
            std::vector<double> times;
            Heightfield out;
+           // Faithful: the regression learned on the DEM serves every x4 step (self-similarity).
+           const BlockRegression reg = o.mode == "faithful" ? learn_block_regression({full}, 4, o.faithful_radius) : BlockRegression{};
            for (int k = 0; k < a.repeats; ++k) {
              auto t1 = clock::now();
-             out = amplify(in, d, o);
+             if (o.mode == "faithful") {
+               out = in;
+               for (int f = 1; f < factor; f *= 4) {
+                 Heightfield next = apply_block_regression(out, reg);
+                 correct_block_means(next, out, 4);
+                 out = std::move(next);
+               }
+             } else {
+               out = amplify(in, d, o);
+             }
              times.push_back(std::chrono::duration<double>(clock::now() - t1).count());
            }
            std::sort(times.begin(), times.end());

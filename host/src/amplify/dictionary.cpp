@@ -21,7 +21,7 @@ namespace {
 constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
 // Version 2 added the atoms' low-resolution norms (flag bit 1); version 1 files still load.
 constexpr uint32_t kVersion = 2;
-constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2;
+constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4;
 
 uint64_t fnv1a(const std::string& bytes) {
   uint64_t h = 1469598103934665603ull;
@@ -92,7 +92,8 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   const bool norms = !d.low_norm.empty();
   if (norms && d.low_norm.size() != size_t(d.atoms()))
     fail("dictionary", "{} atom norms for {} atoms", d.low_norm.size(), d.atoms());
-  put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0));
+  put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0) |
+                         (d.blend == "detail" ? kFlagDetailBlend : 0));
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
@@ -129,6 +130,7 @@ Dictionary load_dictionary(const std::string& path) {
   d.sparsity = r.get<int32_t>("sparsity");
   const int32_t flags = r.get<int32_t>("flags");
   d.constrained = (flags & kFlagConstrained) != 0;
+  d.blend = (flags & kFlagDetailBlend) != 0 ? "detail" : "average";
   const bool norms = version >= 2 && (flags & kFlagNorms) != 0;
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
@@ -267,6 +269,7 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   d.description = fmt::format("{} dictionary, {} training patches", o.method, T.cols());
   d.neighbours = o.calibration_neighbours;
   d.magnitude_weight = o.calibration_magnitude_weight;
+  d.blend = o.calibration_blend;
   std::vector<Eigen::Index> good;
   MatrixF L(p * p, H.cols());
   for (Eigen::Index j = 0; j < H.cols(); ++j) {
@@ -290,7 +293,9 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
     LearnOptions c = o;
     c.calibrate = false;
     c.max_patches = o.max_patches / 2;
-    d.detail_gain = float(calibrate_detail_gain(exemplars[0], c));
+    const GainCalibration cal = calibrate_detail(exemplars[0], c);
+    d.detail_gain = float(cal.gain);
+    d.description += "; calibrated " + cal.summary();
   }
   report_progress(progress, "dictionary", 1.0, fmt::format("{} atoms", d.atoms()));
   return d;

@@ -1,9 +1,11 @@
 // Measures for amplification (scripts/eval-amplify.sh) and the compression report of section 5.1.
 #include <terracl/amplify.hpp>
+#include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 
 #include <unsupported/Eigen/FFT>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 
@@ -13,10 +15,12 @@ namespace {
 
 inline int clampi(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
 
-// Energy of the spectrum outside the low-resolution passband |fx|, |fy| <= 1 / (2 f) (cycles per
-// cell), after removing the least-squares plane and applying a Hann window so that the tile's
-// borders do not leak energy into high frequencies.
-double energy_above(const Heightfield& h, int f) {
+}  // namespace
+
+// Spectrum outside the low-resolution passband |fx|, |fy| <= 1 / (2 f) (cycles per cell), after
+// removing the least-squares plane and applying a Hann window so that the tile's borders do not leak
+// energy into high frequencies. Every step is linear in h.
+std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f) {
   const int w = h.width, ht = h.height;
   // Plane fit z ~ a + b x + c y (x, y centred, so the normal equations are diagonal).
   double sz = 0, sxz = 0, syz = 0, sxx = 0, syy = 0;
@@ -34,14 +38,13 @@ double energy_above(const Heightfield& h, int f) {
       grid[size_t(y) * w + x] = win * (h.at(x, y) - a - b * (x - cx) - c * (y - cy));
     }
   Eigen::FFT<double> fft;
-  std::vector<std::complex<double>> in, out;
+  std::vector<std::complex<double>> in, out, hf;
   for (int y = 0; y < ht; ++y) {
     in.assign(grid.begin() + size_t(y) * w, grid.begin() + size_t(y + 1) * w);
     fft.fwd(out, in);
     std::copy(out.begin(), out.end(), grid.begin() + size_t(y) * w);
   }
   in.resize(size_t(ht));
-  double e = 0;
   const double nyq = 0.5 / f;
   for (int x = 0; x < w; ++x) {
     for (int y = 0; y < ht; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
@@ -49,14 +52,20 @@ double energy_above(const Heightfield& h, int f) {
     const double fx = std::fabs(double(x <= w / 2 ? x : x - w) / w);
     for (int y = 0; y < ht; ++y) {
       const double fy = std::fabs(double(y <= ht / 2 ? y : y - ht) / ht);
-      if (fx > nyq || fy > nyq) e += std::norm(out[size_t(y)]);
+      if (fx > nyq || fy > nyq) hf.push_back(out[size_t(y)]);
     }
   }
+  return hf;
+}
+
+double energy_above(const Heightfield& h, int f) {
+  double e = 0;
+  for (const auto& c : spectrum_above(h, f)) e += std::norm(c);
   return e;
 }
 
+namespace {
 double rmse(const std::vector<float>& a, const std::vector<float>& b);
-
 }  // namespace
 
 std::vector<double> highpass(const Heightfield& h, int f) {
@@ -93,7 +102,8 @@ double rmse(const std::vector<float>& a, const std::vector<float>& b) {
 
 }  // namespace
 
-AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield& truth, const Heightfield& low, int f) {
+AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield& truth, const Heightfield& low, int f,
+                                      int patch_spacing) {
   if (out.width != truth.width || out.height != truth.height)
     fail("eval", "output {}x{} and truth {}x{} differ in size", out.width, out.height, truth.width, truth.height);
   if (low.width * f != truth.width || low.height * f != truth.height)
@@ -106,7 +116,82 @@ AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield&
   m.roughness_ratio = roughness(out, f) / std::max(1e-30, roughness(truth, f));
   m.slope_ratio = compute_stats(out).mean_slope_deg / std::max(1e-30, ts.mean_slope_deg);
   m.lr_consistency = rmse(block_mean(out, f).z, low.z);
+  m.patch_peak = periodic_trace(out, patch_spacing).peak;
+  m.block_peak = periodic_trace(out, f).peak;
+  m.d8_agreement = d8_agreement(out, truth, 0.002, f);
   return m;
+}
+
+double d8_agreement(const Heightfield& out, const Heightfield& truth, double river_fraction, int tolerance) {
+  if (out.width != truth.width || out.height != truth.height)
+    fail("eval", "D8 agreement: output {}x{} and truth {}x{} differ in size", out.width, out.height, truth.width, truth.height);
+  const int w = out.width, h = out.height;
+  auto rivers = [&](const Heightfield& z) {
+    const analysis::D8Result r = analysis::d8_flow(z);
+    const double min_cells = std::max(2.0, river_fraction * double(r.valid_cells));
+    std::vector<uint8_t> m(z.size());
+    for (size_t i = 0; i < m.size(); ++i) m[i] = r.cells[i] >= min_cells;
+    return m;
+  };
+  // Cells within `tolerance` of a river: separable max filter.
+  auto dilate = [&](const std::vector<uint8_t>& m) {
+    std::vector<uint8_t> t(m.size(), 0), d(m.size(), 0);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (m[size_t(y) * w + x])
+          for (int u = std::max(0, x - tolerance); u <= std::min(w - 1, x + tolerance); ++u) t[size_t(y) * w + u] = 1;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (t[size_t(y) * w + x])
+          for (int v = std::max(0, y - tolerance); v <= std::min(h - 1, y + tolerance); ++v) d[size_t(v) * w + x] = 1;
+    return d;
+  };
+  const auto ro = rivers(out), rt = rivers(truth);
+  const auto dout = dilate(ro), dtruth = dilate(rt);
+  double hit_t = 0, n_t = 0, hit_o = 0, n_o = 0;
+  for (size_t i = 0; i < ro.size(); ++i) {
+    if (rt[i]) n_t += 1, hit_t += dout[i];
+    if (ro[i]) n_o += 1, hit_o += dtruth[i];
+  }
+  if (n_t == 0 || n_o == 0) return 0;
+  return 0.5 * (hit_t / n_t + hit_o / n_o);
+}
+
+PeriodicTrace periodic_trace(const Heightfield& h, int period) {
+  const int w = h.width, ht = h.height;
+  if (period < 2 || w < 4 * period + 2 || ht < 4 * period + 2)
+    fail("eval", "periodic trace: a {}x{} grid is too small for period {}", w, ht, period);
+  // Profiles of the squared curvature over whole periods of interior cells.
+  const int nx = (w - 2) / period * period, ny = (ht - 2) / period * period;
+  std::vector<double> px(size_t(nx), 0.0), py(size_t(ny), 0.0);
+  for (int y = 1; y <= ny; ++y)
+    for (int x = 1; x <= nx; ++x) {
+      const double c = double(h.at(x - 1, y)) + h.at(x + 1, y) + h.at(x, y - 1) + h.at(x, y + 1) - 4.0 * h.at(x, y);
+      px[size_t(x - 1)] += c * c, py[size_t(y - 1)] += c * c;
+    }
+  PeriodicTrace t;
+  for (std::vector<double>* prof : {&px, &py}) {
+    const int n = int(prof->size());
+    double mean = 0;
+    for (double v : *prof) mean += v;
+    mean /= n;
+    if (!(mean > 0)) continue;
+    std::vector<double> fold(size_t(period), 0.0);
+    for (int i = 0; i < n; ++i) fold[size_t(i % period)] += (*prof)[size_t(i)] / (n / period);
+    const auto [lo, hi] = std::minmax_element(fold.begin(), fold.end());
+    t.ripple = std::max(t.ripple, (*hi - *lo) / mean);
+    std::vector<std::complex<double>> in(prof->size()), out;
+    for (int i = 0; i < n; ++i) in[size_t(i)] = (*prof)[size_t(i)] - mean;
+    Eigen::FFT<double> fft;
+    fft.fwd(out, in);
+    const int bin = n / period;
+    double others = 0;
+    int count = 0;
+    for (int k = std::max(1, bin * 2 / 3); k <= std::min(n / 2, bin * 3 / 2); ++k)
+      if (k != bin) others += std::norm(out[size_t(k)]), ++count;
+    if (count > 0 && others > 0) t.peak = std::max(t.peak, std::norm(out[size_t(bin)]) / (others / count));
+  }
+  return t;
 }
 
 EncodeReport encode_report(const Heightfield& h, int sparsity, int atoms, int patch, int iterations,

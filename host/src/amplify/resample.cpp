@@ -95,6 +95,20 @@ Heightfield bicubic_upsample(const Heightfield& h, int f) {
 
 void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale) { bicubic_into(low, f, out, true, scale); }
 
+MatrixF smooth_part_operator(int n, int f) {
+  if (f < 1 || n % f) fail("amplify", "smooth part: {} cells are not whole blocks of {}", n, f);
+  const int m = n / f;
+  const CubicTable t = cubic_table(f);
+  MatrixF up = MatrixF::Zero(n, m), mean = MatrixF::Zero(m, n);
+  for (int X = 0; X < n; ++X) {
+    const int ph = X % f, b = X / f + t.base[ph];
+    for (int j = 0; j < 4; ++j) up(X, clampi(b + j, m)) += t.w[ph][j];
+  }
+  for (int x = 0; x < m; ++x)
+    for (int u = 0; u < f; ++u) mean(x, x * f + u) = 1.f / f;
+  return up * mean;
+}
+
 void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes) {
   if (high.width != low.width * f || high.height != low.height * f)
     fail("amplify", "bias correction: {}x{} is not {} times {}x{}", high.width, high.height, f, low.width, low.height);

@@ -1,0 +1,132 @@
+// Quality of amplification on real terrain: no trace of the patch grid, calibrated detail.
+#include "test_helpers.hpp"
+
+#include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+using namespace terracl;
+
+namespace {
+
+Heightfield crop_of(const Heightfield& h, int x0, int y0, int w, int ht) {
+  Heightfield c(w, ht);
+  c.georef = h.georef;
+  for (int y = 0; y < ht; ++y)
+    for (int x = 0; x < w; ++x) c.at(x, y) = h.at(x0 + x, y0 + y);
+  return c;
+}
+
+// White noise whose amplitude is modulated by 1 + a cos(2 pi x / period) along x.
+Heightfield modulated_noise(int n, int period, double a, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> g;
+  Heightfield h(n, n);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) h.at(x, y) = float(g(rng) * (1 + a * std::cos(2 * M_PI * x / period)));
+  return h;
+}
+
+}  // namespace
+
+TEST(AmplifyQuality, PeriodicTraceFindsAModulatedCurvature) {
+  // The metric itself: +-10 % amplitude modulation of white noise with period 8 (+-20 % in the
+  // squared curvature, the issue's ripple) stands far above the spectrum around it; none does not.
+  const PeriodicTrace none = periodic_trace(modulated_noise(256, 8, 0.0, 1), 8);
+  const PeriodicTrace some = periodic_trace(modulated_noise(256, 8, 0.1, 1), 8);
+  EXPECT_LT(none.peak, 8.0);
+  EXPECT_LT(none.ripple, 0.12);
+  EXPECT_GT(some.peak, 50.0);
+  EXPECT_GT(some.ripple, 0.25);
+}
+
+TEST(AmplifyQuality, DetailBlendLeavesNoPatchGridTrace) {
+  // x4 of a 200^2 block-mean input of N44W072 (the exemplar: a disjoint part of the same DEM). The
+  // paper's weighted average of the patches (the only blend before issue 16) fades detail between
+  // patch centres: the squared curvature ripples with the patch spacing (8 cells; peak 47 here). The
+  // detail blend must leave no peak at the spacing (5.4 here). The block-size trace (4 cells) is not
+  // solved (59 here; docs/amplify.md), hence not asserted.
+  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  const Heightfield ex = crop_of(dem, 0, 0, 256, 256);
+  const Heightfield truth = crop_of(dem, 400, 400, 800, 800);
+  const Heightfield low = block_mean(truth, 4);
+  LearnOptions l;
+  l.method = "complete";
+  l.max_patches = 6000;
+  l.calibrate = false;
+  const Dictionary d = learn_dictionary({ex}, l);
+  AmplifyOptions o;
+  o.detail_gain = 2.0f;
+  o.blend = "average";
+  const PeriodicTrace avg = periodic_trace(amplify(low, d, o), 8);
+  o.blend = "detail";
+  const Heightfield out = amplify(low, d, o);
+  const PeriodicTrace det = periodic_trace(out, 8), blk = periodic_trace(out, 4);
+  std::printf("average blend: peak %.1f ripple %.3f; detail blend: peak %.1f ripple %.3f, block peak %.1f ripple %.3f\n",
+              avg.peak, avg.ripple, det.peak, det.ripple, blk.peak, blk.ripple);
+  EXPECT_GT(avg.peak, 20.0) << "ripple " << avg.ripple;
+  EXPECT_LT(det.peak, 8.0) << "ripple " << det.ripple;
+  const Heightfield m = block_mean(out, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-2f);
+}
+
+namespace {
+double rmse_of(const Heightfield& a, const Heightfield& b) {
+  double s = 0;
+  for (size_t i = 0; i < a.size(); ++i) s += double(a.z[i] - b.z[i]) * (a.z[i] - b.z[i]);
+  return std::sqrt(s / double(a.size()));
+}
+}  // namespace
+
+TEST(AmplifyQuality, FaithfulRegressionBeatsBicubicOnHeldOutTerrain) {
+  // The regression is the least-squares linear upsampler of the exemplar, and bicubic is one linear
+  // upsampler in its span: on the exemplar itself it cannot do worse; on held-out terrain of the same
+  // DEM it should do clearly better (the issue's target: <= 0.95 x bicubic).
+  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  const Heightfield ex = crop_of(dem, 0, 0, 320, 320);
+  const Heightfield truth = crop_of(dem, 640, 640, 256, 256);
+  for (int radius : {2, 3}) {
+    const BlockRegression g = learn_block_regression({ex}, 4, radius);
+    const Heightfield train_low = block_mean(ex, 4);
+    EXPECT_LE(rmse_of(apply_block_regression(train_low, g), ex), rmse_of(bicubic_upsample(train_low, 4), ex));
+    const Heightfield low = block_mean(truth, 4);
+    const Heightfield out = apply_block_regression(low, g);
+    const double ratio = rmse_of(out, truth) / rmse_of(bicubic_upsample(low, 4), truth);
+    EXPECT_LT(ratio, 0.95) << "radius " << radius;
+    // Block means exact without any correction (the weights of every block sum to zero).
+    const Heightfield m = block_mean(out, 4);
+    for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 2e-3f);
+  }
+}
+
+TEST(AmplifyQuality, FaithfulModeCascadesAndReportsInMetadata) {
+  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  const Heightfield ex = crop_of(dem, 0, 0, 600, 600);
+  const Heightfield truth = crop_of(dem, 640, 640, 256, 256);
+  LearnOptions l;
+  l.method = "complete";
+  AmplifyOptions o;
+  o.mode = "faithful";
+  o.factor = 16;
+  const Heightfield low = block_mean(truth, 16);
+  const Heightfield out = amplify_from_exemplars(low, {ex}, l, o);
+  ASSERT_EQ(out.width, 256);
+  EXPECT_LT(rmse_of(out, truth), rmse_of(bicubic_upsample(low, 16), truth));
+  const Heightfield m = block_mean(out, 16);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-2f);
+  EXPECT_EQ(out.metadata.at("amplify_mode"), "faithful");
+  EXPECT_NE(out.metadata.at("amplify_calibration").find("step 2: regression"), std::string::npos)
+      << out.metadata.at("amplify_calibration");
+  // A dictionary holds no regression: a clear error, not a silent detail amplification.
+  const Dictionary d = learn_dictionary({ex}, [] { LearnOptions c; c.method = "complete"; c.calibrate = false; c.max_patches = 2000; return c; }());
+  try {
+    amplify(block_mean(truth, 4), d, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--exemplar"), std::string::npos) << e.what();
+  }
+}
