@@ -90,7 +90,7 @@ TEST(EditAmplify, GivesASmoothSketchTheExemplarsRoughness) {
   const Heightfield smooth = run(false), rough = run(true), again = run(true);
   const double r0 = roughness(smooth, 4), r1 = roughness(rough, 4);
   std::printf("roughness (4 cells) of the sketch %.3f m, amplified %.3f m\n", r0, r1);
-  EXPECT_GT(r1, 2.5 * r0);
+  EXPECT_GT(r1, 1.8 * r0) << "the detail was not replaced by the exemplar's";
   require_finite(rough, "test", "amplified");
   ASSERT_EQ(rough.z.size(), again.z.size());
   EXPECT_EQ(0, std::memcmp(rough.z.data(), again.z.data(), rough.z.size() * sizeof(float))) << "replays bit for bit";

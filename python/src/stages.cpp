@@ -203,7 +203,8 @@ py::tuple edit(py::object base_obj, py::object script_obj, py::object base_dir_o
   return py::make_tuple(py::cast(std::move(h)), from_json(report));
 }
 
-// The picture of the `render` stage as a (height, width, 3) uint8 array; also written to `file`
+// The picture of the `render` stage as a (height, width, channels) uint8 array (1 grey, 2 grey +
+// alpha, 3 RGB, 4 RGBA: render::Image); also written to `file`
 // when given. Options are resolved by the stage table; the mapping below is run_render's
 // (host/src/analysis/analysis_stages.cpp), which keeps its image private.
 py::array_t<uint8_t> render_image(py::object input, const py::dict& kwargs, py::object device, py::object progress) {
@@ -220,6 +221,12 @@ py::array_t<uint8_t> render_image(py::object input, const py::dict& kwargs, py::
   o.z_factor = r.at("z_factor").get<double>();
   o.slope_max_deg = r.at("slope_max").get<double>();
   if (!r.at("ramp").is_null()) o.ramp = render::ColorRamp::from_spec(r.at("ramp").get<std::string>());
+  o.shading = render::shading_from_name(r.at("shading").get<std::string>());
+  o.compute_edges = r.at("compute_edges").get<bool>();
+  o.slope_percent = r.at("slope_format").get<std::string>() == "percent";
+  o.tri_alg = r.at("tri_alg").get<std::string>() == "wilson" ? render::TriAlg::Wilson : render::TriAlg::Riley;
+  o.aspect_trigonometric = r.at("trigonometric").get<bool>();
+  o.zero_for_flat = r.at("zero_for_flat").get<bool>();
   const bool host = r.at("backend").get<std::string>() == "host";
   DeviceSlot* slot = host ? nullptr : &device_slot(device);
   ProgressBridge bridge(progress);
