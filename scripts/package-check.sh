@@ -93,6 +93,12 @@ grep -q 'libgdal' <<<"$depends" && grep -q 'libopenimageio' <<<"$depends" ||
   fail "$(basename "$rt") Depends not computed by dpkg-shlibdeps: '$depends'"
 grep -q "terracl (= $version)" <<<"$(dpkg-deb -f "$dev" Depends)" || fail "terracl-dev does not depend on terracl"
 py=$(deb python3-terracl)
+# The Python module is built whenever pybind11 is found; then its package must exist and carry it.
+if ls "$build"/python/terracl/_terracl*.so >/dev/null 2>&1; then
+  [ -n "$py" ] || fail "the Python module is built but cpack made no python3-terracl package"
+  contents "$py" | grep -q '/terracl/_terracl.*\.so$' || fail "$(basename "$py") lacks the module"
+  contents "$py" | grep -q '/terracl/__init__\.py$' || fail "$(basename "$py") lacks terracl/__init__.py"
+fi
 if [ -n "$py" ]; then echo "package-check: $(basename "$py"): $(contents "$py" | grep -c '\.so$') module file(s)"; fi
 for p in "$work"/deb/*.deb; do echo "package-check: $(basename "$p") $(du -k "$p" | cut -f1) KiB"; done
 echo "package-check: OK (terracl $version)"
