@@ -11,6 +11,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
+#include <terracl/tile.hpp>
 #include <terracl/warp.hpp>
 
 namespace terracl {
@@ -52,6 +53,12 @@ void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&, con
   unavailable("glTF writing (use .obj)", path);
 }
 }  // namespace mesh
+
+// Tiled runs read and write GDAL windows.
+void run_tiled(const Pipeline&, const TileOptions&, const RunOptions&, RunReport&) {
+  fail("run", "--tile: tiled runs read and write GeoTIFF windows through GDAL, which the core build "
+       "(TERRACL_CORE_ONLY) leaves out; use the full build");
+}
 
 // Amplification needs FLANN: no stages, no benchmarks in the core build.
 void register_amplify_stages(StageRegistry&) {}

@@ -11,6 +11,12 @@
 
 namespace terracl {
 
+// Here rather than in warp.cpp: option tables list the methods in the core build too (no GDAL).
+const std::vector<std::string>& warp_resamplings() {
+  static const std::vector<std::string> r = {"near", "bilinear", "cubic", "cubicspline", "lanczos", "average"};
+  return r;
+}
+
 const std::vector<std::pair<std::string, int>>& engine_presets() {
   // Unreal: the recommended landscape sizes of the Landscape Technical Guide (whole sections of
   // 63/127/255 quads); Unity: terrain heightmap resolutions 2^n + 1.

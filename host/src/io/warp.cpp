@@ -53,10 +53,6 @@ void check_options(const WarpOptions& o, const std::string& stage) {
 
 }  // namespace
 
-const std::vector<std::string>& warp_resamplings() {
-  static const std::vector<std::string> r = {"near", "bilinear", "cubic", "cubicspline", "lanczos", "average"};
-  return r;
-}
 
 std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_has_nodata) {
   std::vector<std::string> a = {"-r", o.resampling, "-ot", "Float32"};
