@@ -46,9 +46,6 @@ std::string last_gdal_error() {
   return (m && *m) ? std::string(m) : std::string("no details from GDAL");
 }
 
-// The tiled reader (gdal_window.cpp) shares the set-up and the header decoding.
-void gdal_init() { init_gdal(); }
-std::string gdal_last_error() { return last_gdal_error(); }
 
 void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
   GDALDataset* ds = &dataset;

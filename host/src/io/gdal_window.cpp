@@ -2,6 +2,7 @@
 // read by the same code as a whole-raster read, so a tile carries exactly what the untiled run
 // would see; only the geotransform moves to the window.
 #include "io/gdal_window.hpp"
+#include "io/gdal_common.hpp"
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -18,11 +19,11 @@
 namespace terracl::io {
 
 GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
-  gdal_init();
+  init_gdal();
   CPLErrorReset();
   m_ds =
       static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
-  if (!m_ds) fail("io", "{}: not a raster GDAL can read ({})", path, gdal_last_error());
+  if (!m_ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
   const int w = m_ds->GetRasterXSize(), h = m_ds->GetRasterYSize();
   if (w <= 0 || h <= 0 || m_ds->GetRasterCount() < 1) {
     GDALClose(m_ds);
@@ -56,7 +57,7 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
   out.metadata = m_header.metadata;
   CPLErrorReset();
   if (m_ds->GetRasterBand(1)->RasterIO(GF_Read, x, y, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
-    fail("io", "{}: reading window {},{} {} x {} failed ({})", m_path, x, y, w, h, gdal_last_error());
+    fail("io", "{}: reading window {},{} {} x {} failed ({})", m_path, x, y, w, h, last_gdal_error());
   convert_nodata(out);
   auto& gt = out.georef.geotransform;
   if (out.georef.has_geotransform) {
@@ -69,7 +70,7 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
 GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& g,
                                          const Metadata& metadata)
     : m_path(path), m_tmp(temporary_path_for(path)), m_nodata(g.nodata) {
-  gdal_init();
+  init_gdal();
   CPLErrorReset();
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (!drv) fail("io", "GDAL has no GTiff driver");
@@ -85,7 +86,7 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   CSLDestroy(opts);
   if (!m_ds) {
     discard_temporary(m_tmp);
-    fail("io", "cannot create GeoTIFF {} ({})", path, gdal_last_error());
+    fail("io", "cannot create GeoTIFF {} ({})", path, last_gdal_error());
   }
   if (g.has_geotransform) {
     double gt[6];
@@ -136,7 +137,7 @@ void GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, in
   }
   CPLErrorReset();
   if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
-    fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, x, y, gdal_last_error());
+    fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, x, y, last_gdal_error());
 }
 
 void GeoTiffWindowWriter::commit() {
@@ -149,7 +150,7 @@ void GeoTiffWindowWriter::commit() {
   GDALClose(raw);
   if (CPLGetLastErrorType() >= CE_Failure) {
     discard_temporary(m_tmp);
-    fail("io", "finishing GeoTIFF {} failed ({})", m_path, gdal_last_error());
+    fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
   }
   commit_temporary(m_tmp, m_path);
 }

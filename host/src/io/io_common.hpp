@@ -53,10 +53,6 @@ void quantiser_from_sidecar(const nlohmann::json& sc, Quantiser& q, const std::s
 void warn_sidecarless(const std::string& path, const char* kind);
 
 Heightfield read_gdal(const std::string& path);
-/// GDAL set up once (drivers, quiet error handler) and its last error message, for the other GDAL
-/// users of host/src/io (gdal_window.cpp).
-void gdal_init();
-std::string gdal_last_error();
 /// Georef (metric cell size of the whole raster) and terracl metadata of an open dataset; sets
 /// georef.nodata but converts no value (convert_nodata does, on what was read).
 void read_gdal_header(GDALDataset& ds, Heightfield& out);
