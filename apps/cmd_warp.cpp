@@ -37,10 +37,7 @@ void print_engine_scale(const Heightfield& h, const EngineScale& s) {
              s.unreal_xy_scale, s.unreal_z_scale, s.unreal_z_location);
   fmt::print("Unity import:    Terrain Height {:.4f} m  Position Y {:.4f} m\n", s.unity_height, s.unity_position_y);
   if (std::fabs(h.georef.cell_x - h.georef.cell_y) > 1e-3 * h.georef.cell_x)
-    fmt::print(stderr,
-               "terracl: warning: cells are not square ({:.3f} x {:.3f} m); engines assume square cells: warp to a "
-               "metric CRS first (terracl warp IN -o OUT --t-srs EPSG:<UTM zone> --tr C C)\n",
-               h.georef.cell_x, h.georef.cell_y);
+    fmt::print(stderr, "terracl: warning: {}\n", square_cell_advice(h));
 }
 
 CommandRegistrar reg(13, [](CLI::App& app) {

@@ -206,3 +206,25 @@ TEST(Warp, PipelineStagesAndCogWriter) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.out.find("/pipeline/3"), std::string::npos) << r.out;
 }
+
+// A new user's run (lead): a metric DEM with a non-square extent resized to a square preset got the
+// advice "warp to a metric CRS first", and the warped .asc kept "crs_assumed: WGS 84" in its metadata.
+TEST(Resize, NonSquareCellsGetAdviceThatFitsTheirCause) {
+  test::TempDir dir;
+  const std::string in = test::data_path("crops/frontrange_64.asc");
+  auto c = test::run_cli("warp " + q(in) + " -o " + q(dir.path("utm.tif")) + " --t-srs EPSG:32613 --tr 90 90");
+  ASSERT_EQ(c.exit_code, 0) << c.out;
+  const Heightfield utm = read_heightfield(dir.path("utm.tif"));
+  EXPECT_EQ(utm.metadata.count("terracl:crs_assumed"), 0u) << "the reprojected output's CRS is not assumed";
+  ASSERT_NE(utm.width, utm.height);
+  c = test::run_cli("resize " + q(dir.path("utm.tif")) + " -o " + q(dir.path("e.r16")) + " --preset unreal-505");
+  ASSERT_EQ(c.exit_code, 0) << c.out;
+  EXPECT_NE(c.out.find("extent's proportions"), std::string::npos) << c.out;
+  EXPECT_EQ(c.out.find("metric CRS"), std::string::npos) << c.out;
+  const auto sc = nlohmann::json::parse(std::ifstream(dir.path("e.r16.json")));
+  EXPECT_NE(sc["engine"]["warning"].get<std::string>().find("extent's proportions"), std::string::npos) << sc.dump();
+  // A geographic raster keeps the warp advice.
+  c = test::run_cli("resize " + q(in) + " -o " + q(dir.path("g.r16")) + " --preset unreal-505");
+  ASSERT_EQ(c.exit_code, 0) << c.out;
+  EXPECT_NE(c.out.find("geographic CRS"), std::string::npos) << c.out;
+}

@@ -61,6 +61,9 @@ struct EngineScale {
 EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double cell);
 /// The sidecar / metadata entries of engine_scale ("unreal_z_scale", ...).
 std::vector<std::pair<std::string, double>> engine_scale_entries(const EngineScale& s);
+/// What to do about non-square cells, for engine exports: a geographic raster needs a warp to a
+/// metric CRS; a metric one was resized out of its extent's proportions and needs a square extent.
+std::string square_cell_advice(const Heightfield& h);
 /// engine_scale of `h` written to 16 bits over its data range (code 0 reserved when it has
 /// nodata), recorded as "engine:<entry>" metadata (GeoTIFF tag engine_<entry>, EXR attribute; PNG16/RAW16 sidecars recompute
 /// it for the range they are written with).

@@ -166,9 +166,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   nlohmann::json engine = nlohmann::json::object();
   for (const auto& [k, v] : engine_scale_entries(es)) engine[k] = v;
   if (std::fabs(h.georef.cell_x - h.georef.cell_y) > 1e-3 * h.georef.cell_x)
-    engine["warning"] = fmt::format("cells are {:.3f} x {:.3f} m; engines take square cells: "
-                                    "terracl warp --t-srs <a metric CRS> --tr C C first",
-                                    h.georef.cell_x, h.georef.cell_y);
+    engine["warning"] = square_cell_advice(h);
   sc["engine"] = engine;
   Metadata md = h.metadata;
   for (const auto& [k, v] : engine_scale_entries(es)) md.erase("engine:" + k);

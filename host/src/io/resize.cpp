@@ -69,6 +69,18 @@ std::vector<std::pair<std::string, double>> engine_scale_entries(const EngineSca
           {"unity_position_y_m", s.unity_position_y}};
 }
 
+std::string square_cell_advice(const Heightfield& h) {
+  const Georef& g = h.georef;
+  if (g.geographic)
+    return fmt::format("cells are {:.3f} x {:.3f} m (a geographic CRS); engines take square cells: "
+                       "terracl warp IN -o OUT --t-srs EPSG:<UTM zone> --tr C C first",
+                       g.cell_x, g.cell_y);
+  return fmt::format("cells are {:.3f} x {:.3f} m: the size does not follow the extent's proportions ({:.0f} x {:.0f} m), "
+                     "so engines stretch the terrain; crop to a square extent first (terracl warp IN -o OUT --projwin ...) "
+                     "or resize with --size W H in proportion",
+                     g.cell_x, g.cell_y, g.cell_x * h.width, g.cell_y * h.height);
+}
+
 EngineScale record_engine_scale(Heightfield& h) {
   double lo = INFINITY, hi = -INFINITY;
   for (float v : h.z)

@@ -108,6 +108,8 @@ Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& pro
   io::DatasetPtr dst(GDALDataset::FromHandle(out));
   Heightfield r = io::from_dataset(*dst, "warp output");
   r.metadata = h.metadata;
+  // The source's CRS note ("assumed WGS 84") says nothing true of a reprojected output.
+  if (!o.t_srs.empty()) r.metadata.erase("terracl:crs_assumed");
   r.georef.vertical_units = h.georef.vertical_units;
   r.georef.nodata = h.georef.nodata;
   if (local) {
