@@ -129,7 +129,7 @@ ErosionParams params_from(const json& o) {
 
 void run_erode(StageContext& c) {
   Heightfield& h = c.height();
-  require_finite(h, c.tag, "input heightfield (use --fill-nodata)");
+  require_finite(h, c.tag, "input heightfield");
   const ErosionParams p = params_from(c.options);
   const double limit = erosion_stability_limit(p, h.georef.cell_x, h.georef.cell_y);
   const double dt = p.dt > 0 ? p.dt : p.substep_fraction * limit;
