@@ -74,7 +74,13 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   for (float m : lmask) lmsum += m;
   const bool use_omp = o.sparsity > 1 || o.search == "omp";
   const bool detail_blend = o.blend == "detail";
-  const MatrixF smooth = smooth_part_operator(P, f);
+  // The smooth part M X M^T with M = U B (B: P/f x P block means, U = f M B^T: P x P/f bicubic),
+  // computed as U (B X B^T) U^T: ~2.5k multiply-adds per patch instead of 8k for two P^3 products.
+  const int pm_ = P / f;
+  MatrixF bmat = MatrixF::Zero(pm_, P);
+  for (int x = 0; x < pm_; ++x)
+    for (int u = 0; u < f; ++u) bmat(x, x * f + u) = 1.f / f;
+  const MatrixF umat = float(f) * smooth_part_operator(P, f) * bmat.transpose();
   // The magnitude term compares relief at the dictionary's cell size (self-similar scaling when a
   // dictionary serves a coarser step).
   const float qscale = d.cell_x > 0 && out.georef.cell_x > 0 ? float(d.cell_x / out.georef.cell_x) : 1.f;
@@ -93,6 +99,12 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   const bool measure = detail_blend && o.detail_correlation < 0;
   constexpr int kRhos = 11;
   std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
+  // The first pass's codes and patch means, per tile, reused by the second (no second atom search).
+  struct TileCodes {
+    SparseCodes codes;
+    std::vector<float> z;
+  };
+  std::vector<TileCodes> cache(measure ? size_t(tx) * ty : 0);
   for (int pass = measure ? 0 : 1; pass < 2; ++pass) {
   if (pass == 1 && measure) {
     std::vector<double> cv(kRhos, 0.0);
@@ -119,8 +131,15 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
       const int kx0 = first(X0), kx1 = last(X1), ky0 = first(Y0), ky1 = last(Y1);
       const int nx = kx1 - kx0, ny = ky1 - ky0;
       const size_t m = size_t(nx) * ny;
+      std::vector<float> z;
+      SparseCodes codes;
+      const size_t tile_id = size_t(j) * tx + i;
+      if (pass == 1 && measure) {
+        codes = std::move(cache[tile_id].codes);
+        z = std::move(cache[tile_id].z);
+      } else {
+      z.resize(m);
       MatrixF q(p * p, Eigen::Index(m));
-      std::vector<float> z(m);
       parallel_for(m, o.threads, [&](size_t b, size_t e) {
         for (size_t c = b; c < e; ++c) {
           const int lx = ((kx0 + int(c % nx)) * S - Q) / f, ly = ((ky0 + int(c / nx)) * S - Q) / f;
@@ -136,7 +155,6 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
           z[c] = mean;
         }
       });
-      SparseCodes codes;
       if (use_omp) {
         codes = batch_omp(d.low, q, o.sparsity, o.threads);
       } else {
@@ -174,6 +192,7 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         codes.index = std::move(a.index);
         codes.coef = std::move(a.coef);
       }
+      }
       const int s = codes.sparsity;
       const int tw = X1 - X0, th = Y1 - Y0;
       std::vector<float> num(size_t(tw) * th, 0.f), den(num.size(), 0.f), den1(detail_blend ? num.size() : 0, 0.f);
@@ -183,7 +202,7 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         for (int r = ph; r < ny; r += phases) rows.push_back(r);
         parallel_for(rows.size(), o.threads, [&](size_t b, size_t e) {
           VectorF patch(P * P);
-          MatrixF detail(P, P), half(P, P);
+          MatrixF detail(P, P), bx(pm_, P), cm(pm_, pm_), ucm(P, pm_);
           for (size_t ri = b; ri < e; ++ri) {
             const int r = rows[ri];
             for (int cx = 0; cx < nx; ++cx) {
@@ -199,9 +218,11 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
                 // Only the patch's detail (what its block means do not determine) is blended; the
                 // bicubic of the input supplies the rest.
                 Eigen::Map<MatrixF> pm(patch.data(), P, P);
-                half.noalias() = smooth * pm;  // preallocated: no allocation per patch
+                bx.noalias() = bmat * pm;  // preallocated: no allocation per patch
+                cm.noalias() = bx * bmat.transpose();
+                ucm.noalias() = umat * cm;
                 detail = pm;
-                detail.noalias() -= half * smooth.transpose();
+                detail.noalias() -= ucm * umat.transpose();
               }
               const float* src = detail_blend ? detail.data() : patch.data();
               for (int v = std::max(0, -py); v < P && py + v < th; ++v)
@@ -219,23 +240,54 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         });
       }
       if (pass == 0) {
-        // One band of S rows in four (by the global row, every phase of the grid) is enough.
-        for (int y = 1; y + 1 < th; ++y) {
-          if (((Y0 + y) / S) % 4 != 0) continue;
-          for (int x = 1; x + 1 < tw; ++x) {
-            // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
-            // cells measured, and rho, are the same for every tile size.
-            const int gx = (X0 + x) % 64, gy = (Y0 + y) % 64;
-            if (gx == 0 || gx == 63 || gy == 0 || gy == 63) continue;
-            const size_t c = size_t(y) * tw + x, k = size_t((Y0 + y) % S) * S + size_t((X0 + x) % S);
-            phase_n[k] += 1;
-            for (int t = 0; t < kRhos; ++t) {
-              const float r = float(t) / (kRhos - 1);
-              auto blended = [&](size_t i) { return double(num[i]) / std::sqrt((1 - r) * den[i] + r * den1[i] * den1[i]); };
-              const double lap = blended(c - 1) + blended(c + 1) + blended(c - tw) + blended(c + tw) - 4.0 * blended(c);
-              phase_k2[size_t(t) * phase_n.size() + k] += lap * lap;
+        // One band of S rows in four (by the global row, every phase of the grid) is enough. Rows in
+        // parallel, each into its own sums, added in row order: rho does not depend on the threads.
+        std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
+        parallel_for(size_t(th), o.threads, [&](size_t b, size_t e) {
+          std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every rho
+          for (size_t yy = b; yy < e; ++yy) {
+            const int y = int(yy);
+            if (y < 1 || y + 1 >= th || ((Y0 + y) / S) % 4 != 0) continue;
+            const int gy = (Y0 + y) % 64;
+            if (gy == 0 || gy == 63) continue;
+            for (int dy = 0; dy < 3; ++dy)
+              for (int x = 0; x < tw; ++x) {
+                const size_t c = size_t(y - 1 + dy) * tw + x;
+                for (int t = 0; t < kRhos; ++t) {
+                  const float r = float(t) / (kRhos - 1);
+                  bl[(size_t(dy) * kRhos + t) * tw + x] = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
+                }
+              }
+            double* k2 = &row_k2[size_t(y) * kRhos * S];
+            double* n = &row_n[size_t(y) * S];
+            for (int x = 1; x + 1 < tw; ++x) {
+              // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
+              // cells measured, and rho, are the same for every tile size.
+              const int gx = (X0 + x) % 64;
+              if (gx == 0 || gx == 63) continue;
+              const int ph = (X0 + x) % S;
+              n[ph] += 1;
+              for (int t = 0; t < kRhos; ++t) {
+                const double* r0 = &bl[(size_t(0) * kRhos + t) * tw];
+                const double* r1 = &bl[(size_t(1) * kRhos + t) * tw];
+                const double* r2 = &bl[(size_t(2) * kRhos + t) * tw];
+                const double lap = double(r1[x - 1]) + r1[x + 1] + r0[x] + r2[x] - 4.0 * r1[x];
+                k2[size_t(t) * S + ph] += lap * lap;
+              }
             }
           }
+        });
+        for (int y = 0; y < th; ++y) {
+          const size_t py = size_t((Y0 + y) % S) * S;
+          for (int ph = 0; ph < S; ++ph) {
+            phase_n[py + ph] += row_n[size_t(y) * S + ph];
+            for (int t = 0; t < kRhos; ++t)
+              phase_k2[size_t(t) * phase_n.size() + py + ph] += row_k2[(size_t(y) * kRhos + t) * S + ph];
+          }
+        }
+        if (measure) {
+          cache[tile_id].codes = std::move(codes);
+          cache[tile_id].z = std::move(z);
         }
         continue;
       }
