@@ -4,6 +4,8 @@
 #include <terracl/amplify.hpp>
 #include <terracl/io.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -128,4 +130,24 @@ TEST(AmplifyCli, ResampleExemplarToTheOutputCellSize) {
                                     tmp.path("low.tif") + " --resample-exemplar");
   EXPECT_NE(coarse.exit_code, 0);
   EXPECT_NE(coarse.out.find("resampling cannot add detail"), std::string::npos) << coarse.out;
+}
+
+TEST(AmplifyCli, ResampledExemplarMatchesItsBlockMeans) {
+  // Output cells 2 x the exemplar's: amplify block-averages the exemplar itself, and with
+  // --resample-exemplar the shared GDAL warp (io/warp.cpp, -r average) does it instead. On an aligned
+  // whole ratio both are the same means, so the outputs must be identical (exact atom search).
+  test::TempDir tmp;
+  const std::string ex = test::data_path("crops/presidential_128x96.tif");
+  write_heightfield(block_mean(read_heightfield(ex), 8), tmp.path("low.tif"));
+  const std::string base = "amplify " + tmp.path("low.tif") + " --exemplar " + ex + " --search exact -o ";
+  const auto a = test::run_cli(base + tmp.path("a.tif"));
+  ASSERT_EQ(a.exit_code, 0) << a.out;
+  const auto b = test::run_cli(base + tmp.path("b.tif") + " --resample-exemplar");
+  ASSERT_EQ(b.exit_code, 0) << b.out;
+  const Heightfield ha = read_heightfield(tmp.path("a.tif")), hb = read_heightfield(tmp.path("b.tif"));
+  ASSERT_EQ(ha.width, hb.width);
+  ASSERT_EQ(ha.height, hb.height);
+  double worst = 0;
+  for (size_t i = 0; i < ha.size(); ++i) worst = std::max(worst, double(std::fabs(ha.z[i] - hb.z[i])));
+  EXPECT_LT(worst, 1e-3) << "the warped exemplar differs from its block means";
 }
