@@ -138,60 +138,60 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         codes = std::move(cache[tile_id].codes);
         z = std::move(cache[tile_id].z);
       } else {
-      z.resize(m);
-      MatrixF q(p * p, Eigen::Index(m));
-      parallel_for(m, o.threads, [&](size_t b, size_t e) {
-        for (size_t c = b; c < e; ++c) {
-          const int lx = ((kx0 + int(c % nx)) * S - Q) / f, ly = ((ky0 + int(c / nx)) * S - Q) / f;
-          double s = 0;
-          for (int v = 0; v < p; ++v)
-            for (int u = 0; u < p; ++u)
-              s += lmask[v * p + u] * low.at(clampi(lx + u, low.width), clampi(ly + v, low.height));
-          const float mean = float(s / lmsum);
-          for (int v = 0; v < p; ++v)
-            for (int u = 0; u < p; ++u)
-              q(v * p + u, Eigen::Index(c)) =
-                  lmask[v * p + u] * (low.at(clampi(lx + u, low.width), clampi(ly + v, low.height)) - mean);
-          z[c] = mean;
-        }
-      });
-      if (use_omp) {
-        codes = batch_omp(d.low, q, o.sparsity, o.threads);
-      } else {
-        // k nearest atoms averaged: their shared detail adds up, the rest partly cancels. With a
-        // larger candidate pool, each patch draws its k from the pool by a hash of its position, so
-        // that equal footprints (straight painted edges) do not repeat the same detail.
-        const int k = std::max(1, o.neighbours), pool = std::max(k, o.candidates);
-        AtomMatch a = index ? index->search(q, o.threads, pool, qscale)
-                            : exact_atom_search(d.low, q, o.threads, pool, &d.low_norm, o.magnitude_weight, qscale);
-        AtomMatch chosen;
-        chosen.index.assign(m * size_t(k), -1);
-        chosen.coef.assign(m * size_t(k), 0.f);
-        for (size_t c = 0; c < m; ++c) {
-          int32_t* idx = &a.index[c * pool];
-          float* coef = &a.coef[c * pool];
-          int found = 0;
-          while (found < pool && idx[found] >= 0) ++found;
-          if (found > k) {
-            uint64_t h = position_hash(o.seed, W, kx0 + int(c % nx), ky0 + int(c / nx));
-            for (int t = 0; t < k; ++t) {  // partial Fisher-Yates
-              h = position_hash(h, t, 0, 0);
-              const int r = t + int(h % uint64_t(found - t));
-              std::swap(idx[t], idx[r]);
-              std::swap(coef[t], coef[r]);
+        z.resize(m);
+        MatrixF q(p * p, Eigen::Index(m));
+        parallel_for(m, o.threads, [&](size_t b, size_t e) {
+          for (size_t c = b; c < e; ++c) {
+            const int lx = ((kx0 + int(c % nx)) * S - Q) / f, ly = ((ky0 + int(c / nx)) * S - Q) / f;
+            double s = 0;
+            for (int v = 0; v < p; ++v)
+              for (int u = 0; u < p; ++u)
+                s += lmask[v * p + u] * low.at(clampi(lx + u, low.width), clampi(ly + v, low.height));
+            const float mean = float(s / lmsum);
+            for (int v = 0; v < p; ++v)
+              for (int u = 0; u < p; ++u)
+                q(v * p + u, Eigen::Index(c)) =
+                    lmask[v * p + u] * (low.at(clampi(lx + u, low.width), clampi(ly + v, low.height)) - mean);
+            z[c] = mean;
+          }
+        });
+        if (use_omp) {
+          codes = batch_omp(d.low, q, o.sparsity, o.threads);
+        } else {
+          // k nearest atoms averaged: their shared detail adds up, the rest partly cancels. With a
+          // larger candidate pool, each patch draws its k from the pool by a hash of its position, so
+          // that equal footprints (straight painted edges) do not repeat the same detail.
+          const int k = std::max(1, o.neighbours), pool = std::max(k, o.candidates);
+          AtomMatch a = index ? index->search(q, o.threads, pool, qscale)
+                              : exact_atom_search(d.low, q, o.threads, pool, &d.low_norm, o.magnitude_weight, qscale);
+          AtomMatch chosen;
+          chosen.index.assign(m * size_t(k), -1);
+          chosen.coef.assign(m * size_t(k), 0.f);
+          for (size_t c = 0; c < m; ++c) {
+            int32_t* idx = &a.index[c * pool];
+            float* coef = &a.coef[c * pool];
+            int found = 0;
+            while (found < pool && idx[found] >= 0) ++found;
+            if (found > k) {
+              uint64_t h = position_hash(o.seed, W, kx0 + int(c % nx), ky0 + int(c / nx));
+              for (int t = 0; t < k; ++t) {  // partial Fisher-Yates
+                h = position_hash(h, t, 0, 0);
+                const int r = t + int(h % uint64_t(found - t));
+                std::swap(idx[t], idx[r]);
+                std::swap(coef[t], coef[r]);
+              }
+              found = k;
             }
-            found = k;
+            for (int t = 0; t < found; ++t) {
+              chosen.index[c * k + t] = idx[t];
+              chosen.coef[c * k + t] = coef[t] / float(found);
+            }
           }
-          for (int t = 0; t < found; ++t) {
-            chosen.index[c * k + t] = idx[t];
-            chosen.coef[c * k + t] = coef[t] / float(found);
-          }
+          a = std::move(chosen);
+          codes.sparsity = k;
+          codes.index = std::move(a.index);
+          codes.coef = std::move(a.coef);
         }
-        a = std::move(chosen);
-        codes.sparsity = k;
-        codes.index = std::move(a.index);
-        codes.coef = std::move(a.coef);
-      }
       }
       const int s = codes.sparsity;
       const int tw = X1 - X0, th = Y1 - Y0;
@@ -255,7 +255,8 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
                 const size_t c = size_t(y - 1 + dy) * tw + x;
                 for (int t = 0; t < kRhos; ++t) {
                   const float r = float(t) / (kRhos - 1);
-                  bl[(size_t(dy) * kRhos + t) * tw + x] = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
+                  bl[(size_t(dy) * kRhos + t) * tw + x] =
+                      double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
                 }
               }
             double* k2 = &row_k2[size_t(y) * kRhos * S];
