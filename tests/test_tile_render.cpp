@@ -143,14 +143,14 @@ TEST(TileRender, PicturesAndValuesEqualUntiledWithAndWithoutNodata) {
 
 TEST(TileRender, TilesSmallerThanTheFootprintAndBehindCropAndDownsample) {
   test::TempDir dir;
-  const std::string in = dem_input(dir, 97, 61, false);  // downsample needs a complete grid
+  const std::string in = dem_input(dir, 43, 31, false);  // downsample needs a complete grid
   // The render reads level 2 (after a crop and a downsample), and level 0 with one-cell tiles.
   const std::string doc = "[\"" + in + R"(", {"type": "render", "file": "OUT/a.tif", "compute_edges": true},
-      {"type": "crop", "x": 7, "y": 3, "width": 80, "height": 55}, {"type": "downsample", "factor": 2},
+      {"type": "crop", "x": 7, "y": 3, "width": 33, "height": 25}, {"type": "downsample", "factor": 2},
       {"type": "render", "file": "OUT/b.tif", "mode": "shaded-relief"},
       {"type": "render", "file": "OUT/c.tif", "mode": "roughness"}, "OUT/d.tif"])";
   run(doc, dir.path("u"), 0);
-  for (int tile : {2, 3, 1}) {
+  for (int tile : {3, 1}) {
     SCOPED_TRACE(testing::Message() << "tile " << tile);
     run(doc, dir.path("t"), tile);
     for (const char* f : {"a.tif", "b.tif", "c.tif", "d.tif"})
