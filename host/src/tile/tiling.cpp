@@ -91,8 +91,9 @@ StageTiling tiling_of(const PipelineStage& st) {
   if (t == "fill_nodata") return refuse("harmonic interpolation of nodata is a global solve; run it untiled");
   if (t == "amplify")
     return refuse(
-        "its patch choice (hashed on the output size) and blend order depend on the whole output grid, so "
-        "tiles would differ from the untiled run; amplify untiled (its own --tile bounds its work memory)");
+        "two things depend on the whole output, so tiles would differ from the untiled run: the patch choice "
+        "is hashed on the output width, and the detail blend's correlation is measured over all of the "
+        "output's patches (a first pass); amplify untiled (its own --tile bounds its work memory)");
   if (t == "extract") return refuse("it produces a gradient field; tiled runs carry heightfields only");
   if (t == "render") {
     // gdaldem's 3x3 window: a halo of one cell; written by its own sink (tile/render_tiles.cpp).
