@@ -158,6 +158,21 @@ TEST(TileRender, TilesSmallerThanTheFootprintAndBehindCropAndDownsample) {
   }
 }
 
+TEST(TileRender, OpensTheDeviceWhenTheCallerGaveNone) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 40, 30, false);
+  Pipeline p = Pipeline::parse(
+      json::parse("[\"" + in + R"(", {"type": "render", "file": ")" + dir.path("a.tif") + R"("}])"), "x", "x.json");
+  p.validate();
+  RunOptions ro;  // no device: opened on first use, as Pipeline::run does
+  ro.write_resolved = false;
+  RunReport r;
+  TileOptions to;
+  to.tile = 16;
+  run_tiled(p, to, ro, r);
+  EXPECT_EQ(load(dir.path("a.tif")).bands, 2);
+}
+
 TEST(TileRender, RefusesPngAndRampsInPercent) {
   test::TempDir dir;
   const std::string in = dem_input(dir, 40, 30, false);

@@ -61,9 +61,7 @@ class RenderPictureSink : public TileSink {
         m_device(device),
         m_path(st.options.at("file").get<std::string>()),
         m_tmp(temporary_path_for(m_path)),
-        m_base(grey_picture(m_opt.mode) ? 1 : 3),
-        m_width(w),
-        m_height(h) {
+        m_base(grey_picture(m_opt.mode) ? 1 : 3) {
     // As render's picture_layout: gdaldem's 3x3 products leave the border nodata without -compute_edges.
     m_alpha = grey_picture(m_opt.mode) && (!m_opt.compute_edges || w < 2 || h < 2);
     io::init_gdal();
@@ -172,7 +170,7 @@ class RenderPictureSink : public TileSink {
   bool m_host;
   std::function<Device&()> m_device;
   std::string m_path, m_tmp;
-  int m_base, m_width, m_height;
+  int m_base;
   bool m_alpha = false, m_any_nan = false;
   GDALDataset* m_ds = nullptr;
   std::vector<uint8_t> m_buffer;

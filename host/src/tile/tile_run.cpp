@@ -8,7 +8,8 @@
 // and each writer receives the tile's core. Cells within a stage's footprint of a window edge that
 // is not the raster's edge are wrong and are never written; every written cell saw all the cells
 // it depends on, with the whole raster's georeferencing (metric cell size included), so local
-// stages give the untiled result bit for bit. A global stage (fill_depressions) runs its own
+// stages give the untiled result bit for bit. A sink with a footprint (render) receives its core
+// plus that halo (tile_sinks.hpp). A global stage (fill_depressions) runs its own
 // exact tiled algorithm from the previous segment's output (a temporary tiled GeoTIFF, or the
 // source itself) into the next segment's source.
 #include <fmt/format.h>
@@ -176,6 +177,13 @@ void TiledRun::run() {
     if (ec) fail("run", "cannot create the output folder {}: {}", dir.string(), ec.message());
   }
   m_device = m_o.device;
+  if (!m_device) {  // as Pipeline::run: opened on first use (render, erode)
+    auto opened = std::make_shared<std::shared_ptr<Device>>();
+    m_device = [opened]() -> Device& {
+      if (!*opened) *opened = Device::open();
+      return **opened;
+    };
+  }
   // GDAL's block cache defaults to 5 % of RAM: bound it by the budget.
   const uint64_t cache = m_t.memory_budget > 0 ? m_t.memory_budget / 4 : uint64_t(256) << 20;
   GDALSetCacheMax64(GIntBig(cache));
