@@ -13,6 +13,7 @@
 
 #include "cli.hpp"
 #include "stage_flags.hpp"
+#include "tile_flags.hpp"
 
 namespace terracl::cli {
 namespace {
@@ -22,6 +23,7 @@ struct Args {
   bool fill_nodata = false;
   StageFlags flags;
   InputScaleFlags in;
+  TileFlags tile;  // render: --tile (docs/scale.md)
 };
 
 /// render writes pictures as .png or .tif, value rasters (aspect, tri, tpi, roughness) as .tif only.
@@ -47,6 +49,7 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
   // metrics prints its report, so its file option is optional here.
   a->flags.add(sub, *sp, output_option, name != "metrics");
   a->in.add(sub);
+  if (name == "render") a->tile.add(sub);
   sub->callback([a, sp, sub, name] {
     const StageInfo& s = *sp;
     const json opts = a->flags.given(sub, s);
@@ -78,6 +81,13 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }
+    if (a->tile.tiled()) {
+      TileFlags::refuse_untiled_flag(name, a->fill_nodata || a->in.zmin || a->in.zmax || a->in.cell_size,
+                                     "--fill-nodata, --zmin, --zmax, --cell-size");
+      a->tile.run_stage(name, a->input, name, resolved, "");
+      return;
+    }
+    (void)a->tile.options(name);  // --halo alone
     // render on the device: open it (PoCL loads its compiler, ~0.3 s of CPU) while GDAL reads.
     std::future<void> opening;
     if (name == "render" && resolved.value("backend", std::string("device")) == "device")

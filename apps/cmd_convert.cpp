@@ -1,5 +1,6 @@
 #include "cli.hpp"
 #include "stage_flags.hpp"
+#include "tile_flags.hpp"
 
 #include <fmt/format.h>
 
@@ -15,6 +16,7 @@ struct ConvertArgs {
   std::optional<int> width, height;
   bool fill = false;
   OutputFlags out;
+  TileFlags tile;  // --tile: GeoTIFF/VRT/... to a tiled GeoTIFF window by window (docs/scale.md)
 };
 
 CommandRegistrar reg(12, [](CLI::App& app) {
@@ -31,8 +33,20 @@ CommandRegistrar reg(12, [](CLI::App& app) {
   sub->add_option("--out-zmax", a->out_zmax, "Output PNG16/RAW16: elevation of code 65535 (default: data maximum)");
   sub->add_flag("--fill-nodata", a->fill, "Fill nodata cells by harmonic interpolation");
   a->out.add(sub);
+  a->tile.add(sub);
   sub->callback([a] {
     check_output_paths("convert", {{"input", a->input}}, {{"output", a->output}});
+    if (a->tile.tiled()) {
+      TileFlags::refuse_untiled_flag("convert", a->fill || a->zmin || a->zmax || a->width || a->height || a->cell,
+                                     "--fill-nodata, --zmin, --zmax, --width, --height, --cell-size");
+      TileFlags::refuse_untiled_flag("convert",
+                                     a->out.cog || !a->out.creation_options.empty() || a->out.output_type != "Float32" ||
+                                         a->out_zmin || a->out_zmax,
+                                     "--co, --cog, --ot, --out-zmin, --out-zmax");
+      a->tile.run_stage("convert", a->input, "", json::object(), a->output);
+      return;
+    }
+    (void)a->tile.options("convert");  // --halo alone
     if (is_gradient_file(a->input)) {
       GradientField g = read_gradient(a->input);
       for (const auto& [k, v] : provenance()) g.metadata[k] = v;

@@ -2,6 +2,7 @@
 // `terracl <stage> [IN] -o OUT [--option value ...]`.
 #include "cli.hpp"
 #include "stage_flags.hpp"
+#include "tile_flags.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -21,6 +22,7 @@ struct StageArgs {
   StageFlags flags;
   InputScaleFlags in;
   OutputFlags out;
+  TileFlags tile;  // stages from heightfield to heightfield: --tile (docs/scale.md)
 };
 
 void add_stage_command(CLI::App& app, const StageInfo& s) {
@@ -37,6 +39,10 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   a->flags.add(sub, s);
   if (s.input == DataKind::Heightfield || s.input == DataKind::Any) a->in.add(sub);
   if (s.output == DataKind::Heightfield) a->out.add(sub);
+  // amplify has a --tile of its own (it bounds its work memory) and cannot run tiled anyway.
+  bool tileable = s.input == DataKind::Heightfield && s.output == DataKind::Heightfield;
+  for (const auto& o : s.options) tileable &= o.name != "tile" && o.name != "halo" && o.name != "memory_budget";
+  if (tileable) a->tile.add(sub);
   const StageInfo* sp = &s;
   sub->callback([a, sp, sub] {
     const StageInfo& s = *sp;
@@ -58,6 +64,15 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
     } catch (const Error& e) {
       throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
     }
+    if (a->tile.tiled()) {
+      TileFlags::refuse_untiled_flag(s.name, a->fill_nodata || a->in.zmin || a->in.zmax || a->in.cell_size,
+                                     "--fill-nodata, --zmin, --zmax, --cell-size");
+      TileFlags::refuse_untiled_flag(s.name, a->out.cog || !a->out.creation_options.empty() || a->out.output_type != "Float32",
+                                     "--co, --cog, --ot");
+      a->tile.run_stage(s.name, a->input, s.name, resolved, a->output);
+      return;
+    }
+    (void)a->tile.options(s.name);  // --halo alone
     StageData data;
     if (!a->input.empty()) {
       if (s.input == DataKind::Gradient || (s.input == DataKind::None && is_gradient_file(a->input))) {

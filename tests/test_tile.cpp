@@ -200,7 +200,7 @@ TEST(Tile, UntileableStagesAreRefusedNamingStageAndLimit) {
     std::string stage, expect;
   };
   for (const Case& c :
-       {Case{R"({"type": "erode"})", "/1: stage 'erode' (erode) cannot run tiled"},
+       {Case{R"({"type": "erode", "delta": "d.tif"})", "/1: stage 'erode' (erode) cannot run tiled"},
         Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"}, Case{R"("extract")", "gradient field"},
         Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "amplify untiled"}}) {
     Pipeline p =

@@ -23,6 +23,8 @@ namespace {
 
 constexpr const char* kStage = "erode";
 constexpr double kDefaultTime = 400.0;  // s of simulated time when neither steps nor time is given
+// Halo of a tiled erosion, in cells per sub-step of the run (docs/scale.md, "Erosion").
+constexpr double kTileReachPerSubstep = 1.0;
 
 }  // namespace
 
@@ -181,6 +183,29 @@ void run_erode(StageContext& c) {
   h = std::move(result);
   c.data.current = DataKind::Heightfield;
 }
+
+}  // namespace
+
+int erode_tile_halo(const json& o, const Georef& g) {
+  const ErosionParams p = params_from(o);
+  const double limit = erosion_stability_limit(p, g.cell_x, g.cell_y);
+  const double dt_max = p.substep_fraction * limit;
+  const double dt = p.dt > 0 ? p.dt : dt_max;
+  double steps = o.contains("steps") && !o.at("steps").is_null() ? o.at("steps").get<double>() : 0;
+  if (o.contains("time") && !o.at("time").is_null())
+    steps = std::ceil(o.at("time").get<double>() / dt - 1e-9);
+  else if (!(o.contains("steps") && !o.at("steps").is_null()))
+    steps = std::ceil(kDefaultTime / dt - 1e-9);
+  const double substeps = std::max(1.0, std::ceil(dt / dt_max * (1.0 - 1e-12)));
+  // A window edge that is not the raster's is a closed wall; the wall is felt as far as the pipe
+  // fluxes (the water's pressure) carry it: one cell per sub-step (water itself moves at most half
+  // a cell, the velocity cap). Faster components of the exact dependency cone (up to three cells
+  // per sub-step through the three kernels) decay below float round-off: measured in docs/scale.md.
+  const double halo = std::ceil(kTileReachPerSubstep * steps * substeps);
+  return int(std::clamp(halo, 1.0, 1e6));
+}
+
+namespace {
 
 /// Synthetic benchmark terrain: a few sine ridges plus small-scale noise, 30 m cells.
 Heightfield bench_terrain(int n) {

@@ -29,6 +29,9 @@ struct StageTiling {
   int halo = 0;       ///< Local: footprint radius in input cells
   int down = 1;       ///< Local: output cell = block of down x down input cells (downsample)
   std::string limit;  ///< Untileable: the reason, for the error message
+  /// Local: when set, the halo from the input level's georeferencing (erosion: its step count
+  /// follows the metric cell size); replaces `halo`.
+  std::function<int(const Georef& level)> halo_of;
 };
 
 /// The stage table's tiling column: how `stage` (with its resolved options) tiles.
@@ -39,6 +42,12 @@ struct TileOptions {
   std::optional<int> halo;     ///< extra halo; nullopt = auto (each stage's footprint)
   uint64_t memory_budget = 0;  ///< bytes of host memory for tiles and GDAL's cache (0: no limit)
 };
+
+/// Seam metric of a tiled run with tiles of `tile` cells: the mean squared second difference of
+/// `h` (along x and y) on the rows/columns beside a tile border over the same elsewhere. About 1
+/// without seams; a kink along the borders (a stage run without enough halo) raises it. NaN when
+/// undefined (tile < 2, raster under 3 cells, no border inside the raster).
+double tile_seam_ratio(const Heightfield& h, int tile);
 
 /// "512M", "2G", "1.5GiB", "300000000" -> bytes; throws UsageError naming `what` otherwise.
 uint64_t parse_memory_size(const std::string& text, const std::string& what);

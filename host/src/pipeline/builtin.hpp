@@ -16,6 +16,9 @@ void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_st
 void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
 StageInfo render_stage_info();                 // host/src/render/render_stage.cpp
+namespace render { struct Options; }
+render::Options render_stage_options(const StageContext& c);  // host/src/render/render_stage.cpp
 void register_render_benches(BenchRegistry& r);  // host/src/render/render_stage.cpp
+int erode_tile_halo(const json& options, const Georef& level);  // host/src/erosion_stage.cpp (tiled runs)
 void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
 }  // namespace terracl

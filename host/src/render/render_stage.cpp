@@ -15,9 +15,8 @@
 
 namespace terracl {
 
-namespace {
-
-render::Options render_options(const StageContext& c) {
+// Also read by the tiled render (host/src/tile/render_tiles.cpp), so both draw the same picture.
+render::Options render_stage_options(const StageContext& c) {
   render::Options o;
   o.mode = render::mode_from_name(c.get<std::string>("mode"));
   o.azimuth_deg = c.get<double>("azimuth");
@@ -35,8 +34,10 @@ render::Options render_options(const StageContext& c) {
   return o;
 }
 
+namespace {
+
 void run_render(StageContext& c) {
-  const render::Options o = render_options(c);
+  const render::Options o = render_stage_options(c);
   const std::string file = c.get<std::string>("file");
   const bool tif = format_from_extension(file) == FileFormat::GeoTIFF;
   const bool host = c.get<std::string>("backend") == "host";

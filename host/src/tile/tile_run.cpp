@@ -8,7 +8,8 @@
 // and each writer receives the tile's core. Cells within a stage's footprint of a window edge that
 // is not the raster's edge are wrong and are never written; every written cell saw all the cells
 // it depends on, with the whole raster's georeferencing (metric cell size included), so local
-// stages give the untiled result bit for bit. A global stage (fill_depressions) runs its own
+// stages give the untiled result bit for bit. A sink with a footprint (render) receives its core
+// plus that halo (tile_sinks.hpp). A global stage (fill_depressions) runs its own
 // exact tiled algorithm from the previous segment's output (a temporary tiled GeoTIFF, or the
 // source itself) into the next segment's source.
 #include <fmt/format.h>
@@ -26,6 +27,7 @@
 #include <terracl/version.hpp>
 
 #include "io/gdal_window.hpp"
+#include "tile/tile_sinks.hpp"
 
 namespace terracl {
 namespace fs = std::filesystem;
@@ -175,6 +177,13 @@ void TiledRun::run() {
     if (ec) fail("run", "cannot create the output folder {}: {}", dir.string(), ec.message());
   }
   m_device = m_o.device;
+  if (!m_device) {  // as Pipeline::run: opened on first use (render, erode)
+    auto opened = std::make_shared<std::shared_ptr<Device>>();
+    m_device = [opened]() -> Device& {
+      if (!*opened) *opened = Device::open();
+      return **opened;
+    };
+  }
   // GDAL's block cache defaults to 5 % of RAM: bound it by the budget.
   const uint64_t cache = m_t.memory_budget > 0 ? m_t.memory_budget / 4 : uint64_t(256) << 20;
   GDALSetCacheMax64(GIntBig(cache));
@@ -219,11 +228,12 @@ void TiledRun::run_chain(size_t first, size_t last) {
   int li = 0;
   for (size_t i = first + 1; i < last; ++i) {
     const PipelineStage& st = stages[i];
-    const StageTiling tl = tiling_of(st);
+    StageTiling tl = tiling_of(st);
+    if (tl.halo_of) tl.halo = tl.halo_of(level.georef);
     if (tl.kind == TileKind::Global) {
       // Is the global stage's output written right away and nothing else follows? Then it writes
       // the final file itself (no temporary copy).
-      const bool direct = i + 2 == last && tiling_of(stages[i + 1]).kind == TileKind::Sink;
+      const bool direct = i + 2 == last && stages[i + 1].type == "write";
       std::string out;
       Metadata md;
       if (direct) {
@@ -319,6 +329,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   // Writers of this segment, created at the first tile that reaches them.
   std::map<const PipelineStage*, std::unique_ptr<io::GeoTiffWindowWriter>> writers;
   std::unique_ptr<io::GeoTiffWindowWriter> temp_writer;
+  std::map<const PipelineStage*, std::unique_ptr<tile::TileSink>> stage_sinks;  // sinks other than `write`
   const Level& W0 = levels[0];
   const int tx = (W0.w + T - 1) / T, ty = (W0.h + T - 1) / T;
   const Progress prog = progress(seg.ops.empty() ? (global ? global->tag : "tiles") : seg.ops.front().st->tag);
@@ -347,7 +358,14 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       }
       for (int l = int(nl) - 1; l >= 0; --l) {
         for (const Op& op : seg.ops)
-          if (op.level == l && op.tiling.kind == TileKind::Sink) need[l] = unite(need[l], core[l]);
+          if (op.level == l && op.tiling.kind == TileKind::Sink) {
+            // A sink with a footprint (render) reads its halo around the core.
+            const int h = op.tiling.halo;
+            const Win c = core[l];
+            need[l] = unite(need[l], h > 0 && !c.empty() ? intersect({c.x0 - h, c.y0 - h, c.x1 + h, c.y1 + h},
+                                                                       {0, 0, levels[l].w, levels[l].h})
+                                                         : c);
+          }
         if (to_temp && l == int(nl) - 1) need[l] = unite(need[l], core[l]);
         if (l + 1 < int(nl) && !need[l + 1].empty()) {
           const Op* op = nullptr;
@@ -383,6 +401,27 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       t0 = Clock::now();
       if (op.tiling.kind == TileKind::Sink) {
         if (core[l].empty()) continue;
+        if (op.st->type != "write") {
+          auto& sink = stage_sinks[op.st];
+          if (!sink) {
+            Metadata md = data.height->metadata;
+            drop_terracl_keys(md);
+            sink = tile::make_render_sink(*op.st, levels[l].w, levels[l].h, levels[l].georef, md, provenance(*op.st),
+                                          m_device);
+          }
+          const Win& c = core[l];
+          const int h = op.tiling.halo;
+          const Win in = intersect({c.x0 - h, c.y0 - h, c.x1 + h, c.y1 + h}, {0, 0, levels[l].w, levels[l].h});
+          try {
+            sink->write(extract(*data.height, have, in, levels[l].georef), in.x0, in.y0, c.x0, c.y0, c.w(), c.h());
+          } catch (const Error& e) {
+            throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
+                                               std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
+                                               op.st->tag, in.x0, in.y0, in.w(), in.h()));
+          }
+          add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
+          continue;
+        }
         auto& wr = writers[op.st];
         if (!wr) {
           Metadata md = data.height->metadata;
@@ -439,6 +478,11 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   for (auto& [st, wr] : writers) {
     auto t0 = Clock::now();
     wr->commit();
+    add_seconds(*st, std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  for (auto& [st, sink] : stage_sinks) {
+    auto t0 = Clock::now();
+    sink->commit();
     add_seconds(*st, std::chrono::duration<double>(Clock::now() - t0).count());
   }
   if (temp_writer) temp_writer->commit();

@@ -9,13 +9,17 @@
 #include <filesystem>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/render.hpp>
 #include <terracl/tile.hpp>
+
+#include "pipeline/builtin.hpp"
+#include "tile/tile_sinks.hpp"
 
 namespace terracl {
 namespace {
 
-StageTiling refuse(std::string why) { return StageTiling{TileKind::Untileable, 0, 1, std::move(why)}; }
-StageTiling kind(TileKind k, int halo = 0, int down = 1) { return StageTiling{k, halo, down, ""}; }
+StageTiling refuse(std::string why) { return StageTiling{TileKind::Untileable, 0, 1, std::move(why), nullptr}; }
+StageTiling kind(TileKind k, int halo = 0, int down = 1) { return StageTiling{k, halo, down, "", nullptr}; }
 
 std::string extension(const std::string& f) {
   const std::string e = std::filesystem::path(f).extension().string();
@@ -23,6 +27,28 @@ std::string extension(const std::string& f) {
 }
 
 }  // namespace
+
+namespace tile {
+std::string render_tiling_limit(const json& o) {
+  const std::string file = o.at("file").get<std::string>();
+  if (format_from_extension(file) != FileFormat::GeoTIFF)
+    return fmt::format(
+        "tiled runs draw pictures into a tiled GeoTIFF window by window; {} is written whole: use a .tif name",
+        file);
+  const render::Mode m = render::mode_from_name(o.at("mode").get<std::string>());
+  if (m == render::Mode::Relief || m == render::Mode::ShadedRelief) {
+    const render::ColorRamp ramp = o.contains("ramp") && !o.at("ramp").is_null()
+                                       ? render::ColorRamp::from_spec(o.at("ramp").get<std::string>())
+                                       : render::ColorRamp::default_ramp();
+    for (const auto& e : ramp.entries)
+      if (e.percent)
+        return "its colour ramp is given in percentages of the whole raster's data range, which one tile does not "
+               "know; use a ramp in metres (hypsometric or a gdaldem colour file without %)";
+  }
+  return "";
+}
+
+}  // namespace tile
 
 StageTiling tiling_of(const PipelineStage& st) {
   const json& o = st.options;
@@ -65,13 +91,31 @@ StageTiling tiling_of(const PipelineStage& st) {
   if (t == "fill_nodata") return refuse("harmonic interpolation of nodata is a global solve; run it untiled");
   if (t == "amplify")
     return refuse(
-        "its patch choice (hashed on the output size) and blend order depend on the whole output grid, so "
-        "tiles would differ from the untiled run; amplify untiled (its own --tile bounds its work memory)");
+        "two things depend on the whole output, so tiles would differ from the untiled run: the patch choice "
+        "is hashed on the output width, and the detail blend's correlation is measured over all of the "
+        "output's patches (a first pass); amplify untiled (its own --tile bounds its work memory)");
   if (t == "extract") return refuse("it produces a gradient field; tiled runs carry heightfields only");
+  if (t == "render") {
+    // gdaldem's 3x3 window: a halo of one cell; written by its own sink (tile/render_tiles.cpp).
+    const std::string why = tile::render_tiling_limit(o);
+    return why.empty() ? kind(TileKind::Sink, 1) : refuse(why);
+  }
   if (t == "render" || t == "mesh")
     return refuse(
         "it writes one image or mesh of the whole raster; run it untiled on the tiled GeoTIFF output or a "
         "window of it");
+  if (t == "erode") {
+    for (const char* k : {"water", "sediment", "delta", "deposit_thickness"})
+      if (o.contains(k) && !o.at(k).is_null())
+        return refuse(fmt::format("its {} output is written whole by the stage; write it from an untiled run", k));
+    for (const char* k : {"region", "keep_constraints"})
+      if (o.contains(k) && !o.at(k).is_null())
+        return refuse(fmt::format("its {} is laid over the whole raster, not a tile; run it untiled", k));
+    // Not exact: a halo as far as water can travel in the run (docs/scale.md, "Erosion").
+    StageTiling tl = kind(TileKind::Local, 1);
+    tl.halo_of = [o](const Georef& g) { return erode_tile_halo(o, g); };
+    return tl;
+  }
   if (t == "erode")
     return refuse(
         "erosion moves water and sediment across the raster for every step; a halo bounded by steps and "

@@ -1,0 +1,78 @@
+#include "tile_flags.hpp"
+
+#include <fmt/format.h>
+
+#include <terracl/error.hpp>
+#include <terracl/pipeline.hpp>
+
+#include "cli.hpp"
+
+namespace terracl::cli {
+
+void TileFlags::add(CLI::App* sub) {
+  sub->add_option("--tile", tile,
+                  "Run out of core, tile by tile: tile side in cells (GDAL windows in, tiled GeoTIFF out; docs/scale.md)")
+      ->type_name("CELLS");
+  sub->add_option("--halo", halo, "Halo around each tile: auto (each stage's footprint) or extra cells")
+      ->type_name("auto|CELLS");
+  sub->add_option("--memory-budget", memory_budget,
+                  "Host memory for a tiled run (512M, 2G): picks --tile when not given, refuses a tile that cannot fit")
+      ->type_name("BYTES");
+}
+
+TileOptions TileFlags::options(const std::string& command) const {
+  TileOptions to;
+  if (!tiled()) {
+    if (halo != "auto") throw UsageError(command, "--halo needs --tile (or --memory-budget)");
+    return to;
+  }
+  if (tile < 0) throw UsageError(command, fmt::format("--tile: expected a positive number of cells, got {}", tile));
+  to.tile = tile;
+  if (halo != "auto") {
+    try {
+      size_t used = 0;
+      to.halo = std::stoi(halo, &used);
+      if (used != halo.size() || *to.halo < 0) throw std::invalid_argument(halo);
+    } catch (const std::exception&) {
+      throw UsageError(command, fmt::format("--halo: expected auto or a number of cells >= 0, got '{}'", halo));
+    }
+  }
+  if (!memory_budget.empty()) to.memory_budget = parse_memory_size(memory_budget, "--memory-budget");
+  return to;
+}
+
+void TileFlags::run_stage(const std::string& command, const std::string& input, const std::string& stage,
+                          const json& stage_options, const std::string& output) const {
+  const TileOptions to = options(command);
+  json doc = json::array({json{{"type", "read"}, {"filename", input}}});
+  if (!stage.empty()) {
+    json st = json{{"type", stage}};
+    for (const auto& [k, v] : stage_options.items())
+      if (!v.is_null()) st[k] = v;
+    doc.push_back(st);
+  }
+  if (!output.empty()) doc.push_back(json{{"type", "write"}, {"filename", output}});
+  Pipeline p = Pipeline::parse(doc, command, "terracl " + command);
+  p.validate();
+  RunOptions ro;
+  ro.device = []() -> Device& { return device(); };
+  ro.write_resolved = false;
+  ro.progress = [command](const std::string&, size_t, size_t) { return make_progress(command); };
+  RunReport report;
+  try {
+    run_tiled(p, to, ro, report);
+  } catch (const Cancelled&) {
+    finish_progress();
+    throw Cancelled(command, "cancelled by Ctrl-C; no output was written");
+  }
+  finish_progress();
+}
+
+void TileFlags::refuse_untiled_flag(const std::string& command, bool given, const std::string& flags) {
+  if (given)
+    throw UsageError(command, fmt::format("{} cannot be used with --tile (tiled runs read GDAL rasters window by window "
+                                          "and write a tiled float32 GeoTIFF); run untiled, or convert the tiled output",
+                                          flags));
+}
+
+}  // namespace terracl::cli

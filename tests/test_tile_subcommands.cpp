@@ -1,0 +1,104 @@
+// `--tile N [--halo] [--memory-budget]` on subcommands (render, convert, downsample, erode; every
+// heightfield -> heightfield stage has the flags): the same one-stage pipeline through the tile runner, the same cells as
+// the untiled command; flags a tiled run cannot honour are refused.
+#include <gdal.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <terracl/io.hpp>
+
+#include "test_helpers.hpp"
+
+namespace terracl {
+namespace {
+
+std::string input(const test::TempDir& dir) {
+  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  Heightfield t(157, 111);
+  t.georef = dem.georef;
+  t.georef.geotransform[0] += 400 * t.georef.geotransform[1];
+  t.georef.geotransform[3] += 500 * t.georef.geotransform[5];
+  t.georef.update_metric_cell_size(t.width, t.height);
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x) t.at(x, y) = dem.at(400 + x, 500 + y);
+  const std::string f = dir.path("in.tif");
+  write_heightfield(t, f);
+  return f;
+}
+
+size_t differing_cells(const std::string& a, const std::string& b) {
+  const Heightfield u = read_heightfield(a), t = read_heightfield(b);
+  if (u.width != t.width || u.height != t.height) return size_t(-1);
+  size_t n = 0;
+  for (size_t i = 0; i < u.size(); ++i)
+    n += std::isnan(u.z[i]) != std::isnan(t.z[i]) || (!std::isnan(u.z[i]) && std::memcmp(&u.z[i], &t.z[i], 4) != 0);
+  return n;
+}
+
+// Bytes of every band of a picture (GDAL), with its size and band count in front.
+std::vector<uint8_t> picture(const std::string& f) {
+  GDALAllRegister();
+  GDALDatasetH ds = GDALOpen(f.c_str(), GA_ReadOnly);
+  if (!ds) return {};
+  const int w = GDALGetRasterXSize(ds), h = GDALGetRasterYSize(ds), n = GDALGetRasterCount(ds);
+  std::vector<uint8_t> out{uint8_t(w), uint8_t(h), uint8_t(n)};
+  std::vector<uint8_t> band(size_t(w) * h);
+  for (int b = 1; b <= n; ++b) {
+    EXPECT_EQ(GDALRasterIO(GDALGetRasterBand(ds, b), GF_Read, 0, 0, w, h, band.data(), w, h, GDT_Byte, 0, 0), CE_None);
+    out.insert(out.end(), band.begin(), band.end());
+  }
+  GDALClose(ds);
+  return out;
+}
+
+void expect_ok(const test::CmdResult& r) { EXPECT_EQ(r.exit_code, 0) << r.out; }
+
+TEST(TileSubcommands, EqualTheUntiledCommands) {
+  test::TempDir dir;
+  const std::string in = input(dir);
+  const std::string u = dir.path("u_"), t = dir.path("t_");
+  struct Case {
+    std::string command, file, options;
+  };
+  // Each CLI start costs about a second: one command per kind of stage (the pipeline tests cover the rest).
+  expect_ok(test::run_cli("-q downsample " + in + " -o " + u + "d.tif --factor 3"));
+  expect_ok(test::run_cli("-q downsample " + in + " -o " + t + "d.tif --factor 3 --tile 40"));
+  EXPECT_EQ(differing_cells(u + "d.tif", t + "d.tif"), 0u);
+  expect_ok(test::run_cli("-q convert " + in + " " + t + "conv.tif --tile 64 --memory-budget 64M"));
+  EXPECT_EQ(differing_cells(in, t + "conv.tif"), 0u);
+  // render writes its own file (-o is its --file).
+  expect_ok(test::run_cli("-q render " + in + " -o " + u + "r.tif --mode shaded-relief"));
+  expect_ok(test::run_cli("-q render " + in + " -o " + t + "r.tif --mode shaded-relief --tile 33"));
+  const auto a = picture(u + "r.tif"), b = picture(t + "r.tif");
+  ASSERT_FALSE(a.empty());
+  EXPECT_TRUE(a == b);
+  // erode: a halo of one cell per sub-step (not bit for bit; close).
+  expect_ok(test::run_cli("-q erode " + in + " -o " + u + "e.tif --steps 8"));
+  expect_ok(test::run_cli("-q erode " + in + " -o " + t + "e.tif --steps 8 --tile 48 --halo 2"));
+  const Heightfield eu = read_heightfield(u + "e.tif"), et = read_heightfield(t + "e.tif");
+  ASSERT_EQ(eu.size(), et.size());
+  for (size_t i = 0; i < eu.size(); ++i) ASSERT_NEAR(eu.z[i], et.z[i], 1e-3) << i;
+}
+
+TEST(TileSubcommands, RefuseWhatATiledRunCannotDo) {
+  test::TempDir dir;
+  const std::string in = input(dir);
+  struct Case {
+    std::string args, expect;
+  };
+  for (const Case& c :
+       {Case{"render " + in + " -o " + dir.path("a.png") + " --tile 32", "use a .tif name"},
+        Case{"downsample " + in + " -o " + dir.path("a.tif") + " --factor 2 --tile 32 --cog", "--cog"},
+        Case{"erode " + in + " -o " + dir.path("a.tif") + " --halo 3", "--halo needs --tile"},
+        Case{"convert " + in + " " + dir.path("a.tif") + " --tile 32 --zmin 3", "--zmin"}}) {
+    const auto r = test::run_cli(c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << "\n" << r.out;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path("a.tif")));
+  EXPECT_FALSE(std::filesystem::exists(dir.path("a.png")));
+}
+
+}  // namespace
+}  // namespace terracl
