@@ -33,8 +33,8 @@ struct ResizeArgs {
 void print_engine_scale(const Heightfield& h, const EngineScale& s) {
   if (globals().quiet) return;
   fmt::print("size:            {} x {} cells of {:.4f} x {:.4f} m\n", h.width, h.height, h.georef.cell_x, h.georef.cell_y);
-  fmt::print("Unreal import:   Scale X/Y {:.4f}  Scale Z {:.4f}  Location Z {:.2f} cm (16-bit over the data range)\n",
-             s.unreal_xy_scale, s.unreal_z_scale, s.unreal_z_location);
+  fmt::print("Unreal import:   Scale X {:.4f}  Scale Y {:.4f}  Scale Z {:.4f}  Location Z {:.2f} cm (16-bit over the data range)\n",
+             s.unreal_x_scale, s.unreal_y_scale, s.unreal_z_scale, s.unreal_z_location);
   fmt::print("Unity import:    Terrain Height {:.4f} m  Position Y {:.4f} m\n", s.unity_height, s.unity_position_y);
   if (std::fabs(h.georef.cell_x - h.georef.cell_y) > 1e-3 * h.georef.cell_x)
     fmt::print(stderr, "terracl: warning: {}\n", square_cell_advice(h));

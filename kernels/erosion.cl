@@ -227,21 +227,25 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 // A cell evaluates OUT for its lower neighbours and IN (= the neighbour's OUT towards it) for its
 // higher ones; the neighbour evaluates the same expressions on the same bits with diff negated,
 // so each pair's exchange is exactly antisymmetric.
+// kd adds linear diffusion (hillslope creep): kd * diff for every downhill pair, talus or not.
 #ifdef DEPOSIT_LAYER
-#define XFER(diff, t, td, rs) fmax(fmax((diff) - (t), 0.0f), fmin(fmax((diff) - (td), 0.0f), (rs)))
+#define XFER(diff, t, td, rs, kd) \
+  (rho * fmax(fmax((diff) - (t), 0.0f), fmin(fmax((diff) - (td), 0.0f), (rs))) + (kd) * fmax((diff), 0.0f))
 #else
-#define XFER(diff, t, td, rs) fmax((diff) - (t), 0.0f)
+#define XFER(diff, t, td, rs, kd) (rho * fmax((diff) - (t), 0.0f) + (kd) * fmax((diff), 0.0f))
 #endif
 
 // Thermal erosion: material above the talus slope moves to lower neighbours (4 at distance l, 4 at
-// the diagonal), rho times the excess height per pair and sub-step. Because the transfer depends only
+// the diagonal), rho times the excess height per pair and sub-step, plus linear diffusion (kd times
+// the height difference of every downhill pair, kd = D*dt/distance^2). Because the transfer depends only
 // on the pair, the sender's and the receiver's sides compute the same number, so the "compute, then
 // gather" of a normalised scheme collapses into one gather pass.
 __kernel void erosion_thermal(__global const float* restrict b, __global const float* restrict w,
                               __global float* restrict b_out, const int W, const int H, const int P,
                               const float rho, const float tx, const float ty, const float tdiag,
                               __global const float* restrict r, __global float* restrict r_out,
-                              const float dtx, const float dty, const float dtdiag) {
+                              const float dtx, const float dty, const float dtdiag, const float kdx,
+                              const float kdy, const float kddiag) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -269,29 +273,29 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
 #define PW(o) 1.0f
 #endif
     // in/out for the neighbour at offset o with talus heights t (rock) and td (deposit).
-#define EXCHANGE(o, t, td, mask, in, out)                                   \
+#define EXCHANGE(o, t, td, kd, mask, in, out)                               \
     {                                                                       \
       const V diff = LD(b, i + (o)) - bc;                                   \
-      in = select(z, XFER(diff, t, td, RN(o)) * PW(o), mask);               \
-      out = select(z, XFER(-diff, t, td, rc) * PW(o), mask);                \
+      in = select(z, XFER(diff, t, td, RN(o), kd) * PW(o), mask);           \
+      out = select(z, XFER(-diff, t, td, rc, kd) * PW(o), mask);            \
     }
     V il, ol, ir, orr, it, ot, ib, ob, itl, otl, itr, otr, ibl, obl, ibr, obr;
-    EXCHANGE(-1, tx, dtx, left, il, ol)
-    EXCHANGE(1, tx, dtx, right, ir, orr)
-    EXCHANGE(-P, ty, dty, vup, it, ot)
-    EXCHANGE(P, ty, dty, vdown, ib, ob)
-    EXCHANGE(-P - 1, tdiag, dtdiag, vup & left, itl, otl)
-    EXCHANGE(-P + 1, tdiag, dtdiag, vup & right, itr, otr)
-    EXCHANGE(P - 1, tdiag, dtdiag, vdown & left, ibl, obl)
-    EXCHANGE(P + 1, tdiag, dtdiag, vdown & right, ibr, obr)
+    EXCHANGE(-1, tx, dtx, kdx, left, il, ol)
+    EXCHANGE(1, tx, dtx, kdx, right, ir, orr)
+    EXCHANGE(-P, ty, dty, kdy, vup, it, ot)
+    EXCHANGE(P, ty, dty, kdy, vdown, ib, ob)
+    EXCHANGE(-P - 1, tdiag, dtdiag, kddiag, vup & left, itl, otl)
+    EXCHANGE(-P + 1, tdiag, dtdiag, kddiag, vup & right, itr, otr)
+    EXCHANGE(P - 1, tdiag, dtdiag, kddiag, vdown & left, ibl, obl)
+    EXCHANGE(P + 1, tdiag, dtdiag, kddiag, vdown & right, ibr, obr)
     const V net = (((il - ol) + (ir - orr)) + ((it - ot) + (ib - ob))) +
                   (((itl - otl) + (ibr - obr)) + ((itr - otr) + (ibl - obl)));
-    ST(select(z, bc + rho * net, valid), b_out, i);
+    ST(select(z, bc + net, valid), b_out, i);
 #ifdef DEPOSIT_LAYER
     // What slides becomes deposit on the receiver; the sender loses deposit first.
     const V in = ((il + ir) + (it + ib)) + ((itl + ibr) + (itr + ibl));
     const V out = ((ol + orr) + (ot + ob)) + ((otl + obr) + (otr + obl));
-    ST(select(z, fmax(rc - rho * out, 0.0f) + rho * in, valid), r_out, i);
+    ST(select(z, fmax(rc - out, 0.0f) + in, valid), r_out, i);
 #endif
 #undef RN
 #undef PW

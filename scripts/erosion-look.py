@@ -6,7 +6,8 @@ measures an artist's complaints translate to, and draws before / after hillshade
 
 Measures: mean elevation change (0 when the material is kept), mean |change|, share of cells at
 33-37 deg (a pile-up there means thermal erosion planed slopes into talus facets), share of cells
-flatter than 1 deg (flat ribbons), and the ratio of the RMS Laplacian (crinkle: > 1 means rougher).
+flatter than 1 deg (flat ribbons), the ratio of the RMS Laplacian (crinkle: > 1 means rougher), the
+share of one-cell curvature flips (one-cell incised crinkles) and the slope histogram.
 Needs build/bin/terracl, gdal-bin, python3-numpy, python3-matplotlib.
 """
 import os
@@ -47,6 +48,17 @@ def laplacian_rms(z, cx, cy):
     return float(np.sqrt(np.mean(lap**2)))
 
 
+def one_cell_crinkle(z):
+    """Share (%) of interior cells whose Laplacian has the opposite sign of both neighbours along x or
+    along y: a curvature that flips every cell, the one-cell incised channels and ridges of a crinkled
+    bed. A smooth surface sampled finer than its features has next to none."""
+    lap = z[1:-1, 2:] - 2 * z[1:-1, 1:-1] + z[1:-1, :-2] + z[2:, 1:-1] - 2 * z[1:-1, 1:-1] + z[:-2, 1:-1]
+    c = lap[1:-1, 1:-1]
+    fx = (c * lap[1:-1, :-2] < 0) & (c * lap[1:-1, 2:] < 0)
+    fy = (c * lap[:-2, 1:-1] < 0) & (c * lap[2:, 1:-1] < 0)
+    return 100.0 * float(np.mean(fx | fy))
+
+
 def main():
     dem, out = sys.argv[1], sys.argv[2]
     extra = sys.argv[3:]
@@ -64,7 +76,13 @@ def main():
               f"{np.percentile(np.abs(d), 99):.1f} m")
         print(f"  slope 33-37 deg: {band(s0):.2f} % -> {band(s1):.2f} %; flatter than 1 deg: {flat(s0):.2f} % -> "
               f"{flat(s1):.2f} %; mean slope {s0.mean():.2f} -> {s1.mean():.2f} deg")
-        print(f"  RMS Laplacian x{laplacian_rms(z1, cx, cy) / laplacian_rms(z0, cx, cy):.2f}")
+        print(f"  RMS Laplacian x{laplacian_rms(z1, cx, cy) / laplacian_rms(z0, cx, cy):.2f}; one-cell curvature "
+              f"flips {one_cell_crinkle(z0):.2f} % -> {one_cell_crinkle(z1):.2f} %")
+        hist0, edges = np.histogram(s0, bins=np.arange(0, 91, 5))
+        hist1, _ = np.histogram(s1, bins=edges)
+        print("  slope histogram (% of cells per 5 deg, before -> after): " + ", ".join(
+            f"{int(a)}-{int(a) + 5}: {100.0 * h0 / s0.size:.1f}->{100.0 * h1 / s1.size:.1f}"
+            for a, h0, h1 in zip(edges[:-1], hist0, hist1) if h0 or h1))
         shades = []
         for src in (dem, eroded):
             png = os.path.join(tmp, os.path.basename(src) + ".png")

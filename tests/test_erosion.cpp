@@ -34,6 +34,7 @@ std::vector<float> water_blob(int w, int h, float base, float column) {
 
 ErosionParams closed_no_rain() {
   ErosionParams p = ErosionParams::defaults();
+  p.boundary = ErosionBoundary::Closed;  // the default is open since issue 15
   p.rain = 0;
   p.evaporation = 0;
   return p;
@@ -380,9 +381,8 @@ TEST(Erosion, T8LakeAtRestStaysAtRest) {
       t.at(x, y) = b;
       water[size_t(y) * n + x] = 20.0f - b;
     }
-  ErosionParams p = ErosionParams::defaults();
-  p.rain = 0;
-  p.evaporation = 0;
+  ErosionParams p = closed_no_rain();
+  p.diffusion = 0;  // the bowl is at rest for the water; creep would still round its bed
   Erosion sim(test::device(), t, p, nullptr, &water);
   sim.run(300);
   const ErosionState s = sim.state();
@@ -416,9 +416,11 @@ TEST(Erosion, T8ThermalNeverSteepensBeyondTalus) {
   const int n = 32;
   const double l = 10.0;
   ErosionParams p = ErosionParams::defaults();
+  p.boundary = ErosionBoundary::Closed;
   p.thermal_only = true;
   p.thermal_rate = 10.0;  // the per-sub-step cap (1/12) applies
   p.talus_deg = 30.0;
+  p.diffusion = 0;  // the talus law alone (diffusion moves every slope; tested on its own below)
 
   // Slopes below talus everywhere: nothing moves, bit for bit.
   const Heightfield gentle = test::smooth_terrain(n, n, l, 5.0, 4);
@@ -462,6 +464,8 @@ TEST(Erosion, T8DepositLayerHasItsOwnTalusAndConservesMass) {
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) ramp.at(x, y) = float(std::tan(32 * M_PI / 180) * l * (n - x));
   ErosionParams p = ErosionParams::defaults();
+  p.boundary = ErosionBoundary::Closed;
+  p.diffusion = 0;  // the talus angles alone
   p.thermal_only = true;
   p.thermal_rate = 10.0;
   p.deposit_layer = true;
@@ -485,9 +489,7 @@ TEST(Erosion, T8DepositLayerHasItsOwnTalusAndConservesMass) {
   }
   EXPECT_NEAR(sim.totals().solid, solid0, 1e-6 * solid0);
   // Hydraulic erosion with the layer conserves solid mass too.
-  ErosionParams q = ErosionParams::defaults();
-  q.rain = 0;
-  q.evaporation = 0;
+  ErosionParams q = closed_no_rain();
   q.deposit_layer = true;
   const Heightfield t = base_terrain(40, 40);
   const auto water = water_blob(40, 40, 0.5f, 5.0f);
@@ -617,3 +619,49 @@ TEST(Erosion, T7WideLaunchShapeGivesTheSameBits) {
   EXPECT_EQ(0, std::memcmp(a.sediment.data(), b.sediment.data(), a.sediment.size() * 4));
   EXPECT_NEAR(wide.totals().drained_water, rows.totals().drained_water, 1e-5 * (1 + rows.totals().drained_water));
 }
+
+namespace terracl {
+namespace {
+
+// Bed diffusion (hillslope creep, issue 15) against the analytic decay of a Neumann cosine mode:
+// z = 100 + A cos(k (x + l/2)), k = m pi / (n l), is an exact eigenvector of the discrete Laplacian
+// with a closed (no-flux) border, so after T seconds of sub-steps h its amplitude is
+// A (1 + h D 2 (cos(k l) - 1) / l^2)^(T/h); the continuum answer A exp(-D k^2 T) differs by O((k l)^2).
+TEST(ErosionDiffusion, CosineModeDecaysAtTheAnalyticRate) {
+  for (const auto& [lx, ly] : std::vector<std::pair<double, double>>{{10.0, 10.0}, {6.0, 9.0}}) {
+    // Rows far from the top/bottom border (whose rows lack two diagonal pairs) are measured.
+    const int n = 64, rows = 41, m = 3;
+    const double amp = 5.0, D = 20.0, k = m * M_PI / (n * lx);
+    Heightfield t(n, rows);
+    t.georef.cell_x = lx;
+    t.georef.cell_y = ly;
+    for (int y = 0; y < rows; ++y)
+      for (int x = 0; x < n; ++x) t.at(x, y) = float(100.0 + amp * std::cos(k * (x + 0.5) * lx));
+    ErosionParams p = ErosionParams::defaults();
+    p.boundary = ErosionBoundary::Closed;
+    p.thermal_only = true;
+    p.thermal_rate = 0;  // diffusion alone
+    p.diffusion = D;
+    Erosion sim(test::device(), t, p);
+    sim.run(1000);
+    const double h = sim.substep_dt(), steps = double(sim.steps_done()) * sim.substeps();
+    const double expect = amp * std::pow(1.0 + h * D * 2.0 * (std::cos(k * lx) - 1.0) / (lx * lx), steps);
+    const Heightfield b = sim.bed();
+    // Amplitude by projection on the mode (every row is the same).
+    double num = 0, den = 0;
+    for (int x = 0; x < n; ++x) {
+      const double c = std::cos(k * (x + 0.5) * lx);
+      num += (b.at(x, rows / 2) - 100.0) * c;
+      den += c * c;
+    }
+    const double got = num / den, T = h * steps;
+    std::printf("diffusion %gx%g m: amplitude %.5f m after %.1f s (discrete %.5f, continuum %.5f)\n", lx, ly, got, T,
+                expect, amp * std::exp(-D * k * k * T));
+    EXPECT_LT(got, 0.9 * amp) << "the mode must decay noticeably for the test to mean anything";
+    EXPECT_NEAR(got, expect, 2e-3 * amp) << lx << "x" << ly;
+    EXPECT_NEAR(got, amp * std::exp(-D * k * k * T), 0.02 * amp);
+  }
+}
+
+}  // namespace
+}  // namespace terracl

@@ -137,14 +137,20 @@ TEST(Erosion, T9DefaultRunCarvesChannelsOnSrtm) {
   const Measures m = measure(dem, eroded);
   std::printf("T9 default: Gini %.4f -> %.4f, mean |Laplacian| x%.2f, Spearman(depth, log A0) %.3f\n", m.gini_before,
               m.gini_after, m.lap_ratio, m.rho);
-  EXPECT_GT(m.gini_after, m.gini_before + 0.005);
-  EXPECT_GE(m.lap_ratio, 2.0);
-  EXPECT_GE(m.rho, 0.25);
+  // Recalibrated for the issue-15 defaults (a third of the rain, bed diffusion 2 m^2/s, open border):
+  // they carve less and smooth the one-cell roughness the old ones added (old: Gini 0.778 -> 0.804,
+  // |Laplacian| x2.37, Spearman 0.342; new: 0.778 -> 0.821, x1.15, 0.237). Flow still concentrates
+  // and erosion still follows drainage area, which the thermal-only run below does not do.
+  EXPECT_GT(m.gini_after, m.gini_before + 0.02);
+  EXPECT_GE(m.lap_ratio, 1.08);
+  EXPECT_GE(m.rho, 0.2);
   // The analysis module routes D8 on the depression-filled surface instead (every cell drains to
-  // the border): an independent routing, and the concentration of flow rises there too.
+  // the border): an independent routing. With the old defaults its Gini rose (0.922 -> 0.933);
+  // with the new ones it stays within 0.005 (0.922 -> 0.918): the diffusion rounds the small
+  // channels that concentrated flow on the filled surface. Measured here so that a change shows.
   const double g0 = terracl::analysis::gini(analysis::d8_flow(dem).cells), g1 = terracl::analysis::gini(analysis::d8_flow(eroded).cells);
   std::printf("T9 default, filled-surface D8 (analysis module): Gini %.4f -> %.4f\n", g0, g1);
-  EXPECT_GT(g1, g0);
+  EXPECT_NEAR(g1, g0, 0.01);
 
   // Thermal only, with a talus low enough (10 deg) that it really moves material on this terrain.
   ErosionParams thermal = p;
@@ -158,8 +164,8 @@ TEST(Erosion, T9DefaultRunCarvesChannelsOnSrtm) {
   std::printf("T9 thermal only: Gini %.4f -> %.4f, mean |Laplacian| x%.2f, Spearman %.3f\n", t.gini_before,
               t.gini_after, t.lap_ratio, t.rho);
   EXPECT_LE(t.gini_after, t.gini_before + 0.005);
-  EXPECT_LT(t.lap_ratio, 1.2);
-  EXPECT_LT(t.rho, 0.25);
+  EXPECT_LT(t.lap_ratio, 0.8);
+  EXPECT_LT(t.rho, 0.0);
 }
 
 TEST(ErosionCli, ErodeWritesOutputsAndProvenance) {

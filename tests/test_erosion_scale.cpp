@@ -29,6 +29,7 @@ TEST(ErosionSettle, OutputKeepsAllTheMaterial) {
   const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
   const double a = dem.georef.cell_x * dem.georef.cell_y;
   ErosionParams p = ErosionParams::defaults();
+  p.boundary = ErosionBoundary::Closed;  // nothing leaves: the output must hold all the input's material
   ErosionOutputs with, without;
   const Heightfield settled = erode(test::device(), dem, p, 300, nullptr, &with);
   p.settle = false;
@@ -49,6 +50,13 @@ TEST(ErosionSettle, OutputKeepsAllTheMaterial) {
   for (size_t i = 0; i < dem.size(); ++i) ASSERT_EQ(with.sediment.z[i], 0.0f);
   // The delta output includes the settled sediment.
   for (size_t i = 0; i < dem.size(); ++i) ASSERT_NEAR(with.delta.z[i], settled.z[i] - dem.z[i], 1e-4);
+  // The default open border: what is not in the output left over the border, counted.
+  ErosionOutputs open;
+  const Heightfield drained = erode(test::device(), dem, ErosionParams::defaults(), 300, nullptr, &open);
+  const double left = v0 - volume_m3(drained);
+  std::printf("open border: output lost %.4g m3, drained sediment %.4g m3\n", left, open.totals.drained_sediment);
+  EXPECT_GT(open.totals.drained_sediment, 1e-3 * moved) << "sediment must leave over the open border";
+  EXPECT_NEAR(left, open.totals.drained_sediment, 1e-4 * moved);
 }
 
 TEST(ErosionSettle, BrushWeightZeroCellsStayFixed) {

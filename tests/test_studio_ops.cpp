@@ -1,5 +1,6 @@
 // The two edit-script additions the studio relies on: the "erode" operation and "enabled": false.
 #include <cmath>
+#include <cstdio>
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
 
@@ -42,6 +43,27 @@ TEST(EditErode, ErodesTheTerrainAndKeepsHardConstraintsExact) {
   // Deterministic: the same script gives the same bits (what makes studio sessions replay).
   EXPECT_EQ(after.z,
             run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}).z);
+}
+
+// The operation settles the suspended sediment like the erode stage (issue 15): without settling
+// the load in suspension at the end is lost and the mean elevation drops by it.
+TEST(EditErode, SettlesTheSuspendedSedimentLikeTheStage) {
+  const json erode = {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}};
+  json unsettled = erode;
+  unsettled["settle"] = false;
+  const Heightfield before = run_script({{"operations", {kRange}}});
+  const Heightfield settled_h = run_script({{"operations", {kRange, erode}}});
+  const Heightfield lost_h = run_script({{"operations", {kRange, unsettled}}});
+  auto mean = [](const Heightfield& h) {
+    double m = 0;
+    for (float z : h.z) m += z;
+    return m / double(h.z.size());
+  };
+  const double m0 = mean(before), ms = mean(settled_h), ml = mean(lost_h);
+  std::printf("erode op: mean elevation %.4f -> %.4f m settled, %.4f m without settling\n", m0, ms, ml);
+  EXPECT_GT(ms - ml, 1e-3) << "settling must return the suspended load to the bed";
+  EXPECT_LE(ms, m0 + 1e-3) << "settling adds no material (the open border may drain some)";
+  EXPECT_THROW(run_script({{"operations", {kRange, {{"op", "erode"}, {"steps", 4}, {"settle", "yes"}}}}}), Error);
 }
 
 TEST(EditErode, ABrushRegionLeavesTheRestAlone) {

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <fmt/format.h>
 #include <cstdlib>
 #include <fstream>
 
@@ -141,7 +142,14 @@ TEST(Resize, EnginePresetsKeepTheExtentAndRecordTheZScale) {
   const double range = j["zmax"].get<double>() - j["zmin"].get<double>();
   // Code 0 is nodata, so data span 65534 codes; Unreal's Scale Z 100 spans 65535/128 = 512 m.
   EXPECT_NEAR(j["engine"]["unreal_z_scale"].get<double>(), range * 12800.0 / 65534.0, 1e-9);
-  EXPECT_NEAR(j["engine"]["unreal_xy_scale"].get<double>(), r.georef.cell_x * 100.0, 1e-9);
+  // Geographic cells are not square: Unreal's Scale X and Y each take their own cell size (cm).
+  EXPECT_NEAR(j["engine"]["unreal_x_scale"].get<double>(), r.georef.cell_x * 100.0, 1e-9);
+  EXPECT_NEAR(j["engine"]["unreal_y_scale"].get<double>(), r.georef.cell_y * 100.0, 1e-9);
+  EXPECT_GT(std::fabs(r.georef.cell_x - r.georef.cell_y), 0.05 * r.georef.cell_x)
+      << "the crop's cells must be non-square for this check to mean anything";
+  EXPECT_NE(c.out.find(fmt::format("Scale X {:.4f}  Scale Y {:.4f}", r.georef.cell_x * 100.0, r.georef.cell_y * 100.0)),
+            std::string::npos)
+      << c.out;
   EXPECT_TRUE(j["engine"].contains("warning")) << "geographic cells are not square";
   for (const auto& [name, size] : engine_presets()) EXPECT_EQ(engine_preset_size(name), size);
   EXPECT_EQ(engine_preset_size("unity-1025"), 1025);
@@ -153,7 +161,11 @@ TEST(Resize, EngineScaleMatchesUnrealsConvention) {
   // 512 m over the full 16-bit range is Unreal's Scale Z 100 (to one code in 65535).
   const EngineScale s = engine_scale(-256.0, 256.0, false, 2.0);
   EXPECT_NEAR(s.unreal_z_scale, 100.0, 0.002);
-  EXPECT_DOUBLE_EQ(s.unreal_xy_scale, 200.0);
+  EXPECT_DOUBLE_EQ(s.unreal_x_scale, 200.0);
+  EXPECT_DOUBLE_EQ(s.unreal_y_scale, 200.0);
+  const EngineScale geo = engine_scale(0.0, 100.0, false, 66.275, 92.602);  // SRTM3 at 44 N
+  EXPECT_DOUBLE_EQ(geo.unreal_x_scale, 6627.5);
+  EXPECT_DOUBLE_EQ(geo.unreal_y_scale, 9260.2);
   EXPECT_NEAR(s.unreal_z_location, 0.0, 1.0);  // code 32768 sits at the middle of the range
   EXPECT_NEAR(s.unity_height, 512.0, 1e-9);
   EXPECT_NEAR(s.unity_position_y, -256.0, 1e-9);

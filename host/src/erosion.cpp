@@ -36,6 +36,7 @@ void validate(const ErosionParams& p) {
   check_param(p.max_change, "max_change", 0, 1e9);
   check_param(p.dry_depth, "dry_depth", 1e-9, 1e3);
   check_param(p.thermal_rate, "thermal_rate", 0, 1e9);
+  check_param(p.diffusion, "diffusion", 0, 1e9);
   check_param(p.talus_deg, "talus", 0, 89.9);
   check_param(p.substep_fraction, "substep_fraction", 1e-3, 100);
   check_param(p.rock_erodibility, "rock_erodibility", 0, 1);
@@ -49,7 +50,7 @@ ErosionParams ErosionParams::defaults() {
   // capacity) so that erosion grows with discharge and carves gullies, and a slow deposit so that
   // fine sediment stays suspended in lakes instead of filling every valley flat.
   ErosionParams p;
-  p.rain = 0.01;
+  p.rain = 0.003;
   p.evaporation = 0.02;
   p.damping = 0.5;
   p.capacity = 20.0;
@@ -57,9 +58,15 @@ ErosionParams ErosionParams::defaults() {
   p.deposit = 0.001;
   p.min_sin_slope = 0.05;
   p.depth_ramp = 5.0;
-  p.max_change = 0.5;
+  p.max_change = 0.5;  // m/s: 0.5 m per ~1 s sub-step of the SRTM3 tiles it was tuned on
   p.thermal_rate = 0.05;
   p.talus_deg = 35.0;
+  // Issue 15 (look at 10-30 m cells): hillslope creep of 2 m^2/s smooths the one-cell crinkles of a
+  // 10 m grid in ~50 s (w^2/D) but a 66 m cell's features only after ~2000 s, five times the default
+  // run; an open border lets the valleys drain out of a DEM crop instead of filling as lakes
+  // against a wall that is not there; a third of the old rain keeps the incision a few metres.
+  p.diffusion = 2.0;
+  p.boundary = ErosionBoundary::Open;
   return p;
 }
 
@@ -262,7 +269,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(24, float(p.depth_ramp > 0 ? 1.0 / p.depth_ramp : 1e30));
       k.setArg(25, float(std::min(1.0, p.dissolve * h)));
       k.setArg(26, float(std::min(1.0, p.deposit * h)));
-      k.setArg(27, float(p.max_change));
+      k.setArg(27, float(p.max_change * h));  // a rate: the same cap per second at any sub-step length
       k.setArg(28, float(p.dry_depth));
       k.setArg(29, float(std::max(0.0, 1.0 - p.evaporation * h)));
       k.setArg(30, float(a));
@@ -283,6 +290,19 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(12, float(td * lx));
       k.setArg(13, float(td * ly));
       k.setArg(14, float(td * std::hypot(lx, ly)));
+      // Diffusion: pair weights whose sum is exactly D*dt times the second-order Laplacian for any
+      // cell aspect (diagonals 1/4 / (lx^2+ly^2); axis weights make up the rest of d2/dx2, d2/dy2).
+      // The sum over the 8 pairs is capped at 1/4 so that with the thermal share (<= 8/12) a cell
+      // never gives away more than it has above its neighbours (binds only below ~0.2*D m cells).
+      const double dd = lx * lx + ly * ly;
+      double kx = p.diffusion * h * (1.0 - 0.5 * lx * lx / dd) / (lx * lx);
+      double ky = p.diffusion * h * (1.0 - 0.5 * ly * ly / dd) / (ly * ly);
+      double kdiag = p.diffusion * h * 0.25 / dd;
+      const double ksum = 2 * kx + 2 * ky + 4 * kdiag;
+      if (ksum > 0.25) kx *= 0.25 / ksum, ky *= 0.25 / ksum, kdiag *= 0.25 / ksum;
+      k.setArg(15, float(kx));
+      k.setArg(16, float(ky));
+      k.setArg(17, float(kdiag));
     }
   } catch (const cl::Error& e) {
     fail(kStage, "setting up the device state: {}", describe(e));
@@ -293,7 +313,7 @@ Erosion::~Erosion() = default;
 
 void Erosion::enqueue_steps(int n) {
   Impl& s = *m;
-  const bool thermal = s.p.thermal_rate > 0;
+  const bool thermal = s.p.thermal_rate > 0 || s.p.diffusion > 0;
   // A fixed local size: PoCL compiles one work-group function per local size, and NullRange would
   // let it pick a different one for every grid height. CPUs: 4 rows per group; GPUs: 16 chunks.
   const cl::NDRange global(round_up(size_t(s.H), s.local_rows), s.chunks), local(s.local_rows, s.local_chunks);
@@ -415,6 +435,35 @@ Heightfield Erosion::bed() {
   return h;
 }
 
+double settle_sediment(Heightfield& bed, std::vector<float>& sediment, std::vector<float>& deposit,
+                       const std::vector<float>* weight) {
+  // The suspended sediment settles where it is, so the output holds all the solid material
+  // (bed + sediment is what the simulation conserves). Under a brush only the cell's weight of
+  // it settles: a weight-0 cell keeps its elevation, and what stays suspended is reported.
+  double settled = 0;
+  const double a = bed.georef.cell_x * bed.georef.cell_y;
+  for (size_t i = 0; i < bed.size(); ++i) {
+    const float s = sediment[i];
+    if (!(s > 0)) continue;
+    const float w = weight ? std::clamp((*weight)[i], 0.0f, 1.0f) : 1.0f;
+    const float before = bed.z[i];
+    bed.z[i] = before + w * s;
+    const float landed = bed.z[i] - before;  // what the float bed really took (see docs: rounding)
+    // A full-weight cell keeps no sediment; the sub-ulp remainder of the addition is round-off.
+    sediment[i] = w >= 1.0f ? 0.0f : std::max(0.0f, s - landed);
+    if (!deposit.empty()) deposit[i] += landed;  // settled sediment is loose: deposit layer
+    settled += double(landed) * a;
+  }
+  return settled;
+}
+
+Heightfield Erosion::settled_bed(const std::vector<float>* weight) {
+  Heightfield h = bed();
+  ErosionState st = state();
+  settle_sediment(h, st.sediment, st.deposit, weight);
+  return h;
+}
+
 Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& params, int steps,
                   const std::vector<float>* weight, ErosionOutputs* outputs, const Progress& progress) {
   Erosion sim(dev, terrain, params, weight);
@@ -424,22 +473,8 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
   double settled = 0, unsettled = 0;
   const double a = terrain.georef.cell_x * terrain.georef.cell_y;
   if (params.settle) {
-    // The suspended sediment settles where it is, so the output holds all the solid material
-    // (bed + sediment is what the simulation conserves). Under a brush only the cell's weight of
-    // it settles: a weight-0 cell keeps its elevation, and what stays suspended is reported.
-    for (size_t i = 0; i < out.size(); ++i) {
-      const float s = st.sediment[i];
-      if (!(s > 0)) continue;
-      const float w = weight ? std::clamp((*weight)[i], 0.0f, 1.0f) : 1.0f;
-      const float before = out.z[i];
-      out.z[i] = before + w * s;
-      const float landed = out.z[i] - before;  // what the float bed really took (see docs: rounding)
-      // A full-weight cell keeps no sediment; the sub-ulp remainder of the addition is round-off.
-      st.sediment[i] = w >= 1.0f ? 0.0f : std::max(0.0f, s - landed);
-      if (!st.deposit.empty()) st.deposit[i] += landed;  // settled sediment is loose: deposit layer
-      settled += double(landed) * a;
-      unsettled += double(st.sediment[i]) * a;
-    }
+    settled = settle_sediment(out, st.sediment, st.deposit, weight);
+    for (float s : st.sediment) unsettled += double(s) * a;
   }
   // The bed is finite by construction; check anyway so that no NaN ever reaches a file.
   require_finite(out, kStage, "eroded bed");

@@ -115,6 +115,7 @@ ErosionParams params_from(const json& o) {
   num("damping", p.damping);
   num("pipe_area", p.pipe_area);
   num("thermal_rate", p.thermal_rate);
+  num("diffusion", p.diffusion);
   num("talus", p.talus_deg);
   num("dry_depth", p.dry_depth);
   num("rock_erodibility", p.rock_erodibility);
@@ -291,20 +292,23 @@ void register_erosion_stages(StageRegistry& r) {
              opt("deposit", OptionType::Float, d.deposit, "1/s", "Rate K_d of depositing sediment above capacity"),
              opt("min_slope", OptionType::Float, d.min_sin_slope, "", "Lower bound of sin(slope) in the capacity"),
              opt("depth_ramp", OptionType::Float, d.depth_ramp, "m", "Capacity ramps up with water depth until this depth"),
-             opt("max_change", OptionType::Float, d.max_change, "m", "Largest bed change of a cell in one sub-step"),
+             opt("max_change", OptionType::Float, d.max_change, "m/s",
+                 "Largest bed change of a cell per second (the cap of a sub-step is this times its dt)"),
              opt("damping", OptionType::Float, d.damping, "1/s", "Pipe flux damping k_f (semi-implicit)"),
              opt("pipe_area", OptionType::Float, 0.0, "m2",
                  "Virtual pipe cross-section A; 0 = sqrt(cell area) x 80 m (flow speeds and dt/cell size independent of "
                  "the cell size)"),
              opt("dry_depth", OptionType::Float, d.dry_depth, "m", "Depth below which a cell is dry (no velocity, deposits all)"),
              opt("thermal_rate", OptionType::Float, d.thermal_rate, "1/s", "Thermal erosion rate K_t (0 = off)"),
+             opt("diffusion", OptionType::Float, d.diffusion, "m2/s",
+                 "Bed diffusion D (hillslope creep): smooths features of width w in w^2/D s (0 = off)"),
              opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
              opt("deposit_layer", OptionType::Bool, false, "",
                  "Track a softer deposit layer on the rock (own talus, rock dissolves slower)"),
              opt("rock_erodibility", OptionType::Float, d.rock_erodibility, "",
                  "With --deposit-layer: rock dissolves at this fraction of the deposit's rate (0..1)"),
              opt("deposit_talus", OptionType::Float, d.deposit_talus_deg, "deg", "With --deposit-layer: talus angle of the deposit"),
-             opt("boundary", OptionType::Enum, "closed", "", "closed: nothing leaves; open: water and sediment drain over the edge",
+             opt("boundary", OptionType::Enum, "open", "", "closed: nothing leaves; open: water and sediment drain over the edge",
               {"closed", "open"}),
              opt("region", OptionType::Path, nullptr, "", "Brush mask raster (PNG grey 0..1, or float); erosion only where painted"),
              opt("region_feather", OptionType::Float, 3.0, "cells", "Gaussian blur (sigma) of the region mask for a smooth edge")

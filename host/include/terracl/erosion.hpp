@@ -43,6 +43,9 @@ struct ErosionParams {
   double dry_depth = 1e-4;     ///< m, d_min: below it a cell has no velocity and deposits all it carries
   double thermal_rate = 0.0;   ///< 1/s, K_t: fraction of the excess above talus moved per second
                                ///< (capped at 1/12 per sub-step for monotone behaviour)
+  double diffusion = 0.0;      ///< m^2/s, D: linear diffusion of the bed (hillslope creep). It smooths a
+                               ///< feature of width w in about w^2/D seconds, so it removes one-cell
+                               ///< crinkles on fine grids and leaves features of tens of metres alone
   double talus_deg = 35.0;     ///< deg, talus (angle of repose) of the rock (of all material
                                ///< without a deposit layer)
   bool deposit_layer = false;  ///< track a softer deposit layer on top of the rock
@@ -110,6 +113,9 @@ class Erosion {
   ErosionTotals totals();
   /// The current bed as a heightfield with the input's georef and metadata.
   Heightfield bed();
+  /// The current bed with the suspended sediment settled onto it (settle_sediment), as erode()
+  /// returns it with params.settle: what a live preview shows. The simulation itself is unchanged.
+  Heightfield settled_bed(const std::vector<float>* weight = nullptr);
 
   int substeps() const { return m_substeps; }
   double substep_dt() const { return m_dt_sub; }  ///< s
@@ -133,6 +139,12 @@ struct ErosionOutputs {
   int substeps = 1;
   double substep_dt = 0;
 };
+
+/// Settles the suspended sediment (m) onto `bed` where it is, times the brush weight (a weight-0
+/// cell keeps its elevation); `sediment` keeps what stays suspended, `deposit` (if not empty) gains
+/// what landed. Returns the settled volume (m^3).
+double settle_sediment(Heightfield& bed, std::vector<float>& sediment, std::vector<float>& deposit,
+                       const std::vector<float>* weight);
 
 /// Runs `steps` steps on `terrain` and returns the eroded bed (with params.settle, the suspended
 /// sediment settled onto it). `weight` as for Erosion.

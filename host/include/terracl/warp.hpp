@@ -50,15 +50,21 @@ Heightfield resize(const Heightfield& h, int width, int height, const std::strin
                    const Progress& progress = {}, const std::string& stage = "resize");
 
 /// How a 16-bit heightmap of vertical range [zmin, zmax] (codes lo..65535; lo = 1 when code 0 is
-/// reserved for nodata) and `cell` metres per cell imports at true scale.
+/// reserved for nodata) and cells of `cell_x` x `cell_y` metres imports at true scale.
 struct EngineScale {
   double unreal_z_scale;      ///< Landscape Scale Z (percent): 100 spans 512 m over the 16-bit range
-  double unreal_xy_scale;     ///< Landscape Scale X/Y = cell size in cm
+  double unreal_x_scale;      ///< Landscape Scale X = cell width (east-west) in cm
+  double unreal_y_scale;      ///< Landscape Scale Y = cell height (north-south) in cm: differs from X on
+                              ///< non-square (e.g. geographic) cells
   double unreal_z_location;   ///< Landscape Location Z in cm, so that elevations keep their datum
   double unity_height;        ///< Unity Terrain Height (m): the full code range 0..65535
   double unity_position_y;    ///< Unity terrain Position Y (m): the elevation of code 0
 };
-EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double cell);
+EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double cell_x, double cell_y);
+/// Square cells of `cell` metres.
+inline EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double cell) {
+  return engine_scale(zmin, zmax, reserve_nodata, cell, cell);
+}
 /// The sidecar / metadata entries of engine_scale ("unreal_z_scale", ...).
 std::vector<std::pair<std::string, double>> engine_scale_entries(const EngineScale& s);
 /// What to do about non-square cells, for engine exports: a geographic raster needs a warp to a

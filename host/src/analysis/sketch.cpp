@@ -3,9 +3,11 @@
 // threshold, ridges the same on the inverted terrain, peaks and basins come from max/min filters
 // with a relief threshold. The D8 network above a threshold is a tree of one-cell-wide paths, so it
 // is already the skeleton the paper obtains by thinning a thresholded image; we trace it into
-// polylines (split at confluences), smooth them along their length to remove D8's 0/45-deg
-// staircase, and draw those.
+// polylines (split at confluences), re-trace each segment as a sub-cell streamline (the continuous
+// D-infinity direction) where it can be, smooth them along their length to remove what is left of
+// D8's 0/45-deg staircase, and draw those.
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <terracl/error.hpp>
 
@@ -164,6 +166,60 @@ void localise_subcell(std::vector<Sketch::Point>& pts, const Heightfield& surfac
   pts = std::move(out);
 }
 
+/// Re-traces a D8 segment (first cell to last cell) as a sub-cell streamline of `surface`: steps of
+/// half a cell down the gradient of the bilinearly interpolated central-difference slope field, the
+/// continuous form of Tarboton's (1997) D-infinity direction. On a planar slope at 17 deg the D8 path
+/// is a 0/45-deg staircase with no trough across it to localise; the streamline runs at 17 deg. The
+/// D8 path stays the topology: the streamline starts on its first cell, ends on its last (the
+/// confluence) and must stay within 2 cells of it, else (flats, a streamline captured by another
+/// valley) false is returned and the caller keeps the D8 geometry.
+bool trace_streamline(const std::vector<Sketch::Point>& path, const Heightfield& surface, const Heightfield& original,
+                      std::vector<Sketch::Point>& out) {
+  const int n = int(path.size()), w = surface.width, h = surface.height;
+  if (n < 3 || w < 2 || h < 2) return false;
+  auto z = [&](const Heightfield& f, int x, int y) {
+    return double(f.at(std::clamp(x, 0, w - 1), std::clamp(y, 0, h - 1)));
+  };
+  // Central differences (one-sided at the border) at a cell, in surface units per cell.
+  auto grad = [&](int x, int y, double& gx, double& gy) {
+    const int xl = std::max(x - 1, 0), xr = std::min(x + 1, w - 1), yt = std::max(y - 1, 0), yb = std::min(y + 1, h - 1);
+    gx = (z(surface, xr, y) - z(surface, xl, y)) / std::max(1, xr - xl);
+    gy = (z(surface, x, yb) - z(surface, x, yt)) / std::max(1, yb - yt);
+  };
+  auto bilinear = [&](double px, double py, auto&& f) {
+    const int x0 = std::clamp(int(std::floor(px)), 0, w - 2), y0 = std::clamp(int(std::floor(py)), 0, h - 2);
+    const double tx = std::clamp(px - x0, 0.0, 1.0), ty = std::clamp(py - y0, 0.0, 1.0);
+    return (1 - ty) * ((1 - tx) * f(x0, y0) + tx * f(x0 + 1, y0)) + ty * ((1 - tx) * f(x0, y0 + 1) + tx * f(x0 + 1, y0 + 1));
+  };
+  out.clear();
+  double px = path[0].x, py = path[0].y;
+  out.push_back(path[0]);
+  const Sketch::Point end = path.back();
+  int near = 0;  // the D8 vertex the streamline is at, advancing only
+  for (int step = 0; step < 4 * n + 16; ++step) {
+    if (std::hypot(px - end.x, py - end.y) <= 0.75) {
+      out.push_back(end);
+      return true;
+    }
+    const double gx = bilinear(px, py, [&](int x, int y) { double a, b; grad(x, y, a, b); return a; });
+    const double gy = bilinear(px, py, [&](int x, int y) { double a, b; grad(x, y, a, b); return b; });
+    const double g = std::hypot(gx, gy);
+    if (!(g > 1e-9)) return false;  // a flat: no direction
+    px = std::clamp(px - 0.5 * gx / g, 0.0, double(w - 1));
+    py = std::clamp(py - 0.5 * gy / g, 0.0, double(h - 1));
+    double best = INFINITY;
+    int bi = near;
+    for (int j = near; j < std::min(n, near + 4); ++j) {
+      const double d = std::hypot(px - path[j].x, py - path[j].y);
+      if (d < best) best = d, bi = j;
+    }
+    if (best > 2.0) return false;  // left the D8 segment's corridor
+    near = bi;
+    out.push_back({px, py, bilinear(px, py, [&](int x, int y) { return z(original, x, y); })});
+  }
+  return false;
+}
+
 /// Draws a polyline one pixel wide (steps of at most half a pixel, nearest pixel).
 void draw_line(const std::vector<Sketch::Point>& pts, int w, int h, std::vector<uint8_t>& mask) {
   auto plot = [&](double x, double y) {
@@ -220,8 +276,14 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
     if (pts.size() < 2) continue;
     Sketch::Line line;
     const size_t last = size_t(pts.back().y) * w + size_t(pts.back().x);
-    if (line_sigma > 0) localise_subcell(pts, surface);
-    smooth_path(pts, line_sigma);
+    std::vector<Sketch::Point> stream;
+    if (line_sigma > 0 && trace_streamline(pts, surface, original, stream)) {
+      pts = std::move(stream);
+      smooth_path(pts, 2 * line_sigma);  // vertices are half a cell apart
+    } else {
+      if (line_sigma > 0) localise_subcell(pts, surface);
+      smooth_path(pts, line_sigma);
+    }
     simplify(pts, simplify_tol, line.points);
     line.drainage_area_m2 = d8.area_m2(last);
     lines.push_back(std::move(line));

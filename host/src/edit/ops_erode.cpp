@@ -12,9 +12,9 @@ namespace terracl::edit {
 ErodeSpec parse_erode_spec(Params& p) {
   ErodeSpec e;
   e.params = ErosionParams::defaults();
-  // The studio previews this operation with the live Erosion bed, which keeps its sediment in
-  // suspension; the committed script must replay to that preview, so no settling here (yet).
-  e.params.settle = false;
+  // Settles like the erode stage; the studio previews with Erosion::settled_bed, the same
+  // settle_sediment on the same bits, so the committed script replays to the preview.
+  e.params.settle = p.boolean("settle", true);
   e.steps = p.integer("steps", {}, 1, 100000);
   e.params.rain = p.number("rain", e.params.rain, 0.0, 1.0);
   e.params.capacity = p.number("capacity", e.params.capacity, 0.0, 1e6);

@@ -162,7 +162,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   const bool has_nodata = h.count_nodata() > 0;
   // Nodata keeps code 0 (io_common.hpp, Quantiser); data then use codes 1..65535.
   if (has_nodata) sc["nodata_code"] = io::kNodataCode;
-  const EngineScale es = engine_scale(zmin, zmax, has_nodata, h.georef.cell_x);
+  const EngineScale es = engine_scale(zmin, zmax, has_nodata, h.georef.cell_x, h.georef.cell_y);
   nlohmann::json engine = nlohmann::json::object();
   for (const auto& [k, v] : engine_scale_entries(es)) engine[k] = v;
   if (std::fabs(h.georef.cell_x - h.georef.cell_y) > 1e-3 * h.georef.cell_x)

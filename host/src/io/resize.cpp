@@ -46,14 +46,15 @@ Heightfield resize(const Heightfield& h, int width, int height, const std::strin
   return warp(h, o, progress, stage);
 }
 
-EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double cell) {
+EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double cell_x, double cell_y) {
   // Unreal: world Z (cm) = Location Z + (code - 32768) / 128 * Scale Z, so Scale Z 100 spans
   // 65535 / 128 = 512 m; one code of ours is range / (65535 - lo) m.
   const double lo = reserve_nodata ? 1.0 : 0.0, range = zmax - zmin;
   const double per_code = range / (65535.0 - lo);
   EngineScale s{};
   s.unreal_z_scale = range > 0 ? 12800.0 * per_code : 100.0;  // any scale draws a flat map
-  s.unreal_xy_scale = cell * 100.0;
+  s.unreal_x_scale = cell_x * 100.0;
+  s.unreal_y_scale = cell_y * 100.0;
   s.unreal_z_location = 100.0 * (zmin + (32768.0 - lo) * per_code);
   // Unity: elevation = Position Y + code / 65535 * Terrain Height.
   s.unity_height = per_code * 65535.0;
@@ -63,7 +64,8 @@ EngineScale engine_scale(double zmin, double zmax, bool reserve_nodata, double c
 
 std::vector<std::pair<std::string, double>> engine_scale_entries(const EngineScale& s) {
   return {{"unreal_z_scale", s.unreal_z_scale},
-          {"unreal_xy_scale", s.unreal_xy_scale},
+          {"unreal_x_scale", s.unreal_x_scale},
+          {"unreal_y_scale", s.unreal_y_scale},
           {"unreal_z_location_cm", s.unreal_z_location},
           {"unity_terrain_height_m", s.unity_height},
           {"unity_position_y_m", s.unity_position_y}};
@@ -86,7 +88,7 @@ EngineScale record_engine_scale(Heightfield& h) {
   for (float v : h.z)
     if (std::isfinite(v)) lo = std::min<double>(lo, v), hi = std::max<double>(hi, v);
   if (lo > hi) lo = hi = 0.0;
-  const EngineScale s = engine_scale(lo, hi, h.count_nodata() > 0, h.georef.cell_x);
+  const EngineScale s = engine_scale(lo, hi, h.count_nodata() > 0, h.georef.cell_x, h.georef.cell_y);
   for (const auto& [k, v] : engine_scale_entries(s)) h.metadata["engine:" + k] = fmt::format("{:.6f}", v);
   return s;
 }

@@ -312,6 +312,8 @@ void Session::erosion_start(const json& params) {
   const Heightfield& h = m_edit->height();
   const std::vector<float> w = edit::erode_weight(spec, g, m_edit->hard_constraints());
   m_erosion = std::make_unique<Erosion>(m_device, h, spec.params, &w);
+  m_erosion_weight = w;
+  m_erosion_settle = spec.params.settle;
   m_erosion_op = op;
   m_erosion_steps = 0;
 }
@@ -321,7 +323,8 @@ Heightfield Session::erosion_step(int steps) {
   if (steps < 1 || steps > 1000) throw RequestError(400, "/steps: expected an integer in [1, 1000]");
   m_erosion->run(steps);
   m_erosion_steps += steps;
-  return m_erosion->bed();
+  // What the committed "erode" operation will give: the bed with the suspended sediment settled.
+  return m_erosion_settle ? m_erosion->settled_bed(&m_erosion_weight) : m_erosion->bed();
 }
 
 void Session::erosion_commit() {

@@ -95,6 +95,8 @@ class Session {
   std::unique_ptr<Erosion> m_erosion;
   json m_erosion_op;
   int m_erosion_steps = 0;
+  std::vector<float> m_erosion_weight;  // the brush weight, for the settled preview
+  bool m_erosion_settle = true;
 };
 
 }  // namespace terracl::studio
