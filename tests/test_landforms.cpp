@@ -189,6 +189,36 @@ TEST(Landforms, NoDefaultFeatureIsNarrowerThanThreeCells) {
 }
 
 // A ravine deepens downstream and cuts through a constrained rim it crosses.
+// A cliff (issue 12, the gallery's cliff band): a steep face over a concave scree apron that starts
+// at the face's foot with the face's slope there (no ledge, no kink) and flattens towards its toe,
+// so the apron reads as a band of its own: (1 - face) r wide, every cell of it steeper than a
+// tenth of its top slope except near the toe. The former profile (two smoothersteps) ended the face
+// with zero slope and spread the scree over the whole r, under the face.
+TEST(Landforms, CliffFaceMeetsAConcaveScreeApron) {
+  const int W = 5, H = 161;
+  const double r = 120, a = 100, c = 0.3, k = 0.4;  // 1 m cells: the face is 36 cells, the apron 84
+  Primitive p = line({{-50, 20.5}, {60, 20.5}}, r, Profile::Drop, a);
+  p.face_fraction = c;
+  p.scree = k;
+  const auto P = potential(W, H, 1, {p});
+  std::vector<double> slope;  // -dP/dy between rows y and y + 1, south of the top edge (row 21 on)
+  for (int y = 21; y + 1 < H; ++y) slope.push_back(P[size_t(y) * W] - P[size_t(y + 1) * W]);
+  const int foot = int(c * r);  // the face's foot: slope index foot - 1 .. foot
+  const double top = 2 * k * a / ((1 - c) * r);  // the apron's slope at its top (analytic)
+  EXPECT_NEAR(slope[foot], top, 0.03 * top);
+  EXPECT_LT(std::abs(slope[foot] - slope[foot - 1]), 0.03 * top) << "a slope jump at the foot of the face";
+  double face_max = 0;
+  for (int i = 0; i < foot; ++i) face_max = std::max(face_max, slope[i]);
+  EXPECT_GT(face_max, 2.5 * top) << "the face is not steeper than the apron";
+  int band = 0;
+  for (int i = foot; i < int(r) - 1; ++i) {
+    EXPECT_LE(slope[i + 1], slope[i] + 1e-4) << "the apron is not concave at " << i;
+    band += slope[i] > 0.1 * top;
+  }
+  EXPECT_GE(band, int(0.85 * (1 - c) * r));
+  EXPECT_NEAR(P[size_t(21 + int(r)) * W], -a, 1e-3);  // the whole drop at r
+}
+
 TEST(Landforms, RavineDeepensDownstreamAndCutsTheRim) {
   auto run = [](bool cut) {
     EditSession s(test::device(), *parse_flat_spec("flat:97x97@10"));
