@@ -76,7 +76,7 @@ TEST(Landforms, ProfilesMatchTheirAnalyticCrossSection) {
     EXPECT_LT(worst, 2e-3 * a) << "profile " << int(c.p) << " floor " << c.floor;
   }
   // Spot values of the formulas themselves.
-  EXPECT_NEAR(profile_value(Profile::V, 25, 25, 50, 10), 2.5, 1e-12);           // 10 (1 - 1/2)^2
+  EXPECT_NEAR(profile_value(Profile::V, 25, 25, 50, 10), 3.125, 1e-12);         // 10 (1 - 1/2)^3 (1 + 3/2)
   EXPECT_NEAR(profile_value(Profile::U, 25, 25, 50, 10), 10 * std::pow(1 - 1.0 / 16, 2), 1e-12);
   EXPECT_NEAR(profile_value(Profile::U, 10, 10, 50, 10, 20), 10, 1e-12);       // on the flat floor
   EXPECT_NEAR(profile_value(Profile::Drop, 0, 50, 50, 10, 0, 0.3, 0.35), -10, 1e-12);

@@ -30,7 +30,9 @@ double profile_value(Profile p, double d, double s, double r, double a, double f
   switch (p) {
     case Profile::Round: return a * alpha(u);
     case Profile::Sharp: return a * w * w * w;
-    case Profile::V: return a * w * w;
+    // (1 - u)^3 (1 + 3 u): steepest a third of the way up (slope 16/9 a/r), a rounded thalweg and
+    // a C2 rim. The former (1 - u)^2 was steepest on the axis: a crease that read as a 1-pixel scratch.
+    case Profile::V: return a * w * w * w * (1 + 3 * u);
     case Profile::U: {
       const double q = 1 - u * u * u * u;
       return a * q * q;
