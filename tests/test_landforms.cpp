@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 using namespace terracl;
 using json = nlohmann::json;
@@ -239,6 +240,37 @@ TEST(Landforms, RavineDeepensDownstreamAndCutsTheRim) {
   }();
   const double up = flat_only.at(20, 15) - flat_only.at(48, 15), down = flat_only.at(20, 80) - flat_only.at(48, 80);
   EXPECT_GT(down, 1.5 * up);
+}
+
+// A gradient-only ravine that ends on a slope used to close in a bowl of radius r: its floor rose
+// by the whole depth over r, a pit wherever the ground fell less (the blue holes at the ravine
+// ends of the gallery). It now exits: the stroke runs on past its last point along its tangent for
+// `exit` [3 r], its depth fading to zero there. Along the axis, the deepest closed depression (the
+// barrier downstream minus the floor) on a 0.2 ramp shrinks at least 4x and below 15 % of the depth.
+TEST(Landforms, RavineExitsWithoutAPitAtItsOpenEnd) {
+  const int W = 97, H = 161;
+  Heightfield ramp(W, H);
+  ramp.georef.cell_x = ramp.georef.cell_y = 10;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) ramp.at(x, y) = float(0.2 * 10 * (H - 1 - y));  // falls southwards
+  auto pit = [&](const json& exit) {
+    json op{{"op", "ravine"}, {"points", {{48, 10}, {48, 70}}}, {"depth", 40}, {"width", 20}};
+    if (!exit.is_null()) op["exit"] = exit;
+    EditSession s(test::device(), ramp, EditOptions{});
+    s.apply(json{{"units", "cells"}, {"solve", "global"}, {"operations", {op}}});
+    const Heightfield& h = s.height();
+    double worst = 0, barrier = -1e30;
+    for (int y = H - 1; y >= 0; --y) {  // from the outlet upstream
+      worst = std::max(worst, barrier - double(h.at(48, y)));
+      barrier = std::max(barrier, double(h.at(48, y)));
+    }
+    return worst;
+  };
+  const double bowl = pit(0), exits = pit(nullptr);
+  std::printf("ravine end on a 0.2 ramp: a pit of %.2f m with a round end, %.2f m exiting\n", bowl, exits);
+  EXPECT_GT(bowl, 15.0) << "the round end should pit (the defect this guards)";
+  EXPECT_LT(exits, 0.15 * 40);
+  EXPECT_LT(4 * exits, bowl);
 }
 
 TEST(Landforms, MesaCapHasDetailAndTalusFlanks) {
