@@ -31,7 +31,7 @@ enum class TensorKind { Directional, Scale, Tangent, Closest };
 
 /// Cross-section profile P(d) for profile gradients (landform curves); a = amplitude (metres),
 /// u = clamp((d - f) / (r - f), 0, 1) with f = floor_half_width (a flat floor or top).
-/// Round: a alpha(u). Sharp: a (1 - u)^3. V: a (1 - u)^2. U: a (1 - u^4)^2.
+/// Round: a alpha(u). Sharp: a (1 - u)^3. V: a (1 - u)^3 (1 + 3u) (rounded thalweg). U: a (1 - u^4)^2.
 /// Step: a smootherstep((s/r + 1)/2) across the signed distance s (a fault of throw a).
 /// Drop: for s >= 0 a cliff face of width c r (c = face_fraction) dropping (1 - k) a, then a concave
 /// scree apron over [c r, r] dropping k a (k = scree): steepest at the foot, where it meets the face
