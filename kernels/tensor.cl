@@ -376,9 +376,9 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
 // width f of a flat floor/top, pr[17], pr[18] = taper lengths at the first/last vertex, pr[19] =
 // cliff face width as a fraction of r, pr[20] = scree share of a cliff's drop, pr[21] = arc length.
 // With u = clamp((d - f) / (r - f), 0, 1) and a = pr[13] * the vertex amplitude at the closest point:
-// ROUND: a alpha(u); SHARP: a (1 - u)^3; V: a (1 - u)^2; U: a (1 - u^4)^2; STEP: a smoother((s/r + 1)/2)
-// across a signed distance s (a fault of throw a); DROP: -a [(1 - k) smoother(s / (c r)) + k
-// smoother(s / r)] for s >= 0 (a cliff face of width c r and a scree apron holding the share k).
+// ROUND: a alpha(u); SHARP: a (1 - u)^3; V: a (1 - u)^3 (1 + 3u); U: a (1 - u^4)^2; STEP: a smoother((s/r + 1)/2)
+// across a signed distance s (a fault of throw a); DROP: for s >= 0 a cliff face of width c r
+// dropping (1 - k) a, then a concave scree apron over [c r, r] dropping k a (C1 at the foot).
 // Open-curve signed profiles die out past the curve's ends (times alpha(beyond/r)); other open-curve
 // profiles taper to zero towards the ends (amplitude times smoother(arc / taper)), without a cap.
 vf profile_shape_v(__global const float* pr, vf d, vf s, vf a) {
@@ -387,15 +387,21 @@ vf profile_shape_v(__global const float* pr, vf d, vf s, vf a) {
   const float f = fmin(pr[16], 0.95f * r);
   if (kind == PROFILE_STEP) return a * smoother_v((s / r + 1.0f) * 0.5f);
   if (kind == PROFILE_DROP) {
-    const float k = pr[20];
-    const float c = fmax(pr[19], 1e-3f) * r;
-    return -a * ((1.0f - k) * smoother_v(s / c) + k * smoother_v(s / r));
+    // A face over [0, c r] that meets a concave talus apron over [c r, r] with the same slope
+    // (tensor.cpp's profile_value says how).
+    const float k = clamp(pr[20], 0.0f, 0.95f);
+    const float c = clamp(pr[19], 1e-3f, 0.95f);
+    const vf x = clamp(s / (c * r), 0.0f, 1.0f);
+    const vf v = 1.0f - clamp((s - c * r) / ((1.0f - c) * r), 0.0f, 1.0f);
+    const float sigma = fmin(2.0f * k * c / ((1.0f - k) * (1.0f - c)), 3.0f);
+    const vf x2 = x * x;
+    return -a * ((1.0f - k) * (smoother_v(x) + sigma * x2 * x2 * (x - 1.0f)) + k * (1.0f - v * v));
   }
   const vf u = clamp((d - f) / (r - f), 0.0f, 1.0f);
   if (kind == PROFILE_ROUND) return a * alpha_v(u);
   const vf w = 1.0f - u;
   if (kind == PROFILE_SHARP) return a * w * w * w;
-  if (kind == PROFILE_V) return a * w * w;
+  if (kind == PROFILE_V) return a * w * w * w * (1.0f + 3.0f * u);  // Wendland: a rounded thalweg
   const vf u2 = u * u, q = 1.0f - u2 * u2;
   return a * q * q;
 }

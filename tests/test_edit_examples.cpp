@@ -3,6 +3,8 @@
 // examples on flat bases are 1025^2 in metres ("units": "m"); to keep the suite fast they run here
 // on a base of half the resolution over the same extent (BASE on the command line overrides the
 // script's), which keeps every primitive where it is. scripts/demo.sh runs them at full size.
+// The gallery's shape facts (ravine width and depth, the cliff's scree band, the crest line) are
+// checked on those runs.
 #include "test_helpers.hpp"
 
 #include <terracl/edit.hpp>
@@ -10,10 +12,110 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
 using namespace terracl;
+
+namespace {
+
+// Height at (x, y) metres from the centre of cell (0, 0), bilinear (clamped to the grid).
+double at_m(const Heightfield& h, double cell, double x, double y) {
+  const double fx = std::clamp(x / cell, 0.0, h.width - 1.001), fy = std::clamp(y / cell, 0.0, h.height - 1.001);
+  const int x0 = int(fx), y0 = int(fy);
+  const double tx = fx - x0, ty = fy - y0;
+  return (1 - ty) * ((1 - tx) * h.at(x0, y0) + tx * h.at(x0 + 1, y0)) +
+         ty * ((1 - tx) * h.at(x0, y0 + 1) + tx * h.at(x0 + 1, y0 + 1));
+}
+
+struct Stroke {
+  double mx, my, nx, ny;  // a point on the curve and the unit normal there
+};
+// The middle vertex of a stroke with an odd number of points (a smoothed stroke passes through it),
+// else the middle of the middle segment; the normal from the neighbouring points.
+Stroke middle_of(const nlohmann::json& pts) {
+  const size_t n = pts.size();
+  const auto& a = pts[n % 2 ? n / 2 - 1 : n / 2 - 1];
+  const auto& b = pts[n % 2 ? n / 2 + 1 : n / 2];
+  const double ax = a[0], ay = a[1], bx = b[0], by = b[1];
+  double mx = 0.5 * (ax + bx), my = 0.5 * (ay + by);
+  if (n % 2) mx = pts[n / 2][0], my = pts[n / 2][1];
+  const double l = std::hypot(bx - ax, by - ay);
+  return {mx, my, -(by - ay) / l, (bx - ax) / l};
+}
+
+// Shape facts of the gallery (issue 12), so that a regression towards "1-pixel scratches", "a dark
+// line without scree" or "a crest that is only a shading edge" fails. `cell` is the cell size of
+// the run (twice the script's: the suite runs the 1025^2 examples at 513^2).
+void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell) {
+  const double extent = (h.width - 1) * cell;
+  for (const auto& op : script.at("operations")) {
+    const std::string kind = op.at("op");
+    if (kind == "ravine" && (name == "volcanic_island" || name == "mountain_range")) {
+      // Across the middle of the ravine: depth below the lower bank at r, and the width of the
+      // part below half that depth in cells of the 513^2 run, i.e. pixels of the README's 512-px
+      // picture: >= 10 on the island (the former 400 m V ravines: 6, read as scratches), >= 6 on
+      // the 15 km mountain range.
+      const Stroke m = middle_of(op.at("points"));
+      const double r = 0.5 * double(op.at("width"));
+      const double want = 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
+      std::vector<double> t, z;
+      for (double s = -r; s <= r + 1e-9; s += 0.5 * cell) t.push_back(s), z.push_back(at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny));
+      double floor = 1e30;
+      for (size_t i = 0; i < t.size(); ++i)
+        if (std::abs(t[i]) <= 0.25 * r) floor = std::min(floor, z[i]);
+      const double depth = std::min(z.front(), z.back()) - floor;
+      double below = 0;
+      for (double v : z) below += v <= floor + 0.5 * depth ? 0.5 * cell : 0;
+      EXPECT_GT(depth, 0.5 * want) << name << " ravine at " << m.mx << ", " << m.my;
+      EXPECT_GE(below, (name == "volcanic_island" ? 10 : 6) * cell) << name << " ravine at " << m.mx << ", " << m.my << ": a scratch, not a valley";
+    }
+    if (kind == "cliff" && name == "cliff") {
+      // Down the column through the middle of the map: a face steeper than 45 degrees dropping at
+      // least a third of the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map.
+      const int x = h.width / 2;
+      const double top = op.at("elevation"), height = op.at("height");
+      int y = 0;
+      while (y + 1 < h.height && h.at(x, y) > top - 5) ++y;
+      auto slope = [&](int i) { return (h.at(x, i) - h.at(x, i + 1)) / cell; };
+      int steep = y;
+      for (int i = y; i < std::min(h.height - 1, y + int(0.15 * extent / cell)); ++i)
+        if (slope(i) > slope(steep)) steep = i;
+      EXPECT_GT(slope(steep), 1.0) << "no steep face";
+      int foot = steep;
+      while (foot + 1 < h.height && slope(foot) > 0.8) ++foot;
+      EXPECT_GT(h.at(x, y) - h.at(x, foot), height / 3) << "the face drops too little";
+      int toe = foot;
+      while (toe + 1 < h.height && slope(toe) >= 0.25 && slope(toe) <= 0.85) ++toe;
+      EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read";
+    }
+    if (kind == "mountain_range" && name == "mountain_range") {
+      // At every inner vertex higher than 1000 m: the crest is the highest point across the stroke
+      // within 0.3 r (to 6 % of r: the noise moves it a little), standing at least 15 % of the vertex height above both sides.
+      const auto& pts = op.at("points");
+      const double r = 0.5 * double(op.at("width"));
+      int checked = 0;
+      for (size_t i = 1; i + 1 < pts.size(); ++i) {
+        if (double(pts[i][2]) < 1000) continue;
+        const Stroke m = middle_of(nlohmann::json{pts[i - 1], pts[i], pts[i + 1]});
+        double best = -1e30, best_t = 0;
+        for (double s = -0.3 * r; s <= 0.3 * r; s += 0.5 * cell) {
+          const double v = at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny);
+          if (v > best) best = v, best_t = s;
+        }
+        EXPECT_LE(std::abs(best_t), 0.06 * r) << "crest off its line at vertex " << i;
+        const double side = std::max(at_m(h, cell, m.mx + 0.3 * r * m.nx, m.my + 0.3 * r * m.ny),
+                                     at_m(h, cell, m.mx - 0.3 * r * m.nx, m.my - 0.3 * r * m.ny));
+        EXPECT_GT(best - side, 0.15 * double(pts[i][2])) << "no ridge at vertex " << i;
+        ++checked;
+      }
+      EXPECT_GE(checked, 4);
+    }
+  }
+}
+
+}  // namespace
 
 TEST(EditExamples, EveryExampleScriptRuns) {
   namespace fs = std::filesystem;
@@ -48,6 +150,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
     EXPECT_GT(hi - lo, 50.0f) << name << ": the edits should make relief";
+    if (!cli_base.empty()) check_shapes(name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
   }
   EXPECT_GE(n, 7);
 }

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 using namespace terracl;
 using json = nlohmann::json;
@@ -76,7 +77,7 @@ TEST(Landforms, ProfilesMatchTheirAnalyticCrossSection) {
     EXPECT_LT(worst, 2e-3 * a) << "profile " << int(c.p) << " floor " << c.floor;
   }
   // Spot values of the formulas themselves.
-  EXPECT_NEAR(profile_value(Profile::V, 25, 25, 50, 10), 2.5, 1e-12);           // 10 (1 - 1/2)^2
+  EXPECT_NEAR(profile_value(Profile::V, 25, 25, 50, 10), 3.125, 1e-12);         // 10 (1 - 1/2)^3 (1 + 3/2)
   EXPECT_NEAR(profile_value(Profile::U, 25, 25, 50, 10), 10 * std::pow(1 - 1.0 / 16, 2), 1e-12);
   EXPECT_NEAR(profile_value(Profile::U, 10, 10, 50, 10, 20), 10, 1e-12);       // on the flat floor
   EXPECT_NEAR(profile_value(Profile::Drop, 0, 50, 50, 10, 0, 0.3, 0.35), -10, 1e-12);
@@ -189,6 +190,36 @@ TEST(Landforms, NoDefaultFeatureIsNarrowerThanThreeCells) {
 }
 
 // A ravine deepens downstream and cuts through a constrained rim it crosses.
+// A cliff (issue 12, the gallery's cliff band): a steep face over a concave scree apron that starts
+// at the face's foot with the face's slope there (no ledge, no kink) and flattens towards its toe,
+// so the apron reads as a band of its own: (1 - face) r wide, every cell of it steeper than a
+// tenth of its top slope except near the toe. The former profile (two smoothersteps) ended the face
+// with zero slope and spread the scree over the whole r, under the face.
+TEST(Landforms, CliffFaceMeetsAConcaveScreeApron) {
+  const int W = 5, H = 161;
+  const double r = 120, a = 100, c = 0.3, k = 0.4;  // 1 m cells: the face is 36 cells, the apron 84
+  Primitive p = line({{-50, 20.5}, {60, 20.5}}, r, Profile::Drop, a);
+  p.face_fraction = c;
+  p.scree = k;
+  const auto P = potential(W, H, 1, {p});
+  std::vector<double> slope;  // -dP/dy between rows y and y + 1, south of the top edge (row 21 on)
+  for (int y = 21; y + 1 < H; ++y) slope.push_back(P[size_t(y) * W] - P[size_t(y + 1) * W]);
+  const int foot = int(c * r);  // the face's foot: slope index foot - 1 .. foot
+  const double top = 2 * k * a / ((1 - c) * r);  // the apron's slope at its top (analytic)
+  EXPECT_NEAR(slope[foot], top, 0.03 * top);
+  EXPECT_LT(std::abs(slope[foot] - slope[foot - 1]), 0.03 * top) << "a slope jump at the foot of the face";
+  double face_max = 0;
+  for (int i = 0; i < foot; ++i) face_max = std::max(face_max, slope[i]);
+  EXPECT_GT(face_max, 2.5 * top) << "the face is not steeper than the apron";
+  int band = 0;
+  for (int i = foot; i < int(r) - 1; ++i) {
+    EXPECT_LE(slope[i + 1], slope[i] + 1e-4) << "the apron is not concave at " << i;
+    band += slope[i] > 0.1 * top;
+  }
+  EXPECT_GE(band, int(0.85 * (1 - c) * r));
+  EXPECT_NEAR(P[size_t(21 + int(r)) * W], -a, 1e-3);  // the whole drop at r
+}
+
 TEST(Landforms, RavineDeepensDownstreamAndCutsTheRim) {
   auto run = [](bool cut) {
     EditSession s(test::device(), *parse_flat_spec("flat:97x97@10"));
@@ -209,6 +240,53 @@ TEST(Landforms, RavineDeepensDownstreamAndCutsTheRim) {
   }();
   const double up = flat_only.at(20, 15) - flat_only.at(48, 15), down = flat_only.at(20, 80) - flat_only.at(48, 80);
   EXPECT_GT(down, 1.5 * up);
+}
+
+// A gradient-only ravine that ends on a slope used to close in a bowl of radius r: its floor rose
+// by the whole depth over r, a pit wherever the ground fell less (the blue holes at the ravine
+// ends of the gallery). It now exits: the stroke runs on past its last point along its tangent for
+// `exit` [3 r], its depth fading to zero there. Along the axis, the deepest closed depression (the
+// barrier downstream minus the floor) on a 0.2 ramp shrinks at least 4x and below 15 % of the depth.
+TEST(Landforms, RavineExitsWithoutAPitAtItsOpenEnd) {
+  const int W = 97, H = 161;
+  Heightfield ramp(W, H);
+  ramp.georef.cell_x = ramp.georef.cell_y = 10;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) ramp.at(x, y) = float(0.2 * 10 * (H - 1 - y));  // falls southwards
+  auto pit = [&](const json& exit) {
+    json op{{"op", "ravine"}, {"points", {{48, 10}, {48, 70}}}, {"depth", 40}, {"width", 20}};
+    if (!exit.is_null()) op["exit"] = exit;
+    EditSession s(test::device(), ramp, EditOptions{});
+    s.apply(json{{"units", "cells"}, {"solve", "global"}, {"operations", {op}}});
+    const Heightfield& h = s.height();
+    double worst = 0, barrier = -1e30;
+    for (int y = H - 1; y >= 0; --y) {  // from the outlet upstream
+      worst = std::max(worst, barrier - double(h.at(48, y)));
+      barrier = std::max(barrier, double(h.at(48, y)));
+    }
+    return worst;
+  };
+  const double bowl = pit(0), exits = pit(nullptr);
+  std::printf("ravine end on a 0.2 ramp: a pit of %.2f m with a round end, %.2f m exiting\n", bowl, exits);
+  EXPECT_GT(bowl, 15.0) << "the round end should pit (the defect this guards)";
+  EXPECT_LT(exits, 0.15 * 40);
+  EXPECT_LT(4 * exits, bowl);
+}
+
+// A crest without `height` takes its default flank height from the terrain under it: read from the
+// last solution, without a solve of its own (issue 12: 50 ms per crest in `bench edit`, 768 ms
+// for a studio replay of 30). Its constrained line still reaches its elevation.
+TEST(Landforms, CrestWithoutHeightDoesNotSolve) {
+  EditSession s(test::device(), *parse_flat_spec("flat:97x97@10"));
+  s.apply(json{{"units", "cells"}, {"operations", {{{"op", "noise"}, {"amplitude", 20}, {"wavelength", 30}}}}});
+  s.solve(false);
+  ASSERT_EQ(s.report()["solves"], 1);
+  for (int i = 0; i < 3; ++i)
+    s.apply(json{{"units", "cells"},
+                 {"operations", {{{"op", "crest"}, {"points", {{20, 10 + 38 * i}, {76, 10 + 38 * i}}}, {"elevation", 300}}}}});
+  EXPECT_EQ(s.report()["solves"], 1) << "a crest without height solved to read the terrain";
+  EXPECT_NEAR(s.height().at(48, 48), 300, 1e-3);
+  EXPECT_GT(300 - s.height().at(48, 48 + 8), 30) << "no flanks";
 }
 
 TEST(Landforms, MesaCapHasDetailAndTalusFlanks) {

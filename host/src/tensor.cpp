@@ -30,13 +30,23 @@ double profile_value(Profile p, double d, double s, double r, double a, double f
   switch (p) {
     case Profile::Round: return a * alpha(u);
     case Profile::Sharp: return a * w * w * w;
-    case Profile::V: return a * w * w;
+    // (1 - u)^3 (1 + 3 u): steepest a third of the way up (slope 16/9 a/r), a rounded thalweg and
+    // a C2 rim. The former (1 - u)^2 was steepest on the axis: a crease that read as a 1-pixel scratch.
+    case Profile::V: return a * w * w * w * (1 + 3 * u);
     case Profile::U: {
       const double q = 1 - u * u * u * u;
       return a * q * q;
     }
     case Profile::Step: return a * smoother((s / r + 1) * 0.5);
-    case Profile::Drop: return -a * ((1 - scree) * smoother(s / (std::max(face, 1e-3) * r)) + scree * smoother(s / r));
+    case Profile::Drop: {
+      // Face over [0, c r]: smootherstep plus sigma x^4 (x - 1), which ends with the slope of the
+      // apron's top (C1 at the foot; sigma = 2 k c / ((1 - k)(1 - c)) <= 3 keeps it monotone).
+      // Apron over [c r, r]: 1 - (1 - v)^2, steepest at the foot, flat at the toe (a concave talus).
+      const double c = std::clamp(face, 1e-3, 0.95), k = std::clamp(scree, 0.0, 0.95);
+      const double x = std::clamp(s / (c * r), 0.0, 1.0), v = std::clamp((s - c * r) / ((1 - c) * r), 0.0, 1.0);
+      const double sigma = std::min(2 * k * c / ((1 - k) * (1 - c)), 3.0);
+      return -a * ((1 - k) * (smoother(x) + sigma * x * x * x * x * (x - 1)) + k * (1 - (1 - v) * (1 - v)));
+    }
   }
   return 0;
 }

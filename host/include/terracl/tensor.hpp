@@ -31,10 +31,11 @@ enum class TensorKind { Directional, Scale, Tangent, Closest };
 
 /// Cross-section profile P(d) for profile gradients (landform curves); a = amplitude (metres),
 /// u = clamp((d - f) / (r - f), 0, 1) with f = floor_half_width (a flat floor or top).
-/// Round: a alpha(u). Sharp: a (1 - u)^3. V: a (1 - u)^2. U: a (1 - u^4)^2.
+/// Round: a alpha(u). Sharp: a (1 - u)^3. V: a (1 - u)^3 (1 + 3u) (rounded thalweg). U: a (1 - u^4)^2.
 /// Step: a smootherstep((s/r + 1)/2) across the signed distance s (a fault of throw a).
-/// Drop: -a [(1 - k) smootherstep(s / (c r)) + k smootherstep(s / r)] for s >= 0: a cliff face of
-/// width c r (c = face_fraction) above a scree apron holding the share k (scree) of the drop.
+/// Drop: for s >= 0 a cliff face of width c r (c = face_fraction) dropping (1 - k) a, then a concave
+/// scree apron over [c r, r] dropping k a (k = scree): steepest at the foot, where it meets the face
+/// with the same slope, flat at the toe.
 /// Near a bend, the values of the two nearest segments are blended (C1 across the medial axis).
 enum class Profile { Round, Sharp, Step, Drop, V, U };
 

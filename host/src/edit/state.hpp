@@ -43,6 +43,9 @@ class EditState {
   /// Reconstructs now, even when not stale; warm: start from the last solution.
   const Heightfield& solve(bool warm = true);
   const ReconstructResult& last_solve() const { return m_last; }
+  /// The last reconstruction (on a real base, the base until the first solve), even when stale;
+  /// nullptr before any. For estimates that must not cost a solve (a crest's default height).
+  const Heightfield* last_solution() const { return m_solution ? &*m_solution : nullptr; }
   int solves() const { return m_solves; }
 
   /// The gradient field on the host (georef, metadata and mean elevation of the start).
