@@ -3,6 +3,7 @@
 // gdaldem's formula in the same operation order (host reference: host/src/render/terrain.cpp).
 #pragma OPENCL FP_CONTRACT OFF
 #include "render_window.clh"
+#include "launch.clh"
 
 #define VAL_SLOPE 0
 #define VAL_ASPECT 1
@@ -47,10 +48,10 @@ inline float terrain_value(const float* v, const int mode, const int flags, __gl
 __kernel void terrain_rows(__global const float* z, const int w, const int h, const int r0, const int y0,
                            const int rows, const int mode, const int flags, const int edges,
                            __global const float* p, __global float* out) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= rows) return;
   const int y = y0 + j;
-  for (int x = 0; x < w; ++x) {
+  FOR_X(x, w) {
     float v[9];
     out[(size_t)j * w + x] = rw_window(z, w, h, r0, x, y, edges, v) ? terrain_value(v, mode, flags, p) : NAN;
   }
