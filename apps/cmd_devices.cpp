@@ -1,5 +1,5 @@
 #include "cli.hpp"
-#include "../host/src/launch.hpp"
+#include <terracl/launch.hpp>
 
 #include <fmt/format.h>
 

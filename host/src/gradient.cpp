@@ -2,7 +2,7 @@
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
 
-#include "launch.hpp"
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 namespace terracl {

@@ -8,7 +8,7 @@
 #include <terracl/error.hpp>
 #include <terracl/tensor.hpp>
 
-#include "launch.hpp"
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 #include <algorithm>

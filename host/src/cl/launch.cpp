@@ -1,5 +1,5 @@
-// Launch shapes: see host/src/launch.hpp and kernels/launch.clh.
-#include "../launch.hpp"
+// Launch shapes: see host/include/terracl/launch.hpp and kernels/launch.clh.
+#include <terracl/launch.hpp>
 
 #include <fmt/format.h>
 

@@ -1,6 +1,6 @@
 // Edit scripts: parsing (all operations validated before any runs) and the editing session.
 #include "edit/state.hpp"
-#include "launch.hpp"
+#include <terracl/launch.hpp>
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>

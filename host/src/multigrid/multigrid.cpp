@@ -1,7 +1,7 @@
 // Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
 // docs/reconstruct.md for the design choices and measurements.
 #include "multigrid/multigrid.hpp"
-#include "launch.hpp"
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 #include <terracl/error.hpp>

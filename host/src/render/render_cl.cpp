@@ -7,7 +7,7 @@
 
 #include "render/render_internal.hpp"
 #include "render/render_window.hpp"
-#include "launch.hpp"
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 namespace terracl::render {

@@ -1,5 +1,5 @@
 #pragma once
-// 2D launches of the converted kernels (kernels/launch.clh), one helper for every launcher.
+/// 2D launches of the cell kernels (kernels/launch.clh), one helper for every launcher.
 // The device's info().launch picks the shape: "rows" launches (1, rows) with the x-loop inside
 // the kernel (fastest on PoCL), "wide" launches one work-item per cell, x fastest, in groups of
 // (preferred multiple, max / preferred) clipped to 256 work-items, queried once per kernel.
