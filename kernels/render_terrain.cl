@@ -21,7 +21,7 @@ inline float terrain_value(const float* v, const int mode, const int flags, __gl
   if (mode == VAL_ASPECT) {
     // gdaldem: atan2(dy, -dx) on Horn's raw sums; scaled by the cell sizes here (the same angle
     // on square cells, the true aspect on rectangular ones).
-    const float hx = rw_horn_x(v), hy = rw_horn_y(v);
+    const float hx = rw_gx(v, p), hy = rw_gy(v, p);
     if (hx == 0.0f && hy == 0.0f) return (flags & FLAG_ZERO_FOR_FLAT) ? 0.0f : NAN;
     float a = degrees(atan2(hy * -p[P_INV_NS], hx * p[P_INV_EW]));
     if (!(flags & FLAG_TRIGONOMETRIC))
