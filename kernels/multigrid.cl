@@ -41,13 +41,9 @@ inline float res0(__global const float* ur, __global const float* un, __global c
   const float gv = gr[x];
   if (isnan(gv)) return 0.0f;
   const float c = ur[x];
-  // The order of res0_v16 (left, right, north, south): interior cells get the same bits from
-  // either, so the rows shape's vector path and the wide shape's scalar one agree.
-  float r = gv;
+  float r = gv + wn * (un[x] - c) + ws * (us[x] - c);
   if (x > 0) r += wx * (ur[x - 1] - c);
   if (x + 1 < W) r += wx * (ur[x + 1] - c);
-  r += wn * (un[x] - c);
-  r += ws * (us[x] - c);
   return r;
 }
 
@@ -58,6 +54,17 @@ inline float16 res0_v16(__global const float* ur, __global const float* un, __gl
   const float16 r = gv + wx * (vload16(0, ur + x - 1) - c) + wx * (vload16(0, ur + x + 1) - c) +
                     wn * (vload16(0, un + x) - c) + ws * (vload16(0, us + x) - c);
   return select(r, (float16)(0.0f), isnan(gv));
+}
+
+// One lane of res0_v16 as a scalar (its order of additions: left, right, north, south), for an
+// interior column: the wide shape's restriction gives the cells the rows shape computes in
+// vectors the same bits.
+inline float res0_vo(__global const float* ur, __global const float* un, __global const float* us,
+                     __global const float* gr, int x, float wx, float wn, float ws) {
+  const float gv = gr[x];
+  if (isnan(gv)) return 0.0f;
+  const float c = ur[x];
+  return gv + wx * (ur[x - 1] - c) + wx * (ur[x + 1] - c) + wn * (un[x] - c) + ws * (us[x] - c);
 }
 
 // Red-black Gauss-Seidel half-sweep on level 0: cells with (x + y) % 2 == colour.
@@ -159,13 +166,23 @@ __kernel void residual_restrict0(__global const float* u, __global const float* 
    a2 * res0(ur2, un2, us2, gr2, xx, W, wx, wn2, ws2))
 #ifdef TERRACL_WIDE
   // One coarse node per work-item; column 2i-1 (the row loop's carried `prev`) is recomputed.
+  // Each column is computed as the row loop computes it: nodes in the loop's 8-node vector blocks
+  // (from node 1, while the block's fine columns are all inside) with res0_v16's order, the rest
+  // with res0's; column 2i-1 belongs to node i-1.
+#define COLV(xx)                                                                \
+  (a0 * res0_vo(ur0, un0, us0, gr0, xx, wx, wn0, ws0) + a1 * res0_vo(ur1, un1, us1, gr1, xx, wx, wn1, ws1) + \
+   a2 * res0_vo(ur2, un2, us2, gr2, xx, wx, wn2, ws2))
+#define VEC(n) ((n) >= 1 && 1 + 8 * (((n) - 1) / 8) + 8 <= Wc && 2 * (1 + 8 * (((n) - 1) / 8)) + 16 <= W - 1)
   const int i = get_global_id(0);
   if (i >= Wc) return;
-  const float prev = (i > 0 && 2 * i - 1 < W) ? COL(2 * i - 1) : 0.0f;
-  const float c0 = 2 * i < W ? COL(2 * i) : 0.0f;
-  const float c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
+  const float prev = (i > 0 && 2 * i - 1 < W) ? (VEC(i - 1) ? COLV(2 * i - 1) : COL(2 * i - 1)) : 0.0f;
+  const int v = VEC(i);
+  const float c0 = 2 * i < W ? (v ? COLV(2 * i) : COL(2 * i)) : 0.0f;
+  const float c1 = 2 * i + 1 < W ? (v ? COLV(2 * i + 1) : COL(2 * i + 1)) : 0.0f;
   rc[GI(i, j, P)] = 0.5f * prev + c0 + 0.5f * c1;
   ec[GI(i, j, P)] = 0.0f;
+#undef VEC
+#undef COLV
 #else
   float prev = 0.0f;  // column 2i-1
   int i = 0;

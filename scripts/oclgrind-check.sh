@@ -6,7 +6,7 @@
 #   ONLY=^wide_ scripts/oclgrind-check.sh     (only the cases whose name matches)
 # Each case's diagnostics go to OUT/<case>.log; the script prints the first lines of any non-empty
 # log. Sizes are small (33..65 cells a side, few cycles/steps): the whole run takes ~2 min on 2 cores
-# (plus ~N s for the wide-shape cases).
+# (the six wide-shape cases: 47 s wall, load average ~20, `ONLY=^wide_ bash scripts/oclgrind-check.sh`).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build}
