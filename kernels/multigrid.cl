@@ -10,10 +10,13 @@
 // Coarse arrays carry a one-node ghost frame of zeros (pitch W+2), so their stencil loops need no
 // bounds tests: ghost nodes have e = 0 and zero weights.
 //
-// Layout: one work-item per row with the x-loop inside (fastest for stencils on PoCL; on GPUs
-// consecutive work-items then stride by rows, acceptable for this CPU-first code). The host never
-// waits between kernels of a cycle. FMA contraction off: results do not depend on the compiler.
+// Layout (kernels/launch.clh): the cell kernels are written once per cell inside FOR_X; the rows
+// shape (PoCL) loops over a row per work-item, the wide shape (GPUs) runs one work-item per cell
+// with x fastest (coalesced). Both give the same bits. Reductions (norms, row sums) stay one
+// work-item per row. The host never waits between kernels of a cycle. FMA contraction off:
+// results do not depend on the compiler.
 #pragma OPENCL FP_CONTRACT OFF
+#include "launch.clh"
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 typedef double acc_t;
@@ -53,10 +56,21 @@ inline float16 res0_v16(__global const float* ur, __global const float* un, __gl
   return select(r, (float16)(0.0f), isnan(gv));
 }
 
+// One lane of res0_v16 as a scalar (its order of additions: left, right, north, south), for an
+// interior column: the wide shape's restriction gives the cells the rows shape computes in
+// vectors the same bits.
+inline float res0_vo(__global const float* ur, __global const float* un, __global const float* us,
+                     __global const float* gr, int x, float wx, float wn, float ws) {
+  const float gv = gr[x];
+  if (isnan(gv)) return 0.0f;
+  const float c = ur[x];
+  return gv + wx * (ur[x - 1] - c) + wx * (ur[x + 1] - c) + wn * (un[x] - c) + ws * (us[x] - c);
+}
+
 // Red-black Gauss-Seidel half-sweep on level 0: cells with (x + y) % 2 == colour.
 __kernel void smooth_rb0(__global float* u, __global const float* g, const int W, const int H, const float wx,
                          const float wy, const int colour) {
-  const int y = get_global_id(0);
+  const int y = ROW_ID();
   if (y >= H) return;
   const size_t o = (size_t)y * W;
   __global float* row = u + o;
@@ -65,6 +79,25 @@ __kernel void smooth_rb0(__global float* u, __global const float* g, const int W
   __global const float* dn = (y + 1 < H) ? row + W : row;
   const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
   const float dy = wn + ws;
+#ifdef TERRACL_WIDE
+  // One cell of the colour per work-item (x = 2 gid + parity): the same three formulas as the
+  // row loop below, picked by column.
+  const int x = 2 * (int)get_global_id(0) + ((y + colour) & 1);
+  if (x >= W) return;
+  const float gv = gr[x];
+  if (x == 0) {
+    const float wr = W > 1 ? wx : 0.0f;
+    const float d = dy + wr;
+    if (!isnan(gv) && d > 0.0f) row[0] = (gv + wr * (W > 1 ? row[1] : 0.0f) + wn * up[0] + ws * dn[0]) / d;
+  } else if (x < W - 1) {
+    const float inv = 1.0f / (dy + 2.0f * wx);
+    const float v = (gv + wx * (row[x - 1] + row[x + 1]) + wn * up[x] + ws * dn[x]) * inv;
+    row[x] = isnan(gv) ? row[x] : v;
+  } else {
+    const float d = dy + wx;
+    if (!isnan(gv) && d > 0.0f) row[x] = (gv + wx * row[x - 1] + wn * up[x] + ws * dn[x]) / d;
+  }
+#else
   int x = (y + colour) & 1;
   // The border columns take the general path; the interior loop has no bounds tests.
   if (x == 0) {
@@ -85,19 +118,20 @@ __kernel void smooth_rb0(__global float* u, __global const float* g, const int W
     const float d = dy + wx;
     if (!isnan(gv) && d > 0.0f) row[x] = (gv + wx * row[x - 1] + wn * up[x] + ws * dn[x]) / d;
   }
+#endif
 }
 
 // Weighted Jacobi on level 0: out = u + omega * (GS value - u).
 __kernel void jacobi0(__global float* out, __global const float* u, __global const float* g, const int W, const int H,
                       const float wx, const float wy, const float omega) {
-  const int y = get_global_id(0);
+  const int y = ROW_ID();
   if (y >= H) return;
   const size_t o = (size_t)y * W;
   __global const float* row = u + o;
   __global const float* up = (y > 0) ? row - W : row;
   __global const float* dn = (y + 1 < H) ? row + W : row;
   const float wn = (y > 0) ? wy : 0.0f, ws = (y + 1 < H) ? wy : 0.0f;
-  for (int x = 0; x < W; ++x) {
+  FOR_X(x, W) {
     const float wl = x > 0 ? wx : 0.0f, wr = x + 1 < W ? wx : 0.0f;
     const float d = wl + wr + wn + ws;
     const float uc = row[x];
@@ -110,7 +144,7 @@ __kernel void jacobi0(__global float* out, __global const float* u, __global con
 // never stored), and zero initial guess for the coarse correction.
 __kernel void residual_restrict0(__global const float* u, __global const float* g, const int W, const int H,
                                  const float wx, const float wy, __global float* rc, __global float* ec, const int Wc) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   const int Hc = H / 2 + 1;
   if (j >= Hc) return;
   const int P = Wc + 2;
@@ -130,6 +164,26 @@ __kernel void residual_restrict0(__global const float* u, __global const float* 
 #define COL(xx)                                                                  \
   (a0 * res0(ur0, un0, us0, gr0, xx, W, wx, wn0, ws0) + a1 * res0(ur1, un1, us1, gr1, xx, W, wx, wn1, ws1) + \
    a2 * res0(ur2, un2, us2, gr2, xx, W, wx, wn2, ws2))
+#ifdef TERRACL_WIDE
+  // One coarse node per work-item; column 2i-1 (the row loop's carried `prev`) is recomputed.
+  // Each column is computed as the row loop computes it: nodes in the loop's 8-node vector blocks
+  // (from node 1, while the block's fine columns are all inside) with res0_v16's order, the rest
+  // with res0's; column 2i-1 belongs to node i-1.
+#define COLV(xx)                                                                \
+  (a0 * res0_vo(ur0, un0, us0, gr0, xx, wx, wn0, ws0) + a1 * res0_vo(ur1, un1, us1, gr1, xx, wx, wn1, ws1) + \
+   a2 * res0_vo(ur2, un2, us2, gr2, xx, wx, wn2, ws2))
+#define VEC(n) ((n) >= 1 && 1 + 8 * (((n) - 1) / 8) + 8 <= Wc && 2 * (1 + 8 * (((n) - 1) / 8)) + 16 <= W - 1)
+  const int i = get_global_id(0);
+  if (i >= Wc) return;
+  const float prev = (i > 0 && 2 * i - 1 < W) ? (VEC(i - 1) ? COLV(2 * i - 1) : COL(2 * i - 1)) : 0.0f;
+  const int v = VEC(i);
+  const float c0 = 2 * i < W ? (v ? COLV(2 * i) : COL(2 * i)) : 0.0f;
+  const float c1 = 2 * i + 1 < W ? (v ? COLV(2 * i + 1) : COL(2 * i + 1)) : 0.0f;
+  rc[GI(i, j, P)] = 0.5f * prev + c0 + 0.5f * c1;
+  ec[GI(i, j, P)] = 0.0f;
+#undef VEC
+#undef COLV
+#else
   float prev = 0.0f;  // column 2i-1
   int i = 0;
   for (;;) {
@@ -154,19 +208,20 @@ __kernel void residual_restrict0(__global const float* u, __global const float* 
     prev = c1;
     ++i;
   }
+#endif
 #undef COL
 }
 
 // u += P ec on free cells of level 0 (ec ghosted, pitch Wc + 2).
 __kernel void prolong_correct0(__global float* u, __global const float* g, const int W, const int H,
                                __global const float* ec, const int Wc) {
-  const int y = get_global_id(0);
+  const int y = ROW_ID();
   if (y >= H) return;
   const size_t o = (size_t)y * W;
   const int P = Wc + 2;
   __global const float* r0 = ec + GI(0, y >> 1, P);
   __global const float* r1 = (y & 1) ? r0 + P : r0;
-  for (int x = 0; x < W; ++x) {
+  FOR_X(x, W) {
     const int xc = x >> 1;
     const float v = (x & 1) ? 0.25f * (r0[xc] + r0[xc + 1] + r1[xc] + r1[xc + 1]) : 0.5f * (r0[xc] + r1[xc]);
     const float gv = g[o + x];
@@ -310,11 +365,19 @@ inline float res9(__global const float* e, __global const float* r, __global con
 // where the launch cost dominates).
 __kernel void smooth9(__global float* e, __global const float* r, __global const float* st, const int W, const int H,
                       const int px, const int py, const int xstep) {
-  const int y = 2 * (int)get_global_id(0) + py;
+  const int y = 2 * ROW_ID() + py;
   if (y >= H) return;
   const int P = W + 2;
   const size_t N = (size_t)P * (H + 2);
+#ifdef TERRACL_WIDE
+  // Four colours: one node per work-item. Zebra rows are sequential along x: the host launches
+  // one work-item column for them and the first one sweeps its row as in the rows shape.
+  int x = xstep == 2 ? px + 2 * (int)get_global_id(0) : px;
+  const int end = xstep == 2 ? min(x + 1, W) : (get_global_id(0) == 0 ? W : 0);
+  for (; x < end; x += xstep) {
+#else
   for (int x = px; x < W; x += xstep) {
+#endif
     const size_t o = GI(x, y, P);
     const float d = st[o];
     const float v = e[o] + res9(e, r, st, o, P, N) / d;
@@ -325,11 +388,11 @@ __kernel void smooth9(__global float* e, __global const float* r, __global const
 // Weighted Jacobi on a 9-point level.
 __kernel void jacobi9(__global float* out, __global const float* e, __global const float* r,
                       __global const float* st, const int W, const int H, const float omega) {
-  const int y = get_global_id(0);
+  const int y = ROW_ID();
   if (y >= H) return;
   const int P = W + 2;
   const size_t N = (size_t)P * (H + 2);
-  for (int x = 0; x < W; ++x) {
+  FOR_X(x, W) {
     const size_t o = GI(x, y, P);
     const float d = st[o];
     out[o] = d > 0.0f ? e[o] + omega * res9(e, r, st, o, P, N) / d : 0.0f;
@@ -339,7 +402,7 @@ __kernel void jacobi9(__global float* out, __global const float* e, __global con
 // Restriction of the coarse-level residual (fused), zero initial coarse correction.
 __kernel void residual_restrict9(__global const float* e, __global const float* r, __global const float* st,
                                  const int W, const int H, __global float* rc, __global float* ec, const int Wc) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   const int Hc = H / 2 + 1;
   if (j >= Hc) return;
   const int P = W + 2, Pc = Wc + 2;
@@ -350,26 +413,35 @@ __kernel void residual_restrict9(__global const float* e, __global const float* 
   ((a0 != 0.0f ? a0 * res9(e, r, st, GI(xx, y0, P), P, N) : 0.0f) +     \
    (a1 != 0.0f ? res9(e, r, st, GI(xx, y1, P), P, N) : 0.0f) +          \
    (a2 != 0.0f ? a2 * res9(e, r, st, GI(xx, y2, P), P, N) : 0.0f))
+#ifdef TERRACL_WIDE
+  // One coarse node per work-item; column 2i-1 (the row loop's carried `prev`) is recomputed.
+  const int i = get_global_id(0);
+  if (i < Wc) {
+    const float prev = (i > 0 && 2 * i - 1 < W) ? COL(2 * i - 1) : 0.0f;
+#else
   float prev = 0.0f;
   for (int i = 0; i < Wc; ++i) {
+#endif
     const float c0 = 2 * i < W ? COL(2 * i) : 0.0f;
     const float c1 = 2 * i + 1 < W ? COL(2 * i + 1) : 0.0f;
     rc[GI(i, j, Pc)] = 0.5f * prev + c0 + 0.5f * c1;
     ec[GI(i, j, Pc)] = 0.0f;
+#ifndef TERRACL_WIDE
     prev = c1;
+#endif
   }
 #undef COL
 }
 
 // e += P ec on a coarse level (dead nodes are reset to 0 by the smoother).
 __kernel void prolong_correct9(__global float* e, const int W, const int H, __global const float* ec, const int Wc) {
-  const int y = get_global_id(0);
+  const int y = ROW_ID();
   if (y >= H) return;
   const int P = W + 2, Pc = Wc + 2;
   __global const float* r0 = ec + GI(0, y >> 1, Pc);
   __global const float* r1 = (y & 1) ? r0 + Pc : r0;
   __global float* row = e + GI(0, y, P);
-  for (int x = 0; x < W; ++x) {
+  FOR_X(x, W) {
     const int xc = x >> 1;
     row[x] += (x & 1) ? 0.25f * (r0[xc] + r0[xc + 1] + r1[xc] + r1[xc + 1]) : 0.5f * (r0[xc] + r1[xc]);
   }
@@ -680,7 +752,7 @@ inline int cell_state(__global const float* g, int x, int y, int W, int H) {
 
 __kernel void galerkin0(__global const float* g, const int W, const int H, const float wx, const float wy,
                         __global float* stc, const int Wc, const int Hc) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= Hc) return;
   const int Pc = Wc + 2;
   const size_t Nc = (size_t)Pc * (Hc + 2);
@@ -698,7 +770,7 @@ __kernel void galerkin0(__global const float* g, const int W, const int H, const
     reg_WSE = GALERKIN_WSE;
     reg_WSW = GALERKIN_WSW;
   }
-  for (int i = 0; i < Wc; ++i) {
+  FOR_X(i, Wc) {
     const int bx = 2 * i, by = 2 * j;
     const size_t o = GI(i, j, Pc);
     if (bx >= 2 && by >= 2 && bx + 2 < W && by + 2 < H) {
@@ -749,7 +821,7 @@ inline float ld9(__global const float* st, int k, int x, int y, int W, int H) {
 
 __kernel void galerkin9(__global const float* st, const int W, const int H, __global float* stc, const int Wc,
                         const int Hc) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= Hc) return;
   const int Pc = Wc + 2;
   const size_t Nc = (size_t)Pc * (Hc + 2);
@@ -759,7 +831,7 @@ __kernel void galerkin9(__global const float* st, const int W, const int H, __gl
   // stays within [-1, W] x [-1, H] need no bounds test (most of them).
   const int by = 2 * j;
   const int rows_in = (by - 2 >= -1) && (by + 2 <= H);
-  for (int i = 0; i < Wc; ++i) {
+  FOR_X(i, Wc) {
     const int bx = 2 * i;
     const size_t o = GI(i, j, Pc);
     float d_, we_, ws_, wse_, wsw_, s_;
@@ -820,9 +892,9 @@ __kernel void galerkin9(__global const float* st, const int W, const int H, __gl
 // the border.
 __kernel void fuse_restrict(__global const float* gf, __global const float* uf, const int W, const int H,
                             __global float* gc, __global float* uc, const int Wc, const int Hc) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= Hc) return;
-  for (int i = 0; i < Wc; ++i) {
+  FOR_X(i, Wc) {
     float sg = 0.0f, wg = 0.0f, sh = 0.0f, wh = 0.0f;
     for (int fy = -1; fy <= 1; ++fy) {
       const int y = 2 * j + fy;
@@ -856,12 +928,12 @@ __kernel void fuse_restrict(__global const float* gf, __global const float* uf, 
 // u = P uc on free cells (the cascade interpolates the solution itself, not a correction).
 __kernel void prolong_assign(__global float* u, __global const float* g, const int W, const int H,
                              __global const float* uc, const int Wc) {
-  const int y = get_global_id(0);
+  const int y = ROW_ID();
   if (y >= H) return;
   const size_t o = (size_t)y * W;
   __global const float* r0 = uc + (size_t)(y >> 1) * Wc;
   __global const float* r1 = (y & 1) ? r0 + Wc : r0;
-  for (int x = 0; x < W; ++x) {
+  FOR_X(x, W) {
     const int xc = x >> 1;
     const float v = (x & 1) ? 0.25f * (r0[xc] + r0[xc + 1] + r1[xc] + r1[xc + 1]) : 0.5f * (r0[xc] + r1[xc]);
     if (!isnan(g[o + x])) u[o + x] = v;

@@ -6,6 +6,7 @@
 // writes nodata.
 #pragma OPENCL FP_CONTRACT OFF
 #include "render_window.clh"
+#include "launch.clh"
 
 #define MODE_HILLSHADE 0
 #define MODE_RELIEF 1
@@ -71,7 +72,7 @@ __kernel void render_rows(__global const float* z, const int w, const int h, con
                           const int rows, const int mode, const int shading, const int edges,
                           __global const float* p, __global const float* ramp_z, __global const uchar* ramp_rgb,
                           const int nramp, const uint nodata_rgb, const int nch, __global uchar* out) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= rows) return;
   const int y = y0 + j;
   // Shaded relief is not a gdaldem product: its shade always computes the edges, so only nodata
@@ -82,6 +83,31 @@ __kernel void render_rows(__global const float* z, const int w, const int h, con
   __global uchar* row = out + (size_t)j * w * nch;
   float v[9];
   const int inner = y > 0 && y < h - 1 && w > 2;
+#ifdef TERRACL_WIDE
+  // One pixel per work-item: the same window (loaded directly instead of slid along the row) and
+  // the same NaN test in the same order, so both shapes give the same bytes.
+  const int x = get_global_id(0);
+  if (x >= w) return;
+  if (inner && x > 0 && x < w - 1) {
+    __global const float* up = z + (size_t)(y - 1 - r0) * w + x;
+    __global const float* md = up + w;
+    __global const float* dn = md + w;
+    v[0] = up[-1], v[1] = up[0], v[2] = up[1], v[3] = md[-1], v[4] = md[0], v[5] = md[1];
+    v[6] = dn[-1], v[7] = dn[0], v[8] = dn[1];
+    const float b1 = v[4];
+    int ok = 1;
+    if (isnan(v[0] + v[3] + v[6] + v[1] + v[4] + v[7] + v[2] + v[5] + v[8]))
+      ok = windowed && rw_window(z, w, h, r0, x, y, win_edges, v);
+    render_pixel(mode, shading, ok && windowed, v, b1, p, ramp_z, ramp_rgb, nramp, nodata_rgb, nch,
+                 row + (size_t)x * nch);
+    return;
+  }
+  {
+    const float c = rw_z(z, w, r0, x, y);
+    const int ok = windowed && rw_window(z, w, h, r0, x, y, win_edges, v);
+    render_pixel(mode, shading, ok, v, c, p, ramp_z, ramp_rgb, nramp, nodata_rgb, nch, row + (size_t)x * nch);
+  }
+#else
   if (inner) {
     __global const float* up = z + (size_t)(y - 1 - r0) * w;
     __global const float* md = up + w;
@@ -103,4 +129,5 @@ __kernel void render_rows(__global const float* z, const int w, const int h, con
     const int ok = windowed && rw_window(z, w, h, r0, x, y, win_edges, v);
     render_pixel(mode, shading, ok, v, c, p, ramp_z, ramp_rgb, nramp, nodata_rgb, nch, row + (size_t)x * nch);
   }
+#endif
 }

@@ -3,6 +3,7 @@
 // gdaldem's formula in the same operation order (host reference: host/src/render/terrain.cpp).
 #pragma OPENCL FP_CONTRACT OFF
 #include "render_window.clh"
+#include "launch.clh"
 
 #define VAL_SLOPE 0
 #define VAL_ASPECT 1
@@ -20,7 +21,7 @@ inline float terrain_value(const float* v, const int mode, const int flags, __gl
   if (mode == VAL_ASPECT) {
     // gdaldem: atan2(dy, -dx) on Horn's raw sums; scaled by the cell sizes here (the same angle
     // on square cells, the true aspect on rectangular ones).
-    const float hx = rw_horn_x(v), hy = rw_horn_y(v);
+    const float hx = rw_gx(v, p), hy = rw_gy(v, p);
     if (hx == 0.0f && hy == 0.0f) return (flags & FLAG_ZERO_FOR_FLAT) ? 0.0f : NAN;
     float a = degrees(atan2(hy * -p[P_INV_NS], hx * p[P_INV_EW]));
     if (!(flags & FLAG_TRIGONOMETRIC))
@@ -47,10 +48,10 @@ inline float terrain_value(const float* v, const int mode, const int flags, __gl
 __kernel void terrain_rows(__global const float* z, const int w, const int h, const int r0, const int y0,
                            const int rows, const int mode, const int flags, const int edges,
                            __global const float* p, __global float* out) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= rows) return;
   const int y = y0 + j;
-  for (int x = 0; x < w; ++x) {
+  FOR_X(x, w) {
     float v[9];
     out[(size_t)j * w + x] = rw_window(z, w, h, r0, x, y, edges, v) ? terrain_value(v, mode, flags, p) : NAN;
   }

@@ -34,6 +34,7 @@
 #define PRIM_STRIDE 24
 
 #include "vec8.clh"
+#include "launch.clh"
 
 // alpha(t) = (1 - t^2)^3: alpha(0) = 1, alpha(1) = alpha'(1) = alpha''(1) = 0, even in t (so smooth
 // at the skeleton), zero outside [0, 1].
@@ -331,10 +332,12 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
                                  const int x0, const int y0, const int bw, const int bh,
                                  __global const float* prims, const int nprims, __global const float4* verts,
                                  const int add) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= bh) return;
   const int y = y0 + j;
-  for (int xs = x0; xs < x0 + bw; xs += VW) {
+  // FOR_X over chunks of VW cells (the wide shape: one chunk per work-item).
+  FOR_X(c, (bw + VW - 1) / VW) {
+    const int xs = x0 + c * VW;
     const int n = min(VW, x0 + bw - xs);
     float ax[VW], ay[VW], bx[VW], by[VW];
     int any_x = 0, any_y = 0;
@@ -438,11 +441,12 @@ __kernel void primitive_field(__global float* out, const int W, const int H, con
                               const int x0, const int y0, const int bw, const int bh,
                               __global const float* prims, const int nprims, __global const float4* verts,
                               const int mode) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= bh) return;
   const int y = y0 + j;
   const vf py = (vf)((float)y * cy);
-  for (int xs = x0; xs < x0 + bw; xs += VW) {
+  FOR_X(c, (bw + VW - 1) / VW) {
+    const int xs = x0 + c * VW;
     const vf px = ((float)xs + LANES) * cx;
     vf v = (vf)(0.0f);
     for (int i = 0; i < nprims; ++i) {
@@ -460,11 +464,12 @@ __kernel void primitive_field(__global float* out, const int W, const int H, con
 __kernel void add_potential_gradient(__global float* gx, __global float* gy, __global const float* pot, const int W,
                                      const int H, const float cx, const float cy, const int x0, const int y0,
                                      const int bw, const int bh) {
-  const int j = get_global_id(0);
+  const int j = ROW_ID();
   if (j >= bh) return;
   const int y = y0 + j;
   const float icx = 1.0f / cx, icy = 1.0f / cy;
-  for (int x = x0; x < x0 + bw; ++x) {
+  FOR_X(i, bw) {
+    const int x = x0 + i;
     const size_t o = (size_t)y * W + x;
     if (x + 1 < x0 + bw) gx[o] += (pot[o + 1] - pot[o]) * icx;
     if (j + 1 < bh) gy[o] += (pot[o + W] - pot[o]) * icy;

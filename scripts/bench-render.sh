@@ -6,6 +6,7 @@
 # cache). Prints wall time and peak RSS (/usr/bin/time -v) of every run and the medians.
 #   scripts/bench-render.sh            # hillshade
 #   MODE=shaded-relief scripts/bench-render.sh
+#   ORDER="terracl-device terracl-wide" scripts/bench-render.sh   # a subset
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-${BUILD_DIR:-build}/bin/terracl}
@@ -41,7 +42,9 @@ declare -A CMDS
 CMDS[gdaldem]="gdaldem hillshade -q $BIG $WORK/gdaldem.tif"
 CMDS[terracl-device]="$BIN -q render $BIG -o $WORK/terracl_device.tif --mode $MODE"
 CMDS[terracl-host]="$BIN -q render $BIG -o $WORK/terracl_host.tif --mode $MODE --backend host"
-ORDER="gdaldem terracl-device terracl-host"
+# The wide launch shape (GPUs' one work-item per pixel) forced on the same device, for comparison.
+CMDS[terracl-wide]="env TERRACL_LAUNCH=wide $BIN -q render $BIG -o $WORK/terracl_wide.tif --mode $MODE"
+ORDER=${ORDER:-"gdaldem terracl-device terracl-host terracl-wide"}
 
 echo "render benchmark: $W x $H cells ($BIG), mode $MODE, $REPEATS runs each (after a warm-up), $(nproc) cores"
 for name in $ORDER; do ${CMDS[$name]} >/dev/null; done  # warm-up

@@ -3,8 +3,10 @@
 # device) with --data-races --uninitialized and fails on any report: a read of memory nobody wrote,
 # an out-of-bounds access or a data race. PoCL forgives those; a GPU gives garbage.
 #   scripts/oclgrind-check.sh [BUILD_DIR]      (ctest label `oclgrind` runs it)
+#   ONLY=^wide_ scripts/oclgrind-check.sh     (only the cases whose name matches)
 # Each case's diagnostics go to OUT/<case>.log; the script prints the first lines of any non-empty
-# log. Sizes are small (33..65 cells a side, few cycles/steps): the whole run takes ~2 min on 2 cores.
+# log. Sizes are small (33..65 cells a side, few cycles/steps): the whole run takes ~2 min on 2 cores
+# (the six wide-shape cases: 47 s wall, load average ~20, `ONLY=^wide_ bash scripts/oclgrind-check.sh`).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build}
@@ -21,6 +23,8 @@ fail=0
 run() {  # run NAME ARGS... : terracl ARGS under oclgrind; any diagnostic or a non-zero exit fails
   local name=$1
   shift
+  # ONLY=REGEX runs the cases whose name matches (e.g. ONLY=^wide_ for the wide launch shape).
+  if [ -n "${ONLY:-}" ] && ! [[ $name =~ $ONLY ]]; then return; fi
   local t0=$(date +%s)
   oclgrind $OCLGRIND_FLAGS --max-errors 20 --log "$OUT/$name.log" "$T" -q "$@" >"$OUT/$name.out" 2>&1
   local rc=$?
@@ -85,6 +89,17 @@ run render_igor_edges render "$OUT/c45.tif" -o "$OUT/igor.tif" --shading igor --
 for m in aspect tri tpi roughness; do
   run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.tif" --mode "$m" --compute-edges
 done
+# The wide launch shape (GPUs: one work-item per cell in 2D groups, kernels/launch.clh) on the cell
+# kernels: gradient, multigrid (red-black and four-colour smoothers, restriction, prolongation,
+# Galerkin), tensor fields, render and value rasters. Data races matter most here (red-black / four-colour cells).
+TERRACL_LAUNCH=wide run wide_extract extract "$OUT/c65.tif" -o "$OUT/wg.exr"
+TERRACL_LAUNCH=wide run wide_extract_central extract "$OUT/c45.tif" --central -o "$OUT/wgc.exr"
+TERRACL_LAUNCH=wide run wide_reconstruct reconstruct --gradient "$OUT/wgc.exr" -o "$OUT/wr.tif"
+# (Jacobi and the cascade write a second buffer: no race to find; one wide work-item per cell makes
+# oclgrind ~3x slower than rows, so they are left to Launch.ReconstructSameBitsInBothShapes.)
+TERRACL_LAUNCH=wide run wide_edit_mountain_chain_tensors edit --script "$OUT/mountain_chain_tensors.json" -o "$OUT/wm.tif"
+TERRACL_LAUNCH=wide run wide_render_shaded_relief render "$OUT/c45.tif" -o "$OUT/wsr.png" --mode shaded-relief
+TERRACL_LAUNCH=wide run wide_render_aspect render "$OUT/c45.tif" -o "$OUT/wa.tif" --mode aspect --compute-edges
 if [ $fail -ne 0 ]; then
   echo "oclgrind-check: FAILED (logs in $OUT)"
   exit 1

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
 
@@ -85,6 +86,14 @@ TEST(RenderGdaldem, HillshadeShadingsMatchWithinOneGreyLevel) {
       {"hillshade -combined", render::Mode::Hillshade,
        [](render::Options& o) { o.shading = render::Shading::Combined; }},
       {"hillshade -igor", render::Mode::Hillshade, [](render::Options& o) { o.shading = render::Shading::Igor; }},
+      // gdaldem -alg ZevenbergenThorne and -s (issue 15's parity leftovers).
+      {"hillshade -alg ZevenbergenThorne", render::Mode::Hillshade,
+       [](render::Options& o) { o.gradient_alg = render::GradientAlg::ZevenbergenThorne; }},
+      {"hillshade -multidirectional -alg ZevenbergenThorne", render::Mode::Hillshade,
+       [](render::Options& o) {
+         o.shading = render::Shading::Multidirectional, o.gradient_alg = render::GradientAlg::ZevenbergenThorne;
+       }},
+      {"hillshade -s 0.4 -z 2", render::Mode::Hillshade, [](render::Options& o) { o.scale = 0.4, o.z_factor = 2; }},
   };
   for (const Case& c : cases)
     for (bool edges : {false, true}) {
@@ -131,6 +140,11 @@ TEST(RenderGdaldem, ValueRastersMatchToOneInTenThousand) {
       {"slope -p", M::Slope, [](render::Options& o) { o.slope_percent = true; }},
       {"aspect", M::Aspect, [](render::Options&) {}},
       {"aspect -trigonometric", M::Aspect, [](render::Options& o) { o.aspect_trigonometric = true; }},
+      {"slope -alg ZevenbergenThorne", M::Slope,
+       [](render::Options& o) { o.gradient_alg = render::GradientAlg::ZevenbergenThorne; }},
+      {"slope -p -s 0.5", M::Slope, [](render::Options& o) { o.slope_percent = true, o.scale = 0.5; }},
+      {"aspect -alg ZevenbergenThorne", M::Aspect,
+       [](render::Options& o) { o.gradient_alg = render::GradientAlg::ZevenbergenThorne; }},
       {"TRI -alg Riley", M::TRI, [](render::Options&) {}},
       {"TRI -alg Wilson", M::TRI, [](render::Options& o) { o.tri_alg = render::TriAlg::Wilson; }},
       {"TPI", M::TPI, [](render::Options&) {}},
@@ -254,6 +268,38 @@ TEST(RenderGeoTiff, PictureKeepsGeoreferencingAndNodataIsTransparent) {
   EXPECT_EQ(bad.exit_code, 2) << bad.out;
   EXPECT_NE(bad.out.find("tpi.png"), std::string::npos) << bad.out;
   EXPECT_NE(bad.out.find(".tif"), std::string::npos) << bad.out;
+}
+
+// The CLI spells gdaldem's -alg ZevenbergenThorne and -s as --alg zevenbergenthorne --scale, with the
+// same values as gdaldem; a scale that is not positive is refused naming the option.
+TEST(RenderGdaldem, CliAlgAndScaleMatchGdaldem) {
+  test::TempDir tmp;
+  const auto r = test::run_cli("-q render " + utm_dem() + " -o " + tmp.path("s.tif") +
+                               " --mode slope --alg zevenbergenthorne --scale 0.5 --compute-edges");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Band ours = read_band(tmp.path("s.tif"));
+  const Band ref = gdaldem("slope -alg ZevenbergenThorne -s 0.5 -compute_edges", tmp.path("ref.tif"));
+  ASSERT_EQ(ours.v.size(), ref.v.size());
+  size_t bad = 0, valid = 0;
+  for (size_t i = 0; i < ref.v.size(); ++i) {
+    if (std::isnan(ref.v[i]) || std::isnan(ours.v[i])) {
+      bad += std::isnan(ref.v[i]) != std::isnan(ours.v[i]);
+      continue;
+    }
+    ++valid;
+    bad += std::abs(ours.v[i] - ref.v[i]) > 1e-4 * std::max(1.0f, std::abs(ref.v[i]));
+  }
+  EXPECT_EQ(bad, 0u);
+  EXPECT_GT(valid, ref.v.size() / 2);
+  // Horn and the default scale give other slopes (the options are not ignored).
+  const Band horn = gdaldem("slope -compute_edges", tmp.path("horn.tif"));
+  size_t differ = 0;
+  for (size_t i = 0; i < ref.v.size(); ++i) differ += std::abs(horn.v[i] - ours.v[i]) > 0.01f;
+  EXPECT_GT(differ, valid / 2);
+  const auto zero = test::run_cli("-q render " + utm_dem() + " -o " + tmp.path("z.tif") + " --mode slope --scale 0");
+  EXPECT_NE(zero.exit_code, 0);
+  EXPECT_NE(zero.out.find("scale"), std::string::npos) << zero.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path("z.tif")));
 }
 
 TEST(RenderPng, NodataIsTransparentInPng) {

@@ -2,6 +2,7 @@
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
 
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 namespace terracl {
@@ -51,7 +52,7 @@ GradientField extract_gradient(Device& d, const Heightfield& h, GradientFormat f
     k.setArg(4, h.height);
     k.setArg(5, float(1.0 / h.georef.cell_x));
     k.setArg(6, float(1.0 / h.georef.cell_y));
-    launch_rows(d, k, size_t(h.height));
+    launch_grid(d, k, size_t(h.width), size_t(h.height));
     d.queue().enqueueReadBuffer(gx, CL_FALSE, 0, bytes, g.gx.data());
     d.queue().enqueueReadBuffer(gy, CL_TRUE, 0, bytes, g.gy.data());
   } catch (const cl::Error& e) {
@@ -79,7 +80,7 @@ GradientField to_staggered(Device& d, const GradientField& g) {
     k.setArg(3, gy);
     k.setArg(4, g.width);
     k.setArg(5, g.height);
-    launch_rows(d, k, size_t(g.height));
+    launch_grid(d, k, size_t(g.width), size_t(g.height));
     d.queue().enqueueReadBuffer(gx, CL_FALSE, 0, bytes, out.gx.data());
     d.queue().enqueueReadBuffer(gy, CL_TRUE, 0, bytes, out.gy.data());
   } catch (const cl::Error& e) {
@@ -99,7 +100,7 @@ void enqueue_divergence(Device& d, const cl::Buffer& gx, const cl::Buffer& gy, c
   k.setArg(5, float(1.0 / cell_x));
   k.setArg(6, float(1.0 / cell_y));
   k.setArg(7, scale);
-  launch_rows(d, k, size_t(height));
+  launch_grid(d, k, size_t(width), size_t(height));
 }
 
 Heightfield divergence(Device& d, const GradientField& gin) {

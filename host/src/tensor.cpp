@@ -8,6 +8,7 @@
 #include <terracl/error.hpp>
 #include <terracl/tensor.hpp>
 
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 #include <algorithm>
@@ -228,6 +229,17 @@ DeviceSkeleton upload(Device& d, const std::vector<Primitive>& prims) {
 // Work-groups of 16 rows for these compute-heavy row kernels (4-row groups, the CPU default of
 // launch_rows, measured up to ~10 % slower on the edit benchmark).
 constexpr size_t kTensorRows = 16;
+// Cells per work-item of kernels/tensor.cl's vector loops (VW in kernels/vec8.clh).
+constexpr int kVW = 8;
+
+// The tensor kernels are cell kernels (kernels/launch.clh) over `w` columns (VW-cell chunks for the
+// vector ones): the wide shape launches them in the device's groups, the rows shape keeps its
+// 16-row groups.
+void tensor_grid(Device& d, cl::Kernel& k, size_t w, size_t h) {
+  if (h == 0) return;
+  if (d.info().launch == "wide") return launch_grid(d, k, w, h);
+  d.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(1, round_up(h, kTensorRows)), cl::NDRange(1, kTensorRows));
+}
 
 void tensor_launch(Device& d, const cl::Buffer& sx, const cl::Buffer& sy, GradientBuffers& g,
                    const std::vector<Primitive>& prims, const Box& box, int add) {
@@ -235,7 +247,7 @@ void tensor_launch(Device& d, const cl::Buffer& sx, const cl::Buffer& sy, Gradie
   cl::Kernel k = d.kernel("tensor", "apply_tensor_field");
   set_args(k, sx, sy, g.gx, g.gy, g.width, g.height, float(g.cell_x), float(g.cell_y), box.x0, box.y0, box.w, box.h,
            s.prims, s.count, s.verts, add);
-  launch_rows(d, k, size_t(box.h), kTensorRows);
+  tensor_grid(d, k, size_t(box.w + kVW - 1) / kVW, size_t(box.h));
 }
 
 // Modes of kernels/tensor.cl's primitive_field (FIELD_*).
@@ -248,7 +260,7 @@ void field_launch(Device& d, GradientBuffers& g, const std::vector<Primitive>& p
   cl::Kernel k = d.kernel("tensor", "primitive_field");
   set_args(k, g.mask, g.width, g.height, float(g.cell_x), float(g.cell_y), box.x0, box.y0, box.w, box.h, s.prims,
            s.count, s.verts, mode);
-  launch_rows(d, k, size_t(box.h), kTensorRows);
+  tensor_grid(d, k, size_t(box.w + kVW - 1) / kVW, size_t(box.h));
 }
 
 }  // namespace
@@ -284,7 +296,7 @@ void add_profile_gradient(Device& d, GradientBuffers& g, const std::vector<Primi
   if (box.empty()) return;
   cl::Kernel k = d.kernel("tensor", "add_potential_gradient");
   set_args(k, g.gx, g.gy, g.mask, g.width, g.height, float(g.cell_x), float(g.cell_y), box.x0, box.y0, box.w, box.h);
-  launch_rows(d, k, size_t(box.h), kTensorRows);
+  tensor_grid(d, k, size_t(box.w), size_t(box.h));
 }
 
 }  // namespace terracl

@@ -25,6 +25,9 @@ enum class Shading { Standard, Multidirectional, Combined, Igor };
 Shading shading_from_name(const std::string& name);  ///< standard|multidirectional|combined|igor
 /// gdaldem TRI -alg: Riley (terrestrial, gdaldem's default) or Wilson (bathymetric).
 enum class TriAlg { Riley, Wilson };
+/// gdaldem -alg for slope, aspect and hillshade: Horn's 3x3 weighted differences (the default) or
+/// Zevenbergen & Thorne's 4-neighbour central differences (smoother terrain, gdaldem's advice).
+enum class GradientAlg { Horn, ZevenbergenThorne };
 
 struct Image {
   int width = 0, height = 0;
@@ -78,6 +81,10 @@ struct Options {
   TriAlg tri_alg = TriAlg::Riley;     ///< TRI algorithm
   bool aspect_trigonometric = false;  ///< aspect counter-clockwise from east (gdaldem -trigonometric)
   bool zero_for_flat = false;         ///< aspect 0 on flat ground instead of nodata (-zero_for_flat)
+  GradientAlg gradient_alg = GradientAlg::Horn;  ///< slope/aspect/hillshade gradient (gdaldem -alg)
+  /// Horizontal units per vertical unit (gdaldem -s), e.g. 111120 for degrees over metres; slope
+  /// and hillshade divide the gradient by it (with z_factor on top).
+  double scale = 1;
   /// Rows per device launch: bounds device memory and paces progress.
   int strip_rows = 1024;
   Progress progress;

@@ -99,7 +99,9 @@ cl::Program& Device::program(const std::string& file, const std::string& extra_o
 cl::Program& Device::program_from_source(const std::string& file, const std::string& src,
                                          const std::string& extra_options) {
   std::lock_guard<std::mutex> lock(m_mutex);
-  const std::string options = extra_options.empty() ? kBaseOptions : std::string(kBaseOptions) + " " + extra_options;
+  std::string options = extra_options.empty() ? kBaseOptions : std::string(kBaseOptions) + " " + extra_options;
+  // The launch shape is compiled in (kernels/launch.clh): the wide shape's kernels do one cell each.
+  if (m_info.launch == "wide") options += " -DTERRACL_WIDE=1";
   const std::string mem_key = file + "\n" + options + "\n" + std::to_string(fnv1a(src));
   if (auto it = m_programs.find(mem_key); it != m_programs.end()) return it->second;
 

@@ -1,6 +1,7 @@
 // Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
 // docs/reconstruct.md for the design choices and measurements.
 #include "multigrid/multigrid.hpp"
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 #include <terracl/error.hpp>
@@ -114,10 +115,10 @@ class Solver {
       const Level &F = m_levels[l - 1], &C = m_levels[l];
       if (l == 1) {
         set_args(g0, m_p.g, F.W, F.H, m_wx, m_wy, C.st, C.W, C.H);
-        run(g0, C.H, double(C.W) * C.H);
+        run(g0, C.H, double(C.W) * C.H, C.W);
       } else {
         set_args(g9, F.st, F.W, F.H, C.st, C.W, C.H);
-        run(g9, C.H, double(C.W) * C.H);
+        run(g9, C.H, double(C.W) * C.H, C.W);
       }
     }
     // Coarsest level: pseudo-inverse on the host, in double (handles the singular Neumann case
@@ -182,12 +183,12 @@ class Solver {
       if (m_o.smoother == Smoother::Rbgs) {
         for (int c = 0; c < 2; ++c) {
           set_args(m_rb0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, reverse ? 1 - c : c);
-          run(m_rb0, m_p.height, double(m_p.width) * m_p.height / 2);
+          run(m_rb0, m_p.height, double(m_p.width) * m_p.height / 2, (size_t(m_p.width) + 1) / 2);
         }
       } else {
         Level& L = m_levels[0];
         set_args(m_jac0, L.tmp, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, float(m_o.jacobi_omega));
-        run(m_jac0, m_p.height);
+        run(m_jac0, m_p.height, 0, m_p.width);
         std::swap(L.tmp, m_p.u);
       }
     }
@@ -204,11 +205,11 @@ class Solver {
           const int c = reverse ? colours - 1 - cc : cc;
           const int px = colours == 4 ? (c & 1) : 0, py = colours == 4 ? (c >> 1) : c;
           set_args(m_z9, L.e, L.r, L.st, L.W, L.H, px, py, colours == 4 ? 2 : 1);
-          run(m_z9, size_t((L.H - py + 1) / 2), double(L.W) * L.H / colours);
+          run(m_z9, size_t((L.H - py + 1) / 2), double(L.W) * L.H / colours, colours == 4 ? size_t(L.W - px + 1) / 2 : 1);
         }
       } else {
         set_args(m_jac9, L.tmp, L.e, L.r, L.st, L.W, L.H, float(m_o.jacobi_omega));
-        run(m_jac9, L.H);
+        run(m_jac9, L.H, 0, L.W);
         std::swap(L.tmp, L.e);
       }
     }
@@ -219,10 +220,10 @@ class Solver {
     Level& C = m_levels[l + 1];
     if (l == 0) {
       set_args(m_rr0, m_p.u, m_p.g, m_p.width, m_p.height, m_wx, m_wy, C.r, C.e, C.W);
-      run(m_rr0, C.H, double(C.W) * C.H * 4);
+      run(m_rr0, C.H, double(C.W) * C.H * 4, C.W);
     } else {
       set_args(m_rr9, F.e, F.r, F.st, F.W, F.H, C.r, C.e, C.W);
-      run(m_rr9, C.H, double(C.W) * C.H * 4);
+      run(m_rr9, C.H, double(C.W) * C.H * 4, C.W);
     }
   }
 
@@ -230,11 +231,11 @@ class Solver {
     Level& C = m_levels[l + 1];
     if (l == 0) {
       set_args(m_pc0, m_p.u, m_p.g, m_p.width, m_p.height, C.e, C.W);
-      run(m_pc0, m_p.height, double(m_p.width) * m_p.height);
+      run(m_pc0, m_p.height, double(m_p.width) * m_p.height, m_p.width);
     } else {
       Level& F = m_levels[l];
       set_args(m_pc9, F.e, F.W, F.H, C.e, C.W);
-      run(m_pc9, F.H, double(F.W) * F.H);
+      run(m_pc9, F.H, double(F.W) * F.H, F.W);
     }
   }
 
@@ -332,7 +333,7 @@ class Solver {
     cl::Kernel pa = m_d.kernel("multigrid", "prolong_assign");
     for (size_t l = 0; l + 1 < L; ++l) {
       set_args(fuse, lv[l].r, lv[l].e, lv[l].W, lv[l].H, lv[l + 1].r, lv[l + 1].e, lv[l + 1].W, lv[l + 1].H);
-      run(fuse, lv[l + 1].H);
+      run(fuse, lv[l + 1].H, 0, lv[l + 1].W);
     }
     if (m_p.singular) {
       // Without any hard cell the border-renormalised coarse right-hand sides are not exactly
@@ -356,14 +357,14 @@ class Solver {
     for (size_t l = L; l-- > 0;) {
       if (l + 1 < L) {
         set_args(pa, lv[l].e, lv[l].r, lv[l].W, lv[l].H, lv[l + 1].e, lv[l + 1].W);
-        run(pa, lv[l].H);
+        run(pa, lv[l].H, 0, lv[l].W);
       }
       const double scale = std::ldexp(1.0, int(l));
       const float wx = float(1.0 / (p2(m_p.cell_x * scale))), wy = float(1.0 / p2(m_p.cell_y * scale));
       const int sweeps = 50 + 10 * int(L - 1 - l);
       for (int s = 0; s < sweeps; ++s) {
         set_args(m_jac0, lv[l].tmp, lv[l].e, lv[l].r, lv[l].W, lv[l].H, wx, wy, 1.0f);
-        run(m_jac0, lv[l].H);
+        run(m_jac0, lv[l].H, 0, lv[l].W);
         std::swap(lv[l].tmp, lv[l].e);
       }
     }
@@ -379,11 +380,16 @@ class Solver {
 
  private:
   static double p2(double v) { return v * v; }
-  void run(cl::Kernel& k, size_t n, double items = 0) {
+  // `n` rows; `w` > 0: a cell kernel (kernels/launch.clh) over w columns, launched in the device's
+  // shape; else one work-item per row.
+  void run(cl::Kernel& k, size_t n, double items = 0, size_t w = 0) {
     if (n == 0) return;
     const bool prof = profiling();
     const double t = prof ? now_ms() : 0;
-    launch_rows(m_d, k, n);
+    if (w > 0)
+      launch_grid(m_d, k, w, n);
+    else
+      launch_rows(m_d, k, n);
     if (prof) {
       m_q.finish();
       std::string name = k.getInfo<CL_KERNEL_FUNCTION_NAME>();

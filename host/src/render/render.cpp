@@ -202,6 +202,9 @@ void check_options(const Heightfield& h, const Options& opt) {
     fail("render", "slope_max must be in (0, 90] deg, got {}", opt.slope_max_deg);
   if (!std::isfinite(opt.azimuth_deg) || !std::isfinite(opt.z_factor))
     fail("render", "azimuth and z factor must be finite numbers");
+  if (!(opt.scale > 0) || !std::isfinite(opt.scale))
+    fail("render", "scale (gdaldem -s) must be a positive number of horizontal units per vertical unit, got {}",
+         opt.scale);
   if (!(h.georef.cell_x > 0 && h.georef.cell_y > 0))
     fail("render", "cell size must be positive, got {} x {} m", h.georef.cell_x, h.georef.cell_y);
 }

@@ -7,6 +7,7 @@
 
 #include "render/render_internal.hpp"
 #include "render/render_window.hpp"
+#include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
 namespace terracl::render {
@@ -88,7 +89,7 @@ Image render(const Heightfield& h, const Options& opt, Device& device) {
           set_args(k, z, cl_int(h.width), cl_int(h.height), cl_int(st.r0), cl_int(st.y0), cl_int(st.rows), cl_int(mode),
                    cl_int(shading_code(opt.shading)), cl_int(opt.compute_edges ? 1 : 0), bp, bz, brgb,
                    cl_int(rz.size()), cl_uint(nodata), cl_int(l.channels), out);
-          launch_rows(device, k, size_t(st.rows));
+          launch_grid(device, k, size_t(h.width), size_t(st.rows));
         },
         [&](const detail::Strip& st) {
           q.enqueueReadBuffer(out, CL_TRUE, 0, out_row * st.rows, img.pixels.data() + out_row * st.y0);
@@ -125,7 +126,7 @@ Heightfield values(const Heightfield& h, const Options& opt, Device& device) {
         [&](const detail::Strip& st) {
           set_args(k, z, cl_int(h.width), cl_int(h.height), cl_int(st.r0), cl_int(st.y0), cl_int(st.rows), cl_int(mode),
                    cl_int(flags), cl_int(opt.compute_edges ? 1 : 0), bp, bo);
-          launch_rows(device, k, size_t(st.rows));
+          launch_grid(device, k, size_t(h.width), size_t(st.rows));
         },
         [&](const detail::Strip& st) {
           q.enqueueReadBuffer(bo, CL_TRUE, 0, out_row * st.rows * sizeof(float), out.z.data() + out_row * st.y0);

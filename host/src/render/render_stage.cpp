@@ -30,6 +30,9 @@ render::Options render_stage_options(const StageContext& c) {
   o.tri_alg = c.get<std::string>("tri_alg") == "wilson" ? render::TriAlg::Wilson : render::TriAlg::Riley;
   o.aspect_trigonometric = c.get<bool>("trigonometric");
   o.zero_for_flat = c.get<bool>("zero_for_flat");
+  o.gradient_alg = c.get<std::string>("alg") == "zevenbergenthorne" ? render::GradientAlg::ZevenbergenThorne
+                                                                     : render::GradientAlg::Horn;
+  o.scale = c.get<double>("scale");
   o.progress = c.progress;
   return o;
 }
@@ -123,6 +126,20 @@ StageInfo render_stage_info() {
             false,
             "",
             "Aspect 0 on flat ground instead of nodata (gdaldem -zero_for_flat)",
+            {},
+            false},
+           {"alg",
+            OptionType::Enum,
+            "horn",
+            "",
+            "Slope/aspect/hillshade gradient (gdaldem -alg): horn, or zevenbergenthorne (smoother terrain)",
+            {"horn", "zevenbergenthorne"},
+            false},
+           {"scale",
+            OptionType::Float,
+            1.0,
+            "",
+            "Horizontal units per vertical unit (gdaldem -s), e.g. 111120 for a DEM in degrees with metres",
             {},
             false},
            {"backend",

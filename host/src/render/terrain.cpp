@@ -19,8 +19,8 @@ double terrain_value(const double* v, const Options& o, const detail::ShadeParam
       // ill-conditioned, and double sums differ from gdaldem's by degrees there.
       float f[9];
       for (int k = 0; k < 9; ++k) f[k] = float(v[k]);
-      const double hx = (f[0] + f[3] + f[3] + f[6]) - (f[2] + f[5] + f[5] + f[8]);
-      const double hy = (f[6] + f[7] + f[7] + f[8]) - (f[0] + f[1] + f[1] + f[2]);
+      const double hx = p.zt ? double(f[3] - f[5]) : double((f[0] + f[3] + f[3] + f[6]) - (f[2] + f[5] + f[5] + f[8]));
+      const double hy = p.zt ? double(f[7] - f[1]) : double((f[6] + f[7] + f[7] + f[8]) - (f[0] + f[1] + f[1] + f[2]));
       if (hx == 0.0 && hy == 0.0) return o.zero_for_flat ? 0.0 : NAN;
       double a = std::atan2(hy * -p.inv_ns, hx * p.inv_ew) * 180.0 / M_PI;
       if (!o.aspect_trigonometric)
