@@ -23,8 +23,7 @@ namespace {
 Heightfield untiled_area(const Heightfield& h) {
   const analysis::D8Result r = analysis::d8_flow(h);
   Heightfield out(h.width, h.height);
-  for (size_t i = 0; i < out.size(); ++i)
-    out.z[i] = std::isnan(h.z[i]) ? NAN : float(r.cells[i] * r.cell_area_m2);
+  for (size_t i = 0; i < out.size(); ++i) out.z[i] = std::isnan(h.z[i]) ? NAN : float(r.cells[i] * r.cell_area_m2);
   return out;
 }
 
@@ -47,8 +46,8 @@ Heightfield tiled_area(const Heightfield& h, int tile, bool global_phase = true,
       }
   };
   const double cx = h.georef.cell_x, cy = h.georef.cell_y;
-  const auto st = analysis::d8_accumulation_tiled(h.width, h.height, tile, cx, cy, cx * cy, read, write, {},
-                                                  global_phase);
+  const auto st =
+      analysis::d8_accumulation_tiled(h.width, h.height, tile, cx, cy, cx * cy, read, write, {}, global_phase);
   if (stats) *stats = st;
   for (size_t i = 0; i < written.size(); ++i) EXPECT_EQ(written[i], 1) << "cell " << i;
   return out;
@@ -170,9 +169,10 @@ TEST(TileFlow, PipelineDrainageEqualsUntiled) {
   for (const char* which : {"u", "t"}) {
     const std::string out = dir.path(which);
     const std::string src = which[0] == 'u' ? raw : in;  // untiled: the raw surface (it fills itself)
-    const std::string doc = R"([")" + src + R"(", "drainage", ")" + out + R"(/a.tif", {"type": "read", "filename": ")" +
-                            in + R"("}, {"type": "crop", "x": 3, "y": 5, "width": 190}, {"type": "drainage", "units": "cells"}, ")" +
-                            out + R"(/b.tif"])";
+    const std::string doc =
+        R"([")" + src + R"(", "drainage", ")" + out + R"(/a.tif", {"type": "read", "filename": ")" + in +
+        R"("}, {"type": "crop", "x": 3, "y": 5, "width": 190}, {"type": "drainage", "units": "cells"}, ")" + out +
+        R"(/b.tif"])";
     Pipeline p = Pipeline::parse(json::parse(doc), "flow", "flow.json");
     p.validate();
     RunOptions ro;
@@ -223,8 +223,8 @@ TEST(TileFlow, DinfBreachAndRawSurfacesAreRefusedTiled) {
     }
   }
   // The raw surface has pits: the tiled drainage names one and leaves no output behind.
-  Pipeline p = Pipeline::parse(json::parse("[\"" + in + "\", \"drainage\", \"" + dir.path("o.tif") + "\"]"), "x",
-                               "x.json");
+  Pipeline p =
+      Pipeline::parse(json::parse("[\"" + in + "\", \"drainage\", \"" + dir.path("o.tif") + "\"]"), "x", "x.json");
   p.validate();
   RunReport r;
   TileOptions to;

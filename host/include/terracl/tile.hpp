@@ -86,8 +86,8 @@ struct TiledFlowStats {
 /// surface as it is. A pit or flat cell is refused, naming it. cell_x / cell_y: the whole
 /// raster's metric cell size. global_phase = false skips the graph (tests: then tiles differ).
 TiledFlowStats d8_accumulation_tiled(int width, int height, int tile, double cell_x, double cell_y, double scale,
-                                     const WindowReader& read, const WindowWriter& write,
-                                     const Progress& progress = {}, bool global_phase = true);
+                                     const WindowReader& read, const WindowWriter& write, const Progress& progress = {},
+                                     bool global_phase = true);
 
 }  // namespace analysis
 }  // namespace terracl
