@@ -78,5 +78,25 @@ struct TiledFillStats {
 TiledFillStats priority_flood_fill_tiled(int width, int height, int tile, const WindowReader& read,
                                          const WindowWriter& write, const Progress& progress = {});
 
+struct TiledFlowStats {
+  int tiles = 0;
+  size_t graph_nodes = 0, graph_edges = 0;
+  double graph_bytes = 0;
+  size_t valid_cells = 0;
+  double outflow_cells = 0;  ///< accumulation leaving the raster or into nodata (= valid_cells)
+};
+
+/// D8 flow accumulation of a width x height raster that drains (every valid cell has a strictly
+/// lower neighbour or a nodata / off-raster one), tile by tile (Barnes 2017, "Parallel
+/// non-divergent flow accumulation for trillion cell digital elevation models"): local
+/// accumulation per tile, the flow between tiles solved over a graph of perimeter cells, a second
+/// pass adding the inflow. The writer gets float(cells x scale) (nodata NaN): with scale = cell
+/// area or 1, equal bit for bit to the `drainage` stage (method d8) untiled, which routes such a
+/// surface as it is. A pit or flat cell is refused, naming it. cell_x / cell_y: the whole
+/// raster's metric cell size. global_phase = false skips the graph (tests: then tiles differ).
+TiledFlowStats d8_accumulation_tiled(int width, int height, int tile, double cell_x, double cell_y, double scale,
+                                     const WindowReader& read, const WindowWriter& write, const Progress& progress = {},
+                                     bool global_phase = true);
+
 }  // namespace analysis
 }  // namespace terracl

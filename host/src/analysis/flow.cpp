@@ -21,34 +21,19 @@ struct Grid {
   bool inside(int x, int y) const { return x >= 0 && y >= 0 && x < w && y < ht; }
 };
 
-/// Steepest-descent neighbour of cell (x, y); kOutlet when no neighbour is lower.
-inline uint8_t d8_receiver(const std::vector<float>& z, const Grid& g, int x, int y, const double inv_dist[8]) {
-  const size_t i = size_t(y) * g.w + x;
-  const float zc = z[i];
-  const bool interior = x > 0 && y > 0 && x < g.w - 1 && y < g.ht - 1;
-  double best = 0;
-  uint8_t dir = kOutlet;
-  for (int k = 0; k < 8; ++k) {
-    if (!interior && !g.inside(x + kDx[k], y + kDy[k])) continue;
-    const float zn = z[size_t(ptrdiff_t(i) + g.off[k])];
-    if (!(zn < zc)) continue;  // also skips NaN
-    const double s = (double(zc) - double(zn)) * inv_dist[k];
-    if (s > best) {  // strict: the lowest k wins ties
-      best = s;
-      dir = uint8_t(k);
-    }
-  }
-  return dir;
-}
-
 }  // namespace
 
 D8Result d8_flow(const Heightfield& h, const Progress& progress) {
   const char* stage = "d8";
   require_indexable(h, stage);
-  const FillResult f = priority_flood_fill(h, true, scaled_progress(progress, 0.0, 0.6));
-  const std::vector<float>& z = f.filled.z;
   const Grid g(h);
+  // A surface that already drains (an output of the epsilon fill, say) is routed as it is: the
+  // fill would have nothing to resolve, and the tiled accumulation (flow_tiled.cpp), which cannot
+  // reproduce the epsilon flood's global order, then gives the same directions bit for bit.
+  const bool as_is = surface_drains(h.z.data(), h.width, h.height, g.off) == kAllDrain;
+  FillResult f;
+  if (!as_is) f = priority_flood_fill(h, true, scaled_progress(progress, 0.0, 0.6));
+  const std::vector<float>& z = as_is ? h.z : f.filled.z;
   double dist[8], inv_dist[8];
   neighbour_distances(h, dist);
   for (int k = 0; k < 8; ++k) inv_dist[k] = 1.0 / dist[k];
@@ -65,7 +50,7 @@ D8Result d8_flow(const Heightfield& h, const Progress& progress) {
       const size_t i = size_t(y) * g.w + x;
       if (std::isnan(z[i])) continue;
       r.valid_cells++;
-      const uint8_t d = d8_receiver(z, g, x, y, inv_dist);
+      const uint8_t d = d8_receiver(z.data(), g.w, g.ht, x, y, g.off, inv_dist);
       r.dir[i] = d;
       r.cells[i] = 1.0;
       if (d < 8) donors[size_t(ptrdiff_t(i) + g.off[d])]++;

@@ -38,6 +38,55 @@ inline void neighbour_distances(const Heightfield& h, double d[8]) {
   for (int k = 0; k < 8; ++k) d[k] = (kDx[k] != 0 && kDy[k] != 0) ? dg : (kDx[k] != 0 ? cx : cy);
 }
 
+/// Steepest-descent (D8) neighbour of cell (x, y) of a w x h grid `z` (row-major, NaN nodata;
+/// cells outside the grid do not exist); kOutlet when no neighbour is lower. off[k] = kDy[k] * w +
+/// kDx[k]. Shared by the untiled and the tiled accumulation, so both see the same bits.
+inline uint8_t d8_receiver(const float* z, int w, int h, int x, int y, const ptrdiff_t off[8],
+                           const double inv_dist[8]) {
+  const size_t i = size_t(y) * w + x;
+  const float zc = z[i];
+  const bool interior = x > 0 && y > 0 && x < w - 1 && y < h - 1;
+  double best = 0;
+  uint8_t dir = kOutlet;
+  for (int k = 0; k < 8; ++k) {
+    if (!interior) {
+      const int nx = x + kDx[k], ny = y + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+    }
+    const float zn = z[size_t(ptrdiff_t(i) + off[k])];
+    if (!(zn < zc)) continue;  // also skips NaN
+    const double s = (double(zc) - double(zn)) * inv_dist[k];
+    if (s > best) {  // strict: the lowest k wins ties
+      best = s;
+      dir = uint8_t(k);
+    }
+  }
+  return dir;
+}
+
+constexpr size_t kAllDrain = size_t(-1);
+
+/// Whether every valid cell of a w x h grid has a strictly lower neighbour or is an outlet (a
+/// nodata or off-grid neighbour): then D8 routes every cell to the grid's edge or to nodata with
+/// no depression or flat to resolve. Returns kAllDrain, or the index of the first cell that does
+/// not drain (a pit or a flat cell).
+inline size_t surface_drains(const float* z, int w, int h, const ptrdiff_t off[8]) {
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * w + x;
+      const float zc = z[i];
+      if (std::isnan(zc)) continue;
+      if (x == 0 || y == 0 || x == w - 1 || y == h - 1) continue;
+      bool drains = false;
+      for (int k = 0; k < 8 && !drains; ++k) {
+        const float zn = z[size_t(ptrdiff_t(i) + off[k])];
+        drains = std::isnan(zn) || zn < zc;
+      }
+      if (!drains) return i;
+    }
+  return kAllDrain;
+}
+
 /// The grid with a one-cell nodata frame: every valid cell then has 8 addressable neighbours, so
 /// the flood loops need no bounds checks and no divisions, and "border cell" and "next to nodata"
 /// become the same test. Padded indices keep the row-major order of the original ones, so

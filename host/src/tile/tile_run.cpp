@@ -251,6 +251,7 @@ void TiledRun::run_chain(size_t first, size_t last) {
       next.source = std::make_shared<io::GdalWindowReader>(out);
       next.level0 = level;  // the level's own georef (metric cell size), not one recomputed from the file
       next.level0.georef.nodata = next.source->header().georef.nodata;
+      next.level0.georef.vertical_units = next.source->header().georef.vertical_units;  // m2 after drainage
       seg = std::move(next);
       li = 0;
       continue;
@@ -312,6 +313,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   double fixed = 0;
   if (has_global) {
     per_cell = std::max(per_cell, 4.0 + 4 + 1 + 4 + 4 + 8);  // fill: z, labels, closed, window, core, heap share
+    // drainage: window, dir, donors, uint64 count and inflow, order, exit, core
+    if (global->type == "drainage") per_cell = std::max(per_cell, 4.0 + 1 + 1 + 8 + 8 + 4 + 4 + 4);
     fixed = 0;  // the perimeter graph is added below once the tile size is known
   }
   int T = tile_size(seg, per_cell * (1 + 4.0 * (total_halo + extra_halo) / 256.0), fixed);
@@ -497,10 +500,23 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   const Level& L = levels[nl - 1];
   const std::string out_path = to_temp ? global_out + ".filled.tif" : global_out;
   Metadata md = global_md;
-  io::GeoTiffWindowWriter out(out_path, L.w, L.h, L.georef, md);
+  const bool drainage = global->type == "drainage";
+  Georef out_georef = L.georef;
+  if (drainage) {  // as run_drainage labels its output
+    const bool cells = global->options.value("units", std::string("m2")) == "cells";
+    out_georef.vertical_units = cells ? "cells" : "m2";
+    md["terracl:quantity"] = "D8 drainage area";
+  }
+  io::GeoTiffWindowWriter out(out_path, L.w, L.h, out_georef, md);
   auto read = [&](int x, int y, int w, int h) { return in->read(x, y, w, h); };
   auto write = [&](int x, int y, const Heightfield& core) { out.write(x, y, core, 0, 0, core.width, core.height); };
-  analysis::priority_flood_fill_tiled(L.w, L.h, T, read, write, progress(global->tag));
+  if (drainage) {
+    const double cx = L.georef.cell_x, cy = L.georef.cell_y;
+    const double scale = out_georef.vertical_units == "cells" ? 1.0 : cx * cy;
+    analysis::d8_accumulation_tiled(L.w, L.h, T, cx, cy, scale, read, write, progress(global->tag));
+  } else {
+    analysis::priority_flood_fill_tiled(L.w, L.h, T, read, write, progress(global->tag));
+  }
   out.commit();
   in.reset();
   if (to_temp) {

@@ -120,10 +120,19 @@ StageTiling tiling_of(const PipelineStage& st) {
     return refuse(
         "erosion moves water and sediment across the raster for every step; a halo bounded by steps and "
         "flux reach is not implemented yet: run it untiled");
-  if (t == "breach" || t == "drainage")
+  if (t == "drainage") {
+    if (o.value("method", std::string("d8")) == "dinf")
+      return refuse(
+          "D-infinity splits each cell's flow between two receivers in fractional shares summed in double, "
+          "so the result depends on the order of the sums, which tiles cannot reproduce; use method d8 "
+          "(exact tiled) or run it untiled");
+    return kind(TileKind::Global);  // exact tiled D8 (Barnes 2017) on a surface that drains
+  }
+  if (t == "breach")
     return refuse(
-        "breaching and flow accumulation follow paths across the whole raster; their tiled form is not "
-        "implemented yet (fill_depressions is): run it untiled");
+        "a cell's breach path follows the back-links of one global priority flood (first reached, ties "
+        "by raster index) and each cut lowers cells that later comparisons see, so tiles cannot reproduce "
+        "it; run it untiled (docs/scale.md says what a tiled form needs)");
   return refuse("it needs the whole raster (no tiled form)");
 }
 
