@@ -100,10 +100,9 @@ StageTiling tiling_of(const PipelineStage& st) {
     const std::string why = tile::render_tiling_limit(o);
     return why.empty() ? kind(TileKind::Sink, 1) : refuse(why);
   }
-  if (t == "render" || t == "mesh")
+  if (t == "mesh")
     return refuse(
-        "it writes one image or mesh of the whole raster; run it untiled on the tiled GeoTIFF output or a "
-        "window of it");
+        "it writes one mesh of the whole raster; run it untiled on the tiled GeoTIFF output or a window of it");
   if (t == "erode") {
     for (const char* k : {"water", "sediment", "delta", "deposit_thickness"})
       if (o.contains(k) && !o.at(k).is_null())
@@ -116,10 +115,6 @@ StageTiling tiling_of(const PipelineStage& st) {
     tl.halo_of = [o](const Georef& g) { return erode_tile_halo(o, g); };
     return tl;
   }
-  if (t == "erode")
-    return refuse(
-        "erosion moves water and sediment across the raster for every step; a halo bounded by steps and "
-        "flux reach is not implemented yet: run it untiled");
   if (t == "drainage") {
     if (o.value("method", std::string("d8")) == "dinf")
       return refuse(
