@@ -55,9 +55,10 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
         const FileFormat f = format_from_extension(a->output);
         const bool gradient_out = s.output == DataKind::Gradient;
         if (gradient_out ? f != FileFormat::EXR
-                         : (f != FileFormat::GeoTIFF && f != FileFormat::EXR && f != FileFormat::PNG && f != FileFormat::RAW16))
+                         : (f != FileFormat::GeoTIFF && f != FileFormat::EXR && f != FileFormat::PNG && f != FileFormat::RAW16 &&
+                            f != FileFormat::NPY))
           fail(s.name, "-o {}: cannot write a {} with this extension; use {}", a->output, gradient_out ? "gradient" : "heightfield",
-               gradient_out ? ".exr" : ".tif, .exr, .png or .r16");
+               gradient_out ? ".exr" : ".tif, .exr, .png, .r16 or .npy");
       }
       // The same check as a pipeline's: no output may replace an input, another output or a device.
       check_stage_files(s, resolved, {{"input", a->input}}, {{"-o", a->output}});

@@ -50,6 +50,7 @@ run reconstruct_central reconstruct --gradient "$OUT/gc.exr" -o "$OUT/rc.tif"
 run reconstruct_jacobi_w reconstruct --gradient "$OUT/g.exr" -o "$OUT/rj.tif" --smoother jacobi --cycle w
 run reconstruct_cascade reconstruct --gradient "$OUT/g.exr" -o "$OUT/rk.tif" --cycle cascade
 run reconstruct_dirichlet reconstruct --gradient "$OUT/g.exr" -o "$OUT/rd.tif" --border dirichlet --initial "$OUT/c65.tif" --cycle v
+run reconstruct_refine reconstruct --gradient "$OUT/g.exr" -o "$OUT/rr.tif" --refine auto
 # The authoring examples shrunk to 65 cells across over the same extent (metre coordinates stay,
 # cell coordinates are scaled), so that every operation lands on the small grid. volcanic_island
 # runs without its `fit` operation: with it, oclgrind 21.10 aborted in its own oclgrind::Program

@@ -12,6 +12,12 @@ start=$(date +%s)
 export CI=${CI:-false}
 (cd "${BUILD_DIR:-build}" && ctest --output-on-failure -j "${JOBS:-$(nproc)}" --timeout 900)
 echo "test.sh: tests took $(( $(date +%s) - start )) s"
+# The core build without the GIS stack (TERRACL_CORE_ONLY) and its test subset (scripts/core-check.sh).
+if [ "${SKIP_CORE:-0}" != "1" ]; then
+  start=$(date +%s)
+  bash scripts/core-check.sh
+  echo "test.sh: core build + tests took $(( $(date +%s) - start )) s"
+fi
 # libFuzzer smoke run (ASan + UBSan) of the raster readers, the edit-script and pipeline parsers, in
 # its own small build folder (only the sources the harnesses need; docs/reliability.md).
 if [ "${SKIP_FUZZ:-0}" != "1" ]; then

@@ -33,6 +33,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   if (!(cx > 0) || !(cy > 0) || !std::isfinite(cx) || !std::isfinite(cy))
     fail("reconstruct", "cell size must be positive and finite, got {} x {} m", cx, cy);
   if (!(o.tolerance > 0)) fail("reconstruct", "tolerance must be positive, got {}", o.tolerance);
+  if (!(o.refine_tolerance > 0)) fail("reconstruct", "refine tolerance must be positive, got {}", o.refine_tolerance);
   if (o.max_cycles < 1) fail("reconstruct", "max cycles must be at least 1, got {}", o.max_cycles);
   if (o.pre_smooth < 0 || o.post_smooth < 0 || o.pre_smooth + o.post_smooth < 1)
     fail("reconstruct", "smoothing sweeps must be >= 0 with at least one in total");
@@ -146,6 +147,9 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     res.converged = st.converged;
     res.stagnated = st.stagnated;
     res.levels = st.levels;
+    res.refinement = st.refinement;
+    res.refine_cycles = st.refine_cycles;
+    res.refine_residuals = st.refine_residuals;
     res.setup_ms = t_setup0 + st.setup_ms;
     res.solve_ms = t_solved - t0 - res.setup_ms;
     res.device_bytes = std::max(peak, st.peak_bytes);
@@ -208,6 +212,24 @@ const char* cycle_name(Cycle c) {
 
 const char* smoother_name(Smoother s) { return s == Smoother::Rbgs ? "rbgs" : "jacobi"; }
 
+Refinement parse_refinement(const std::string& s) {
+  if (s == "off") return Refinement::Off;
+  if (s == "auto") return Refinement::Auto;
+  if (s == "device") return Refinement::Device;
+  if (s == "host") return Refinement::Host;
+  fail("reconstruct", "unknown refinement '{}' (off|auto|device|host)", s);
+}
+
+const char* refinement_name(Refinement r) {
+  switch (r) {
+    case Refinement::Off: return "off";
+    case Refinement::Auto: return "auto";
+    case Refinement::Device: return "device";
+    case Refinement::Host: return "host";
+  }
+  return "?";
+}
+
 std::vector<std::pair<int, int>> multigrid_levels(int width, int height) {
   std::vector<std::pair<int, int>> v{{width, height}};
   do {
@@ -233,7 +255,10 @@ nlohmann::json ReconstructResult::to_json() const {
           {"setup_ms", setup_ms},
           {"solve_ms", solve_ms},
           {"total_ms", total_ms},
-          {"device_bytes", device_bytes}};
+          {"device_bytes", device_bytes},
+          {"refinement", refinement},
+          {"refine_cycles", refine_cycles},
+          {"refine_relative_residuals", refine_residuals}};
 }
 
 ReconstructResult reconstruct(Device& d, const GradientField& gin, const ConstraintSet& c, const SolverOptions& o) {

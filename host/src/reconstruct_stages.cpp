@@ -76,6 +76,8 @@ void run_reconstruct(StageContext& c) {
   o.smoother = parse_smoother(c.get<std::string>("smoother"));
   o.tolerance = c.get<double>("tolerance");
   o.max_cycles = int(c.get<int64_t>("max_cycles"));
+  o.refine = parse_refinement(c.get<std::string>("refine"));
+  o.refine_tolerance = c.get<double>("refine_tolerance");
   if (c.has("mean")) o.mean = c.get<double>("mean");
   o.dirichlet_border = c.get<std::string>("border") == "dirichlet";
   if (o.dirichlet_border && !initial)
@@ -110,6 +112,7 @@ void run_reconstruct(StageContext& c) {
   if (!r.converged && !r.stagnated && o.cycle != Cycle::Cascade)
     fail("reconstruct", "did not converge in {} cycles (relative residual {:.3g}, tolerance {:.3g})", r.cycles,
          r.residuals.back(), o.tolerance);
+  if (o.refine != Refinement::Off) r.height.metadata["terracl:refinement"] = r.refinement;
   c.data.height = std::move(r.height);
   c.data.current = DataKind::Heightfield;
 }
@@ -185,11 +188,13 @@ void bench_reconstruct(const BenchArgs& a) {
   o.max_cycles = e.value("max_cycles", 50);
   o.pre_smooth = e.value("pre", o.pre_smooth);
   o.post_smooth = e.value("post", o.post_smooth);
+  o.refine = parse_refinement(e.value("refine", std::string("off")));
+  o.refine_tolerance = e.value("refine_tolerance", o.refine_tolerance);
   const double fixed = e.value("fixed", 0.01);
   const int n = a.size;
   BenchProblem p = make_problem(n, fixed, 7);
-  fmt::print("reconstruct {}x{}: cycle {}, smoother {}, {:.2f} % fixed cells, device {}\n", n, n, cycle_name(o.cycle),
-             smoother_name(o.smoother), 100 * fixed, dev->info().name);
+  fmt::print("reconstruct {}x{}: cycle {}, smoother {}, {:.4g} % fixed cells, refine {}, device {}\n", n, n,
+             cycle_name(o.cycle), smoother_name(o.smoother), 100 * fixed, refinement_name(o.refine), dev->info().name);
   ReconstructResult r = reconstruct(*dev, p.g, p.c, o);  // warm-up: builds kernels, first-touch memory
   std::vector<double> ms, cpu;
   for (int i = 0; i < a.repeats; ++i) {
@@ -213,6 +218,10 @@ void bench_reconstruct(const BenchArgs& a) {
              r.converged ? "converged" : r.stagnated ? "stopped at the float32 floor" : "not converged");
   fmt::print("residual_history");
   for (double v : r.residuals) fmt::print(" {:.2e}", v);
+  if (o.refine != Refinement::Off) {
+    fmt::print("\nrefinement {} cycles {}   refine_residual_history", r.refinement, r.refine_cycles);
+    for (double v : r.refine_residuals) fmt::print(" {:.2e}", v);
+  }
   fmt::print("\nmax_error_m {:.3e}   ({:.2e} of the {:.1f} m range, vs the exact float64 solution)\n", err,
              err / p.range, p.range);
   fmt::print("device_memory_mb {:.1f}\n", r.device_bytes / 1048576.0);
@@ -243,6 +252,16 @@ void register_reconstruct_stages(StageRegistry& r) {
              {"smoother", OptionType::Enum, "rbgs", "", "smoother", {"rbgs", "jacobi"}},
              OptionSpec{"tolerance", OptionType::Float, 1e-6, "", "relative residual to stop at"}.range(1e-15, 1),
              OptionSpec{"max_cycles", OptionType::Int, 50, "", "maximum number of cycles"}.range(1, 100000),
+             {"refine",
+              OptionType::Enum,
+              "off",
+              "",
+              "mixed-precision refinement after the float32 solve (residual in double: on the device with fp64, "
+              "else the host)",
+              {"off", "auto", "device", "host"}},
+             OptionSpec{"refine_tolerance", OptionType::Float, 1e-7, "",
+                        "refinement stops when a correction is at most this fraction of the range"}
+                 .range(1e-16, 1),
              {"mean", OptionType::Float, nullptr, "m", "mean elevation when no cell is fixed (default: the source's)"},
              {"border", OptionType::Enum, "neumann", "", "grid border condition", {"neumann", "dirichlet"}},
              {"report", OptionType::OutputPath, nullptr, "", "write cycles, residuals, times and device as JSON"},
@@ -265,7 +284,7 @@ void register_reconstruct_stages(StageRegistry& r) {
 void register_reconstruct_benches(BenchRegistry& r) {
   r.add({"reconstruct",
          "Multigrid reconstruction of an NxN smooth terrain with 1 % random fixed cells (--set cycle=, smoother=, "
-         "fixed=, tolerance=)",
+         "fixed=, tolerance=, refine=off|auto|device|host)",
          bench_reconstruct});
 }
 

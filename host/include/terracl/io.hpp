@@ -2,7 +2,8 @@
 /// Reading and writing heightfields and gradient fields. The format comes from the file's
 /// extension and is checked against the file's content:
 ///   .tif/.tiff (GDAL, GeoTIFF), .hgt (SRTM), .asc (ESRI ASCII grid), other GDAL rasters on read;
-///   .png (8/16-bit), .exr (float) through OpenImageIO/OpenEXR; .r16/.raw (RAW16 little-endian).
+///   .png (8/16-bit), .exr (float) through OpenImageIO/OpenEXR; .r16/.raw (RAW16 little-endian);
+///   .npy (NumPy 2-D array: reads float32/float64/int16/uint16, writes float32).
 /// Writers put the output under a temporary name in the same folder and rename it when complete,
 /// so a failure never leaves a partial file.
 #include <terracl/heightfield.hpp>
@@ -45,7 +46,7 @@ struct WriteOptions {
 void set_warning_handler(std::function<void(const std::string&)> handler);
 void warn(const std::string& message);
 
-enum class FileFormat { GeoTIFF, HGT, AsciiGrid, PNG, EXR, TIFF, RAW16, GDALOther, Unknown };
+enum class FileFormat { GeoTIFF, HGT, AsciiGrid, PNG, EXR, TIFF, RAW16, GDALOther, NPY, Unknown };
 /// Format from the extension (lower-cased); Unknown when not recognised.
 FileFormat format_from_extension(const std::string& path);
 /// "GeoTIFF", "PNG", ... for messages.

@@ -25,12 +25,19 @@ enum class Cycle { V, W, Fmg, Cascade };
 /// Rbgs: red-black Gauss-Seidel on the 5-point finest level and zebra (row red-black,
 /// lexicographic in a row) Gauss-Seidel on the 9-point coarse levels. Jacobi: weighted Jacobi.
 enum class Smoother { Rbgs, Jacobi };
+/// Mixed-precision iterative refinement after the float32 solve: the solution is accumulated and
+/// its residual computed in double, the float multigrid solves for corrections (one cycle each).
+/// Auto: on the device where it has cl_khr_fp64, else on the host; Device: fp64 on the device
+/// (error without cl_khr_fp64); Host: residual and accumulation on the host (any device).
+enum class Refinement { Off, Auto, Device, Host };
 
 Cycle parse_cycle(const std::string& s);          ///< "v" | "w" | "fmg" | "cascade"
 Smoother parse_smoother(const std::string& s);    ///< "rbgs" | "jacobi"
+Refinement parse_refinement(const std::string& s);  ///< "off" | "auto" | "device" | "host"
 /// Names as the parsers take them (reports, --help).
 const char* cycle_name(Cycle c);
 const char* smoother_name(Smoother s);
+const char* refinement_name(Refinement r);
 
 /// Multigrid settings (defaults: FMG then V-cycles, red-black Gauss-Seidel, 1e-6 relative residual).
 struct SolverOptions {
@@ -42,6 +49,10 @@ struct SolverOptions {
   int max_cycles = 50;
   int pre_smooth = 2, post_smooth = 2;
   double jacobi_omega = 0.8;
+  /// Mixed-precision refinement (not for the cascade) and its stop: the last correction is at
+  /// most refine_tolerance of the solution's range, or corrections stop shrinking, or max_cycles.
+  Refinement refine = Refinement::Off;
+  double refine_tolerance = 1e-7;
   /// Fix the border cells to `initial` (Dirichlet border) instead of the natural Neumann border.
   bool dirichlet_border = false;
   /// Mean elevation of the result when no cell is hard (default: the gradient's source mean,
@@ -66,6 +77,11 @@ struct ReconstructResult {
   Cycle cycle = Cycle::Fmg;
   Smoother smoother = Smoother::Rbgs;
   size_t hard_cells = 0;
+  /// Refinement path used: "off", "device-fp64" or "host-double"; its cycles and the relative
+  /// residual (in double) before the first and after each of them.
+  std::string refinement = "off";
+  int refine_cycles = 0;
+  std::vector<double> refine_residuals;
   /// cycles, residuals, times, memory and device as JSON (the --report file).
   nlohmann::json to_json() const;
 };

@@ -26,6 +26,7 @@ FileFormat format_from_extension(const std::string& path) {
   if (ext == ".png") return FileFormat::PNG;
   if (ext == ".exr") return FileFormat::EXR;
   if (ext == ".r16" || ext == ".raw") return FileFormat::RAW16;
+  if (ext == ".npy") return FileFormat::NPY;
   if (ext == ".img" || ext == ".vrt" || ext == ".dem" || ext == ".bil" || ext == ".nc" || ext == ".dt0" ||
       ext == ".dt1" || ext == ".dt2" || ext == ".xyz")
     return FileFormat::GDALOther;
@@ -42,13 +43,14 @@ const char* format_name(FileFormat f) {
     case FileFormat::TIFF: return "TIFF";
     case FileFormat::RAW16: return "RAW16";
     case FileFormat::GDALOther: return "GDAL raster";
+    case FileFormat::NPY: return "NumPy .npy";
     default: return "unknown";
   }
 }
 
 namespace {
 
-const char* kKnown = ".tif .tiff .hgt .asc .png .exr .r16 .raw (and other GDAL rasters: .img .vrt .dem .bil .nc .dt0-2 .xyz)";
+const char* kKnown = ".tif .tiff .hgt .asc .png .exr .r16 .raw .npy (and other GDAL rasters: .img .vrt .dem .bil .nc .dt0-2 .xyz)";
 
 void require_magic(const std::string& path, const char* expected, FileFormat f) {
   const std::string got = io::sniff_magic(path);
@@ -107,6 +109,9 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
     case FileFormat::RAW16:
       h = io::read_raw16(path, opts);
       break;
+    case FileFormat::NPY:
+      h = io::read_npy(path, opts);
+      break;
     default:
       fail("io", "{}: unknown raster extension; expected one of {}", path, kKnown);
   }
@@ -138,7 +143,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   const FileFormat f = format_from_extension(path);
   if (f == FileFormat::Unknown || f == FileFormat::HGT || f == FileFormat::AsciiGrid || f == FileFormat::GDALOther)
     fail("io", "{}: cannot write this extension; terracl writes .tif/.tiff (GeoTIFF float32), .exr (float), "
-         ".png (16-bit + JSON sidecar), .r16/.raw (RAW16 + JSON sidecar)", path);
+         ".png (16-bit + JSON sidecar), .r16/.raw (RAW16 + JSON sidecar), .npy (float32 + JSON sidecar)", path);
   if (h.width <= 0 || h.height <= 0 || h.z.size() != size_t(h.width) * h.height)
     fail("io", "{}: refusing to write an empty or inconsistent heightfield ({} x {})", path, h.width, h.height);
   if (f != FileFormat::GeoTIFF && (!opts.creation_options.empty() || opts.cog || opts.output_type != "Float32"))
@@ -146,6 +151,28 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   io::require_writable_folder(path);
   if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t, opts); });
   if (f == FileFormat::EXR) return write_atomically(path, [&](const std::string& t) { io::write_exr(h, t); });
+  if (f == FileFormat::NPY) {
+    // float32 as it is (NaN = nodata); the sidecar keeps the cell size, georeferencing and metadata.
+    nlohmann::json sc = io::georef_to_json(h.georef);
+    sc["width"] = h.width;
+    sc["height"] = h.height;
+    sc["format"] = "npy-float32";
+    sc["metadata"] = h.metadata;
+    const std::string sc_path = io::sidecar_path(path), sc_tmp = temporary_path_for(sc_path);
+    return write_atomically(path, [&](const std::string& tmp) {
+      io::write_npy(h, tmp);
+      try {
+        std::ofstream out(sc_tmp);
+        out << sc.dump(2) << "\n";
+        out.close();
+        if (!out) fail("io", "cannot write sidecar {}", sc_path);
+        commit_temporary(sc_tmp, sc_path);
+      } catch (...) {
+        discard_temporary(sc_tmp);
+        throw;
+      }
+    });
+  }
 
   // Quantised formats: the image and its sidecar are both written under temporary names and
   // moved into place together.

@@ -67,4 +67,8 @@ void write_exr(const Heightfield& h, const std::string& tmp_path);
 Heightfield read_raw16(const std::string& path, const ReadOptions& opts);
 void write_raw16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax);
 
+/// NumPy .npy (io/npy.cpp): 2-D, C order, little-endian float32/float64/int16/uint16 in; float32 out.
+Heightfield read_npy(const std::string& path, const ReadOptions& opts);
+void write_npy(const Heightfield& h, const std::string& tmp_path);
+
 }  // namespace terracl::io

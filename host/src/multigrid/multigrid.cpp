@@ -1,6 +1,7 @@
 // Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
 // docs/reconstruct.md for the design choices and measurements.
 #include "multigrid/multigrid.hpp"
+#include "multigrid/refine.hpp"
 #include <terracl/launch.hpp>
 #include "row_launch.hpp"
 
@@ -272,6 +273,7 @@ class Solver {
 
   SolveStats run_cycles() {
     const double b = norm(true);
+    m_stats.rhs_norm = b;
     auto rel = [&](double r) { return b > 0 ? r / b : 0.0; };
     // A cold start (free cells at the reference level) is the trivial guess itself: ratio 1.
     double r = m_o.initial ? rel(norm(false)) : (b > 0 ? 1.0 : 0.0);
@@ -377,6 +379,8 @@ class Solver {
   }
 
   SolveStats& stats() { return m_stats; }
+  /// One fine-level cycle of the configured kind (refine.cpp's correction solve).
+  void fine_cycle() { cycle(0, m_o.cycle == Cycle::W ? 2 : 1); }
 
  private:
   static double p2(double v) { return v * v; }
@@ -425,6 +429,7 @@ SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baselin
   s.build();
   s.stats().setup_ms = now_ms() - t0;
   SolveStats st = s.run_cycles();
+  refine(d, p, o, st, baseline, [&] { s.fine_cycle(); });
   if (profiling()) print_profile();
   return st;
 }

@@ -24,6 +24,10 @@ struct SolveStats {
   int levels = 0;
   double setup_ms = 0;
   uint64_t peak_bytes = 0;
+  double rhs_norm = 0;  ///< the norm the relative residuals divide by
+  std::string refinement = "off";  ///< refinement path used (refine.cpp)
+  int refine_cycles = 0;
+  std::vector<double> refine_residuals;
 };
 
 /// Runs the solve in place on p.u. `baseline` is the device allocation before the solve started

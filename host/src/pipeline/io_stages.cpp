@@ -16,13 +16,14 @@ void drop_terracl_keys(Metadata& md) {
 }
 
 const char* kHeightExtensions =
-    ".tif/.tiff (GeoTIFF float32), .exr (float), .png (16-bit + JSON sidecar), .r16/.raw (RAW16 + sidecar)";
+    ".tif/.tiff (GeoTIFF float32), .exr (float), .png (16-bit + JSON sidecar), .r16/.raw (RAW16 + sidecar), .npy "
+    "(float32)";
 
 DataKind check_read(const json& o, DataKind, const std::string& where) {
   const std::string f = o.at("filename").get<std::string>();
   if (format_from_extension(f) == FileFormat::Unknown)
     fail("pipeline",
-         "{}/filename: {}: unknown raster extension; terracl reads .tif .tiff .hgt .asc .png .exr .r16 .raw "
+         "{}/filename: {}: unknown raster extension; terracl reads .tif .tiff .hgt .asc .png .exr .r16 .raw .npy "
          "and other GDAL rasters",
          where, f);
   const bool quantised = format_from_extension(f) == FileFormat::PNG || format_from_extension(f) == FileFormat::RAW16;
@@ -60,7 +61,7 @@ DataKind check_write(const json& o, DataKind input, const std::string& where) {
   if (input == DataKind::Gradient && fmt != FileFormat::EXR)
     fail("pipeline", "{}/filename: {}: a gradient is written as .exr (two float channels)", where, f);
   if (input == DataKind::Heightfield && fmt != FileFormat::GeoTIFF && fmt != FileFormat::EXR &&
-      fmt != FileFormat::PNG && fmt != FileFormat::RAW16)
+      fmt != FileFormat::PNG && fmt != FileFormat::RAW16 && fmt != FileFormat::NPY)
     fail("pipeline", "{}/filename: {}: cannot write a heightfield with this extension; terracl writes {}", where, f,
          kHeightExtensions);
   const bool quantised = fmt == FileFormat::PNG || fmt == FileFormat::RAW16;

@@ -1,0 +1,16 @@
+#pragma once
+// Mixed-precision iterative refinement of a multigrid solve (internal; kernels/refine.cl).
+#include "multigrid/multigrid.hpp"
+
+#include <functional>
+
+namespace terracl::mg {
+
+/// Refines p.u (already solved in float) in place: residual in double (on the device with
+/// cl_khr_fp64, else on the host as o.refine asks), `fine_cycle` (one float multigrid cycle on
+/// p.u / p.g from a zero guess) for the correction, accumulated in double. Fills st.refinement,
+/// st.refine_cycles, st.refine_residuals and st.peak_bytes (above `baseline`).
+void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint64_t baseline,
+            const std::function<void()>& fine_cycle);
+
+}  // namespace terracl::mg
