@@ -76,7 +76,8 @@ PerCell per_cell(const std::string& type, const json& o) {
   if (type == "warp" || type == "resize") return {8, 8};  // GDAL MEM copies in and out
   if (type == "amplify") return {4, 8};                // the output grid and its accumulator (not measured)
   if (type == "extract") return {16, 0, 12, 4};        // measured 24 in all
-  if (type == "reconstruct" || type == "fill_nodata") return {24, 0, 40, 4};  // reconstruct: 43 in all
+  if (type == "reconstruct") return {24, 0, 40, 4};   // measured 43 in all
+  if (type == "fill_nodata") return {24};              // a host solve over the nodata cells (13 without any)
   if (type == "erode") return {80, 0, 56, 16};         // measured 128 in all
   if (type == "edit") return {edit_host_bytes_per_cell, 0, edit_device_bytes_per_cell, 8};  // 49 in all
   if (type == "fill_depressions") return {16};         // measured 12.5 (12.6 with epsilon)
@@ -84,7 +85,9 @@ PerCell per_cell(const std::string& type, const json& o) {
   if (type == "drainage") return {o.value("method", std::string("d8")) == "dinf" ? 40.0 : 28.0};  // 31.2, 23.1
   if (type == "metrics") return {52};                  // 42.2
   if (type == "sketch") return {40};                   // 31.5
-  if (type == "render") return {12, 0, 8, 4};          // 8.4 (hillshade), 8.7 (shaded relief)
+  // 8.4 (hillshade), 8.7 (shaded relief); its device buffers are small and --backend cpu uses
+  // none, so no device figure (declaring one would open the device for a CPU render).
+  if (type == "render") return {12};
   // 172 for the full grid; with --max-error far less on smooth terrain (8 at 5 m), up to the
   // full grid's for a tiny error.
   if (type == "mesh") return {o.contains("max_error") && !o.at("max_error").is_null() ? 100.0 : 200.0};
