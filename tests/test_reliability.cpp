@@ -605,3 +605,21 @@ TEST(Reliability, TiffBlocksClaimingMoreThanTheFileAreRefusedBeforeGdalAllocates
   EXPECT_LT(ru.ru_maxrss, 1024L * 1024) << "KiB: a child's peak resident memory";
   EXPECT_FALSE(fs::exists(dir.path("o.tif")));
 }
+
+// Two findings of the 1-hour fuzz_raster campaign (issue 14), kept as seeds of the fuzz corpus
+// (their first byte picks the format): a 12 x 9 pixel-interleaved GeoTIFF of 65535 bands made GDAL
+// calloc one 16 GiB block (17 GB resident, 127 s before failing), and an EXR whose displayWindow
+// states 3 bytes made OpenEXR read on out of step into a 1.5 GB string (1.6 GB, 9 s).
+TEST(Reliability, FuzzFindingsAreRefusedBeforeTheLibrariesAllocate) {
+  test::TempDir dir;
+  const std::string corpus = std::string(TERRACL_SOURCE_DIR) + "/tests/fuzz/corpus/raster/";
+  const std::string tif = write_text(dir, "bands.tif", file_text(corpus + "seed_tif_65535_bands").substr(1));
+  const std::string exr = write_text(dir, "window.exr", file_text(corpus + "seed_exr_box2i_size").substr(1));
+  expect_clean_error(test::run_cli("info " + q(tif)), 1, "bands.tif: the TIFF claims 256 x 256 cell blocks (16.0 GiB)",
+                     "65535 bands");
+  expect_clean_error(test::run_cli("info " + q(exr)), 1,
+                     "window.exr: EXR header attribute 'displayWindow' (box2i) states 3 bytes; a box2i is 16 bytes", "box2i");
+  rusage ru{};
+  ::getrusage(RUSAGE_CHILDREN, &ru);
+  EXPECT_LT(ru.ru_maxrss, 1024L * 1024) << "KiB: a child's peak resident memory";
+}
