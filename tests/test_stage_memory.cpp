@@ -90,11 +90,14 @@ TEST(StageMemory, AnalysisAndEditStagesAreRefusedByValidateAndByTheRunBeforeAnyO
     const std::string p = write_pipeline(dir, "p.json", json::array({crop(), c.stage, dir.path("o.tif")}));
     const std::vector<std::string> words = {"/1 (" + c.words + ") needs about", "TERRACL_MAX_MEMORY", "p.json"};
     expect_refusal(run_capped("150K", "run -q --validate " + q(p)), 2, words, "--validate " + what);
-    expect_refusal(run_capped("150K", "run -q " + q(p)), 2, words, "run " + what);
-    for (const char* f : {"o.tif", "k.png", "m.json", "p.resolved.json"}) EXPECT_FALSE(fs::exists(dir.path(f))) << what << ": " << f;
-    // With room it validates: the check is a figure, not a blanket refusal.
-    EXPECT_EQ(run_capped("64M", "run -q --validate " + q(p)).exit_code, 0) << what;
+    // The run makes the same check first (two cases: each CLI start costs CI time).
+    if (c.stage["type"] == "metrics" || c.stage["type"] == "edit") {
+      expect_refusal(run_capped("150K", "run -q " + q(p)), 2, words, "run " + what);
+      for (const char* f : {"o.tif", "k.png", "m.json", "p.resolved.json"}) EXPECT_FALSE(fs::exists(dir.path(f))) << what << ": " << f;
+    }
   }
+  // With room it validates: the check is a figure, not a blanket refusal.
+  EXPECT_EQ(run_capped("64M", "run -q --validate " + q(dir.path("p.json"))).exit_code, 0);
   // A crop before the stage shrinks what it needs: 64 x 48 fits where 128 x 96 did not (16 B/cell: 48 KiB).
   const std::string small = write_pipeline(
       dir, "small.json",
@@ -108,9 +111,8 @@ TEST(StageMemory, AnalysisAndEditStagesAreRefusedByValidateAndByTheRunBeforeAnyO
 
 TEST(StageMemory, SubcommandsAndEditCheckTheInputHeaderBeforeReading) {
   test::TempDir dir;
+  // One subcommand of each kind: generated from the stage table (breach), hand-written (metrics, mesh).
   for (const std::string& args : {"metrics -q " + q(crop()), "breach -q " + q(crop()) + " -o " + q(dir.path("b.tif")),
-                                  "sketch -q " + q(crop()) + " -o " + q(dir.path("k.png")),
-                                  "drainage -q " + q(crop()) + " -o " + q(dir.path("d.tif")),
                                   "mesh -q " + q(crop()) + " -o " + q(dir.path("m.glb"))}) {
     const std::string name = args.substr(0, args.find(' '));
     expect_refusal(run_capped("150K", args), 1, {name + ": " + name + " of a 128 x 96 raster needs about"}, args);
