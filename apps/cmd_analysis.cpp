@@ -10,6 +10,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/stage.hpp>
+#include <terracl/stage_memory.hpp>
 
 #include "cli.hpp"
 #include "stage_flags.hpp"
@@ -54,6 +55,8 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     const StageInfo& s = *sp;
     const json opts = a->flags.given(sub, s);
     const ReadOptions ro = a->in.read_options(a->fill_nodata);
+    // The stage table's memory column, from the input's header, before anything is read.
+    require_stage_memory(name, "", memory_of(name, opts, raster_shape(a->input)), nullptr);
     if (name == "metrics") {
       if (opts.contains("json") && opts["json"].is_string())
         check_output_paths(name, {{"input", a->input}}, {{"--json", opts["json"].get<std::string>()}});

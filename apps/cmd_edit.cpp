@@ -7,6 +7,7 @@
 #include <terracl/gradient.hpp>
 #include <terracl/io.hpp>
 #include <terracl/memory.hpp>
+#include <terracl/stage_memory.hpp>
 #include <terracl/render.hpp>
 
 #include <fmt/format.h>
@@ -72,6 +73,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       base = std::move(*flat);
     } else {
       if (!std::filesystem::exists(a->base)) throw UsageError("edit", fmt::format("base terrain '{}' not found", a->base));
+      // From the DEM's header, before it is read (the check after reading also covers the device).
+      require_stage_memory("edit", "", memory_of("edit", json::object(), raster_shape(a->base)), nullptr);
       base = read_heightfield(a->base, a->in.read_options());
       if (base.count_nodata()) {
         if (!globals().quiet) fmt::print(stderr, "edit: filling {} nodata cells of {} harmonically\n", base.count_nodata(), a->base);

@@ -110,6 +110,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       return;
     }
     if (a->validate) {
+      // The run's memory check (host memory; the device is checked when the run opens it). A tiled
+      // run holds tiles, not whole rasters: run_tiled checks its budget itself.
+      if (a->tile == 0 && a->memory_budget.empty()) p.check_memory();
       print_validation(p);
       return;
     }

@@ -7,6 +7,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/stage.hpp>
+#include <terracl/stage_memory.hpp>
 
 #include <fmt/format.h>
 
@@ -74,6 +75,8 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       return;
     }
     (void)a->tile.options(s.name);  // --halo alone
+    // The stage table's memory column, from the input's header, before anything is read.
+    if (!a->input.empty()) require_stage_memory(s.name, "", memory_of(s.name, resolved, raster_shape(a->input)), nullptr);
     StageData data;
     if (!a->input.empty()) {
       if (s.input == DataKind::Gradient || (s.input == DataKind::None && is_gradient_file(a->input))) {

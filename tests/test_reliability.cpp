@@ -2,6 +2,7 @@
 // case here crashed, hung, destroyed data, wrapped a number or gave an unhelpful message before.
 // Each test states the exit code and the words of the message it expects, and that nothing
 // partial (or nothing at all) was written.
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -9,9 +10,11 @@
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/json_limits.hpp>
@@ -220,24 +223,108 @@ TEST(Reliability, SignalHandlerUnlinksRegisteredTemporaries) {
   EXPECT_TRUE(fs::exists(dir.path("done.tif"))) << "a committed output was removed";
 }
 
+namespace {
+
+// The CLI started with `args`, its stdout and stderr on one pipe (read end returned in `out_fd`).
+pid_t spawn_cli(const std::vector<std::string>& args, int& out_fd) {
+  int fds[2];
+  if (::pipe(fds) != 0) return -1;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    ::dup2(fds[1], 1);
+    ::dup2(fds[1], 2);
+    ::close(fds[0]);
+    ::close(fds[1]);
+    std::vector<char*> argv{const_cast<char*>(TERRACL_CLI)};
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(TERRACL_CLI, argv.data());
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  out_fd = fds[0];
+  return pid;
+}
+
+// Reads the child's output until it contains `words` (true) or the child closes it (false).
+// A condition, not a sleep: under load (20 on 2 cores) a fixed sleep fired before the work began.
+bool wait_for_output(int fd, const std::string& words, std::string& seen) {
+  char buf[4096];
+  while (seen.find(words) == std::string::npos) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n <= 0) return false;
+    seen.append(buf, size_t(n));
+  }
+  return true;
+}
+
+// Polls `dir` until a temporary output (.NAME.tmpPID-N.ext) appears, up to `seconds`.
+bool wait_for_temporary(const fs::path& dir, double seconds) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds) {
+    if (has_temporary(dir)) return true;
+    ::usleep(2000);
+  }
+  return false;
+}
+
+int wait_exit(pid_t pid, int fd) {
+  char buf[4096];
+  while (::read(fd, buf, sizeof buf) > 0) {
+  }
+  ::close(fd);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 1000 + WTERMSIG(status);
+}
+
+}  // namespace
+
 TEST(Reliability, SigtermStopsWithExit143AndLeavesNoTemporary) {
   test::TempDir dir;
   const std::string out = dir.path("e.tif");
-  const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    ::execl(TERRACL_CLI, TERRACL_CLI, "erode", "-q", crop().c_str(), "-o", out.c_str(), "--steps", "100000000",
-            "--delta", dir.path("d.exr").c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  ::sleep(3);
+  int fd = -1;
+  const pid_t pid = spawn_cli({"--progress", "json", "erode", crop(), "-o", out, "--steps", "100000000", "--delta",
+                               dir.path("d.exr")},
+                              fd);
+  ASSERT_GT(pid, 0);
+  std::string seen;
+  // Signalled once the simulation runs (its first step reported), whatever the machine's load.
+  ASSERT_TRUE(wait_for_output(fd, "step ", seen)) << seen;
   ::kill(pid, SIGTERM);
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  ASSERT_TRUE(WIFEXITED(status)) << "terminated by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+  EXPECT_EQ(wait_exit(pid, fd), 128 + SIGTERM) << seen;
   EXPECT_FALSE(has_temporary(dir.dir()));
   EXPECT_FALSE(fs::exists(out));
+}
+
+// The end-to-end form of SignalHandlerUnlinksRegisteredTemporaries: the CLI is stopped while it
+// writes (an LZMA GeoTIFF of a 1201^2 DEM: seconds of compression), by a second Ctrl-C and by
+// SIGTERM; the temporary it was writing must be gone and the output must not exist.
+TEST(Reliability, SignalsDuringAWriteLeaveNoTemporary) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    test::TempDir dir;
+    const std::string out = dir.path("slow.tif");
+    int fd = -1;
+    const pid_t pid = spawn_cli({"convert", "-q", test::data_path("dem/N44W072.hgt"), out, "--co", "COMPRESS=LZMA", "--co",
+                                 "LZMA_PRESET=9", "--co", "PREDICTOR=3"},
+                                fd);
+    ASSERT_GT(pid, 0);
+    const bool writing = wait_for_temporary(dir.dir(), 120);
+    ASSERT_TRUE(writing) << "the write never started";
+    ::kill(pid, sig);
+    if (sig == SIGINT) {
+      // The second Ctrl-C once the first was handled (two signals pending at once are one: under
+      // load both arrived before the CLI ran, and it finished the write). No progress callback
+      // runs inside GDAL's writer, so only the second one stops it.
+      std::string seen;
+      ASSERT_TRUE(wait_for_output(fd, "Ctrl-C again to quit", seen)) << seen;
+      ::kill(pid, SIGINT);
+    }
+    const int code = wait_exit(pid, fd);
+    EXPECT_EQ(code, sig == SIGINT ? 130 : 143) << strsignal(sig);
+    EXPECT_FALSE(has_temporary(dir.dir())) << strsignal(sig) << ": a temporary was left";
+    EXPECT_FALSE(fs::exists(out)) << strsignal(sig);
+  }
 }
 
 TEST(Reliability, FailedRenameSaysWhyNotSuccess) {
@@ -467,4 +554,72 @@ TEST(Reliability, ExrHeaderClaimingHugeAttributesIsRefusedBeforeOpenExrAllocates
   std::ofstream(dir.path("a.exr"), std::ios::binary) << bytes;
   const auto r = test::run_cli("info " + q(dir.path("a.exr")));
   expect_clean_error(r, 1, "EXR header attribute 'terracl:georef' (string) claims 1702393976 bytes", "exr");
+}
+
+namespace {
+
+// Sets the value of TIFF tag `tag` (SHORT or LONG, one value, little-endian classic TIFF) in `b`.
+bool patch_tiff_tag(std::string& b, uint16_t tag, uint32_t value) {
+  auto u16 = [&](size_t p) { return uint16_t(uint8_t(b[p]) | uint8_t(b[p + 1]) << 8); };
+  auto u32 = [&](size_t p) { return uint32_t(u16(p)) | uint32_t(u16(p + 2)) << 16; };
+  if (b.size() < 8 || b.compare(0, 4, std::string("II*\0", 4)) != 0) return false;
+  const size_t ifd = u32(4);
+  for (size_t i = 0, n = u16(ifd); i < n; ++i) {
+    const size_t e = ifd + 2 + 12 * i;
+    if (u16(e) != tag || u32(e + 4) != 1) continue;
+    const int bytes = u16(e + 2) == 3 ? 2 : 4;
+    for (int k = 0; k < bytes; ++k) b[e + 8 + k] = char((value >> (8 * k)) & 0xff);
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+// Found by fuzz_raster: a small GeoTIFF whose block table is damaged made GDAL/libtiff allocate
+// what it claims (2.2 GB resident, 10 s for a 12 x 9 raster claiming 32768 x 16384 tiles) before
+// failing. The blocks are checked against the raster and the file size before any pixel is read.
+TEST(Reliability, TiffBlocksClaimingMoreThanTheFileAreRefusedBeforeGdalAllocates) {
+  test::TempDir dir;
+  const std::string good = dir.path("good.tif");
+  ASSERT_EQ(std::system(("gdal_translate -q -ot Float32 -outsize 12 9 -co TILED=YES -co BLOCKXSIZE=16 -co BLOCKYSIZE=16 "
+                         "-co COMPRESS=DEFLATE " + q(crop()) + " " + q(good)).c_str()),
+            0);
+  ASSERT_EQ(test::run_cli("info " + q(good)).exit_code, 0) << "the undamaged file reads";
+  const std::string bytes = file_text(good);
+  std::string tiles = bytes, count = bytes;
+  ASSERT_TRUE(patch_tiff_tag(tiles, 322, 32768) && patch_tiff_tag(tiles, 323, 16384));  // TileWidth, TileLength
+  ASSERT_TRUE(patch_tiff_tag(count, 325, 2000000000));                                 // TileByteCounts
+  std::ofstream(dir.path("tiles.tif"), std::ios::binary) << tiles;
+  std::ofstream(dir.path("count.tif"), std::ios::binary) << count;
+  const auto t = test::run_cli("info " + q(dir.path("tiles.tif")));
+  expect_clean_error(t, 1, "tiles.tif: the TIFF claims 32768 x 16384 cell blocks (2.0 GiB) for a 12 x 9 raster", "tile size");
+  const auto c = test::run_cli("info " + q(dir.path("count.tif")));
+  expect_clean_error(c, 1, "count.tif: TIFF block (0, 0) claims 2000000000 bytes at offset", "byte count");
+  // The pipeline's tiled reader (GDAL windows) refuses it too.
+  std::ofstream(dir.path("p.json")) << json::array({dir.path("tiles.tif"), dir.path("o.tif")}).dump();
+  expect_clean_error(test::run_cli("run -q --tile 64 " + q(dir.path("p.json"))), 1, "cell blocks", "tiled reader");
+  // Nothing near the claimed 2 GB was allocated (before: 2.2 GB resident).
+  rusage ru{};
+  ::getrusage(RUSAGE_CHILDREN, &ru);
+  EXPECT_LT(ru.ru_maxrss, 1024L * 1024) << "KiB: a child's peak resident memory";
+  EXPECT_FALSE(fs::exists(dir.path("o.tif")));
+}
+
+// Two findings of the 1-hour fuzz_raster campaign (issue 14), kept as seeds of the fuzz corpus
+// (their first byte picks the format): a 12 x 9 pixel-interleaved GeoTIFF of 65535 bands made GDAL
+// calloc one 16 GiB block (17 GB resident, 127 s before failing), and an EXR whose displayWindow
+// states 3 bytes made OpenEXR read on out of step into a 1.5 GB string (1.6 GB, 9 s).
+TEST(Reliability, FuzzFindingsAreRefusedBeforeTheLibrariesAllocate) {
+  test::TempDir dir;
+  const std::string corpus = std::string(TERRACL_SOURCE_DIR) + "/tests/fuzz/corpus/raster/";
+  const std::string tif = write_text(dir, "bands.tif", file_text(corpus + "seed_tif_65535_bands").substr(1));
+  const std::string exr = write_text(dir, "window.exr", file_text(corpus + "seed_exr_box2i_size").substr(1));
+  expect_clean_error(test::run_cli("info " + q(tif)), 1, "bands.tif: the TIFF claims 256 x 256 cell blocks (16.0 GiB)",
+                     "65535 bands");
+  expect_clean_error(test::run_cli("info " + q(exr)), 1,
+                     "window.exr: EXR header attribute 'displayWindow' (box2i) states 3 bytes; a box2i is 16 bytes", "box2i");
+  rusage ru{};
+  ::getrusage(RUSAGE_CHILDREN, &ru);
+  EXPECT_LT(ru.ru_maxrss, 1024L * 1024) << "KiB: a child's peak resident memory";
 }

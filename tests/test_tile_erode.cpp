@@ -59,7 +59,12 @@ TEST(TileErode, NoSeamsAndCloseToUntiled) {
   ASSERT_EQ(u.width, t.width);
   ASSERT_EQ(u.height, t.height);
 
-  // The same tiles eroded on their own (no halo): walls at every tile border.
+  // The same tiles eroded on their own (no halo) with closed borders: walls at every tile border.
+  // (With the default open border, water leaves each tile symmetrically on both sides of a border and
+  // the second-difference ratio barely moves: 0.81 against 0.76; the max difference to the untiled
+  // run still shows those seams, so the closed border is the metric's self-check.)
+  ErosionParams walled = ErosionParams::defaults();
+  walled.boundary = ErosionBoundary::Closed;
   Heightfield seamed = in;
   for (int ty = 0; ty < in.height; ty += tile)
     for (int tx = 0; tx < in.width; tx += tile) {
@@ -68,7 +73,7 @@ TEST(TileErode, NoSeamsAndCloseToUntiled) {
       part.georef = in.georef;
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) part.at(x, y) = in.at(tx + x, ty + y);
-      const Heightfield e = erode(test::device(), part, ErosionParams::defaults(), steps);
+      const Heightfield e = erode(test::device(), part, walled, steps);
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) seamed.at(tx + x, ty + y) = e.at(x, y);
     }

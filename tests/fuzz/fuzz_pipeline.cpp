@@ -4,6 +4,7 @@
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
 #include <terracl/pipeline.hpp>
+#include <terracl/tile.hpp>
 
 #include <cstdint>
 #include <string>
@@ -20,7 +21,10 @@ StageRegistry make_registry() {
           {"zmin", OptionType::Float, nullptr, "m", "range"}},
          noop});
   r.add({"write", "writer", DataKind::Any, DataKind::None,
-         {{"filename", OptionType::OutputPath, nullptr, "", "file", {}, true}}, noop});
+         {{"filename", OptionType::OutputPath, nullptr, "", "file", {}, true},
+          {"creation_options", OptionType::Json, nullptr, "", "co"},
+          {"cog", OptionType::Bool, false, "", "cog"}},
+         noop});
   r.add({"erode", "erosion", DataKind::Heightfield, DataKind::Heightfield,
          {OptionSpec{"steps", OptionType::Int, 400, "", "steps"}.range(0, 1e8),
           {"time", OptionType::Float, nullptr, "s", "time"},
@@ -31,6 +35,31 @@ StageRegistry make_registry() {
           {"delta", OptionType::OutputPath, nullptr, "", "delta"},
           {"extra", OptionType::Json, nullptr, "", "json"},
           {"label", OptionType::String, nullptr, "", "text"}},
+         noop});
+  // The stages whose options size the data (the memory column's output_shape) and the writer's
+  // GDAL creation options (--co), as the real table declares them.
+  r.add({"crop", "window", DataKind::Heightfield, DataKind::Heightfield,
+         {OptionSpec{"x", OptionType::Int, 0, "cells", "x"}.range(0, {}), OptionSpec{"y", OptionType::Int, 0, "cells", "y"}.range(0, {}),
+          OptionSpec{"width", OptionType::Int, nullptr, "cells", "w"}.range(1, {}),
+          OptionSpec{"height", OptionType::Int, nullptr, "cells", "h"}.range(1, {})},
+         noop});
+  r.add({"amplify", "amplify", DataKind::Heightfield, DataKind::Heightfield,
+         {OptionSpec{"factor", OptionType::Int, 4, "", "factor"}.range(2, 256)}, noop});
+  r.add({"downsample", "blocks", DataKind::Heightfield, DataKind::Heightfield,
+         {OptionSpec{"factor", OptionType::Int, 4, "", "factor"}.range(2, {})}, noop});
+  r.add({"resize", "resize", DataKind::Heightfield, DataKind::Heightfield,
+         {{"preset", OptionType::String, nullptr, "", "preset"},
+          OptionSpec{"width", OptionType::Int, nullptr, "cells", "w"}.range(2, 65536),
+          OptionSpec{"height", OptionType::Int, nullptr, "cells", "h"}.range(2, 65536)},
+         noop});
+  r.add({"warp", "warp", DataKind::Heightfield, DataKind::Heightfield,
+         {{"ts", OptionType::Json, nullptr, "", "size"}, {"tr", OptionType::Json, nullptr, "", "res"},
+          {"t_srs", OptionType::String, nullptr, "", "crs"}},
+         noop});
+  r.add({"fill_depressions", "fill", DataKind::Heightfield, DataKind::Heightfield,
+         {{"epsilon", OptionType::Bool, false, "", "eps"}}, noop});
+  r.add({"mesh", "mesh", DataKind::Heightfield, DataKind::Heightfield,
+         {{"file", OptionType::OutputPath, nullptr, "", "mesh", {}, true}, {"max_error", OptionType::Float, nullptr, "m", "err"}},
          noop});
   r.add({"extract", "gradient", DataKind::Heightfield, DataKind::Gradient, {}, noop});
   r.add({"reconstruct", "poisson", DataKind::None, DataKind::Heightfield,
@@ -58,6 +87,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     p.validate();
     (void)p.resolved().dump();
     (void)p.hash();
+    // The memory column over whatever sizes the options give (no device), and the tiled run's
+    // validation: each stage's tiling, and a --memory-budget text taken from the description.
+    p.check_memory();
+    for (const auto& st : p.stages()) (void)tiling_of(st);
+    if (doc.is_object() && doc.contains("description") && doc["description"].is_string())
+      (void)parse_memory_size(doc["description"].get<std::string>(), "--memory-budget");
   } catch (const Error&) {
     // A clear error is the expected answer to bad input; anything else escapes and is a finding.
   }

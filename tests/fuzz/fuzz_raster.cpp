@@ -3,6 +3,7 @@
 // with a heightfield or a terracl Error, never crash, hang or allocate what the header claims.
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/stage_memory.hpp>
 
 #include <unistd.h>
 
@@ -41,6 +42,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     body_size -= cut < body_size ? cut + 1 : cut;
   }
   write_file(path, body, body_size);
+  // The header probe of the memory column (GDAL opens the file without reading pixels), then the
+  // readers themselves.
+  (void)raster_shape(path);
   try {
     (void)read_heightfield(path);
   } catch (const Error&) {

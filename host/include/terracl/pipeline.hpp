@@ -91,6 +91,13 @@ class Pipeline {
   /// and JSON path of the stage appended.
   void run(const RunOptions& options, RunReport& report) const;
 
+  /// The stage table's memory column over the whole pipeline (terracl/stage_memory.hpp): sizes
+  /// from the readers' headers (no pixels read) through every stage; throws UsageError naming the
+  /// stage's JSON path, how much it needs and what to change when one cannot fit the host memory
+  /// (or, given `device`, which is then opened if a stage of known size uses it, the device's).
+  /// `terracl run`, `run --validate` and run() call it before any work. Requires validate().
+  void check_memory(const std::function<Device&()>& device = {}) const;
+
   const std::string& name() const { return m_name; }
   const std::string& source() const { return m_source; }
   const std::vector<PipelineStage>& stages() const { return m_stages; }

@@ -14,9 +14,11 @@
 #include <ogr_spatialref.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fmt/format.h>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 namespace terracl::io {
@@ -98,11 +100,67 @@ void convert_nodata(Heightfield& out) {
     if (v == ndf || (std::isnan(nd) && std::isnan(v))) v = NAN;
 }
 
+void check_tiff_blocks(GDALDataset& ds, const std::string& path) {
+  if (!ds.GetDriver() || std::string(ds.GetDriver()->GetDescription()) != "GTiff" || ds.GetRasterCount() < 1) return;
+  GDALRasterBand* band = ds.GetRasterBand(1);
+  int bx = 0, by = 0;
+  band->GetBlockSize(&bx, &by);
+  const int64_t w = ds.GetRasterXSize(), h = ds.GetRasterYSize();
+  // GDAL (libtiff) allocates one decoded block before reading it: a 12 x 9 file claiming
+  // 32768 x 16384 tiles took 2.2 GB and 10 s to fail (fuzz_raster). A block may exceed the raster
+  // (tiles are padded to multiples of 16; a COG keeps 512 x 512 tiles on a tiny raster), by so much
+  // only in a damaged file.
+  const double cell_bytes = std::max(1, GDALGetDataTypeSizeBytes(band->GetRasterDataType())) * double(ds.GetRasterCount());
+  const double block_bytes = double(bx) * double(by) * cell_bytes, raster_bytes = double(w) * double(h) * cell_bytes;
+  if (bx <= 0 || by <= 0 || block_bytes > std::max(64.0 * 1024 * 1024, 4 * raster_bytes))
+    fail("io", "{}: the TIFF claims {} x {} cell blocks ({}) for a {} x {} raster; the file is damaged", path, bx, by,
+         human_bytes(block_bytes), w, h);
+  // Every block's offset and byte count must lie inside the file: libtiff trusts a count
+  // before reading. Up to a million blocks (a 65536^2 raster of 64 x 64 tiles); more are rare
+  // and libtiff then reads what is there.
+  std::error_code ec;
+  const uintmax_t file_size = std::filesystem::file_size(path, ec);
+  if (ec) return;  // not a plain file (/vsi..., a pipe): GDAL reads it as it can
+  const int64_t nx = (w + bx - 1) / bx, ny = (h + by - 1) / by;
+  if (nx * ny > 1000000) return;
+  for (int64_t y = 0; y < ny; ++y)
+    for (int64_t x = 0; x < nx; ++x) {
+      const std::string key = fmt::format("{}_{}", x, y);
+      const char* off = band->GetMetadataItem(("BLOCK_OFFSET_" + key).c_str(), "TIFF");
+      const char* size = band->GetMetadataItem(("BLOCK_SIZE_" + key).c_str(), "TIFF");
+      if (!off || !size) continue;  // a sparse (absent) block reads as nodata
+      const unsigned long long o = std::strtoull(off, nullptr, 10), n = std::strtoull(size, nullptr, 10);
+      if (o > file_size || n > file_size - o)
+        fail("io", "{}: TIFF block ({}, {}) claims {} bytes at offset {}, and the file has {} bytes; the file is damaged "
+             "or truncated", path, x, y, n, o, file_size);
+    }
+}
+
+std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string& path) {
+  // Only files with a raster extension: GDALOpen probes every driver, and a pipeline names
+  // sketches, meshes and reports too. EXR headers are checked first (OpenEXR trusts them).
+  const FileFormat f = format_from_extension(path);
+  if (f == FileFormat::Unknown || f == FileFormat::RAW16) return std::nullopt;
+  try {
+    if (f == FileFormat::EXR) check_exr_header(path);
+  } catch (const Error&) {
+    return std::nullopt;  // the reader reports it
+  }
+  init_gdal();
+  CPLErrorReset();
+  DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  if (!ds || ds->GetRasterXSize() <= 0 || ds->GetRasterYSize() <= 0) return std::nullopt;
+  return std::make_pair(int64_t(ds->GetRasterXSize()), int64_t(ds->GetRasterYSize()));
+}
+
 Heightfield read_gdal(const std::string& path) {
   init_gdal();
   CPLErrorReset();
   DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
   if (!ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
+  if (ds->GetRasterXSize() > 0 && ds->GetRasterYSize() > 0)
+    require_raster_size("io", path, ds->GetRasterXSize(), ds->GetRasterYSize(), 8);  // before counting its blocks
+  check_tiff_blocks(*ds, path);
   return from_dataset(*ds, path);
 }
 

@@ -29,6 +29,12 @@ GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
     GDALClose(m_ds);
     fail("io", "{}: raster has no cells ({} x {})", path, w, h);
   }
+  try {
+    check_tiff_blocks(*m_ds, path);  // a damaged block table: refused before GDAL allocates a block
+  } catch (...) {
+    GDALClose(m_ds);
+    throw;
+  }
   m_header.width = w;
   m_header.height = h;
   read_gdal_header(*m_ds, m_header);

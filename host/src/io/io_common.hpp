@@ -5,7 +5,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <optional>
 #include <string>
+#include <utility>
 
 class GDALDataset;
 
@@ -53,6 +56,12 @@ void quantiser_from_sidecar(const nlohmann::json& sc, Quantiser& q, const std::s
 void warn_sidecarless(const std::string& path, const char* kind);
 
 Heightfield read_gdal(const std::string& path);
+/// Throws "io: <path>: ..." when a GeoTIFF's block size is out of all proportion to the raster or
+/// a block's offset + byte count lies past the end of the file, before GDAL allocates or reads it.
+void check_tiff_blocks(GDALDataset& ds, const std::string& path);
+/// Width and height from a raster's header, pixels unread (GDAL); nullopt when it is not a
+/// raster GDAL opens (the core build: always), so that a size check is skipped, not failed.
+std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string& path);
 /// Georef (metric cell size of the whole raster) and terracl metadata of an open dataset; sets
 /// georef.nodata but converts no value (convert_nodata does, on what was read).
 void read_gdal_header(GDALDataset& ds, Heightfield& out);

@@ -10,6 +10,7 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/pipeline.hpp>
+#include <terracl/stage_memory.hpp>
 #include <terracl/version.hpp>
 
 namespace terracl {
@@ -65,6 +66,9 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
     };
   }
 
+  // Every stage whose input size the headers tell is checked before anything is read or written.
+  check_memory(device);
+
   StageData data;
   json chain = json::array();  // the stages behind the current data, for provenance
   for (size_t i = 0; i < m_stages.size(); ++i) {
@@ -82,6 +86,15 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
     StageContext ctx{data, st.options, device, progress, st.tag, provenance};
     data.current = st.input;
     const auto t0 = Clock::now();
+    // Sizes only known now (after a warp by cell size, a RAW16 reader, ...): checked again before
+    // the stage allocates.
+    if (st.info->input != DataKind::None) {
+      const RasterShape in = data.height     ? RasterShape{data.height->width, data.height->height}
+                             : data.gradient ? RasterShape{data.gradient->width, data.gradient->height}
+                                             : RasterShape{};
+      const MemoryNeed need = memory_of(st.type, st.options, in);
+      require_stage_memory(st.tag, fmt::format("pipeline stage {}", st.where), need, need.device > 0 ? &device() : nullptr);
+    }
     try {
       st.info->run(ctx);
     } catch (const Cancelled&) {
