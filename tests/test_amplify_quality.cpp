@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <utility>
 
 using namespace terracl;
 
@@ -44,6 +45,23 @@ TEST(AmplifyQuality, PeriodicTraceFindsAModulatedCurvature) {
   EXPECT_GT(some.ripple, 0.25);
 }
 
+// x4 of `low` with a complete dictionary of `ex` at gain 2: the patch-spacing trace of the paper's
+// average blend, and the detail blend's output.
+static std::pair<PeriodicTrace, Heightfield> average_and_detail_blends(const Heightfield& ex, const Heightfield& low,
+                                                                int max_patches) {
+  LearnOptions l;
+  l.method = "complete";
+  l.max_patches = max_patches;
+  l.calibrate = false;
+  const Dictionary d = learn_dictionary({ex}, l);
+  AmplifyOptions o;
+  o.detail_gain = 2.0f;
+  o.blend = "average";
+  const PeriodicTrace avg = periodic_trace(amplify(low, d, o), 8);
+  o.blend = "detail";
+  return {avg, amplify(low, d, o)};
+}
+
 TEST(AmplifyQuality, DetailBlendLeavesNoPatchGridTrace) {
   // x4 of a 200^2 block-mean input of N44W072 (the exemplar: a disjoint part of the same DEM). The
   // paper's weighted average of the patches (the only blend before issue 16) fades detail between
@@ -54,17 +72,7 @@ TEST(AmplifyQuality, DetailBlendLeavesNoPatchGridTrace) {
   const Heightfield ex = crop_of(dem, 0, 0, 256, 256);
   const Heightfield truth = crop_of(dem, 400, 400, 800, 800);
   const Heightfield low = block_mean(truth, 4);
-  LearnOptions l;
-  l.method = "complete";
-  l.max_patches = 6000;
-  l.calibrate = false;
-  const Dictionary d = learn_dictionary({ex}, l);
-  AmplifyOptions o;
-  o.detail_gain = 2.0f;
-  o.blend = "average";
-  const PeriodicTrace avg = periodic_trace(amplify(low, d, o), 8);
-  o.blend = "detail";
-  const Heightfield out = amplify(low, d, o);
+  const auto [avg, out] = average_and_detail_blends(ex, low, 6000);
   const PeriodicTrace det = periodic_trace(out, 8), blk = periodic_trace(out, 4);
   std::printf("average blend: peak %.1f ripple %.3f; detail blend: peak %.1f ripple %.3f, block peak %.1f ripple %.3f\n",
               avg.peak, avg.ripple, det.peak, det.ripple, blk.peak, blk.ripple);
@@ -84,17 +92,7 @@ TEST(AmplifyQuality, DetailBlendLeavesNoPatchGridTraceOnAFrontRangeCrop) {
   const Heightfield ex = crop_of(dem, 0, 0, 360, 360);
   const Heightfield truth = crop_of(dem, 376, 0, 376, 376);
   const Heightfield low = block_mean(truth, 4);
-  LearnOptions l;
-  l.method = "complete";
-  l.max_patches = 8000;
-  l.calibrate = false;
-  const Dictionary d = learn_dictionary({ex}, l);
-  AmplifyOptions o;
-  o.detail_gain = 2.0f;
-  o.blend = "average";
-  const PeriodicTrace avg = periodic_trace(amplify(low, d, o), 8);
-  o.blend = "detail";
-  const Heightfield out = amplify(low, d, o);
+  const auto [avg, out] = average_and_detail_blends(ex, low, 8000);
   const PeriodicTrace det = periodic_trace(out, 8);
   std::printf("Front Range crop: average blend peak %.1f; detail blend peak %.1f ripple %.3f (rho %s)\n", avg.peak,
               det.peak, det.ripple, out.metadata.at("amplify_detail_correlation").c_str());

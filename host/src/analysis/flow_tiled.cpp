@@ -21,6 +21,7 @@
 #include <terracl/tile.hpp>
 
 #include "analysis/grid.hpp"
+#include "analysis/tile_windows.hpp"
 
 namespace terracl::analysis {
 namespace {
@@ -29,9 +30,8 @@ using namespace detail;
 
 constexpr uint32_t kNone = 0xffffffffu;
 
-struct Tile {
-  int x0, y0, x1, y1;  // core
-};
+using tiles::Tile;
+using tiles::make_tiles;
 
 // One tile's directions and local accumulation.
 struct LocalFlow {
@@ -112,23 +112,8 @@ struct LocalFlow {
   }
 };
 
-std::vector<Tile> make_tiles(int W, int H, int T) {
-  std::vector<Tile> tiles;
-  for (int y = 0; y < H; y += T)
-    for (int x = 0; x < W; x += T) tiles.push_back({x, y, std::min(W, x + T), std::min(H, y + T)});
-  return tiles;
-}
-
 Heightfield read_with_halo(const WindowReader& read, const Tile& t, int W, int H, int& wx, int& wy) {
-  wx = std::max(0, t.x0 - 1), wy = std::max(0, t.y0 - 1);
-  const int wx1 = std::min(W, t.x1 + 1), wy1 = std::min(H, t.y1 + 1);
-  Heightfield win = read(wx, wy, wx1 - wx, wy1 - wy);
-  if (win.width != wx1 - wx || win.height != wy1 - wy || win.z.size() != size_t(win.width) * win.height)
-    fail("drainage", "tile reader returned {} x {} cells for a {} x {} window", win.width, win.height, wx1 - wx,
-         wy1 - wy);
-  for (float v : win.z)
-    if (std::isinf(v)) fail("drainage", "heightfield has infinite elevations");
-  return win;
+  return tiles::read_with_halo(read, t, W, H, wx, wy, "drainage");
 }
 
 // Perimeter cells of a tile, in a fixed order (each once).

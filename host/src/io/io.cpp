@@ -139,6 +139,25 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
   return h;
 }
 
+namespace {
+
+// The JSON sidecar, written under its temporary name and renamed while the raster's own temporary
+// still exists, so a failure leaves neither file behind.
+void write_sidecar(const nlohmann::json& sc, const std::string& sc_path, const std::string& sc_tmp) {
+  try {
+    std::ofstream out(sc_tmp);
+    out << sc.dump(2) << "\n";
+    out.close();
+    if (!out) fail("io", "cannot write sidecar {}", sc_path);
+    commit_temporary(sc_tmp, sc_path);
+  } catch (...) {
+    discard_temporary(sc_tmp);
+    throw;
+  }
+}
+
+}  // namespace
+
 void write_heightfield(const Heightfield& h, const std::string& path, const WriteOptions& opts) {
   const FileFormat f = format_from_extension(path);
   if (f == FileFormat::Unknown || f == FileFormat::HGT || f == FileFormat::AsciiGrid || f == FileFormat::GDALOther)
@@ -161,16 +180,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
     const std::string sc_path = io::sidecar_path(path), sc_tmp = temporary_path_for(sc_path);
     return write_atomically(path, [&](const std::string& tmp) {
       io::write_npy(h, tmp);
-      try {
-        std::ofstream out(sc_tmp);
-        out << sc.dump(2) << "\n";
-        out.close();
-        if (!out) fail("io", "cannot write sidecar {}", sc_path);
-        commit_temporary(sc_tmp, sc_path);
-      } catch (...) {
-        discard_temporary(sc_tmp);
-        throw;
-      }
+      write_sidecar(sc, sc_path, sc_tmp);
     });
   }
 
@@ -205,16 +215,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
       io::write_png16(h, tmp, zmin, zmax);
     else
       io::write_raw16(h, tmp, zmin, zmax);
-    try {
-      std::ofstream out(sc_tmp);
-      out << sc.dump(2) << "\n";
-      out.close();
-      if (!out) fail("io", "cannot write sidecar {}", sc_path);
-      commit_temporary(sc_tmp, sc_path);
-    } catch (...) {
-      discard_temporary(sc_tmp);
-      throw;
-    }
+    write_sidecar(sc, sc_path, sc_tmp);
   });
 }
 
