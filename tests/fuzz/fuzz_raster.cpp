@@ -1,5 +1,5 @@
-// libFuzzer harness: the first byte picks a format (.tif .png .exr .r16 .asc .hgt, with or without a
-// JSON sidecar), the rest is the file; read_heightfield, and read_gradient for EXR, must answer
+// libFuzzer harness: the first byte picks a format (.tif .png .exr .r16 .asc .hgt .npy, with or without
+// a JSON sidecar), the rest is the file; read_heightfield, and read_gradient for EXR, must answer
 // with a heightfield or a terracl Error, never crash, hang or allocate what the header claims.
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -25,10 +25,12 @@ void write_file(const std::string& path, const uint8_t* data, size_t size) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 2) return 0;
-  static const char* ext[] = {".tif", ".png", ".exr", ".r16", ".asc", ".hgt"};
+  static const char* ext[] = {".tif", ".png", ".exr", ".r16", ".asc", ".hgt", ".npy"};
   const uint8_t pick = data[0];
   const std::string base = "/tmp/terracl-fuzz-" + std::to_string(::getpid());
-  const int format = (pick & 7) % 6;  // bits 0-2: the format; bit 3: a sidecar
+  // Bits 0-2: the format (7 = .npy, a second .png before .npy existed; 6 still wraps to .tif);
+  // bit 3: a sidecar (also read beside a .npy).
+  const int format = (pick & 7) == 7 ? 6 : (pick & 7) % 6;
   const std::string path = base + ext[format];
   // With bit 3: the rest up to the first 0xFF byte is a sidecar JSON for PNG/RAW16.
   const uint8_t* body = data + 1;
