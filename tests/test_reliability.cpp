@@ -619,6 +619,9 @@ TEST(Reliability, FuzzFindingsAreRefusedBeforeTheLibrariesAllocate) {
                      "65535 bands");
   expect_clean_error(test::run_cli("info " + q(exr)), 1,
                      "window.exr: EXR header attribute 'displayWindow' (box2i) states 3 bytes; a box2i is 16 bytes", "box2i");
+  // A 12 x 9 PNG whose tEXt chunk claims more bytes than the file has: libpng allocated ~2 GB first.
+  const std::string png = write_text(dir, "text.png", file_text(corpus + "seed_png_text_length").substr(1));
+  expect_clean_error(test::run_cli("info " + q(png)), 1, "text.png: PNG chunk 'tEXt' claims", "the file is damaged");
   rusage ru{};
   ::getrusage(RUSAGE_CHILDREN, &ru);
   EXPECT_LT(ru.ru_maxrss, 1024L * 1024) << "KiB: a child's peak resident memory";

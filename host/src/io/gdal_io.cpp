@@ -138,11 +138,13 @@ void check_tiff_blocks(GDALDataset& ds, const std::string& path) {
 
 std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string& path) {
   // Only files with a raster extension: GDALOpen probes every driver, and a pipeline names
-  // sketches, meshes and reports too. EXR headers are checked first (OpenEXR trusts them).
+  // sketches, meshes and reports too. EXR headers and PNG chunk lengths are checked first
+  // (OpenEXR and libpng trust them).
   const FileFormat f = format_from_extension(path);
   if (f == FileFormat::Unknown || f == FileFormat::RAW16) return std::nullopt;
   try {
     if (f == FileFormat::EXR) check_exr_header(path);
+    if (f == FileFormat::PNG) check_png_chunks(path);
   } catch (const Error&) {
     return std::nullopt;  // the reader reports it
   }

@@ -19,6 +19,8 @@ std::string sniff_magic(const std::string& path);
 /// Throws when an EXR file's header claims an attribute larger than the file: OpenEXR allocates
 /// what the header says (a fuzzed 1.5 KB file took 1.8 GB and 6 s) before noticing.
 void check_exr_header(const std::string& path);
+/// Refuses a PNG whose chunk lengths run past the end of the file, before libpng allocates them.
+void check_png_chunks(const std::string& path);
 /// Throws "io: <path>: ..." when the file is missing, unreadable, empty or a folder.
 void require_readable(const std::string& path);
 /// Throws when the folder of `path` is missing or not writable.

@@ -56,7 +56,9 @@ void write_image(const std::string& tmp_path, const ImageSpec& spec, TypeDesc ty
 }  // namespace
 
 Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
-  if (sniff_magic(path) == "EXR") check_exr_header(path);
+  const std::string magic = sniff_magic(path);
+  if (magic == "EXR") check_exr_header(path);
+  if (magic == "PNG") check_png_chunks(path);
   auto in = ImageInput::open(path);
   if (!in) fail("io", "{}: not an image OpenImageIO can read ({})", path, OIIO::geterror());
   const ImageSpec& spec = in->spec();
