@@ -227,15 +227,7 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
     f.run(win, wx, wy, t, W, H, false);
     std::vector<float> level(f.seed_node.size(), -INFINITY);
     for (size_t s = 1; s < f.seed_node.size(); ++s) level[s] = spill[node_index(f.seed_node[s])];
-    Heightfield core(t.x1 - t.x0, t.y1 - t.y0);
-    core.georef = win.georef;
-    core.metadata = win.metadata;
-    auto& gt = core.georef.geotransform;
-    if (core.georef.has_geotransform) {
-      const int dx = t.x0 - wx, dy = t.y0 - wy;
-      gt[0] += dx * gt[1] + dy * gt[2];
-      gt[3] += dx * gt[4] + dy * gt[5];
-    }
+    Heightfield core = tiles::core_frame(win, t, wx, wy);
     for (int y = 0; y < core.height; ++y)
       for (int x = 0; x < core.width; ++x) {
         const size_t i = f.index(x, y);

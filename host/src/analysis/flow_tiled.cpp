@@ -253,15 +253,7 @@ TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double 
       if (v != kNone) inflow[size_t(y) * cw + x] = in[v];
     });
     f.run(win, wx, wy, t, inv_dist, inflow, false);
-    Heightfield core(cw, ch);
-    core.georef = win.georef;
-    core.metadata = win.metadata;
-    auto& gt = core.georef.geotransform;
-    if (core.georef.has_geotransform) {
-      const int dx = t.x0 - wx, dy = t.y0 - wy;
-      gt[0] += dx * gt[1] + dy * gt[2];
-      gt[3] += dx * gt[4] + dy * gt[5];
-    }
+    Heightfield core = tiles::core_frame(win, t, wx, wy);
     for (size_t i = 0; i < core.z.size(); ++i) {
       if (f.dir[i] == kNoFlow) {
         core.z[i] = NAN;

@@ -37,4 +37,19 @@ inline Heightfield read_with_halo(const WindowReader& read, const Tile& t, int W
   return win;
 }
 
+/// An empty heightfield of tile `t`'s core with the window's metadata and its georeferencing moved
+/// from the window's origin (wx, wy) to the core's.
+inline Heightfield core_frame(const Heightfield& win, const Tile& t, int wx, int wy) {
+  Heightfield core(t.x1 - t.x0, t.y1 - t.y0);
+  core.georef = win.georef;
+  core.metadata = win.metadata;
+  auto& gt = core.georef.geotransform;
+  if (core.georef.has_geotransform) {
+    const int dx = t.x0 - wx, dy = t.y0 - wy;
+    gt[0] += dx * gt[1] + dy * gt[2];
+    gt[3] += dx * gt[4] + dy * gt[5];
+  }
+  return core;
+}
+
 }  // namespace terracl::analysis::tiles
