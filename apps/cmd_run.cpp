@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
+#include <terracl/stage_memory.hpp>
 #include <terracl/tile.hpp>
 
 #include "cli.hpp"
@@ -110,9 +112,19 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       return;
     }
     if (a->validate) {
-      // The run's memory check (host memory; the device is checked when the run opens it). A tiled
-      // run holds tiles, not whole rasters: run_tiled checks its budget itself.
-      if (a->tile == 0 && a->memory_budget.empty()) p.check_memory();
+      // The run's memory check, host and device: the device's figures come from the platform list
+      // (choose_device: no context, no kernels); without a device only host memory is checked. A
+      // tiled run holds tiles, not whole rasters: run_tiled checks its budget itself.
+      std::optional<DeviceInfo> info;
+      if (a->tile == 0 && a->memory_budget.empty())
+        p.check_memory_info([&info]() -> const DeviceInfo* {
+          try {
+            info = choose_device(globals().device);
+          } catch (const Error&) {
+            return nullptr;  // no OpenCL device: the run says so; validation checks what it can
+          }
+          return &*info;
+        });
       print_validation(p);
       return;
     }

@@ -2,6 +2,7 @@
 // JSON lines for machines, nothing with -q. Ctrl-C turns the next callback into a cancel.
 #include "cli.hpp"
 
+#include <terracl/interrupt.hpp>
 #include <terracl/io.hpp>
 
 #include <fmt/format.h>
@@ -38,6 +39,8 @@ void on_terminate(int sig) {
 }  // namespace
 
 void install_interrupt_handler() {
+  // Library calls that only poll (GDAL's GeoTIFF writer) stop on the same Ctrl-C.
+  set_stop_check([] { return g_interrupted.load(); });
   std::signal(SIGINT, on_sigint);
   std::signal(SIGTERM, on_terminate);
   std::signal(SIGHUP, on_terminate);

@@ -37,7 +37,14 @@ TileOptions TileFlags::options(const std::string& command) const {
       throw UsageError(command, fmt::format("--halo: expected auto or a number of cells >= 0, got '{}'", halo));
     }
   }
-  if (!memory_budget.empty()) to.memory_budget = parse_memory_size(memory_budget, "--memory-budget");
+  if (!memory_budget.empty()) {
+    try {
+      to.memory_budget = parse_memory_size(memory_budget, "--memory-budget");
+    } catch (const UsageError& e) {
+      // parse_memory_size speaks for `terracl run`; name the subcommand the user typed.
+      throw UsageError(command, std::string(e.what()).substr(e.stage().size() + 2));
+    }
+  }
   return to;
 }
 

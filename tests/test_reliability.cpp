@@ -268,10 +268,11 @@ bool wait_for_temporary(const fs::path& dir, double seconds) {
   return false;
 }
 
-int wait_exit(pid_t pid, int fd) {
+// Reads the child's output to the end (into `seen` when given) and reaps it.
+int wait_exit(pid_t pid, int fd, std::string* seen = nullptr) {
   char buf[4096];
-  while (::read(fd, buf, sizeof buf) > 0) {
-  }
+  for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) > 0;)
+    if (seen) seen->append(buf, size_t(n));
   ::close(fd);
   int status = 0;
   ::waitpid(pid, &status, 0);
@@ -298,8 +299,11 @@ TEST(Reliability, SigtermStopsWithExit143AndLeavesNoTemporary) {
 }
 
 // The end-to-end form of SignalHandlerUnlinksRegisteredTemporaries: the CLI is stopped while it
-// writes (an LZMA GeoTIFF of a 1201^2 DEM: seconds of compression), by a second Ctrl-C and by
-// SIGTERM; the temporary it was writing must be gone and the output must not exist.
+// writes (an LZMA GeoTIFF of a 1201^2 DEM: seconds of compression inside GDAL), by one Ctrl-C and
+// by SIGTERM; the temporary it was writing must be gone and the output must not exist. One Ctrl-C
+// is enough: GDAL's progress callback between the blocks it compresses sees the interrupt flag
+// (before, GDAL finished the write and the CLI exited 0 with a whole output). SIGTERM (and a
+// second Ctrl-C, the same handler) unlinks the registered temporary from the signal handler.
 TEST(Reliability, SignalsDuringAWriteLeaveNoTemporary) {
   for (const int sig : {SIGINT, SIGTERM}) {
     test::TempDir dir;
@@ -312,16 +316,10 @@ TEST(Reliability, SignalsDuringAWriteLeaveNoTemporary) {
     const bool writing = wait_for_temporary(dir.dir(), 120);
     ASSERT_TRUE(writing) << "the write never started";
     ::kill(pid, sig);
-    if (sig == SIGINT) {
-      // The second Ctrl-C once the first was handled (two signals pending at once are one: under
-      // load both arrived before the CLI ran, and it finished the write). No progress callback
-      // runs inside GDAL's writer, so only the second one stops it.
-      std::string seen;
-      ASSERT_TRUE(wait_for_output(fd, "Ctrl-C again to quit", seen)) << seen;
-      ::kill(pid, SIGINT);
-    }
-    const int code = wait_exit(pid, fd);
-    EXPECT_EQ(code, sig == SIGINT ? 130 : 143) << strsignal(sig);
+    std::string seen;
+    const int code = wait_exit(pid, fd, &seen);
+    EXPECT_EQ(code, sig == SIGINT ? 130 : 143) << strsignal(sig) << "\n" << seen;
+    if (sig == SIGINT) EXPECT_NE(seen.find("write was stopped"), std::string::npos) << seen;
     EXPECT_FALSE(has_temporary(dir.dir())) << strsignal(sig) << ": a temporary was left";
     EXPECT_FALSE(fs::exists(out)) << strsignal(sig);
   }
@@ -625,4 +623,50 @@ TEST(Reliability, FuzzFindingsAreRefusedBeforeTheLibrariesAllocate) {
   rusage ru{};
   ::getrusage(RUSAGE_CHILDREN, &ru);
   EXPECT_LT(ru.ru_maxrss, 1024L * 1024) << "KiB: a child's peak resident memory";
+}
+
+// --- 5. the subcommands and formats added since the campaign ------------------------------------
+
+TEST(Reliability, WarpRefusesAnOutputTooLargeBeforeGdalAllocatesIt) {
+  test::TempDir dir;
+  const std::string base = "warp -q " + q(crop()) + " -o " + q(dir.path("w.tif"));
+  // A cell size of 1e-7 (degrees: the crop is geographic) asked GDAL for 3.4 TB; 1e-12
+  // and a window of 1e300 overflowed GDAL's int sizes ("-2147483648x-2147483648 dataset").
+  for (const std::string& args : {base + " --tr 0.0000001 0.0000001", base + " --tr 1e-12 1e-12",
+                                  base + " --projwin 0 0 1e300 -1e300"}) {
+    const auto r = test::run_cli(args);
+    expect_clean_error(r, 1, "warp: the output would be", args);
+    EXPECT_NE(r.out.find("each side may be at most 65536 cells"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("GDAL"), std::string::npos) << r.out;
+  }
+  // Within the limit it still runs: the check is GDAL's own size, not a guess.
+  const auto ok = test::run_cli(base + " --tr 0.00166666666666667 0.00166666666666667");
+  EXPECT_EQ(ok.exit_code, 0) << ok.out;
+  EXPECT_EQ(read_heightfield(dir.path("w.tif")).width, 64) << "128 cells of 3 arc-seconds at 6";
+}
+
+TEST(Reliability, NpyShapeWithASignIsRefused) {
+  test::TempDir dir;
+  // "(-3, 4)" was read as 3 x 4: the sign was skipped.
+  std::string h = "{'descr': '<f4', 'fortran_order': False, 'shape': (-3, 4), }";
+  h += std::string(118 - h.size(), ' ') + "\n";
+  std::string file = std::string("\x93NUMPY\x01\x00", 8) + char(h.size() & 0xff) + char(h.size() >> 8) + h;
+  file += std::string(48, '\0');
+  const std::string path = write_text(dir, "neg.npy", file);
+  try {
+    (void)read_heightfield(path);
+    FAIL() << "a negative .npy shape was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'shape' must be 2-D (rows, columns) of positive integers, got (-3, 4)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(Reliability, TileFlagErrorsNameTheSubcommand) {
+  test::TempDir dir;
+  // parse_memory_size spoke for `terracl run` ("run: --memory-budget ...") from every subcommand.
+  const auto r = test::run_cli("fill_depressions -q " + q(crop()) + " -o " + q(dir.path("f.tif")) + " --memory-budget -5G");
+  expect_clean_error(r, 2, "fill_depressions: --memory-budget: '-5G' is not a memory size", "--memory-budget -5G");
+  EXPECT_EQ(dir.count(), 0u);
 }

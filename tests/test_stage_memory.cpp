@@ -19,9 +19,9 @@ namespace {
 std::string crop() { return test::data_path("crops/presidential_128x96.tif"); }  // 12288 cells
 std::string q(const std::string& s) { return "'" + s + "'"; }
 
-// `terracl ARGS` with TERRACL_MAX_MEMORY=LIMIT.
-test::CmdResult run_capped(const std::string& limit, const std::string& args) {
-  const std::string cmd = "env TERRACL_MAX_MEMORY=" + limit + " " + std::string(TERRACL_CLI) + " " + args + " 2>&1";
+// `terracl ARGS` with the environment variables ENV (NAME=VALUE ...).
+test::CmdResult run_env(const std::string& env, const std::string& args) {
+  const std::string cmd = "env " + env + " " + std::string(TERRACL_CLI) + " " + args + " 2>&1";
   FILE* pipe = popen(cmd.c_str(), "r");
   std::string out;
   char buf[4096];
@@ -29,6 +29,11 @@ test::CmdResult run_capped(const std::string& limit, const std::string& args) {
   while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
   const int status = pclose(pipe);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
+}
+
+// `terracl ARGS` with TERRACL_MAX_MEMORY=LIMIT.
+test::CmdResult run_capped(const std::string& limit, const std::string& args) {
+  return run_env("TERRACL_MAX_MEMORY=" + limit, args);
 }
 
 std::string write_pipeline(const test::TempDir& dir, const std::string& name, const json& stages) {
@@ -134,4 +139,24 @@ TEST(StageMemory, ValidateRefusesAnAmplifyWhoseOutputIsTooLarge) {
   expect_refusal(test::run_cli("run -q --validate " + q(p)), 2,
                  {"/1 (the x256 output of a 1201 x 1201 input): an output of 307456 x 307456 cells", "at most 65536", "smaller --factor"},
                  "amplify x256");
+}
+
+TEST(StageMemory, ValidateChecksTheDeviceMemoryFromThePlatformList) {
+  test::TempDir dir;
+  // POCL_MEMORY_LIMIT=1 makes PoCL's CPU device report 1 GiB of global memory: a 4500 x 4500
+  // erosion (56 B/cell on the device: 1.1 GiB) does not fit it; its host side (1.6 GiB) does.
+  const std::string p = write_pipeline(
+      dir, "d.json",
+      json::array({crop(), json{{"type", "resize"}, {"width", 4500}, {"height", 4500}}, json{{"type", "erode"}, {"steps", 2}},
+                   dir.path("o.tif")}));
+  const std::vector<std::string> words = {"d.json", "/2 (erode of a 4500 x 4500 raster) needs about 1.1 GiB of device memory",
+                                          "has 1.0 GiB", "crop or downsample"};
+  const auto capped = [](const std::string& args) { return run_env("POCL_MEMORY_LIMIT=1", args); };
+  expect_refusal(capped("run -q --validate " + q(p)), 2, words, "--validate");
+  // The run makes the same check when it opens the device, before anything is read or written.
+  expect_refusal(capped("run -q " + q(p)), 2, words, "run");
+  EXPECT_EQ(dir.count(), 1u) << "only the pipeline may be there";
+  // The device's real memory (PoCL: a share of the host's) holds it: a figure, not a refusal.
+  const auto ok = test::run_cli("run -q --validate " + q(p));
+  EXPECT_EQ(ok.exit_code, 0) << ok.out;
 }

@@ -97,6 +97,10 @@ class Pipeline {
   /// (or, given `device`, which is then opened if a stage of known size uses it, the device's).
   /// `terracl run`, `run --validate` and run() call it before any work. Requires validate().
   void check_memory(const std::function<Device&()>& device = {}) const;
+  /// The same check with the device's figures alone (choose_device(): the platform list, no
+  /// context or kernels), for `run --validate`. `device_info` is called once, when the first stage
+  /// of known size uses device memory; it may return nullptr (no device: host memory only).
+  void check_memory_info(const std::function<const DeviceInfo*()>& device_info) const;
 
   const std::string& name() const { return m_name; }
   const std::string& source() const { return m_source; }

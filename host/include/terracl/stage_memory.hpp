@@ -12,6 +12,7 @@
 namespace terracl {
 
 class Device;
+struct DeviceInfo;
 
 /// A raster size between stages; 0 x 0 when it is not known before running.
 struct RasterShape {
@@ -43,5 +44,17 @@ RasterShape raster_shape(const std::string& path);
 /// TERRACL_MAX_MEMORY) or, with a device, its global memory or largest allocation.
 void require_stage_memory(const std::string& stage, const std::string& where, const MemoryNeed& need,
                           const Device* device);
+/// The same with the device's figures only (choose_device(): `--validate` opens no context).
+void require_stage_memory_info(const std::string& stage, const std::string& where, const MemoryNeed& need,
+                               const DeviceInfo* device);
+
+/// require_memory() (terracl/memory.hpp) with the device's figures only.
+void require_memory_info(const std::string& stage, const std::string& what, double host_bytes, double device_bytes,
+                         double largest_buffer, const DeviceInfo* device, const std::string& hint);
+
+/// The device Device::open(spec) would open, from the platform list alone: no context, queue or
+/// kernel is created, so `--validate` checks device memory cheaply (host/src/cl/device.cpp).
+/// Throws as open() does when there is none.
+DeviceInfo choose_device(const std::string& spec = "");
 
 }  // namespace terracl

@@ -2,6 +2,7 @@
 // OpenCL tools can pick devices the same way.
 #include <terracl/device.hpp>
 #include <terracl/error.hpp>
+#include <terracl/stage_memory.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -152,6 +153,8 @@ std::vector<DeviceInfo> list_devices() {
   for (auto& e : enumerate()) out.push_back(e.info);
   return out;
 }
+
+DeviceInfo choose_device(const std::string& spec) { return choose(spec).info; }
 
 std::shared_ptr<Device> Device::open(const std::string& spec) {
   Entry e = choose(spec);

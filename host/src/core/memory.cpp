@@ -2,6 +2,7 @@
 #include <terracl/device.hpp>
 #include <terracl/error.hpp>
 #include <terracl/memory.hpp>
+#include <terracl/stage_memory.hpp>
 
 #include <fmt/format.h>
 #include <sys/resource.h>
@@ -60,12 +61,17 @@ uint64_t host_memory_limit() {
 
 void require_memory(const std::string& stage, const std::string& what, double host_bytes, double device_bytes,
                     double largest_buffer, const Device* device, const std::string& hint) {
+  require_memory_info(stage, what, host_bytes, device_bytes, largest_buffer, device ? &device->info() : nullptr, hint);
+}
+
+void require_memory_info(const std::string& stage, const std::string& what, double host_bytes, double device_bytes,
+                         double largest_buffer, const DeviceInfo* device, const std::string& hint) {
   const double host = double(host_memory_limit());
   if (host_bytes > host)
     fail(stage, "{} needs about {} of memory, and {} is available{}; {}", what, human_bytes(host_bytes),
          human_bytes(host), std::getenv("TERRACL_MAX_MEMORY") ? " (TERRACL_MAX_MEMORY)" : "", hint);
   if (!device) return;
-  const DeviceInfo& d = device->info();
+  const DeviceInfo& d = *device;
   if (d.global_mem && device_bytes > double(d.global_mem))
     fail(stage, "{} needs about {} of device memory, and {} has {}; {}", what, human_bytes(device_bytes), d.name,
          human_bytes(double(d.global_mem)), hint);
@@ -79,7 +85,7 @@ void require_raster_size(const std::string& stage, const std::string& what, int6
   if (width < 1 || height < 1) fail(stage, "{}: the raster is {} x {} cells; it has no cells", what, width, height);
   if (width > max_raster_side || height > max_raster_side)
     fail(stage, "{}: {} x {} cells; each side may be at most {} cells", what, width, height, max_raster_side);
-  require_memory(stage, fmt::format("{} ({} x {} cells)", what, width, height), double(width) * double(height) * bytes_per_cell,
+  require_memory_info(stage, fmt::format("{} ({} x {} cells)", what, width, height), double(width) * double(height) * bytes_per_cell,
                  0, 0, nullptr, "cut it into smaller pieces first (e.g. gdal_translate -srcwin)");
 }
 

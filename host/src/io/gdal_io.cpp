@@ -5,6 +5,7 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/interrupt.hpp>
 #include <terracl/json_limits.hpp>
 #include <terracl/memory.hpp>
 
@@ -260,12 +261,22 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   }
   DatasetPtr mem = to_mem_dataset(h, type);
   CPLErrorReset();
-  GDALDataset* out = drv->CreateCopy(tmp_path.c_str(), mem.get(), FALSE, opts, nullptr, nullptr);
+  // GDAL calls this between the blocks it compresses and writes; FALSE makes CreateCopy stop (a
+  // Ctrl-C during a seconds-long LZMA write used to wait for the whole file, then exit 0).
+  const GDALProgressFunc on_progress = [](double, const char*, void*) -> int { return stop_requested() ? FALSE : TRUE; };
+  GDALDataset* out = drv->CreateCopy(tmp_path.c_str(), mem.get(), FALSE, opts, on_progress, nullptr);
   CSLDestroy(opts);
+  if (stop_requested()) {
+    if (out) GDALClose(out);
+    throw Cancelled("io", "the GeoTIFF write was stopped (Ctrl-C); no output was written");
+  }
   if (!out) fail("io", "cannot create GeoTIFF {} ({})", tmp_path, last_gdal_error());
   CPLErrorReset();
   GDALClose(out);
   if (CPLGetLastErrorType() >= CE_Failure) fail("io", "finishing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());
+  // Closing flushes the last blocks, after GDAL's last callback: a stop asked then still wins.
+  if (stop_requested())
+    throw Cancelled("io", "the GeoTIFF write was stopped (Ctrl-C); no output was written");
 }
 
 }  // namespace terracl::io

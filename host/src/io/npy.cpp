@@ -6,6 +6,7 @@
 #include "io/io_common.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/memory.hpp>
 
 #include <cmath>
@@ -24,7 +25,7 @@ constexpr char kMagic[] = "\x93NUMPY";
 std::string dict_value(const std::string& header, const std::string& key, const std::string& path) {
   size_t k = header.find("'" + key + "'");
   if (k == std::string::npos) k = header.find("\"" + key + "\"");
-  if (k == std::string::npos) fail("io", "{}: .npy header has no '{}' entry: {}", path, key, header);
+  if (k == std::string::npos) fail("io", "{}: .npy header has no '{}' entry: {}", path, key, abbreviate(header, 80));
   size_t p = header.find(':', k);
   if (p == std::string::npos) fail("io", "{}: .npy header entry '{}' has no value", path, key);
   ++p;
@@ -49,13 +50,13 @@ struct Dtype {
 Dtype parse_descr(const std::string& d, const std::string& path) {
   const char* kAccepted = "'<f4' (float32), '<f8' (float64), '<i2' (int16) or '<u2' (uint16)";
   if (d.size() >= 2 && d[0] == '>' && d != ">i1" && d != ">u1")
-    fail("io", "{}: .npy dtype '{}' is big-endian; terracl reads little-endian {} (numpy: a.astype('<f4'))", path, d,
+    fail("io", "{}: .npy dtype '{}' is big-endian; terracl reads little-endian {} (numpy: a.astype('<f4'))", path, abbreviate(d, 40),
          kAccepted);
   if (d == "<f4") return {'f', 4};
   if (d == "<f8") return {'f', 8};
   if (d == "<i2") return {'i', 2};
   if (d == "<u2") return {'u', 2};
-  fail("io", "{}: .npy dtype '{}' is not supported; expected {}", path, d, kAccepted);
+  fail("io", "{}: .npy dtype '{}' is not supported; expected {}", path, abbreviate(d, 40), kAccepted);
 }
 
 }  // namespace
@@ -88,7 +89,7 @@ Heightfield read_npy(const std::string& path, const ReadOptions& opts) {
   if (fortran == "True")
     fail("io", "{}: .npy array is in Fortran (column-major) order; terracl reads C order (numpy: "
          "np.ascontiguousarray(a))", path);
-  if (fortran != "False") fail("io", "{}: .npy 'fortran_order' must be True or False, got '{}'", path, fortran);
+  if (fortran != "False") fail("io", "{}: .npy 'fortran_order' must be True or False, got '{}'", path, abbreviate(fortran, 40));
   const std::string shape = dict_value(header, "shape", path);
   // "(H, W)": exactly two positive integers.
   long long dims[3] = {0, 0, 0};
@@ -107,11 +108,14 @@ Heightfield read_npy(const std::string& path, const ReadOptions& opts) {
       }
     }
   }
-  if (nd != 2)
-    fail("io", "{}: .npy 'shape' must be 2-D (rows, columns), got {}", path, shape.empty() ? "()" : shape);
+  // Only digits between the separators: "(-3, 4)" was read as 3 x 4 (the sign skipped).
+  const bool plain = shape.find_first_not_of("0123456789 ,()") == std::string::npos;
+  if (nd != 2 || !plain)
+    fail("io", "{}: .npy 'shape' must be 2-D (rows, columns) of positive integers, got {}", path,
+         shape.empty() ? "()" : abbreviate(shape, 60));
   const long long H = dims[0], W = dims[1];
   if (W <= 0 || H <= 0 || W > std::numeric_limits<int>::max() || H > std::numeric_limits<int>::max())
-    fail("io", "{}: .npy shape {} has no cells or is too large", path, shape);
+    fail("io", "{}: .npy shape {} has no cells or is too large", path, abbreviate(shape, 60));
   require_raster_size("io", path, W, H, 4 + dt.bytes);
   const uint64_t data_bytes = uint64_t(W) * uint64_t(H) * uint64_t(dt.bytes);
   if (file_size - offset - header_len != data_bytes)

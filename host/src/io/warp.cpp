@@ -5,9 +5,11 @@
 
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
+#include <terracl/memory.hpp>
 #include <terracl/warp.hpp>
 
 #include <cpl_string.h>
+#include <gdal_alg.h>
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
 
@@ -51,8 +53,51 @@ void check_options(const WarpOptions& o, const std::string& stage) {
   }
 }
 
-}  // namespace
+// The output size gdalwarp will choose, computed as it does (GDALSuggestedWarpOutput2, then -te /
+// -tr / -ts), and refused before GDAL allocates it: `--tr 1e-7` asked GDAL for 3.4 TB, `--tr
+// 1e-12` and a 1e300 --projwin overflowed its int sizes ("-2147483648x-2147483648 dataset").
+void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string& stage) {
+  std::string dst_wkt;
+  if (!o.t_srs.empty()) {
+    OGRSpatialReference srs;
+    srs.SetFromUserInput(o.t_srs.c_str());
+    char* wkt = nullptr;
+    if (srs.exportToWkt(&wkt) == OGRERR_NONE && wkt) dst_wkt = wkt;
+    CPLFree(wkt);
+  }
+  void* tr = GDALCreateGenImgProjTransformer(in, nullptr, nullptr, dst_wkt.empty() ? nullptr : dst_wkt.c_str(), FALSE,
+                                             0.0, 0);
+  if (!tr) return;  // GDALWarp reports it
+  double gt[6] = {0, 1, 0, 0, 0, -1}, ext[4] = {0, 0, 0, 0};
+  int sw = 0, sh = 0;
+  const CPLErr e = GDALSuggestedWarpOutput2(in, GDALGenImgProjTransform, tr, gt, &sw, &sh, ext, 0);
+  GDALDestroyGenImgProjTransformer(tr);
+  if (e != CE_None || sw <= 0 || sh <= 0) return;  // GDALWarp reports it
+  double minx = ext[0], miny = ext[1], maxx = ext[2], maxy = ext[3];
+  if (o.projwin) minx = (*o.projwin)[0], maxy = (*o.projwin)[1], maxx = (*o.projwin)[2], miny = (*o.projwin)[3];
+  const double ex = maxx - minx, ey = maxy - miny;
+  double w = 0, h = 0;
+  if (o.tr) {
+    w = ex / (*o.tr)[0] + 0.5, h = ey / (*o.tr)[1] + 0.5;
+  } else if (o.ts) {
+    w = (*o.ts)[0], h = (*o.ts)[1];
+    if (w == 0) w = h * ex / ey + 0.5;
+    if (h == 0) h = w * ey / ex + 0.5;
+  } else {
+    w = ex / gt[1] + 0.5, h = ey / std::fabs(gt[5]) + 0.5;
+  }
+  const char* hint = "use a larger --tr, a smaller --projwin or --ts";
+  const auto cells = [](double v) { return v < 1e15 ? fmt::format("{:.0f}", v) : fmt::format("{:.3g}", v); };
+  if (!(w <= double(max_raster_side) && h <= double(max_raster_side)))
+    fail(stage, "the output would be {} x {} cells; each side may be at most {} cells: {}", cells(w), cells(h),
+         max_raster_side, hint);
+  // The MEM output and the heightfield copied from it.
+  const int64_t iw = std::max<int64_t>(1, int64_t(w)), ih = std::max<int64_t>(1, int64_t(h));
+  require_memory(stage, fmt::format("the warp output ({} x {} cells)", iw, ih), double(iw) * double(ih) * 8, 0, 0,
+                 nullptr, hint);
+}
 
+}  // namespace
 
 std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_has_nodata) {
   std::vector<std::string> a = {"-r", o.resampling, "-ot", "Float32"};
@@ -87,6 +132,9 @@ Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& pro
   const bool has_nodata = h.georef.nodata.has_value() || h.count_nodata() > 0;
   io::DatasetPtr mem = io::to_mem_dataset(*src, GDT_Float32);
 
+  GDALDatasetH in = GDALDataset::ToHandle(mem.get());
+  check_output_size(in, o, stage);
+
   std::vector<std::string> args = gdalwarp_arguments(o, has_nodata);
   args.insert(args.begin(), {"-of", "MEM"});
   // GDAL's default of 64 MB of warp memory makes large rasters crawl in small chunks.
@@ -96,7 +144,6 @@ Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& pro
   GDALWarpAppOptions* wo = GDALWarpAppOptionsNew(argv.List(), nullptr);
   if (!wo) fail(stage, "GDAL refused the warp options ({})", io::last_gdal_error());
   GDALWarpAppOptionsSetProgress(wo, warp_progress, const_cast<Progress*>(&progress));
-  GDALDatasetH in = GDALDataset::ToHandle(mem.get());
   int usage_error = FALSE;
   CPLErrorReset();
   GDALDatasetH out = GDALWarp("", nullptr, 1, &in, wo, &usage_error);

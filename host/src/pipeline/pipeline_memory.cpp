@@ -10,9 +10,16 @@
 namespace terracl {
 
 void Pipeline::check_memory(const std::function<Device&()>& device) const {
+  if (!device) return check_memory_info({});
+  check_memory_info([&device]() -> const DeviceInfo* { return &device().info(); });
+}
+
+void Pipeline::check_memory_info(const std::function<const DeviceInfo*()>& device_info) const {
   if (!m_validated) throw Error("pipeline", "check_memory() needs a validated pipeline (call validate() first)");
   std::map<std::string, RasterShape> written;  // files written earlier in this pipeline
   RasterShape current;
+  bool asked = false;  // device_info is called once: it may open the platform list or a device
+  const DeviceInfo* d = nullptr;
   for (const PipelineStage& st : m_stages) {
     RasterShape in = current;
     if (st.info->input == DataKind::None) {
@@ -24,10 +31,9 @@ void Pipeline::check_memory(const std::function<Device&()>& device) const {
       }
     }
     const MemoryNeed need = memory_of(st.type, st.options, in);
-    const Device* d = nullptr;
-    if (device && need.device > 0) d = &device();
+    if (device_info && need.device > 0 && !asked) d = device_info(), asked = true;
     try {
-      require_stage_memory("pipeline", st.where, need, d);
+      require_stage_memory_info("pipeline", st.where, need, need.device > 0 ? d : nullptr);
     } catch (const UsageError&) {
       throw;
     } catch (const Error& e) {

@@ -129,6 +129,11 @@ RasterShape raster_shape(const std::string& path) {
 
 void require_stage_memory(const std::string& stage, const std::string& where, const MemoryNeed& need,
                           const Device* device) {
+  require_stage_memory_info(stage, where, need, device ? &device->info() : nullptr);
+}
+
+void require_stage_memory_info(const std::string& stage, const std::string& where, const MemoryNeed& need,
+                               const DeviceInfo* device) {
   const std::string label = where.empty() ? need.what : fmt::format("{} ({})", where, need.what);
   // A side past the limit first: its memory figure would be astronomical and less helpful.
   const RasterShape& s = need.output;
@@ -136,7 +141,7 @@ void require_stage_memory(const std::string& stage, const std::string& where, co
     fail(stage, "{}: an output of {} x {} cells; each side may be at most {} cells; {}", label, s.width, s.height,
          max_raster_side, need.hint);
   if (need.host <= 0 && need.device <= 0) return;
-  require_memory(stage, label, need.host, need.device, need.largest_buffer, device, need.hint);
+  require_memory_info(stage, label, need.host, need.device, need.largest_buffer, device, need.hint);
 }
 
 }  // namespace terracl
