@@ -59,7 +59,7 @@ TEST(RenderStream, SameFileAsTheInMemoryRender) {
           const std::string ref = tmp.path("ref" + std::string(ext)), got = tmp.path("got" + std::string(ext));
           render::write_image(device ? render::render(h, o, test::device()) : render::render(h, o), ref, meta);
           ASSERT_TRUE(render::can_stream_render(in, got, o));
-          for (int strip : {7, 96, 0}) {
+          for (int strip : {7, 0}) {  // several strips, a short last one; the default (one strip here)
             std::filesystem::remove(got);
             render::render_file(in, got, o, device ? &test::device() : nullptr, meta, strip);
             ASSERT_EQ(bytes_of(got), bytes_of(ref))
