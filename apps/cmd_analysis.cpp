@@ -91,6 +91,16 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
       return;
     }
     (void)a->tile.options(name);  // --halo alone
+    // render of a GDAL raster to a picture: strip by strip, never the whole raster in memory.
+    if (name == "render" && !a->fill_nodata && !a->in.zmin && !a->in.zmax && !a->in.cell_size) {
+      StageData none;
+      StageContext ctx{none, resolved, []() -> Device& { return device(); }, make_progress(s.name), s.name,
+                       provenance()};
+      if (run_render_streamed(a->input, ctx)) {
+        finish_progress();
+        return;
+      }
+    }
     // render on the device: open it (PoCL loads its compiler, ~0.3 s of CPU) while GDAL reads.
     std::future<void> opening;
     if (name == "render" && resolved.value("backend", std::string("device")) == "device")

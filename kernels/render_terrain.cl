@@ -16,7 +16,7 @@
 #define FLAG_TRIGONOMETRIC 4
 #define FLAG_ZERO_FOR_FLAT 8
 
-inline float terrain_value(const float* v, const int mode, const int flags, __global const float* p) {
+inline float terrain_value(const float* v, const int mode, const int flags, const float* p) {
   if (mode == VAL_SLOPE) return rw_slope(v, p, flags & FLAG_PERCENT);
   if (mode == VAL_ASPECT) {
     // gdaldem: atan2(dy, -dx) on Horn's raw sums; scaled by the cell sizes here (the same angle
@@ -51,8 +51,10 @@ __kernel void terrain_rows(__global const float* z, const int w, const int h, co
   const int j = ROW_ID();
   if (j >= rows) return;
   const int y = y0 + j;
+  float pp[P_COUNT];  // private: the output stores may not alias them
+  for (int k = 0; k < P_COUNT; ++k) pp[k] = p[k];
   FOR_X(x, w) {
     float v[9];
-    out[(size_t)j * w + x] = rw_window(z, w, h, r0, x, y, edges, v) ? terrain_value(v, mode, flags, p) : NAN;
+    out[(size_t)j * w + x] = rw_window(z, w, h, r0, x, y, edges, v) ? terrain_value(v, mode, flags, pp) : NAN;
   }
 }

@@ -171,6 +171,14 @@ TEST(Launch, RenderSameBytesInBothShapes) {
       const render::Image a = render::render(h, o, rows()), b = render::render(h, o, wide());
       EXPECT_EQ(a.pixels, b.pixels) << "mode " << int(m) << " edges " << edges;
     }
+  // The rows shape's branch-free hillshade passes (one per shading) against the wide shape's cells.
+  for (auto s : {render::Shading::Multidirectional, render::Shading::Combined, render::Shading::Igor}) {
+    render::Options o;
+    o.shading = s;
+    o.compute_edges = false;
+    o.strip_rows = 29;
+    EXPECT_EQ(render::render(h, o, rows()).pixels, render::render(h, o, wide()).pixels) << "shading " << int(s);
+  }
   for (Mode m : {Mode::Slope, Mode::Aspect, Mode::TRI, Mode::TPI, Mode::Roughness}) {
     render::Options o;
     o.mode = m;

@@ -6,6 +6,7 @@
 #include "io/io_common.hpp"
 #include "mesh/mesh_gltf.hpp"
 #include "pipeline/builtin.hpp"
+#include "render/render_internal.hpp"
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
@@ -47,6 +48,14 @@ GradientField read_gradient_image(const std::string& path) { unavailable("gradie
 
 namespace render {
 void write_image(const Image&, const std::string& path, const Metadata&) { unavailable("PNG preview writing", path); }
+bool can_stream_render(const std::string&, const std::string&, const Options&) { return false; }
+void render_file(const std::string& input, const std::string&, const Options&, Device*, const Metadata&, int) {
+  unavailable("GDAL window reading", input);
+}
+void render_file(const std::string& input, const std::string&, const Options&, const std::function<Device*()>&,
+                 const Metadata&, int) {
+  unavailable("GDAL window reading", input);
+}
 }  // namespace render
 
 namespace mesh {

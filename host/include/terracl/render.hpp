@@ -114,4 +114,14 @@ Heightfield values(const Heightfield& h, const Options& opt, Device& device);
 /// an unassociated alpha band, `meta` as TIFF metadata.
 void write_image(const Image& img, const std::string& path, const Metadata& meta = {});
 
+/// Whether render_file can stream `input` to `output`: a GDAL raster (.tif, .hgt, .vrt, ...) to a
+/// picture (.png, or .tif for the picture modes).
+bool can_stream_render(const std::string& input, const std::string& output, const Options& opt);
+/// Renders the picture of the raster `input` into `output` strip by strip (GDAL windows with a
+/// one-row halo; `strip_rows` rows a strip, 0 for about 4 Mi cells), on `device` or on the host
+/// when null, reporting progress per strip: the same file as read_heightfield + render +
+/// write_image, in memory bounded by a few strips instead of the raster and its picture.
+void render_file(const std::string& input, const std::string& output, const Options& opt, Device* device,
+                 const Metadata& meta = {}, int strip_rows = 0);
+
 }  // namespace terracl::render

@@ -124,6 +124,11 @@ double convert_unit(const json& value, const std::string& unit, const std::strin
 /// subcommands: render, warp, ...).
 std::string stages_markdown(const std::vector<std::string>& commands = {});
 
+/// `terracl render IN -o FILE` without IN in memory: when render::can_stream_render allows it, renders
+/// the picture strip by strip with `c`'s render options (c.data is not used) and returns true;
+/// otherwise returns false and the caller reads IN and runs the stage.
+bool run_render_streamed(const std::string& input, StageContext& c);
+
 /// Benchmarks for `terracl bench <name>`: print their figures on stdout.
 struct BenchArgs {
   int size = 1025;

@@ -73,6 +73,8 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
   return out;
 }
 
+void GdalWindowReader::release_cache() const { m_ds->FlushCache(); }
+
 GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& g,
                                          const Metadata& metadata)
     : m_path(path), m_tmp(temporary_path_for(path)), m_nodata(g.nodata) {

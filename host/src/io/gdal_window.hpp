@@ -26,6 +26,9 @@ class GdalWindowReader {
   /// cell size, so that stages compute what they would untiled) with the geotransform moved to
   /// the window's corner.
   Heightfield read(int x, int y, int w, int h) const;
+  /// Drops the blocks GDAL has cached for this raster (a reader that moves on for good, such as
+  /// the streamed render, keeps its memory to the window it holds instead of GDAL's cache size).
+  void release_cache() const;
 
  private:
   std::string m_path;

@@ -209,43 +209,73 @@ void check_options(const Heightfield& h, const Options& opt) {
     fail("render", "cell size must be positive, got {} x {} m", h.georef.cell_x, h.georef.cell_y);
 }
 
-PictureLayout picture_layout(const Heightfield& h, const Options& opt) {
+static void refuse_value_picture(const Options& opt) {
   if (is_value_mode(opt.mode) && opt.mode != Mode::Slope)
     fail("render", "mode {} gives values, not a picture: write it as a GeoTIFF (.tif)",
          opt.mode == Mode::Aspect ? "aspect"
          : opt.mode == Mode::TRI  ? "tri"
          : opt.mode == Mode::TPI  ? "tpi"
                                   : "roughness");
-  PictureLayout l;
-  l.grey = opt.mode == Mode::Hillshade || opt.mode == Mode::Slope;
-  bool has_nan = false, has_percent = false;
-  float lo = INFINITY, hi = -INFINITY;
-  for (const auto& e : opt.ramp.entries) has_percent |= e.percent;
-  const bool need_range = !l.grey && has_percent;
-  for (const float v : h.z) {
+}
+
+static bool grey_mode(const Options& opt) { return opt.mode == Mode::Hillshade || opt.mode == Mode::Slope; }
+
+static bool needs_range(const Options& opt) {
+  return !grey_mode(opt) && std::any_of(opt.ramp.entries.begin(), opt.ramp.entries.end(),
+                                        [](const ColorRamp::Entry& e) { return e.percent; });
+}
+
+// gdaldem's 3x3 products leave the border nodata without -compute_edges.
+static bool border_nodata(int width, int height, const Options& opt) {
+  return grey_mode(opt) && (!opt.compute_edges || width < 2 || height < 2);
+}
+
+bool layout_needs_scan(int width, int height, const Options& opt) {
+  refuse_value_picture(opt);
+  return needs_range(opt) || !border_nodata(width, height, opt);
+}
+
+void scan_heights(const float* z, size_t n, const Options& opt, LayoutScan& s) {
+  const bool range = needs_range(opt);
+  for (size_t i = 0; i < n; ++i) {
+    const float v = z[i];
     if (std::isnan(v)) {
-      has_nan = true;
+      s.has_nan = true;
       continue;
     }
-    if (!need_range) {
-      if (has_nan) break;
+    if (!range) {
+      if (s.has_nan) break;
       continue;
     }
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
+    s.lo = std::min(s.lo, v);
+    s.hi = std::max(s.hi, v);
   }
-  // gdaldem's 3x3 products leave the border nodata without -compute_edges.
-  const bool border_nodata = l.grey && (!opt.compute_edges || h.width < 2 || h.height < 2);
-  l.alpha = has_nan || border_nodata;
+}
+
+PictureLayout picture_layout(int width, int height, const Options& opt, const LayoutScan& s) {
+  refuse_value_picture(opt);
+  PictureLayout l;
+  l.grey = grey_mode(opt);
+  l.alpha = s.has_nan || border_nodata(width, height, opt);
   l.channels = (l.grey ? 1 : 3) + (l.alpha ? 1 : 0);
-  l.zmin = lo <= hi ? lo : 0.0;
-  l.zmax = lo <= hi ? hi : 0.0;
+  l.zmin = s.lo <= s.hi ? s.lo : 0.0;
+  l.zmax = s.lo <= s.hi ? s.hi : 0.0;
   return l;
+}
+
+PictureLayout picture_layout(const Heightfield& h, const Options& opt) {
+  LayoutScan s;
+  if (layout_needs_scan(h.width, h.height, opt)) scan_heights(h.z.data(), h.z.size(), opt, s);
+  return picture_layout(h.width, h.height, opt, s);
 }
 
 Image render(const Heightfield& h, const Options& opt) {
   check_options(h, opt);
-  const PictureLayout l = picture_layout(h, opt);
+  return render(h, opt, picture_layout(h, opt));
+}
+
+Image render(const Heightfield& h, const Options& opt, const PictureLayout& l) {
+  check_options(h, opt);
   Image img;
   img.width = h.width;
   img.height = h.height;

@@ -52,7 +52,11 @@ size_t strip_cells(const Heightfield& h, const Options& opt) {
 
 Image render(const Heightfield& h, const Options& opt, Device& device) {
   check_options(h, opt);
-  const PictureLayout l = picture_layout(h, opt);
+  return render(h, opt, picture_layout(h, opt), device);
+}
+
+Image render(const Heightfield& h, const Options& opt, const PictureLayout& l, Device& device) {
+  check_options(h, opt);
   // Ramp entries with percentages resolved against this heightfield's range, in file order.
   std::vector<float> rz;
   std::vector<uint8_t> rgb;

@@ -1,5 +1,8 @@
 #pragma once
 // Shared by the host and device paths of render: argument checks and the picture's layout.
+#include <cmath>
+#include <functional>
+#include <string>
 #include <terracl/render.hpp>
 
 namespace terracl::render {
@@ -15,6 +18,27 @@ struct PictureLayout {
 };
 /// Layout of the picture of `h` (one pass over the heights); throws for value-only modes.
 PictureLayout picture_layout(const Heightfield& h, const Options& opt);
+
+/// What the layout needs to know of the heights, gathered strip by strip by a streamed render.
+struct LayoutScan {
+  bool has_nan = false;
+  float lo = INFINITY, hi = -INFINITY;  ///< data range, only when a ramp entry is a percentage
+};
+/// False when the layout of a width x height picture does not depend on the heights (e.g. a
+/// hillshade without compute_edges always has its alpha band); throws for value-only modes.
+bool layout_needs_scan(int width, int height, const Options& opt);
+/// Adds `n` heights to the scan.
+void scan_heights(const float* z, size_t n, const Options& opt, LayoutScan& s);
+/// The layout of a width x height picture from the scan of all its heights.
+PictureLayout picture_layout(int width, int height, const Options& opt, const LayoutScan& s);
+
+/// render() with a given layout, so that strips of one raster share the whole raster's layout.
+Image render(const Heightfield& h, const Options& opt, const PictureLayout& l);
+Image render(const Heightfield& h, const Options& opt, const PictureLayout& l, Device& device);
+
+/// render_file with the device opened by `open_device` (null: the host) while the first strip is read.
+void render_file(const std::string& input, const std::string& output, const Options& opt,
+                 const std::function<Device*()>& open_device, const Metadata& meta, int strip_rows);
 
 }  // namespace terracl::render
 

@@ -8,75 +8,116 @@
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
 
+#include "render/picture_writer.hpp"
+
 namespace terracl::render {
 
 namespace {
-
-void write_png(const Image& img, const std::string& path, const std::string& tmp, const Metadata& meta) {
-  auto out = OIIO::ImageOutput::create(tmp);
-  if (!out) fail("render", "cannot write {}: {}", path, OIIO::geterror());
-  OIIO::ImageSpec spec(img.width, img.height, img.channels, OIIO::TypeDesc::UINT8);
-  if (img.channels == 2) {
-    spec.channelnames = {"Y", "A"};
-    spec.alpha_channel = 1;
-  }
-  // Our alpha only marks nodata (0 or 255): keep the colours as they are (no un-premultiply).
-  spec.attribute("oiio:UnassociatedAlpha", 1);
-  spec.attribute("Software", "terracl");
-  for (const auto& [k, v] : meta) spec.attribute(k, v);  // PNG text chunks
-  if (!out->open(tmp, spec)) fail("render", "cannot write {}: {}", path, out->geterror());
-  if (!out->write_image(OIIO::TypeDesc::UINT8, img.pixels.data()))
-    fail("render", "cannot write {}: {}", path, out->geterror());
-  if (!out->close()) fail("render", "cannot write {}: {}", path, out->geterror());
-}
 
 std::string gdal_error() {
   const char* m = CPLGetLastErrorMsg();
   return m && *m ? m : "no GDAL message";
 }
 
-// Like gdaldem's output: uncompressed, striped, the input's geotransform and CRS; bands
-// interleaved by pixel (one write), alpha declared as unassociated ExtraSamples.
-void write_geotiff_picture(const Image& img, const std::string& path, const std::string& tmp, const Metadata& meta) {
+}  // namespace
+
+struct PictureWriter::Impl {
+  std::string path;
+  int width = 0, height = 0, channels = 0, next_row = 0;
+  std::unique_ptr<OIIO::ImageOutput> png;
+  GDALDataset* tif = nullptr;
+  ~Impl() {
+    if (tif) GDALClose(tif);
+  }
+};
+
+PictureWriter::PictureWriter(const std::string& path, const std::string& tmp, int width, int height, int channels,
+                             const Georef& g, const Metadata& meta)
+    : m(std::make_unique<Impl>()) {
+  m->path = path;
+  m->width = width;
+  m->height = height;
+  m->channels = channels;
+  if (format_from_extension(path) == FileFormat::PNG) {
+    m->png = OIIO::ImageOutput::create(tmp);
+    if (!m->png) fail("render", "cannot write {}: {}", path, OIIO::geterror());
+    OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+    if (channels == 2) {
+      spec.channelnames = {"Y", "A"};
+      spec.alpha_channel = 1;
+    }
+    // Our alpha only marks nodata (0 or 255): keep the colours as they are (no un-premultiply).
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+    spec.attribute("Software", "terracl");
+    for (const auto& [k, v] : meta) spec.attribute(k, v);  // PNG text chunks
+    if (!m->png->open(tmp, spec)) fail("render", "cannot write {}: {}", path, m->png->geterror());
+    return;
+  }
+  // Like gdaldem's output: uncompressed, striped, the input's geotransform and CRS; bands
+  // interleaved by pixel, alpha declared as unassociated ExtraSamples.
   GDALAllRegister();
   CPLErrorReset();
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (!drv) fail("render", "cannot write {}: GDAL has no GTiff driver", path);
-  const bool alpha = img.channels == 2 || img.channels == 4;
+  const bool alpha = channels == 2 || channels == 4;
   char** opts = nullptr;
   opts = CSLSetNameValue(opts, "INTERLEAVE", "PIXEL");
   opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
-  opts = CSLSetNameValue(opts, "PHOTOMETRIC", img.channels >= 3 ? "RGB" : "MINISBLACK");
+  opts = CSLSetNameValue(opts, "PHOTOMETRIC", channels >= 3 ? "RGB" : "MINISBLACK");
   if (alpha) opts = CSLSetNameValue(opts, "ALPHA", "YES");  // unassociated (ExtraSamples = 2)
-  std::unique_ptr<GDALDataset> ds(drv->Create(tmp.c_str(), img.width, img.height, img.channels, GDT_Byte, opts));
+  m->tif = drv->Create(tmp.c_str(), width, height, channels, GDT_Byte, opts);
   CSLDestroy(opts);
-  if (!ds) fail("render", "cannot create {} ({})", path, gdal_error());
-  const Georef& g = img.georef;
+  if (!m->tif) fail("render", "cannot create {} ({})", path, gdal_error());
   if (g.has_geotransform) {
     double gt[6];
     std::copy(g.geotransform.begin(), g.geotransform.end(), gt);
-    ds->SetGeoTransform(gt);
+    m->tif->SetGeoTransform(gt);
   }
-  if (!g.crs_wkt.empty()) ds->SetProjection(g.crs_wkt.c_str());
-  if (alpha) ds->GetRasterBand(img.channels)->SetColorInterpretation(GCI_AlphaBand);
+  if (!g.crs_wkt.empty()) m->tif->SetProjection(g.crs_wkt.c_str());
+  if (alpha) m->tif->GetRasterBand(channels)->SetColorInterpretation(GCI_AlphaBand);
   for (const auto& [k, v] : meta) {
     std::string key = k;
     for (char& c : key)
       if (c == ':') c = '_';  // GDAL would split "terracl:x" at the colon
-    ds->SetMetadataItem(key.c_str(), v.c_str());
+    m->tif->SetMetadataItem(key.c_str(), v.c_str());
   }
-  ds->SetMetadataItem("TIFFTAG_SOFTWARE", "terracl");
-  const int n = img.channels;
-  if (ds->RasterIO(GF_Write, 0, 0, img.width, img.height, const_cast<uint8_t*>(img.pixels.data()), img.width,
-                   img.height, GDT_Byte, n, nullptr, n, GSpacing(n) * img.width, 1, nullptr) != CE_None)
-    fail("render", "writing {} failed ({})", path, gdal_error());
-  GDALDataset* raw = ds.release();
-  CPLErrorReset();
-  GDALClose(raw);
-  if (CPLGetLastErrorType() >= CE_Failure) fail("render", "finishing {} failed ({})", path, gdal_error());
+  m->tif->SetMetadataItem("TIFFTAG_SOFTWARE", "terracl");
 }
 
-}  // namespace
+PictureWriter::~PictureWriter() = default;
+
+void PictureWriter::write_rows(int y0, int rows, const uint8_t* px) {
+  if (y0 != m->next_row || rows < 0 || y0 + rows > m->height)
+    fail("render", "{}: rows {}..{} written out of order", m->path, y0, y0 + rows);
+  if (rows == 0) return;
+  m->next_row += rows;
+  if (m->png) {
+    if (!m->png->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, px))
+      fail("render", "cannot write {}: {}", m->path, m->png->geterror());
+    return;
+  }
+  const int n = m->channels;
+  CPLErrorReset();
+  if (m->tif->RasterIO(GF_Write, 0, y0, m->width, rows, const_cast<uint8_t*>(px), m->width, rows, GDT_Byte, n,
+                       nullptr, n, GSpacing(n) * m->width, 1, nullptr) != CE_None)
+    fail("render", "writing {} failed ({})", m->path, gdal_error());
+  // Written strips leave GDAL's block cache now: a streamed render holds one strip, not the picture.
+  m->tif->FlushCache();
+}
+
+void PictureWriter::close() {
+  if (m->next_row != m->height) fail("render", "{}: only {} of {} rows written", m->path, m->next_row, m->height);
+  if (m->png) {
+    if (!m->png->close()) fail("render", "cannot write {}: {}", m->path, m->png->geterror());
+    m->png.reset();
+    return;
+  }
+  GDALDataset* raw = m->tif;
+  m->tif = nullptr;
+  CPLErrorReset();
+  GDALClose(raw);
+  if (CPLGetLastErrorType() >= CE_Failure) fail("render", "finishing {} failed ({})", m->path, gdal_error());
+}
 
 void write_image(const Image& img, const std::string& path, const Metadata& meta) {
   if (img.channels < 1 || img.channels > 4 || img.pixels.size() != size_t(img.width) * img.height * img.channels)
@@ -85,10 +126,9 @@ void write_image(const Image& img, const std::string& path, const Metadata& meta
   if (f != FileFormat::PNG && f != FileFormat::GeoTIFF)  // OIIO would write a JPEG for x.jpg
     fail("render", "{}: pictures are written as PNG or GeoTIFF; use a .png or .tif name", path);
   write_atomically(path, [&](const std::string& tmp) {
-    if (f == FileFormat::PNG)
-      write_png(img, path, tmp, meta);
-    else
-      write_geotiff_picture(img, path, tmp, meta);
+    PictureWriter w(path, tmp, img.width, img.height, img.channels, img.georef, meta);
+    w.write_rows(0, img.height, img.pixels.data());
+    w.close();
   });
 }
 

@@ -12,6 +12,7 @@
 #include <terracl/render.hpp>
 
 #include "pipeline/builtin.hpp"
+#include "render/render_internal.hpp"
 
 namespace terracl {
 
@@ -58,6 +59,15 @@ void run_render(StageContext& c) {
 }
 
 }  // namespace
+
+bool run_render_streamed(const std::string& input, StageContext& c) {
+  const render::Options o = render_stage_options(c);
+  const std::string file = c.get<std::string>("file");
+  if (!render::can_stream_render(input, file, o)) return false;
+  const bool host = c.get<std::string>("backend") == "host";
+  render::render_file(input, file, o, [&]() -> Device* { return host ? nullptr : &c.device(); }, c.provenance, 0);
+  return true;
+}
 
 StageInfo render_stage_info() {
   return {"render",

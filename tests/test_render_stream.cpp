@@ -1,0 +1,165 @@
+// The streamed render (render_stream.cpp, issue 15): a GDAL raster read and rendered strip by
+// strip writes the same file as the in-memory render (read_heightfield + render + write_image),
+// for every picture mode, both backends, PNG and GeoTIFF, with nodata, percentage ramps and
+// strips that do not divide the raster; progress comes once per strip.
+#include <gdal_priv.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+
+#include "test_helpers.hpp"
+
+using namespace terracl;
+
+namespace {
+
+std::string bytes_of(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// The test DEM with a nodata hole and a nodata run along the right edge.
+Heightfield holed() {
+  Heightfield h = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  for (int y = 40; y < 47; ++y)
+    for (int x = 30; x < 36; ++x) h.at(x, y) = NAN;
+  for (int y = 70; y < 96; ++y) h.at(h.width - 1, y) = NAN;
+  return h;
+}
+
+}  // namespace
+
+TEST(RenderStream, SameFileAsTheInMemoryRender) {
+  test::TempDir tmp;
+  const Heightfield whole = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  Heightfield hole = holed();
+  const std::string plain = tmp.path("plain.tif"), nodata = tmp.path("nodata.tif");
+  write_heightfield(whole, plain);
+  write_heightfield(hole, nodata);
+  const Metadata meta{{"terracl:command", "render test"}};
+  render::ColorRamp percent = render::ColorRamp::parse("0% 0 0 255\n50% 0 255 0\n100% 255 0 0\n", "test ramp");
+  int files = 0;
+  for (const std::string& in : {plain, nodata}) {
+    const Heightfield h = read_heightfield(in);
+    for (auto mode : {render::Mode::Hillshade, render::Mode::Relief, render::Mode::Slope, render::Mode::ShadedRelief})
+      for (bool edges : {false, true})
+        for (const char* ext : {".png", ".tif"}) {
+          if (mode == render::Mode::Slope && std::string(ext) == ".tif") continue;  // gdaldem's float raster
+          render::Options o;
+          o.mode = mode;
+          o.compute_edges = edges;
+          if (mode == render::Mode::Relief) o.ramp = percent;
+          const bool device = (files % 2) == 1;  // alternate the backends over the cases
+          const std::string ref = tmp.path("ref" + std::string(ext)), got = tmp.path("got" + std::string(ext));
+          render::write_image(device ? render::render(h, o, test::device()) : render::render(h, o), ref, meta);
+          ASSERT_TRUE(render::can_stream_render(in, got, o));
+          for (int strip : {7, 0}) {  // several strips, a short last one; the default (one strip here)
+            std::filesystem::remove(got);
+            render::render_file(in, got, o, device ? &test::device() : nullptr, meta, strip);
+            ASSERT_EQ(bytes_of(got), bytes_of(ref))
+                << in << " mode " << int(mode) << " edges " << edges << " " << ext << " strips of " << strip
+                << (device ? " device" : " host");
+          }
+          ++files;
+        }
+  }
+  EXPECT_EQ(files, 28);
+}
+
+TEST(RenderStream, ProgressPerStripAndCancel) {
+  test::TempDir tmp;
+  const std::string in = tmp.path("in.tif");
+  write_heightfield(holed(), in);
+  render::Options o;
+  o.compute_edges = false;  // the hillshade's layout needs no scan: one report per strip
+  std::vector<std::string> messages;
+  std::vector<double> fractions;
+  o.progress = [&](double f, const std::string& m) {
+    fractions.push_back(f);
+    messages.push_back(m);
+    return true;
+  };
+  render::render_file(in, tmp.path("a.png"), o, &test::device(), {}, 10);
+  ASSERT_EQ(fractions.size(), 10u) << "96 rows in strips of 10";
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+  EXPECT_EQ(messages.back(), "strip 10/10 (rows 90..95)");
+  // With compute_edges the alpha band depends on nodata anywhere: a scan pass first.
+  fractions.clear();
+  o.compute_edges = true;
+  render::render_file(in, tmp.path("b.png"), o, nullptr, {}, 10);
+  EXPECT_EQ(fractions.size(), 20u);
+  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+  // Cancelled half way: an error, and neither the picture nor a temporary is left.
+  int calls = 0;
+  o.progress = [&](double, const std::string&) { return ++calls < 15; };
+  EXPECT_THROW(render::render_file(in, tmp.path("c.tif"), o, nullptr, {}, 10), Cancelled);
+  EXPECT_EQ(tmp.count(), 3u) << "in.tif, a.png, b.png";
+}
+
+TEST(RenderStream, RefusesWhatItCannotStreamAndNamesBadInput) {
+  test::TempDir tmp;
+  render::Options o;
+  EXPECT_FALSE(render::can_stream_render("x.npy", "y.png", o));
+  EXPECT_FALSE(render::can_stream_render("x.png", "y.png", o)) << "16-bit PNGs take their scale from a sidecar";
+  o.mode = render::Mode::TRI;
+  EXPECT_FALSE(render::can_stream_render("x.tif", "y.tif", o)) << "value rasters are not pictures";
+  o.mode = render::Mode::Slope;
+  EXPECT_TRUE(render::can_stream_render("x.tif", "y.png", o));
+  EXPECT_FALSE(render::can_stream_render("x.tif", "y.tif", o)) << "slope to .tif is gdaldem's float raster";
+  // An infinite cell is refused as read_heightfield refuses it, naming the file and the cell.
+  Heightfield h = test::smooth_terrain(20, 30);
+  h.at(3, 25) = INFINITY;
+  const std::string in = tmp.path("inf.tif");
+  {
+    // write_heightfield would keep +inf as is; check what reaches the file.
+    write_heightfield(h, in);
+  }
+  try {
+    render::render_file(in, tmp.path("x.png"), render::Options{}, nullptr, {}, 8);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("inf.tif: cell (3, 25)"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(tmp.path("x.png")));
+  try {
+    render::render_file(tmp.path("missing.tif"), tmp.path("x.png"), render::Options{}, nullptr, {}, 8);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.tif"), std::string::npos) << e.what();
+  }
+}
+
+// The CLI streams `render IN.tif -o OUT` and still writes what it wrote before.
+TEST(RenderStream, CliWritesTheSamePictureAsThePipelineStage) {
+  test::TempDir tmp;
+  const std::string in = tmp.path("in.tif");
+  write_heightfield(holed(), in);
+  const auto a = test::run_cli("--progress json render " + in + " -o " + tmp.path("cli.tif") + " --mode shaded-relief");
+  ASSERT_EQ(a.exit_code, 0) << a.out;
+  EXPECT_NE(a.out.find("\"message\": \"strip 1/1 (rows 0..95)\""), std::string::npos) << "a progress line per strip: " << a.out;
+  const Heightfield h = read_heightfield(in);
+  render::Options o;
+  o.mode = render::Mode::ShadedRelief;
+  o.compute_edges = false;
+  const render::Image ref = render::render(h, o, test::device());
+  GDALAllRegister();
+  std::unique_ptr<GDALDataset> ds(GDALDataset::FromHandle(GDALOpen(tmp.path("cli.tif").c_str(), GA_ReadOnly)));
+  ASSERT_TRUE(ds);
+  ASSERT_EQ(ds->GetRasterCount(), ref.channels);
+  std::vector<uint8_t> px(ref.pixels.size());
+  ASSERT_EQ(ds->RasterIO(GF_Read, 0, 0, h.width, h.height, px.data(), h.width, h.height, GDT_Byte, ref.channels,
+                         nullptr, ref.channels, GSpacing(ref.channels) * h.width, 1, nullptr),
+            CE_None);
+  EXPECT_EQ(px, ref.pixels);
+  double gt[6];
+  ASSERT_EQ(ds->GetGeoTransform(gt), CE_None);
+  EXPECT_DOUBLE_EQ(gt[0], h.georef.geotransform[0]);
+  EXPECT_DOUBLE_EQ(gt[5], h.georef.geotransform[5]);
+}
