@@ -117,7 +117,7 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
                                 const float ks_dt, const float kd_dt, const float max_change,
                                 const float dry_depth, const float evap_factor, const float cell_area,
                                 __global const float* restrict r, __global float* restrict r_out,
-                                const float rock_factor) {
+                                const float rock_factor, __global float* restrict q_out) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -168,6 +168,10 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     u = fmin(fmax(u, -vcap), vcap);
     v = fmin(fmax(v, -vcap), vcap);
     const V speed = select((V)(0.0f), sqrt(u * u + v * v), dm > dry_depth);
+#ifdef CHANNEL_DIFFUSION
+    // Unit discharge (m^2/s) for the channel diffusion of erosion_thermal.
+    ST(select((V)(0.0f), speed * dm, valid), q_out, i);
+#endif
 
     // Local slope from central differences (one-sided at the border).
     const V bc = LD(b, i);
@@ -245,7 +249,9 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
                               const float rho, const float tx, const float ty, const float tdiag,
                               __global const float* restrict r, __global float* restrict r_out,
                               const float dtx, const float dty, const float dtdiag, const float kdx,
-                              const float kdy, const float kddiag) {
+                              const float kdy, const float kddiag, __global const float* restrict q,
+                              const float cqx, const float cqy, const float cqdiag, const float kmx,
+                              const float kmy, const float kmdiag) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -272,6 +278,15 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
 #else
 #define PW(o) 1.0f
 #endif
+#ifdef CHANNEL_DIFFUSION
+    // Channel (fluvial) diffusion: the pair's diffusivity grows with the unit discharge of the two
+    // cells, D + K_q * (q_c + q_n) / 2 (the 1/2 is in cq), capped at the monotone limit km. The sum
+    // q_c + q_n is the same bits for both cells of the pair, so the exchange stays antisymmetric.
+    const V qc = LD(q, i);
+#define KD(kd, cq, km, o) fmin((kd) + (cq) * (qc + LD(q, i + (o))), (km))
+#else
+#define KD(kd, cq, km, o) (kd)
+#endif
     // in/out for the neighbour at offset o with talus heights t (rock) and td (deposit).
 #define EXCHANGE(o, t, td, kd, mask, in, out)                               \
     {                                                                       \
@@ -280,14 +295,14 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
       out = select(z, XFER(-diff, t, td, rc, kd) * PW(o), mask);            \
     }
     V il, ol, ir, orr, it, ot, ib, ob, itl, otl, itr, otr, ibl, obl, ibr, obr;
-    EXCHANGE(-1, tx, dtx, kdx, left, il, ol)
-    EXCHANGE(1, tx, dtx, kdx, right, ir, orr)
-    EXCHANGE(-P, ty, dty, kdy, vup, it, ot)
-    EXCHANGE(P, ty, dty, kdy, vdown, ib, ob)
-    EXCHANGE(-P - 1, tdiag, dtdiag, kddiag, vup & left, itl, otl)
-    EXCHANGE(-P + 1, tdiag, dtdiag, kddiag, vup & right, itr, otr)
-    EXCHANGE(P - 1, tdiag, dtdiag, kddiag, vdown & left, ibl, obl)
-    EXCHANGE(P + 1, tdiag, dtdiag, kddiag, vdown & right, ibr, obr)
+    EXCHANGE(-1, tx, dtx, KD(kdx, cqx, kmx, -1), left, il, ol)
+    EXCHANGE(1, tx, dtx, KD(kdx, cqx, kmx, 1), right, ir, orr)
+    EXCHANGE(-P, ty, dty, KD(kdy, cqy, kmy, -P), vup, it, ot)
+    EXCHANGE(P, ty, dty, KD(kdy, cqy, kmy, P), vdown, ib, ob)
+    EXCHANGE(-P - 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, -P - 1), vup & left, itl, otl)
+    EXCHANGE(-P + 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, -P + 1), vup & right, itr, otr)
+    EXCHANGE(P - 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, P - 1), vdown & left, ibl, obl)
+    EXCHANGE(P + 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, P + 1), vdown & right, ibr, obr)
     const V net = (((il - ol) + (ir - orr)) + ((it - ot) + (ib - ob))) +
                   (((itl - otl) + (ibr - obr)) + ((itr - otr) + (ibl - obl)));
     ST(select(z, bc + net, valid), b_out, i);
@@ -299,6 +314,7 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
 #endif
 #undef RN
 #undef PW
+#undef KD
 #undef EXCHANGE
   }
 }

@@ -7,7 +7,8 @@ measures an artist's complaints translate to, and draws before / after hillshade
 Measures: mean elevation change (0 when the material is kept), mean |change|, share of cells at
 33-37 deg (a pile-up there means thermal erosion planed slopes into talus facets), share of cells
 flatter than 1 deg (flat ribbons), the ratio of the RMS Laplacian (crinkle: > 1 means rougher), the
-share of one-cell curvature flips (one-cell incised crinkles) and the slope histogram.
+share of one-cell curvature flips (one-cell incised crinkles), the channel floor widths (share of
+carved channel cross-sections whose floor is a one-cell V notch) and the slope histogram.
 Needs build/bin/terracl, gdal-bin, python3-numpy, python3-matplotlib.
 """
 import os
@@ -59,6 +60,30 @@ def one_cell_crinkle(z):
     return 100.0 * float(np.mean(fx | fy))
 
 
+def channel_floor_widths(z0, z1):
+    """Cross-section floor widths (cells) of the channels carved into z1, as test
+    ErosionScale.ChannelsAreSeveralCellsWideAtTenMetres measures them: at every cell that is a strict
+    minimum of the bed across x (or y) and at least 1 m below the input, the run of cells along that
+    axis whose concave-up second difference is at least half the centre's (a V notch: 1 cell)."""
+    h, w = z1.shape
+    widths = []
+    for dy, dx in ((0, 1), (1, 0)):
+        c2 = np.zeros_like(z1)
+        c2[1:-1, 1:-1] = z1[1 - dy:h - 1 - dy, 1 - dx:w - 1 - dx] + z1[1 + dy:h - 1 + dy, 1 + dx:w - 1 + dx] - 2 * z1[1:-1, 1:-1]
+        c = z1[1:-1, 1:-1]
+        m = (c < z1[1 - dy:h - 1 - dy, 1 - dx:w - 1 - dx]) & (c < z1[1 + dy:h - 1 + dy, 1 + dx:w - 1 + dx]) & (z0[1:-1, 1:-1] - c >= 1.0)
+        for y, x in zip(*np.nonzero(m)):
+            y, x = y + 1, x + 1
+            half, n = 0.5 * c2[y, x], 1
+            for s in (-1, 1):
+                k = 1
+                while 1 <= y + s * k * dy < h - 1 and 1 <= x + s * k * dx < w - 1 and c2[y + s * k * dy, x + s * k * dx] >= half:
+                    k += 1
+                n += k - 1
+            widths.append(n)
+    return np.array(widths)
+
+
 def main():
     dem, out = sys.argv[1], sys.argv[2]
     extra = sys.argv[3:]
@@ -78,6 +103,10 @@ def main():
               f"{flat(s1):.2f} %; mean slope {s0.mean():.2f} -> {s1.mean():.2f} deg")
         print(f"  RMS Laplacian x{laplacian_rms(z1, cx, cy) / laplacian_rms(z0, cx, cy):.2f}; one-cell curvature "
               f"flips {one_cell_crinkle(z0):.2f} % -> {one_cell_crinkle(z1):.2f} %")
+        fw = channel_floor_widths(z0, z1)
+        if fw.size:
+            print(f"  channel floors: {fw.size} cross-sections, {100.0 * np.mean(fw == 1):.1f} % one cell wide, mean "
+                  f"{fw.mean():.2f} cells")
         hist0, edges = np.histogram(s0, bins=np.arange(0, 91, 5))
         hist1, _ = np.histogram(s1, bins=edges)
         print("  slope histogram (% of cells per 5 deg, before -> after): " + ", ".join(

@@ -141,9 +141,13 @@ TEST(Erosion, T9DefaultRunCarvesChannelsOnSrtm) {
   // they carve less and smooth the one-cell roughness the old ones added (old: Gini 0.778 -> 0.804,
   // |Laplacian| x2.37, Spearman 0.342; new: 0.778 -> 0.821, x1.15, 0.237). Flow still concentrates
   // and erosion still follows drainage area, which the thermal-only run below does not do.
+  // The channel diffusion (K_q = 1, issue 15's "several cells wide at 10 m") rounds the channels
+  // too: Gini 0.778 -> 0.867 (more concentrated flow), mean |Laplacian| x0.94 (wider channels are
+  // smoother at the cell scale), Spearman 0.160 (the banks of the widened channels erode too). The
+  // thermal-only run below goes the other way on all three (0.743, x0.43, -0.47).
   EXPECT_GT(m.gini_after, m.gini_before + 0.02);
-  EXPECT_GE(m.lap_ratio, 1.08);
-  EXPECT_GE(m.rho, 0.2);
+  EXPECT_GE(m.lap_ratio, 0.85);
+  EXPECT_GE(m.rho, 0.1);
   // The analysis module routes D8 on the depression-filled surface instead (every cell drains to
   // the border): an independent routing. With the old defaults its Gini rose (0.922 -> 0.933);
   // with the new ones it stays within 0.005 (0.922 -> 0.918): the diffusion rounds the small

@@ -140,3 +140,67 @@ TEST(ErosionScale, DefaultsGiveTheSameErosionAtAnyCellSize) {
   EXPECT_NEAR(m_fine / m_coarse, 1.0, 0.3);
   EXPECT_FALSE(std::fabs(m_fine_old / m_coarse - 1.0) < 0.3) << "the old defaults were not scale-independent";
 }
+
+namespace {
+
+/// Cross-section floor widths (cells) of the channels carved into `eroded`: at every cell that is a
+/// strict minimum of the bed across x (or y) and lies at least 1 m below the input, the run of cells
+/// along that axis whose concave-up curvature (second difference) is at least half the centre's.
+/// A V-shaped one-cell notch has width 1; a rounded channel floor several cells.
+std::vector<int> channel_floor_widths(const Heightfield& input, const Heightfield& eroded) {
+  std::vector<int> widths;
+  const int W = eroded.width, H = eroded.height;
+  for (const auto [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
+    auto curv = [&](int x, int y) {
+      return double(eroded.at(x - dx, y - dy)) + eroded.at(x + dx, y + dy) - 2.0 * eroded.at(x, y);
+    };
+    for (int y = 1; y < H - 1; ++y)
+      for (int x = 1; x < W - 1; ++x) {
+        const float c = eroded.at(x, y);
+        if (!(c < eroded.at(x - dx, y - dy) && c < eroded.at(x + dx, y + dy)) || input.at(x, y) - c < 1.0f) continue;
+        const double half = 0.5 * curv(x, y);
+        int n = 1;
+        for (int s : {-1, 1})
+          for (int k = 1;; ++k) {
+            const int xk = x + s * k * dx, yk = y + s * k * dy;
+            if (xk < 1 || yk < 1 || xk >= W - 1 || yk >= H - 1 || curv(xk, yk) < half) break;
+            ++n;
+          }
+        widths.push_back(n);
+      }
+  }
+  return widths;
+}
+
+}  // namespace
+
+// Issue 15: at ~10 m cells the default channels were one-cell V notches (a dark line with a bright
+// wall in the hillshade). The channel diffusion (K_q * unit discharge) rounds their floors over
+// several cells; without it (K_q = 0, the defaults before) most channel floors are one cell wide.
+TEST(ErosionScale, ChannelsAreSeveralCellsWideAtTenMetres) {
+  const Heightfield srtm = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  Heightfield window(24, 18);
+  window.georef = srtm.georef;
+  for (int y = 0; y < 18; ++y)
+    for (int x = 0; x < 24; ++x) window.at(x, y) = srtm.at(40 + x, 30 + y);
+  const Heightfield fine = upsample(window, 7);  // 168 x 126 cells of ~9.5 x 13 m
+  auto run = [&](double kq) {
+    ErosionParams p = ErosionParams::defaults();
+    p.channel_diffusion = kq;
+    const double dt = 0.5 * erosion_stability_limit(p, fine.georef.cell_x, fine.georef.cell_y);
+    const std::vector<int> w = channel_floor_widths(fine, erode(test::device(), fine, p, int(std::ceil(400.0 / dt))));
+    const double one = double(std::count(w.begin(), w.end(), 1)) / std::max<size_t>(1, w.size());
+    double mean = 0;
+    for (int v : w) mean += v;
+    return std::tuple{w.size(), one, mean / std::max<size_t>(1, w.size())};
+  };
+  const auto [n_new, one_new, mean_new] = run(ErosionParams::defaults().channel_diffusion);
+  const auto [n_old, one_old, mean_old] = run(0.0);
+  std::printf("channel floors at %.1f x %.1f m cells: defaults %zu, %.1f %% one cell wide, mean %.2f cells; "
+              "without channel diffusion %zu, %.1f %%, mean %.2f cells\n",
+              fine.georef.cell_x, fine.georef.cell_y, n_new, 100 * one_new, mean_new, n_old, 100 * one_old, mean_old);
+  ASSERT_GT(n_new, 200u) << "the run must carve channels for this test to mean anything";
+  EXPECT_GT(one_old, 0.6) << "without channel diffusion the floors are one-cell notches";
+  EXPECT_LT(one_new, 0.45);
+  EXPECT_GT(mean_new, 2.0);
+}

@@ -37,6 +37,7 @@ void validate(const ErosionParams& p) {
   check_param(p.dry_depth, "dry_depth", 1e-9, 1e3);
   check_param(p.thermal_rate, "thermal_rate", 0, 1e9);
   check_param(p.diffusion, "diffusion", 0, 1e9);
+  check_param(p.channel_diffusion, "channel_diffusion", 0, 1e9);
   check_param(p.talus_deg, "talus", 0, 89.9);
   check_param(p.substep_fraction, "substep_fraction", 1e-3, 100);
   check_param(p.rock_erodibility, "rock_erodibility", 0, 1);
@@ -58,6 +59,7 @@ ErosionParams ErosionParams::defaults() {
   p.deposit = 0.001;
   p.min_sin_slope = 0.05;
   p.depth_ramp = 5.0;
+  p.channel_diffusion = 1.0;
   p.max_change = 0.5;  // m/s: 0.5 m per ~1 s sub-step of the SRTM3 tiles it was tuned on
   p.thermal_rate = 0.05;
   p.talus_deg = 35.0;
@@ -88,7 +90,7 @@ struct Erosion::Impl {
   size_t n_padded = 0;
   double lx = 1, ly = 1;
   bool has_weight = false;
-  cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2];
+  cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2], q;
   size_t chunks = 1;        // work-items per row (global size of dimension 1)
   size_t local_rows = 4, local_chunks = 1;
   int cur = 0;  // index of the current d/s (and b when thermal is off)
@@ -208,6 +210,9 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       dev.queue().enqueueWriteBuffer(s.r[1], CL_TRUE, 0, bytes, std::vector<float>(s.n_padded, 0.0f).data());
       s.upload(s.r[0], deposit ? *deposit : std::vector<float>(n, 0.0f));
     }
+    const bool channel = params.channel_diffusion > 0 && !params.thermal_only;
+    s.q = dev.buffer(channel ? bytes : 4, CL_MEM_READ_WRITE, "erosion unit discharge");
+    if (channel) dev.fill(s.q, 0.0f, 0, s.n_padded);
     s.drain = dev.buffer(size_t(2) * s.H * s.chunks * sizeof(float), CL_MEM_READ_WRITE, "erosion drain");
 
     s.upload(s.b[0], terrain.z);
@@ -228,6 +233,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
     if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
     if (s.has_weight) opts += " -DHAS_WEIGHT";
     if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
+    if (channel) opts += " -DCHANNEL_DIFFUSION";
     s.k_flux = dev.kernel("erosion", "erosion_flux", opts);
     s.k_transport = dev.kernel("erosion", "erosion_transport", opts);
     s.k_thermal = dev.kernel("erosion", "erosion_thermal", opts);
@@ -274,6 +280,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(29, float(std::max(0.0, 1.0 - p.evaporation * h)));
       k.setArg(30, float(a));
       k.setArg(33, float(p.deposit_layer ? p.rock_erodibility : 1.0));
+      k.setArg(34, s.q);
     }
     {
       cl::Kernel& k = s.k_thermal;
@@ -295,14 +302,24 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       // The sum over the 8 pairs is capped at 1/4 so that with the thermal share (<= 8/12) a cell
       // never gives away more than it has above its neighbours (binds only below ~0.2*D m cells).
       const double dd = lx * lx + ly * ly;
-      double kx = p.diffusion * h * (1.0 - 0.5 * lx * lx / dd) / (lx * lx);
-      double ky = p.diffusion * h * (1.0 - 0.5 * ly * ly / dd) / (ly * ly);
-      double kdiag = p.diffusion * h * 0.25 / dd;
+      const double gx = h * (1.0 - 0.5 * lx * lx / dd) / (lx * lx), gy = h * (1.0 - 0.5 * ly * ly / dd) / (ly * ly);
+      const double gdiag = h * 0.25 / dd, gsum = 2 * gx + 2 * gy + 4 * gdiag;
+      double kx = p.diffusion * gx, ky = p.diffusion * gy, kdiag = p.diffusion * gdiag;
       const double ksum = 2 * kx + 2 * ky + 4 * kdiag;
       if (ksum > 0.25) kx *= 0.25 / ksum, ky *= 0.25 / ksum, kdiag *= 0.25 / ksum;
       k.setArg(15, float(kx));
       k.setArg(16, float(ky));
       k.setArg(17, float(kdiag));
+      // Channel diffusion K_q * (q_c + q_n) / 2 on the same pair weights, each pair capped at its
+      // share of the same 1/4 (the kernel takes the pair's discharge sum, hence the 1/2 here).
+      k.setArg(18, s.q);
+      const double kq = 0.5 * p.channel_diffusion;
+      k.setArg(19, float(kq * gx));
+      k.setArg(20, float(kq * gy));
+      k.setArg(21, float(kq * gdiag));
+      k.setArg(22, float(0.25 * gx / gsum));
+      k.setArg(23, float(0.25 * gy / gsum));
+      k.setArg(24, float(0.25 * gdiag / gsum));
     }
   } catch (const cl::Error& e) {
     fail(kStage, "setting up the device state: {}", describe(e));
@@ -313,7 +330,7 @@ Erosion::~Erosion() = default;
 
 void Erosion::enqueue_steps(int n) {
   Impl& s = *m;
-  const bool thermal = s.p.thermal_rate > 0 || s.p.diffusion > 0;
+  const bool thermal = s.p.thermal_rate > 0 || s.p.diffusion > 0 || s.p.channel_diffusion > 0;
   // A fixed local size: PoCL compiles one work-group function per local size, and NullRange would
   // let it pick a different one for every grid height. CPUs: 4 rows per group; GPUs: 16 chunks.
   const cl::NDRange global(round_up(size_t(s.H), s.local_rows), s.chunks), local(s.local_rows, s.local_chunks);

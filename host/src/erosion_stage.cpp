@@ -116,6 +116,7 @@ ErosionParams params_from(const json& o) {
   num("pipe_area", p.pipe_area);
   num("thermal_rate", p.thermal_rate);
   num("diffusion", p.diffusion);
+  num("channel_diffusion", p.channel_diffusion);
   num("talus", p.talus_deg);
   num("dry_depth", p.dry_depth);
   num("rock_erodibility", p.rock_erodibility);
@@ -302,6 +303,9 @@ void register_erosion_stages(StageRegistry& r) {
              opt("thermal_rate", OptionType::Float, d.thermal_rate, "1/s", "Thermal erosion rate K_t (0 = off)"),
              opt("diffusion", OptionType::Float, d.diffusion, "m2/s",
                  "Bed diffusion D (hillslope creep): smooths features of width w in w^2/D s (0 = off)"),
+             opt("channel_diffusion", OptionType::Float, d.channel_diffusion, "",
+                 "Channel diffusion K_q: extra bed diffusion K_q * q where water flows (q = speed x depth, m2/s); "
+                 "widens channels (0 = off)"),
              opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
              opt("deposit_layer", OptionType::Bool, false, "",
                  "Track a softer deposit layer on the rock (own talus, rock dissolves slower)"),

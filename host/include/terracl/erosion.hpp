@@ -46,6 +46,8 @@ struct ErosionParams {
   double diffusion = 0.0;      ///< m^2/s, D: linear diffusion of the bed (hillslope creep). It smooths a
                                ///< feature of width w in about w^2/D seconds, so it removes one-cell
                                ///< crinkles on fine grids and leaves features of tens of metres alone
+  double channel_diffusion = 0.0;  ///< K_q (dimensionless): extra bed diffusion K_q * q where water flows,
+                                   ///< q = |v| * d the unit discharge (m^2/s): widens channels to metres
   double talus_deg = 35.0;     ///< deg, talus (angle of repose) of the rock (of all material
                                ///< without a deposit layer)
   bool deposit_layer = false;  ///< track a softer deposit layer on top of the rock
