@@ -57,9 +57,12 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       // part below half that depth in cells of the 513^2 run, i.e. pixels of the README's 512-px
       // picture: >= 10 on the island (the former 400 m V ravines: 6, read as scratches), >= 6 on
       // the 15 km mountain range.
-      const Stroke m = middle_of(op.at("points"));
+      const auto& pts = op.at("points");
+      const Stroke m = middle_of(pts);
       const double r = 0.5 * double(op.at("width"));
-      const double want = 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
+      // Nominal depth at the middle: per-vertex depths (the island's) or depth_start .. depth.
+      const double want = pts[0].size() > 2 ? double(pts[pts.size() / 2][2])
+                                            : 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
       std::vector<double> t, z;
       for (double s = -r; s <= r + 1e-9; s += 0.5 * cell) t.push_back(s), z.push_back(at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny));
       double floor = 1e30;
@@ -70,6 +73,29 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (double v : z) below += v <= floor + 0.5 * depth ? 0.5 * cell : 0;
       EXPECT_GT(depth, 0.5 * want) << name << " ravine at " << m.mx << ", " << m.my;
       EXPECT_GE(below, (name == "volcanic_island" ? 10 : 6) * cell) << name << " ravine at " << m.mx << ", " << m.my << ": a scratch, not a valley";
+      if (name == "volcanic_island") {
+        // The ravine fades out on the seabed: its exit run ends 300 m past the coast point; 1.5 r
+        // past it the sea floor across the ravine's line has no trough (the former run-outs cut
+        // 60-120 m troughs there).
+        const auto &a = pts[pts.size() - 2], &b = pts[pts.size() - 1];
+        const double ax = a[0], ay = a[1], bx = b[0], by = b[1], l = std::hypot(bx - ax, by - ay);
+        const double ux = (bx - ax) / l, uy = (by - ay) / l, px = bx + 1.5 * r * ux, py = by + 1.5 * r * uy;
+        const double mid = at_m(h, cell, px, py);
+        const double banks = std::min(at_m(h, cell, px - r * uy, py + r * ux), at_m(h, cell, px + r * uy, py - r * ux));
+        EXPECT_LT(banks - mid, 10.0) << "a trough in the sea past the ravine ending at " << bx << ", " << by;
+      }
+    }
+    if (kind == "ravine" && name == "cliff") {
+      // A couloir starts on the brink: on the plateau above its first point (a quarter of its half-width
+      // up) the ground across its line is level, no hollow (the former couloirs started 100-170 m
+      // above the rim and drew dark blobs on the plateau).
+      const auto& pts = op.at("points");
+      const double r = 0.5 * double(op.at("width"));
+      const double x0 = pts[0][0], y0 = pts[0][1];
+      const double up = y0 - 0.25 * r;  // north (y grows southwards): just above the brink
+      const double mid = at_m(h, cell, x0, up);
+      const double banks = std::min(at_m(h, cell, x0 - r, up), at_m(h, cell, x0 + r, up));
+      EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
     }
     if (kind == "cliff" && name == "cliff") {
       // Down the column through the middle of the map: a face steeper than 45 degrees dropping at
