@@ -9,6 +9,7 @@
 
 #include <terracl/edit.hpp>
 #include <terracl/io.hpp>
+#include <terracl/tensor.hpp>
 
 #include <fmt/format.h>
 
@@ -86,13 +87,19 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       }
     }
     if (kind == "ravine" && name == "cliff") {
-      // A couloir starts on the brink: on the plateau above its first point (a quarter of its half-width
-      // up) the ground across its line is level, no hollow (the former couloirs started 100-170 m
-      // above the rim and drew dark blobs on the plateau).
-      const auto& pts = op.at("points");
-      const double r = 0.5 * double(op.at("width"));
-      const double x0 = pts[0][0], y0 = pts[0][1];
-      const double up = y0 - 0.25 * r;  // north (y grows southwards): just above the brink
+      // A couloir starts on the brink: on the plateau a quarter of its half-width above the rim
+      // (the smoothed cliff line, at the couloir's x) the ground across its line is level, no
+      // hollow (the former couloirs started 100-170 m above the rim: dark blobs on the plateau).
+      std::vector<Vec2> rim_pts;
+      for (const auto& o : script.at("operations"))
+        if (o.at("op") == "cliff")
+          for (const auto& q : o.at("points")) rim_pts.push_back({double(q[0]), double(q[1])});
+      const auto rim = catmull_rom(rim_pts, 5.0);
+      const double r = 0.5 * double(op.at("width")), x0 = op.at("points")[0][0];
+      double rim_y = 0, best = 1e30;
+      for (const auto& q : rim)
+        if (std::abs(q.x - x0) < best) best = std::abs(q.x - x0), rim_y = q.y;
+      const double up = rim_y - 0.25 * r;  // north (y grows southwards)
       const double mid = at_m(h, cell, x0, up);
       const double banks = std::min(at_m(h, cell, x0 - r, up), at_m(h, cell, x0 + r, up));
       EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
