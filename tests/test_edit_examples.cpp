@@ -124,26 +124,51 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read";
     }
     if (kind == "mountain_range" && name == "mountain_range") {
-      // At every inner vertex higher than 1000 m: the crest is the highest point across the stroke
-      // within 0.3 r (to 6 % of r: the noise moves it a little), standing at least 15 % of the vertex height above both sides.
+      // At stations every 400 m along the smoothed stroke, wherever it is above 900 m (summits,
+      // cols and the slopes between): the crest is the highest point across the stroke within 0.3 r
+      // (to 6 % of r: the noise moves it a little) and stands at least 15 % of its height above
+      // both sides. The summits and cols are checked against the heights given at the vertices.
       const auto& pts = op.at("points");
       const double r = 0.5 * double(op.at("width"));
+      std::vector<Vec2> ctrl;
+      std::vector<double> zc, zs;
+      for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])}), zc.push_back(double(q[2]));
+      const auto line = catmull_rom(ctrl, 10.0, zc, &zs);
       int checked = 0;
-      for (size_t i = 1; i + 1 < pts.size(); ++i) {
-        if (double(pts[i][2]) < 1000) continue;
-        const Stroke m = middle_of(nlohmann::json{pts[i - 1], pts[i], pts[i + 1]});
+      double since = 1e30;
+      for (size_t i = 1; i + 1 < line.size(); ++i) {
+        since += std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
+        if (since < 400 || zs[i] < 900) continue;
+        since = 0;
+        const double tx = line[i + 1].x - line[i - 1].x, ty = line[i + 1].y - line[i - 1].y, l = std::hypot(tx, ty);
+        const double nx = -ty / l, ny = tx / l;
         double best = -1e30, best_t = 0;
         for (double s = -0.3 * r; s <= 0.3 * r; s += 0.5 * cell) {
-          const double v = at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny);
+          const double v = at_m(h, cell, line[i].x + s * nx, line[i].y + s * ny);
           if (v > best) best = v, best_t = s;
         }
-        EXPECT_LE(std::abs(best_t), 0.06 * r) << "crest off its line at vertex " << i;
-        const double side = std::max(at_m(h, cell, m.mx + 0.3 * r * m.nx, m.my + 0.3 * r * m.ny),
-                                     at_m(h, cell, m.mx - 0.3 * r * m.nx, m.my - 0.3 * r * m.ny));
-        EXPECT_GT(best - side, 0.15 * double(pts[i][2])) << "no ridge at vertex " << i;
+        EXPECT_LE(std::abs(best_t), 0.06 * r) << "crest off its line at " << line[i].x << ", " << line[i].y;
+        const double side = std::max(at_m(h, cell, line[i].x + 0.3 * r * nx, line[i].y + 0.3 * r * ny),
+                                     at_m(h, cell, line[i].x - 0.3 * r * nx, line[i].y - 0.3 * r * ny));
+        EXPECT_GT(best - side, 0.15 * zs[i]) << "no ridge at " << line[i].x << ", " << line[i].y;
         ++checked;
       }
-      EXPECT_GE(checked, 4);
+      EXPECT_GE(checked, 20);
+      // Summits and cols: the crest's height at the vertices follows the given heights (the noise
+      // adds up to about its amplitude), so a col is lower than both summits beside it.
+      std::vector<double> crest;
+      for (const auto& q : pts) {
+        double top = -1e30;
+        for (double dy = -0.06 * r; dy <= 0.06 * r; dy += 0.5 * cell)
+          for (double dx = -0.06 * r; dx <= 0.06 * r; dx += 0.5 * cell) top = std::max(top, at_m(h, cell, double(q[0]) + dx, double(q[1]) + dy));
+        crest.push_back(top);
+      }
+      // Vertices 1, 3, ... are the cols; the first two summits and the last are within the
+      // stroke's taper (r of arc from its ends), lowered by it.
+      int cols = 0;
+      for (size_t i = 6; i + 4 < pts.size(); i += 2, ++cols)
+        EXPECT_LT(crest[i - 1], std::min(crest[i - 2], crest[i]) - 100) << "no col between summits " << i - 2 << " and " << i;
+      EXPECT_GE(cols, 3);
     }
   }
 }
