@@ -64,6 +64,94 @@ typedef struct {
   vf d1, s1, a1, arc1;  // runner-up
 } ClosestV;
 
+// Weight w1 of the runner-up in the profile blend at a bend, from the squared distances of the nearest
+// (best) and the runner-up (second) and the cosine of the angle between their tangents.
+vf blend_weight(__global const float* pr, vf best, vf second, vf cosang) {
+  const float band = fmax(0.25f * pr[3], 1.0f);
+  // The blend measures the gap between the two distances as sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2):
+  // about d1 - d0 away from the curve, but smooth where d0 or d1 -> 0 (d1 - d0 has a kink on
+  // each segment, which put a crease into the profile along the curve near a bend).
+  const float b2 = band * band;
+  const vf gap = sqrt(fmin(second, (vf)(1e30f)) + b2) - sqrt(best + b2);
+  // Only real bends blend: where the runner-up runs within 15 degrees of the nearest segment (the
+  // fine pieces of a smoothed stroke) the crease is small, while blending would pull the profile
+  // towards the farther segment's value near every vertex (ripples) and the runner-up switches
+  // between the two neighbours mid-segment (steps). Full blending from 35 degrees.
+  const vf bend = smoother_v((1.0f - cosang - 0.0341f) / (0.1808f - 0.0341f));
+  return select((vf)(0.0f), 0.5f * (1.0f - smoother_v(gap / band)) * bend, second < (vf)(1e30f));
+}
+
+// The closest point on piece `seg` of a smoothed stroke (pr[22] != 0, identity metric), the piece
+// taken as the cubic Hermite curve between its end points with the vertex tangents (central
+// differences of the neighbours, as for the tangent field): consecutive pieces share position and
+// tangent direction at their joint, so the distance to the chain is C1 within its reach, where the
+// distance to the chords creases on the bisector inside every vertex (a slope jump of about the
+// turning angle, 2 sin(2 deg) = 7 % for the spline's pieces). Newton on (c(t) - p) . c'(t) = 0 from the
+// chord's projection; the pieces deviate from their chords by a fraction of a cell, so three steps
+// converge to float precision.
+typedef struct {
+  vf d2, t, side;  // squared distance, parameter on the piece, side (+1 right)
+  vf cx, cy;       // the foot point
+  vf tx, ty;       // the curve's unit tangent there
+  vf amp, arc;     // amplitude and arc length at the foot (linear in t, as on the chords)
+} CurveFoot;
+
+CurveFoot hermite_foot(__global const float4* verts, int v0, int nv, vi seg, vf px, vf py) {
+  float ax[VW], ay[VW], ex[VW], ey[VW], m0x[VW], m0y[VW], m1x[VW], m1y[VW], aa[VW], ab[VW], ca[VW], cb[VW];
+  int sg[VW];
+  vstore8(seg, 0, sg);
+  for (int k = 0; k < VW; ++k) {
+    const int s = clamp(sg[k], 0, nv - 2);
+    const float4 a4 = verts[v0 + s], b4 = verts[v0 + s + 1];
+    const float4 p4 = s > 0 ? verts[v0 + s - 1] : a4;
+    const float4 n4 = s + 2 < nv ? verts[v0 + s + 2] : b4;
+    const float2 e = b4.xy - a4.xy;
+    const float l = length(e);
+    const float2 tu = l > 0.0f ? e / l : (float2)(1.0f, 0.0f);
+    const float2 ta = b4.xy - p4.xy, tb = n4.xy - a4.xy;
+    const float tal = length(ta), tbl = length(tb);
+    const float2 ma = (tal > 0.0f ? ta / tal : tu) * l, mb = (tbl > 0.0f ? tb / tbl : tu) * l;
+    ax[k] = a4.x, ay[k] = a4.y, ex[k] = e.x, ey[k] = e.y;
+    m0x[k] = ma.x, m0y[k] = ma.y, m1x[k] = mb.x, m1y[k] = mb.y;
+    aa[k] = a4.z, ab[k] = b4.z, ca[k] = a4.w, cb[k] = b4.w;
+  }
+  const vf Ax = VLOAD(0, ax), Ay = VLOAD(0, ay), Ex = VLOAD(0, ex), Ey = VLOAD(0, ey);
+  const vf M0x = VLOAD(0, m0x), M0y = VLOAD(0, m0y), M1x = VLOAD(0, m1x), M1y = VLOAD(0, m1y);
+  const vf l2 = Ex * Ex + Ey * Ey;
+  vf t = clamp(select((vf)(0.0f), ((px - Ax) * Ex + (py - Ay) * Ey) / l2, l2 > 0.0f), 0.0f, 1.0f);
+  vf cx, cy, dx, dy;
+  for (int it = 0; it < 4; ++it) {
+    const vf h01 = t * t * (3.0f - 2.0f * t), h10 = t * (1.0f - t) * (1.0f - t), h11 = t * t * (t - 1.0f);
+    const vf g01 = 6.0f * t * (1.0f - t), g10 = (1.0f - t) * (1.0f - 3.0f * t), g11 = t * (3.0f * t - 2.0f);
+    cx = Ax + h01 * Ex + h10 * M0x + h11 * M1x;
+    cy = Ay + h01 * Ey + h10 * M0y + h11 * M1y;
+    dx = g01 * Ex + g10 * M0x + g11 * M1x;
+    dy = g01 * Ey + g10 * M0y + g11 * M1y;
+    if (it == 3) break;
+    const vf k01 = 6.0f - 12.0f * t, k10 = 6.0f * t - 4.0f, k11 = 6.0f * t - 2.0f;
+    const vf ddx = k01 * Ex + k10 * M0x + k11 * M1x, ddy = k01 * Ey + k10 * M0y + k11 * M1y;
+    const vf rx = cx - px, ry = cy - py;
+    const vf f = rx * dx + ry * dy;
+    const vf c2 = dx * dx + dy * dy;
+    // Near the centre of a bend tighter than the distance, f' -> 0: keep the step bounded.
+    const vf fp = fmax(c2 + rx * ddx + ry * ddy, 0.25f * c2);
+    t = clamp(select(t, t - f / fp, fp > 0.0f), 0.0f, 1.0f);
+  }
+  CurveFoot o;
+  const vf qx = px - cx, qy = py - cy;
+  o.d2 = qx * qx + qy * qy;
+  o.t = t;
+  o.cx = cx, o.cy = cy;
+  const vf dl = sqrt(dx * dx + dy * dy);
+  const vi dpos = dl > 0.0f;
+  o.tx = select(select((vf)(1.0f), Ex / sqrt(l2), l2 > 0.0f), dx / dl, dpos);
+  o.ty = select(select((vf)(0.0f), Ey / sqrt(l2), l2 > 0.0f), dy / dl, dpos);
+  o.side = select((vf)(-1.0f), (vf)(1.0f), o.tx * qy - o.ty * qx >= 0.0f);
+  o.amp = VLOAD(0, aa) + t * (VLOAD(0, ab) - VLOAD(0, aa));
+  o.arc = VLOAD(0, ca) + t * (VLOAD(0, cb) - VLOAD(0, ca));
+  return o;
+}
+
 // Anisotropic metric M = pr[8..11] (row-major); distances are |M (p - q)|, and the real-space
 // gradient of |M v| is M^T (M v / |M v|).
 ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px, vf py) {
@@ -185,19 +273,8 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   // runner-up's by w1 = 1/2 where both are equally near, falling smoothly to 0 where the runner-up is
   // a quarter radius (at least a metre) further, and only at bends of more than 15 degrees.
   {
-    const float band = fmax(0.25f * pr[3], 1.0f);
     const vf d1 = sqrt(fmin(second, (vf)(1e30f)));
-    // The blend measures the gap between the two distances as sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2):
-    // about d1 - d0 away from the curve, but smooth where d0 or d1 -> 0 (d1 - d0 has a kink on
-    // each segment, which put a crease into the profile along the curve near a bend).
-    const float b2 = band * band;
-    const vf gap = sqrt(fmin(second, (vf)(1e30f)) + b2) - sqrt(best + b2);
-    // Only real bends blend: where the runner-up runs within 15 degrees of the nearest segment (the
-    // fine pieces of a smoothed stroke) the crease is small, while blending would pull the profile
-    // towards the farther segment's value near every vertex (ripples) and the runner-up switches
-    // between the two neighbours mid-segment (steps). Full blending from 35 degrees.
-    const vf bend = smoother_v((1.0f - (t0x * t1x + t0y * t1y) - 0.0341f) / (0.1808f - 0.0341f));
-    const vf w1 = select(zero, 0.5f * (1.0f - smoother_v(gap / band)) * bend, second < (vf)(1e30f));
+    const vf w1 = blend_weight(pr, best, second, t0x * t1x + t0y * t1y);
     c.w1 = w1;
     c.d1 = d1;
     c.s1 = sg1 * d1;
@@ -243,6 +320,44 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     // d/|d| already points away from the curve; on the curve n is the right normal.
     const vf f = select(one, side, lpos);
     fx = nx * f, fy = ny * f;
+    if (pr[22] != 0.0f && nv >= 3) {
+      // A smoothed stroke: the distance to the Hermite chain instead of the chords (hermite_foot).
+      // Candidates: the nearest chord and its two neighbours. Where the foot moves from one piece to
+      // the next these are the pieces on either side of the joint; deep inside a bend the chords'
+      // wedges close up (a piece's normals cross at about its turning radius), and the nearest
+      // chord can be the neighbour of the piece that holds the foot.
+      const CurveFoot f0 = hermite_foot(verts, v0, nv, seg, px, py);
+      const CurveFoot fm = hermite_foot(verts, v0, nv, max(seg - 1, (vi)(0)), px, py);
+      const CurveFoot fp = hermite_foot(verts, v0, nv, min(seg + 1, (vi)(nseg - 1)), px, py);
+      const vi m1 = fm.d2 < f0.d2;
+      vf bd2 = select(f0.d2, fm.d2, m1), bside = select(f0.side, fm.side, m1);
+      vf btx = select(f0.tx, fm.tx, m1), bty = select(f0.ty, fm.ty, m1);
+      vf bcx = select(f0.cx, fm.cx, m1), bcy = select(f0.cy, fm.cy, m1);
+      vf bamp = select(f0.amp, fm.amp, m1), barc = select(f0.arc, fm.arc, m1);
+      const vi m2 = fp.d2 < bd2;
+      bd2 = select(bd2, fp.d2, m2), bside = select(bside, fp.side, m2);
+      btx = select(btx, fp.tx, m2), bty = select(bty, fp.ty, m2);
+      bcx = select(bcx, fp.cx, m2), bcy = select(bcy, fp.cy, m2);
+      bamp = select(bamp, fp.amp, m2), barc = select(barc, fp.arc, m2);
+      const vf blen = sqrt(bd2);
+      c.dist = c.d0 = c.d1 = blen;
+      c.sdist = c.s0 = c.s1 = bside * blen;
+      c.a0 = c.a1 = bamp;
+      c.arc0 = c.arc1 = barc;
+      // No blend: the distance to the chain is C1 within its reach. A U-turn tighter than the
+      // distance keeps the crease of its medial axis (a valley line between the legs: the distance
+      // to any curve creases there), and the centre of such a bend is a cone point.
+      c.w1 = zero;
+      c.amp = (1.0f - c.w1) * c.a0 + c.w1 * c.a1;
+      c.tx = btx, c.ty = bty;
+      const vf qx = bcx - px, qy = bcy - py;
+      const vi bpos = blen > 0.0f;
+      c.ux = select(zero, qx / blen, bpos);
+      c.uy = select(zero, qy / blen, bpos);
+      // grad sdist = side (p - foot)/|p - foot|; on the curve, the right normal (-ty, tx).
+      fx = select(-bty, -c.ux * bside, bpos);
+      fy = select(btx, -c.uy * bside, bpos);
+    }
   }
   c.gx = m00 * fx + m10 * fy;
   c.gy = m01 * fx + m11 * fy;

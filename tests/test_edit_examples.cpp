@@ -9,6 +9,7 @@
 
 #include <terracl/edit.hpp>
 #include <terracl/io.hpp>
+#include <terracl/tensor.hpp>
 
 #include <fmt/format.h>
 
@@ -57,9 +58,12 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       // part below half that depth in cells of the 513^2 run, i.e. pixels of the README's 512-px
       // picture: >= 10 on the island (the former 400 m V ravines: 6, read as scratches), >= 6 on
       // the 15 km mountain range.
-      const Stroke m = middle_of(op.at("points"));
+      const auto& pts = op.at("points");
+      const Stroke m = middle_of(pts);
       const double r = 0.5 * double(op.at("width"));
-      const double want = 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
+      // Nominal depth at the middle: per-vertex depths (the island's) or depth_start .. depth.
+      const double want = pts[0].size() > 2 ? double(pts[pts.size() / 2][2])
+                                            : 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
       std::vector<double> t, z;
       for (double s = -r; s <= r + 1e-9; s += 0.5 * cell) t.push_back(s), z.push_back(at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny));
       double floor = 1e30;
@@ -70,6 +74,35 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (double v : z) below += v <= floor + 0.5 * depth ? 0.5 * cell : 0;
       EXPECT_GT(depth, 0.5 * want) << name << " ravine at " << m.mx << ", " << m.my;
       EXPECT_GE(below, (name == "volcanic_island" ? 10 : 6) * cell) << name << " ravine at " << m.mx << ", " << m.my << ": a scratch, not a valley";
+      if (name == "volcanic_island") {
+        // The ravine fades out on the seabed: its exit run ends 300 m past the coast point; 1.5 r
+        // past it the sea floor across the ravine's line has no trough (the former run-outs cut
+        // 60-120 m troughs there).
+        const auto &a = pts[pts.size() - 2], &b = pts[pts.size() - 1];
+        const double ax = a[0], ay = a[1], bx = b[0], by = b[1], l = std::hypot(bx - ax, by - ay);
+        const double ux = (bx - ax) / l, uy = (by - ay) / l, px = bx + 1.5 * r * ux, py = by + 1.5 * r * uy;
+        const double mid = at_m(h, cell, px, py);
+        const double banks = std::min(at_m(h, cell, px - r * uy, py + r * ux), at_m(h, cell, px + r * uy, py - r * ux));
+        EXPECT_LT(banks - mid, 10.0) << "a trough in the sea past the ravine ending at " << bx << ", " << by;
+      }
+    }
+    if (kind == "ravine" && name == "cliff") {
+      // A couloir starts on the brink: on the plateau a quarter of its half-width above the rim
+      // (the smoothed cliff line, at the couloir's x) the ground across its line is level, no
+      // hollow (the former couloirs started 100-170 m above the rim: dark blobs on the plateau).
+      std::vector<Vec2> rim_pts;
+      for (const auto& o : script.at("operations"))
+        if (o.at("op") == "cliff")
+          for (const auto& q : o.at("points")) rim_pts.push_back({double(q[0]), double(q[1])});
+      const auto rim = catmull_rom(rim_pts, 5.0);
+      const double r = 0.5 * double(op.at("width")), x0 = op.at("points")[0][0];
+      double rim_y = 0, best = 1e30;
+      for (const auto& q : rim)
+        if (std::abs(q.x - x0) < best) best = std::abs(q.x - x0), rim_y = q.y;
+      const double up = rim_y - 0.25 * r;  // north (y grows southwards)
+      const double mid = at_m(h, cell, x0, up);
+      const double banks = std::min(at_m(h, cell, x0 - r, up), at_m(h, cell, x0 + r, up));
+      EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
     }
     if (kind == "cliff" && name == "cliff") {
       // Down the column through the middle of the map: a face steeper than 45 degrees dropping at
@@ -91,26 +124,51 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read";
     }
     if (kind == "mountain_range" && name == "mountain_range") {
-      // At every inner vertex higher than 1000 m: the crest is the highest point across the stroke
-      // within 0.3 r (to 6 % of r: the noise moves it a little), standing at least 15 % of the vertex height above both sides.
+      // At stations every 400 m along the smoothed stroke, wherever it is above 900 m (summits,
+      // cols and the slopes between): the crest is the highest point across the stroke within 0.3 r
+      // (to 6 % of r: the noise moves it a little) and stands at least 15 % of its height above
+      // both sides. The summits and cols are checked against the heights given at the vertices.
       const auto& pts = op.at("points");
       const double r = 0.5 * double(op.at("width"));
+      std::vector<Vec2> ctrl;
+      std::vector<double> zc, zs;
+      for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])}), zc.push_back(double(q[2]));
+      const auto line = catmull_rom(ctrl, 10.0, zc, &zs);
       int checked = 0;
-      for (size_t i = 1; i + 1 < pts.size(); ++i) {
-        if (double(pts[i][2]) < 1000) continue;
-        const Stroke m = middle_of(nlohmann::json{pts[i - 1], pts[i], pts[i + 1]});
+      double since = 1e30;
+      for (size_t i = 1; i + 1 < line.size(); ++i) {
+        since += std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
+        if (since < 400 || zs[i] < 900) continue;
+        since = 0;
+        const double tx = line[i + 1].x - line[i - 1].x, ty = line[i + 1].y - line[i - 1].y, l = std::hypot(tx, ty);
+        const double nx = -ty / l, ny = tx / l;
         double best = -1e30, best_t = 0;
         for (double s = -0.3 * r; s <= 0.3 * r; s += 0.5 * cell) {
-          const double v = at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny);
+          const double v = at_m(h, cell, line[i].x + s * nx, line[i].y + s * ny);
           if (v > best) best = v, best_t = s;
         }
-        EXPECT_LE(std::abs(best_t), 0.06 * r) << "crest off its line at vertex " << i;
-        const double side = std::max(at_m(h, cell, m.mx + 0.3 * r * m.nx, m.my + 0.3 * r * m.ny),
-                                     at_m(h, cell, m.mx - 0.3 * r * m.nx, m.my - 0.3 * r * m.ny));
-        EXPECT_GT(best - side, 0.15 * double(pts[i][2])) << "no ridge at vertex " << i;
+        EXPECT_LE(std::abs(best_t), 0.06 * r) << "crest off its line at " << line[i].x << ", " << line[i].y;
+        const double side = std::max(at_m(h, cell, line[i].x + 0.3 * r * nx, line[i].y + 0.3 * r * ny),
+                                     at_m(h, cell, line[i].x - 0.3 * r * nx, line[i].y - 0.3 * r * ny));
+        EXPECT_GT(best - side, 0.15 * zs[i]) << "no ridge at " << line[i].x << ", " << line[i].y;
         ++checked;
       }
-      EXPECT_GE(checked, 4);
+      EXPECT_GE(checked, 20);
+      // Summits and cols: the crest's height at the vertices follows the given heights (the noise
+      // adds up to about its amplitude), so a col is lower than both summits beside it.
+      std::vector<double> crest;
+      for (const auto& q : pts) {
+        double top = -1e30;
+        for (double dy = -0.06 * r; dy <= 0.06 * r; dy += 0.5 * cell)
+          for (double dx = -0.06 * r; dx <= 0.06 * r; dx += 0.5 * cell) top = std::max(top, at_m(h, cell, double(q[0]) + dx, double(q[1]) + dy));
+        crest.push_back(top);
+      }
+      // Vertices 1, 3, ... are the cols; the first two summits and the last are within the
+      // stroke's taper (r of arc from its ends), lowered by it.
+      int cols = 0;
+      for (size_t i = 6; i + 4 < pts.size(); i += 2, ++cols)
+        EXPECT_LT(crest[i - 1], std::min(crest[i - 2], crest[i]) - 100) << "no col between summits " << i - 2 << " and " << i;
+      EXPECT_GE(cols, 3);
     }
   }
 }

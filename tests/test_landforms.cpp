@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 
@@ -108,6 +109,91 @@ TEST(Landforms, ProfileIsC1AcrossABend) {
   EXPECT_LT(j1, 0.6 * j2);
   // Slope: the largest second difference drops about 4x (3x allows for float rounding).
   EXPECT_LT(c1, c2 / 3.0) << c2 << " -> " << c1;
+}
+
+// A smoothed stroke (issue 12): the Catmull-Rom spline is sampled in pieces of r/8, and the distance
+// to those chords creases on the bisector inside every vertex, a jump of the slope of about the
+// pieces' turning angle. With the pieces taken as Hermite curves (Primitive::smooth) the slope is
+// continuous along the stroke. Measured on a circular arc (radius 200 m, r = 50 m) half-way down
+// its inner flank: the gradient of P at points one cell apart along the stroke (central differences
+// at exactly those points: a 3 x 3 grid of that cell centred on each), the largest change between
+// neighbours over the largest slope. A continuous slope changes by O(cell): < 1 % and halving with
+// the cell; the chords' creases stay at their ~3 % whatever the cell.
+TEST(Landforms, SmoothedStrokeSlopeIsContinuousAlongTheStroke) {
+  const double Rc = 200, r = 50, a = 100;
+  std::vector<Vec2> ctrl;
+  for (int i = -2; i <= 2; ++i) ctrl.push_back({Rc * std::cos(i * 0.5), Rc * std::sin(i * 0.5)});
+  const std::vector<Vec2> path = catmull_rom(ctrl, r / 8);
+  auto worst_jump = [&](double cell, bool smooth) {
+    std::vector<std::array<double, 2>> g;
+    const double rho = Rc - 0.5 * r;
+    for (double phi = -0.17; phi <= 0.17; phi += cell / rho) {
+      const double qx = rho * std::cos(phi), qy = rho * std::sin(phi);
+      Primitive p = line({}, r, Profile::Round, a);
+      for (const auto& v : path) p.points.push_back({v.x - qx + cell, v.y - qy + cell});  // q at cell (1, 1)
+      p.smooth = smooth;
+      const auto P = potential(3, 3, cell, {p});
+      g.push_back({(double(P[5]) - P[3]) / (2 * cell), (double(P[7]) - P[1]) / (2 * cell)});
+    }
+    double top = 0, jump = 0;
+    for (size_t i = 0; i < g.size(); ++i) {
+      top = std::max(top, std::hypot(g[i][0], g[i][1]));
+      if (i) jump = std::max(jump, std::hypot(g[i][0] - g[i - 1][0], g[i][1] - g[i - 1][1]));
+    }
+    return jump / top;
+  };
+  const double j2 = worst_jump(0.5, true), j1 = worst_jump(0.25, true);
+  EXPECT_LT(j2, 0.01);
+  EXPECT_LT(j1, 0.6 * j2) << j2 << " -> " << j1;
+  // The chords alone: the creases (the defect this guards against) do not shrink with the cell.
+  const double c2 = worst_jump(0.5, false), c1 = worst_jump(0.25, false);
+  std::printf("slope jump along a smoothed stroke: Hermite %.4f -> %.4f, chords %.4f -> %.4f (cell 0.5 -> 0.25 m)\n", j2,
+              j1, c2, c1);
+  EXPECT_GT(c1, 0.012);
+  EXPECT_GT(c1, 0.8 * c2);
+}
+
+// A smoothed bend tighter than its half-width: an arc of 330 degrees with a radius of curvature of
+// 240 m < r = 350 m and amplitudes changing along it. On the inner side the nearest piece changes from
+// cell to cell around the centre, and the chords' creases made a fan of lines converging on it. With
+// the Hermite pieces the inner flank is C1: the largest second difference of P drops about 4x when
+// the cell halves (a crease would only halve it); the chords' fan fails that. Measured on the inner
+// flank of the middle 180 degrees, at 120-230 m from the centre: the centre itself is a cone point
+// of the distance to any curve (every piece is as near), the clipping or blending that would round
+// it off is not done.
+TEST(Landforms, TightSmoothedBendHasNoFan) {
+  const double R = 240, cx = 440, cy = 440;
+  std::vector<Vec2> ctrl;
+  std::vector<double> amp, z;
+  for (int i = 0; i <= 11; ++i) {  // -165 .. 165 degrees: the spline's end segments (whose curvature
+    const double a = (-165 + 30 * i) * M_PI / 180;  // differs) stay away from the measured part
+    ctrl.push_back({cx + R * std::cos(a), cy + R * std::sin(a)});
+    amp.push_back(60 + 40 * std::sin(M_PI * i / 11));
+  }
+  const auto path = catmull_rom(ctrl, 350.0 / 8, amp, &z);
+  auto max_second_diff = [&](double cell, bool smooth) {
+    const int n = int(std::lround(880 / cell)) + 1;
+    Primitive p = line(path, 350, Profile::Round, 1);
+    p.amplitude = z;
+    p.smooth = smooth;
+    const auto P = potential(n, n, cell, {p});
+    double worst = 0;
+    for (int y = 1; y + 1 < n; ++y)
+      for (int x = 1; x + 1 < n; ++x) {
+        const double dx = x * cell - cx, dy = y * cell - cy, rho = std::hypot(dx, dy);
+        if (rho < 120 || rho > 230 || std::abs(std::atan2(dy, dx)) > M_PI / 2) continue;
+        const size_t o = size_t(y) * n + x;
+        const double v = std::max(std::abs(P[o + 1] - 2.0 * P[o] + P[o - 1]), std::abs(P[o + n] - 2.0 * P[o] + P[o - n]));
+        worst = std::max(worst, v);
+      }
+    return worst;
+  };
+  const double s2 = max_second_diff(4, true), s1 = max_second_diff(2, true);
+  const double c2 = max_second_diff(4, false), c1 = max_second_diff(2, false);
+  std::printf("largest second difference inside a tight bend: Hermite %.4g -> %.4g, chords %.4g -> %.4g (cell 4 -> 2 m)\n",
+              s2, s1, c2, c1);
+  EXPECT_LT(s1, s2 / 3.0);
+  EXPECT_GT(c1, c2 / 3.0);
 }
 
 // Stroke ends taper: with a taper the profile fades to zero at the end points (no round cap, no

@@ -3,7 +3,7 @@
 //   [7] disc radius  [8..11] anisotropic metric M (row-major)  [12] profile  [13] profile amplitude
 //   [14] [15] cos, sin of the tensor's rotation (2 angle for directional tensors)
 //   [16] floor half width  [17] [18] taper lengths at the first / last vertex  [19] cliff face fraction
-//   [20] scree share  [21] total arc length  [22] [23] unused
+//   [20] scree share  [21] total arc length  [22] smooth (Hermite pieces)  [23] unused
 // and vertices as float4 (x, y, amplitude factor, arc length from the first vertex), all in metres.
 #include <terracl/error.hpp>
 #include <terracl/tensor.hpp>
@@ -79,19 +79,29 @@ std::vector<Vec2> catmull_rom(const std::vector<Vec2>& pts, double step, const s
     const double t0 = 0, t1 = t0 + knot(p0, p1), t2 = t1 + knot(p1, p2), t3 = t2 + knot(p2, p3);
     // Pieces of at most `step`, and turning by at most ~4 degrees each: the distance to a polyline
     // creases inside every vertex (a slope jump of 2 sin(angle/2) of the profile's slope there).
-    const double a1 = std::atan2(p2.y - p0.y, p2.x - p0.x), a2 = std::atan2(p3.y - p1.y, p3.x - p1.x);
-    const double turn = std::abs(std::remainder(a2 - a1, 2 * M_PI));
+    // Barry-Goldman pyramid.
+    auto lerp = [](double a, double b, double ta, double tb, double t) { return tb > ta ? (a * (tb - t) + b * (t - ta)) / (tb - ta) : a; };
+    auto eval_at = [&](double t, double v0, double v1, double v2, double v3) {
+      const double a1 = lerp(v0, v1, t0, t1, t), a2 = lerp(v1, v2, t1, t2, t), a3 = lerp(v2, v3, t2, t3, t);
+      const double b1 = lerp(a1, a2, t0, t2, t), b2 = lerp(a2, a3, t1, t3, t);
+      return lerp(b1, b2, t1, t2, t);
+    };
+    // The segment's turning, summed over 32 sub-steps of the spline itself: the chords p0 -> p2 and
+    // p1 -> p3 miss it on the end segments (the mirrored end point makes them parallel), which cut
+    // a tight end segment into pieces turning by 7-10 degrees.
+    double turn = 0, prev = 0;
+    for (int k = 0; k <= 32; ++k) {
+      const double ta = t1 + (t2 - t1) * k / 33.0, tb = t1 + (t2 - t1) * (k + 1) / 33.0;
+      const double ang = std::atan2(eval_at(tb, p0.y, p1.y, p2.y, p3.y) - eval_at(ta, p0.y, p1.y, p2.y, p3.y),
+                                    eval_at(tb, p0.x, p1.x, p2.x, p3.x) - eval_at(ta, p0.x, p1.x, p2.x, p3.x));
+      if (k > 0) turn += std::abs(std::remainder(ang - prev, 2 * M_PI));
+      prev = ang;
+    }
     const int pieces = std::max({1, int(std::ceil(std::hypot(p2.x - p1.x, p2.y - p1.y) / step)),
                                  int(std::ceil(turn / (4 * M_PI / 180)))});
     for (int k = 0; k < pieces; ++k) {
       const double t = t1 + (t2 - t1) * double(k) / pieces;
-      // Barry-Goldman pyramid.
-      auto lerp = [](double a, double b, double ta, double tb, double t) { return tb > ta ? (a * (tb - t) + b * (t - ta)) / (tb - ta) : a; };
-      auto eval = [&](double v0, double v1, double v2, double v3) {
-        const double a1 = lerp(v0, v1, t0, t1, t), a2 = lerp(v1, v2, t1, t2, t), a3 = lerp(v2, v3, t2, t3, t);
-        const double b1 = lerp(a1, a2, t0, t2, t), b2 = lerp(a2, a3, t1, t3, t);
-        return lerp(b1, b2, t1, t2, t);
-      };
+      auto eval = [&](double v0, double v1, double v2, double v3) { return eval_at(t, v0, v1, v2, v3); };
       out.push_back({eval(p0.x, p1.x, p2.x, p3.x), eval(p0.y, p1.y, p2.y, p3.y)});
       if (z_out && !z.empty()) z_out->push_back(eval(z0, z1, z2, z3));
     }
@@ -205,7 +215,7 @@ Packed pack(const std::vector<Primitive>& prims) {
                     float(int(pr.tensor)), float(pr.angle), float(pr.disc_radius), float(m00), float(m01),
                     float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), std::cos(rot), std::sin(rot),
                     float(pr.floor_half_width), float(pr.taper_start), float(pr.taper_end), float(pr.face_fraction),
-                    float(pr.scree), float(arc), 0.f, 0.f});
+                    float(pr.scree), float(arc), pr.smooth && pr.shape == PrimitiveShape::Polyline ? 1.f : 0.f, 0.f});
   }
   if (p.verts.empty()) p.verts.assign(4, 0.f);
   if (p.prims.empty()) p.prims.assign(kStride, 0.f);

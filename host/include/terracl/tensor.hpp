@@ -63,6 +63,10 @@ struct Primitive {
   double taper_start = 0, taper_end = 0;
   double face_fraction = 1;         ///< Drop: width of the steep face as a fraction of the radius
   double scree = 0;                 ///< Drop: share of the drop taken by the scree apron (0..1)
+  /// Open polylines sampled from a smooth curve (CurveShape's Catmull-Rom, >= 3 points): distances
+  /// are taken to the C1 chain of cubic Hermite pieces through the points with their vertex
+  /// tangents instead of to the chords, whose creases inside each vertex made slope jumps.
+  bool smooth = false;
 };
 
 /// Centripetal Catmull-Rom spline through the points (alpha = 1/2, end points mirrored), sampled so

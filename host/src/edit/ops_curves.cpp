@@ -84,6 +84,7 @@ Primitive CurveShape::primitive(const std::vector<Vec3>& path_pts, double r, Pro
   pr.floor_half_width = flat && floor <= 0 ? r / 3 : 0.5 * floor;
   const double t = taper < 0 ? r : taper;
   pr.taper_start = pr.taper_end = t;
+  pr.smooth = smooth && pts.size() >= 3;
   return pr;
 }
 
