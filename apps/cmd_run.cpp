@@ -21,6 +21,7 @@ struct RunArgs {
   int tile = 0;                // --tile: run out of core, tile by tile (docs/scale.md)
   std::string halo = "auto";
   std::string memory_budget;
+  bool resume = false;  // --resume: skip the tiles an interrupted run finished
 };
 
 std::string human_size(const std::string& path) {
@@ -101,6 +102,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("--memory-budget", a->memory_budget,
                   "Host memory for a tiled run (512M, 2G): picks --tile when not given, refuses a tile that cannot fit")
       ->type_name("BYTES");
+  sub->add_flag("--resume", a->resume,
+                "Tiled runs: keep a journal beside each output and, after a crash, skip the tiles already written "
+                "(verified by checksum)");
   sub->callback([a] {
     Pipeline p = Pipeline::load(a->file);
     for (const auto& s : a->sets) p.set(s);
@@ -142,9 +146,12 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     } else if (a->halo != "auto") {
       throw UsageError("run", "--halo needs --tile (or --memory-budget)");
     }
+    if (a->resume && !tiled) throw UsageError("run", "--resume needs --tile (or --memory-budget): only tiled runs keep a journal");
+    to.resume = a->resume;
+    TileCounts tiles;
     try {
       if (tiled)
-        run_tiled(p, to, ro, report);
+        run_tiled(p, to, ro, report, &tiles);
       else
         p.run(ro, report);
     } catch (const Cancelled&) {
@@ -157,6 +164,11 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     }
     finish_progress();
     print_report(p, report);
+    if (tiled && !json_progress())
+      fmt::print("tiles: {} run{}\n", tiles.run,
+                 a->resume ? fmt::format(", {} finished before (verified by checksum), {} re-run after a checksum mismatch",
+                                         tiles.skipped, tiles.mismatched)
+                           : std::string());
   });
 });
 
