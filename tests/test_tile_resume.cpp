@@ -2,7 +2,10 @@
 // hook TERRACL_TEST_KILL_AFTER_TILES, so nothing is cleaned up) leaves its partial outputs and
 // journals; the rerun skips the N tiles after verifying their checksums, runs only the rest and
 // writes the same file, byte for byte, as an uninterrupted run.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -161,6 +164,16 @@ TEST(TileResume, UsageErrors) {
   auto sub = test::run_cli("convert " + job.dir.path("in.tif") + " " + job.dir.path("d.tif") + " --tile 40 --resume");
   ASSERT_EQ(sub.exit_code, 0) << sub.out;
   EXPECT_NE(sub.out.find("tiles: 24 run, 0 finished before"), std::string::npos) << sub.out;
+  // A second resumable run of an output that a run is writing (its journal locked) is refused.
+  const std::string e = job.dir.path("e.tif");
+  const int fd = ::open((e + ".journal").c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX), 0);
+  auto locked = test::run_cli("convert " + job.dir.path("in.tif") + " " + e + " --tile 40 --resume");
+  ::close(fd);
+  EXPECT_NE(locked.exit_code, 0) << locked.out;
+  EXPECT_NE(locked.out.find("is locked: another run is writing this output"), std::string::npos) << locked.out;
+  EXPECT_FALSE(fs::exists(e));
 }
 
 }  // namespace

@@ -3,10 +3,13 @@
 
 #include <fmt/format.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <terracl/error.hpp>
 
@@ -25,13 +28,21 @@ std::string partial_path_for(const std::string& output) {
 std::string journal_path_for(const std::string& output) { return output + ".journal"; }
 
 TileJournal::TileJournal(std::string path, std::string key) : m_path(std::move(path)), m_key(std::move(key)) {
-  std::ifstream in(m_path, std::ios::binary);
-  std::string text;
-  if (in) {
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    text = ss.str();
+  // Locked for the run: a second resumable run of the same output would write the same partial file.
+  const int fd = ::open(m_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) fail("run", "--resume: cannot open the journal {}: {}", m_path, std::strerror(errno));
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    fail("run", "--resume: {} is locked: another run is writing this output", m_path);
   }
+  m_file = ::fdopen(fd, "r+b");
+  if (!m_file) {
+    ::close(fd);
+    fail("run", "--resume: cannot open the journal {}: {}", m_path, std::strerror(errno));
+  }
+  std::string text;
+  char buf[65536];
+  for (size_t n; (n = std::fread(buf, 1, sizeof buf, m_file)) > 0;) text.append(buf, n);
   const std::string header = kMagic + m_key + "\n";
   if (text.compare(0, header.size(), header) != 0) {
     open_new();
@@ -62,11 +73,11 @@ TileJournal::~TileJournal() {
 }
 
 void TileJournal::open_new() {
-  if (m_file) std::fclose(m_file);
-  m_file = std::fopen(m_path.c_str(), "wb");
-  if (!m_file) fail("run", "--resume: cannot write the journal {}: {}", m_path, std::strerror(errno));
-  std::fprintf(m_file, "%s%s\n", kMagic, m_key.c_str());
+  // Truncated in place (the same descriptor keeps the lock).
   std::fflush(m_file);
+  if (::ftruncate(::fileno(m_file), 0) != 0 || std::fseek(m_file, 0, SEEK_SET) != 0 ||
+      std::fprintf(m_file, "%s%s\n", kMagic, m_key.c_str()) < 0 || std::fflush(m_file) != 0)
+    fail("run", "--resume: cannot write the journal {}: {}", m_path, std::strerror(errno));
 }
 
 void TileJournal::restart() {
@@ -80,10 +91,10 @@ void TileJournal::record(size_t tile, uint64_t checksum) {
 }
 
 void TileJournal::remove() {
+  std::error_code ec;
+  fs::remove(m_path, ec);  // before closing: the lock holds until the name is gone
   if (m_file) std::fclose(m_file);
   m_file = nullptr;
-  std::error_code ec;
-  fs::remove(m_path, ec);
 }
 
 }  // namespace terracl::tile
