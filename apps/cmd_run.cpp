@@ -158,7 +158,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       finish_progress();
       const auto done = report.outputs();
       throw Cancelled("run",
-                  fmt::format("cancelled by Ctrl-C during stage '{}'; no partial file was left; {}", report.running,
+                  fmt::format("cancelled by Ctrl-C during stage '{}'; {}; {}", report.running,
+                              a->resume ? "the partial outputs and their journals stay: rerun with --resume to go on"
+                                        : "no partial file was left",
                               done.empty() ? std::string("nothing was written")
                                            : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
     }

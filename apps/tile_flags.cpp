@@ -69,7 +69,9 @@ void TileFlags::run_stage(const std::string& command, const std::string& input, 
     run_tiled(p, to, ro, report, &tiles);
   } catch (const Cancelled&) {
     finish_progress();
-    throw Cancelled(command, "cancelled by Ctrl-C; no output was written");
+    throw Cancelled(command, to.resume ? "cancelled by Ctrl-C; the partial output and its journal stay: rerun with "
+                                         "--resume to go on"
+                                       : "cancelled by Ctrl-C; no output was written");
   }
   finish_progress();
   if (to.resume)
