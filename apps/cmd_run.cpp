@@ -146,7 +146,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     } else if (a->halo != "auto") {
       throw UsageError("run", "--halo needs --tile (or --memory-budget)");
     }
-    if (a->resume && !tiled) throw UsageError("run", "--resume needs --tile (or --memory-budget): only tiled runs keep a journal");
+    if (a->resume && !tiled)
+      throw UsageError("run", "--resume needs --tile (or --memory-budget): only tiled runs keep a journal");
     to.resume = a->resume;
     TileCounts tiles;
     try {
@@ -157,20 +158,21 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     } catch (const Cancelled&) {
       finish_progress();
       const auto done = report.outputs();
-      throw Cancelled("run",
-                  fmt::format("cancelled by Ctrl-C during stage '{}'; {}; {}", report.running,
-                              a->resume ? "the partial outputs and their journals stay: rerun with --resume to go on"
-                                        : "no partial file was left",
-                              done.empty() ? std::string("nothing was written")
-                                           : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
+      throw Cancelled(
+          "run", fmt::format("cancelled by Ctrl-C during stage '{}'; {}; {}", report.running,
+                             a->resume ? "the partial outputs and their journals stay: rerun with --resume to go on"
+                                       : "no partial file was left",
+                             done.empty() ? std::string("nothing was written")
+                                          : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
     }
     finish_progress();
     print_report(p, report);
     if (tiled && !json_progress())
       fmt::print("tiles: {} run{}\n", tiles.run,
-                 a->resume ? fmt::format(", {} finished before (verified by checksum), {} re-run after a checksum mismatch",
-                                         tiles.skipped, tiles.mismatched)
-                           : std::string());
+                 a->resume
+                     ? fmt::format(", {} finished before (verified by checksum), {} re-run after a checksum mismatch",
+                                   tiles.skipped, tiles.mismatched)
+                     : std::string());
   });
 });
 

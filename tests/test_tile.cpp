@@ -207,7 +207,8 @@ TEST(Tile, UntileableStagesAreRefusedNamingStageAndLimit) {
         Case{R"({"type": "warp", "t_srs": "EPSG:32619"})", "/1: stage 'warp' (warp) cannot run tiled: its output grid"},
         Case{R"({"type": "resize", "width": 32, "height": 32})", "GDAL's suggested output"},
         Case{R"({"type": "metrics", "json": ")" + dir.path("m.json") + R"("})", "one spectrum of the raster"},
-        Case{R"({"type": "sketch", "file": ")" + dir.path("s.png") + R"("})", "fractions of the whole raster's cells"}}) {
+        Case{R"({"type": "sketch", "file": ")" + dir.path("s.png") + R"("})",
+             "fractions of the whole raster's cells"}}) {
     Pipeline p =
         Pipeline::parse(json::parse("[\"" + in + "\", " + c.stage + ", \"" + dir.path("o.tif") + "\"]"), "x", "x.json");
     if (c.expect == "gradient field")

@@ -94,7 +94,8 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
     // writer would create (the journal then says which windows it holds), else recreated.
     std::error_code ec;
     if (std::filesystem::exists(m_tmp, ec)) {
-      m_ds = static_cast<GDALDataset*>(GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
+      m_ds = static_cast<GDALDataset*>(
+          GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
       if (m_ds && (m_ds->GetRasterXSize() != width || m_ds->GetRasterYSize() != height || m_ds->GetRasterCount() != 1 ||
                    m_ds->GetRasterBand(1)->GetRasterDataType() != GDT_Float32)) {
         GDALClose(m_ds);
@@ -202,7 +203,8 @@ void GeoTiffWindowWriter::flush() {
   GDALClose(m_ds);
   m_ds = nullptr;
   if (CPLGetLastErrorType() >= CE_Failure) fail("io", "{}: flushing to disk failed ({})", m_tmp, last_gdal_error());
-  m_ds = static_cast<GDALDataset*>(GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
+  m_ds =
+      static_cast<GDALDataset*>(GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
   if (!m_ds) fail("io", "{}: reopening after a flush failed ({})", m_tmp, last_gdal_error());
 }
 

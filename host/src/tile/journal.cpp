@@ -1,9 +1,8 @@
 // Resume journals (journal.hpp).
 #include "tile/journal.hpp"
 
-#include <fmt/format.h>
-
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/file.h>
 #include <unistd.h>
 

@@ -14,7 +14,6 @@
 // source itself) into the next segment's source.
 #include <fmt/format.h>
 #include <gdal.h>
-
 #include <signal.h>
 #include <unistd.h>
 
