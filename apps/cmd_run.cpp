@@ -23,6 +23,7 @@ struct RunArgs {
   int tile = 0;                // --tile: run out of core, tile by tile (docs/scale.md)
   std::string halo = "auto";
   std::string memory_budget;
+  bool resume = false;  // --resume: skip the tiles an interrupted run finished
 };
 
 std::string human_size(const std::string& path) {
@@ -103,6 +104,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("--memory-budget", a->memory_budget,
                   "Host memory for a tiled run (512M, 2G): picks --tile when not given, refuses a tile that cannot fit")
       ->type_name("BYTES");
+  sub->add_flag("--resume", a->resume,
+                "Tiled runs: keep a journal beside each output and, after a crash, skip the tiles already written "
+                "(verified by checksum)");
   sub->callback([a] {
     Pipeline p = Pipeline::load(a->file);
     for (const auto& s : a->sets) p.set(s);
@@ -154,21 +158,33 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     } else if (a->halo != "auto") {
       throw UsageError("run", "--halo needs --tile (or --memory-budget)");
     }
+    if (a->resume && !tiled)
+      throw UsageError("run", "--resume needs --tile (or --memory-budget): only tiled runs keep a journal");
+    to.resume = a->resume;
+    TileCounts tiles;
     try {
       if (tiled)
-        run_tiled(p, to, ro, report);
+        run_tiled(p, to, ro, report, &tiles);
       else
         p.run(ro, report);
     } catch (const Cancelled&) {
       finish_progress();
       const auto done = report.outputs();
-      throw Cancelled("run",
-                  fmt::format("cancelled by Ctrl-C during stage '{}'; no partial file was left; {}", report.running,
-                              done.empty() ? std::string("nothing was written")
-                                           : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
+      throw Cancelled(
+          "run", fmt::format("cancelled by Ctrl-C during stage '{}'; {}; {}", report.running,
+                             a->resume ? "the partial outputs and their journals stay: rerun with --resume to go on"
+                                       : "no partial file was left",
+                             done.empty() ? std::string("nothing was written")
+                                          : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
     }
     finish_progress();
     print_report(p, report);
+    if (tiled && !json_progress())
+      fmt::print("tiles: {} run{}\n", tiles.run,
+                 a->resume
+                     ? fmt::format(", {} finished before (verified by checksum), {} re-run after a checksum mismatch",
+                                   tiles.skipped, tiles.mismatched)
+                     : std::string());
   });
 });
 

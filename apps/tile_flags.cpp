@@ -18,14 +18,19 @@ void TileFlags::add(CLI::App* sub) {
   sub->add_option("--memory-budget", memory_budget,
                   "Host memory for a tiled run (512M, 2G): picks --tile when not given, refuses a tile that cannot fit")
       ->type_name("BYTES");
+  sub->add_flag("--resume", resume,
+                "Tiled runs: keep a journal beside the output and, after a crash, skip the tiles already written "
+                "(verified by checksum)");
 }
 
 TileOptions TileFlags::options(const std::string& command) const {
   TileOptions to;
   if (!tiled()) {
     if (halo != "auto") throw UsageError(command, "--halo needs --tile (or --memory-budget)");
+    if (resume) throw UsageError(command, "--resume needs --tile (or --memory-budget): only tiled runs keep a journal");
     return to;
   }
+  to.resume = resume;
   if (tile < 0) throw UsageError(command, fmt::format("--tile: expected a positive number of cells, got {}", tile));
   to.tile = tile;
   if (halo != "auto") {
@@ -66,13 +71,19 @@ void TileFlags::run_stage(const std::string& command, const std::string& input, 
   ro.write_resolved = false;
   ro.progress = [command](const std::string&, size_t, size_t) { return make_progress(command); };
   RunReport report;
+  TileCounts tiles;
   try {
-    run_tiled(p, to, ro, report);
+    run_tiled(p, to, ro, report, &tiles);
   } catch (const Cancelled&) {
     finish_progress();
-    throw Cancelled(command, "cancelled by Ctrl-C; no output was written");
+    throw Cancelled(command, to.resume ? "cancelled by Ctrl-C; the partial output and its journal stay: rerun with "
+                                         "--resume to go on"
+                                       : "cancelled by Ctrl-C; no output was written");
   }
   finish_progress();
+  if (to.resume)
+    fmt::print("tiles: {} run, {} finished before (verified by checksum), {} re-run after a checksum mismatch\n",
+               tiles.run, tiles.skipped, tiles.mismatched);
 }
 
 void TileFlags::refuse_untiled_flag(const std::string& command, bool given, const std::string& flags) {

@@ -13,6 +13,7 @@ struct TileFlags {
   int tile = 0;
   std::string halo = "auto";
   std::string memory_budget;
+  bool resume = false;
   void add(CLI::App* sub);
   /// --tile or --memory-budget given.
   bool tiled() const { return tile != 0 || !memory_budget.empty(); }

@@ -65,7 +65,7 @@ void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&, con
 }  // namespace mesh
 
 // Tiled runs read and write GDAL windows.
-void run_tiled(const Pipeline&, const TileOptions&, const RunOptions&, RunReport&) {
+void run_tiled(const Pipeline&, const TileOptions&, const RunOptions&, RunReport&, TileCounts*) {
   fail("run", "--tile: tiled runs read and write GeoTIFF windows through GDAL, which the core build "
        "(TERRACL_CORE_ONLY) leaves out; use the full build");
 }

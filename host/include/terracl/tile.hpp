@@ -41,6 +41,10 @@ struct TileOptions {
   int tile = 0;                ///< core side in cells at each segment's source (0: from the budget, else 2048)
   std::optional<int> halo;     ///< extra halo; nullopt = auto (each stage's footprint)
   uint64_t memory_budget = 0;  ///< bytes of host memory for tiles and GDAL's cache (0: no limit)
+  /// --resume: each output is written under a fixed temporary name with a journal beside it
+  /// (tile index, checksum of its cells) flushed after every tile; a rerun skips the tiles whose
+  /// cells it finds intact in the partial output (docs/scale.md).
+  bool resume = false;
 };
 
 /// Seam metric of a tiled run with tiles of `tile` cells: the mean squared second difference of
@@ -55,7 +59,14 @@ uint64_t parse_memory_size(const std::string& text, const std::string& what);
 /// Runs a validated pipeline tile by tile (same outputs as Pipeline::run, bit for bit for exact
 /// stages). Throws UsageError naming the stage, its JSON path and the limit when a stage cannot
 /// run tiled, or when the budget cannot hold one tile.
-void run_tiled(const Pipeline& pipeline, const TileOptions& tile, const RunOptions& options, RunReport& report);
+/// `tiles`, when given, receives the tile counts (what a --resume run skipped).
+struct TileCounts {
+  size_t run = 0;         ///< tiles computed by this run (all segments)
+  size_t skipped = 0;     ///< --resume: finished by an interrupted run and verified by checksum
+  size_t mismatched = 0;  ///< --resume: journaled but the partial output's cells differed: re-run
+};
+void run_tiled(const Pipeline& pipeline, const TileOptions& tile, const RunOptions& options, RunReport& report,
+               TileCounts* tiles = nullptr);
 
 namespace analysis {
 

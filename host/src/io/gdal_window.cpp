@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <terracl/error.hpp>
 #include <utility>
 
@@ -75,11 +76,41 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
 
 void GdalWindowReader::release_cache() const { m_ds->FlushCache(); }
 
+uint64_t window_checksum(const float* cells, size_t n) {
+  uint64_t h = 1469598103934665603ull;
+  const auto* b = reinterpret_cast<const unsigned char*>(cells);
+  for (size_t i = 0; i < n * sizeof(float); ++i) h = (h ^ b[i]) * 1099511628211ull;
+  return h;
+}
+
 GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& g,
-                                         const Metadata& metadata)
-    : m_path(path), m_tmp(temporary_path_for(path)), m_nodata(g.nodata) {
+                                         const Metadata& metadata, const std::string& partial)
+    : m_path(path),
+      m_tmp(partial.empty() ? temporary_path_for(path) : partial),
+      m_resumable(!partial.empty()),
+      m_nodata(g.nodata) {
   init_gdal();
   CPLErrorReset();
+  if (m_resumable) {
+    // A partial output of an interrupted run: reopened for update when it is the raster this
+    // writer would create (the journal then says which windows it holds), else recreated.
+    std::error_code ec;
+    if (std::filesystem::exists(m_tmp, ec)) {
+      m_ds = static_cast<GDALDataset*>(
+          GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
+      if (m_ds && (m_ds->GetRasterXSize() != width || m_ds->GetRasterYSize() != height || m_ds->GetRasterCount() != 1 ||
+                   m_ds->GetRasterBand(1)->GetRasterDataType() != GDT_Float32)) {
+        GDALClose(m_ds);
+        m_ds = nullptr;
+      }
+      if (m_ds) {
+        m_reopened = true;
+        return;
+      }
+      CPLErrorReset();
+      std::filesystem::remove(m_tmp, ec);
+    }
+  }
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (!drv) fail("io", "GDAL has no GTiff driver");
   char** opts = nullptr;
@@ -90,10 +121,13 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   opts = CSLSetNameValue(opts, "BLOCKYSIZE", "256");
   // Compressed size is unknown up front: BigTIFF as soon as the uncompressed raster could pass 4 GB.
   opts = CSLSetNameValue(opts, "BIGTIFF", double(width) * height * 4 > 3.5e9 ? "YES" : "IF_SAFER");
+  // A resumable output is closed after every tile (flush()): without SPARSE_OK each close would
+  // first write every block not yet written.
+  if (m_resumable) opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
   m_ds = drv->Create(m_tmp.c_str(), width, height, 1, GDT_Float32, opts);
   CSLDestroy(opts);
   if (!m_ds) {
-    discard_temporary(m_tmp);
+    if (!m_resumable) discard_temporary(m_tmp);
     fail("io", "cannot create GeoTIFF {} ({})", path, last_gdal_error());
   }
   if (g.has_geotransform) {
@@ -122,13 +156,13 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
 GeoTiffWindowWriter::~GeoTiffWindowWriter() {
   if (m_ds) {
     GDALClose(m_ds);
-    discard_temporary(m_tmp);
+    if (!m_resumable) discard_temporary(m_tmp);  // a partial output stays for --resume
   }
 }
 
-void GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h) {
+uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h) {
   if (!m_ds) fail("io", "{}: written after commit", m_path);
-  if (w < 1 || h < 1) return;
+  if (w < 1 || h < 1) return window_checksum(nullptr, 0);
   m_buffer.resize(size_t(w) * h);
   const float nd = m_nodata ? float(*m_nodata) : NAN;
   for (int r = 0; r < h; ++r) {
@@ -146,6 +180,34 @@ void GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, in
   CPLErrorReset();
   if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, x, y, last_gdal_error());
+  return window_checksum(m_buffer.data(), m_buffer.size());
+}
+
+uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h) {
+  if (!m_ds) fail("io", "{}: read after commit", m_path);
+  if (w < 1 || h < 1) return window_checksum(nullptr, 0);
+  m_buffer.resize(size_t(w) * h);
+  CPLErrorReset();
+  if (m_ds->GetRasterBand(1)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+    fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_tmp, x, y, w, h, last_gdal_error());
+  // As write(): a NaN stored without a nodata value makes commit() declare NaN as nodata.
+  if (!m_nodata)
+    for (float v : m_buffer)
+      if (std::isnan(v)) m_any_nan = true;
+  return window_checksum(m_buffer.data(), m_buffer.size());
+}
+
+void GeoTiffWindowWriter::flush() {
+  if (!m_ds) return;
+  // FlushCache() leaves the last bytes in the stdio buffer of GDAL's file handle (a killed process
+  // loses them: a truncated block), so the file is closed, which writes everything, and reopened.
+  CPLErrorReset();
+  GDALClose(m_ds);
+  m_ds = nullptr;
+  if (CPLGetLastErrorType() >= CE_Failure) fail("io", "{}: flushing to disk failed ({})", m_tmp, last_gdal_error());
+  m_ds =
+      static_cast<GDALDataset*>(GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
+  if (!m_ds) fail("io", "{}: reopening after a flush failed ({})", m_tmp, last_gdal_error());
 }
 
 void GeoTiffWindowWriter::commit() {

@@ -2,6 +2,7 @@
 // Window-by-window raster I/O through GDAL, for tiled (out-of-core) runs: a reader that reads any
 // window of a GDAL raster (a VRT mosaic included) and a writer that fills a tiled GeoTIFF window by
 // window. Neither holds more than the window it is given (plus GDAL's block cache).
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -9,6 +10,11 @@
 #include <vector>
 
 class GDALDataset;
+
+namespace terracl::io {
+/// FNV-1a 64 of `n` float32 cells' bytes: the checksum of a window in a resume journal.
+uint64_t window_checksum(const float* cells, size_t n);
+}  // namespace terracl::io
 
 namespace terracl::io {
 
@@ -41,12 +47,23 @@ class GdalWindowReader {
 class GeoTiffWindowWriter {
  public:
   /// `georef` and `metadata` are the whole raster's (as write_geotiff would store them).
-  GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& georef, const Metadata& metadata);
-  ~GeoTiffWindowWriter();  ///< discards the temporary file unless committed
+  /// `partial` (resumable runs, --resume): a fixed temporary name instead of a unique one; it is
+  /// kept when the writer is destroyed uncommitted, and an existing float32 GeoTIFF of this size
+  /// there is reopened for update (reopened()) rather than recreated.
+  GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& georef, const Metadata& metadata,
+                      const std::string& partial = {});
+  ~GeoTiffWindowWriter();  ///< discards the temporary file unless committed (or resumable)
   GeoTiffWindowWriter(const GeoTiffWindowWriter&) = delete;
   GeoTiffWindowWriter& operator=(const GeoTiffWindowWriter&) = delete;
-  /// Writes cells [sx, sx + w) x [sy, sy + h) of `src` at (x, y) of the output.
-  void write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h);
+  /// Writes cells [sx, sx + w) x [sy, sy + h) of `src` at (x, y) of the output; returns the
+  /// checksum (window_checksum) of the float32 cells as stored (nodata substituted).
+  uint64_t write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h);
+  /// The checksum of the stored cells [x, x + w) x [y, y + h), read back from the file.
+  uint64_t checksum(int x, int y, int w, int h);
+  /// Writes GDAL's dirty blocks and the TIFF directory to the file, so that a process killed
+  /// afterwards leaves a readable file holding every window written so far.
+  void flush();
+  bool reopened() const { return m_reopened; }
   /// Closes the file and renames it to its final name.
   void commit();
   const std::string& path() const { return m_path; }
@@ -54,6 +71,7 @@ class GeoTiffWindowWriter {
  private:
   std::string m_path, m_tmp;
   GDALDataset* m_ds = nullptr;
+  bool m_resumable = false, m_reopened = false;
   std::optional<double> m_nodata;
   bool m_any_nan = false;
   std::vector<float> m_buffer;

@@ -14,9 +14,12 @@
 // source itself) into the next segment's source.
 #include <fmt/format.h>
 #include <gdal.h>
+#include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -27,6 +30,7 @@
 #include <terracl/version.hpp>
 
 #include "io/gdal_window.hpp"
+#include "tile/journal.hpp"
 #include "tile/tile_sinks.hpp"
 
 namespace terracl {
@@ -93,6 +97,7 @@ struct Op {
 
 struct Segment {
   std::string read_tag;  // the stage its reads are counted to
+  std::string stamp;     // --resume: what identifies the source's content (size and time of a file)
   std::shared_ptr<io::GdalWindowReader> source;
   Level level0;
   std::vector<Op> ops;
@@ -116,6 +121,11 @@ class TiledRun {
   void run_chain(size_t first, size_t last);
   void run_segment(const Segment& seg, const PipelineStage* global_after, const std::string& global_out,
                    const Metadata& global_metadata);
+  using Writers = std::map<const PipelineStage*, std::unique_ptr<io::GeoTiffWindowWriter>>;
+  using Journals = std::map<const PipelineStage*, std::unique_ptr<tile::TileJournal>>;
+  std::vector<char> prepare_resume(const Segment& seg, const std::vector<Level>& levels,
+                                   const std::vector<std::vector<Win>>& cores, int T, Writers& writers,
+                                   Journals& journals);
   void add_seconds(const PipelineStage& st, double s) { m_seconds[st.tag] += s; }
   [[noreturn]] void refuse(const PipelineStage& st, const std::string& why) const {
     throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot run tiled: {}", m_p.source(), st.where, st.tag,
@@ -142,7 +152,71 @@ class TiledRun {
   std::vector<std::string> m_temporaries;
   size_t m_progress_index = 0, m_progress_count = 1;
   std::function<Device&()> m_device;
+  size_t m_kill_after = 0;  // TERRACL_TEST_KILL_AFTER_TILES: SIGKILL after this many tiles (tests of --resume)
+
+ public:
+  TileCounts m_counts;
 };
+
+// What identifies a source file's content for a resume journal.
+std::string file_stamp(const std::string& path) {
+  std::error_code e1, e2;
+  const auto size = fs::file_size(path, e1);
+  const auto time = fs::last_write_time(path, e2);
+  if (e1 || e2) return path;
+  return fmt::format("{} {} {}", path, size, time.time_since_epoch().count());
+}
+
+// --resume: opens each writer's journal; a writer whose journal names this run reopens its partial
+// output, and a tile counts as finished when every writer it reaches holds its cells with the
+// journaled checksum. Returns, per tile, whether it is finished (1).
+std::vector<char> TiledRun::prepare_resume(const Segment& seg, const std::vector<Level>& levels,
+                                           const std::vector<std::vector<Win>>& cores, int T, Writers& writers,
+                                           Journals& journals) {
+  const std::string key = fmt::format("pipeline {} tile {} halo {} source {} tiles {}", m_hash, T,
+                                      m_t.halo ? std::to_string(*m_t.halo) : "auto", seg.stamp, cores.size());
+  std::vector<char> done(cores.size(), 0);
+  bool any_writer = false;
+  for (const Op& op : seg.ops)
+    if (op.tiling.kind == TileKind::Sink && op.st->type == "write") any_writer = true;
+  if (!any_writer) return done;
+  std::fill(done.begin(), done.end(), 1);
+  for (const Op& op : seg.ops) {
+    if (op.tiling.kind != TileKind::Sink || op.st->type != "write") continue;
+    const std::string f = op.st->options.at("filename").get<std::string>();
+    const Level& L = levels[op.level];
+    auto& j = journals[op.st];
+    j = std::make_unique<tile::TileJournal>(tile::journal_path_for(f), fmt::format("{} level {} x {}", key, L.w, L.h));
+    const std::string partial = tile::partial_path_for(f);
+    if (!j->entries().empty()) {
+      // Reopened as it is (its metadata were written when it was created).
+      auto wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, L.georef, Metadata{}, partial);
+      if (wr->reopened()) {
+        writers[op.st] = std::move(wr);
+      } else {
+        j->restart();
+      }
+    }
+    if (j->entries().empty()) {
+      writers.erase(op.st);
+      std::error_code ec;
+      fs::remove(partial, ec);
+    }
+    io::GeoTiffWindowWriter* wr = writers.count(op.st) ? writers[op.st].get() : nullptr;
+    for (size_t ti = 0; ti < cores.size(); ++ti) {
+      const Win& c = cores[ti][op.level];
+      if (c.empty() || !done[ti]) continue;
+      const auto it = j->entries().find(ti);
+      if (it == j->entries().end() || !wr) {
+        done[ti] = 0;
+      } else if (wr->checksum(c.x0, c.y0, c.w(), c.h()) != it->second) {
+        done[ti] = 0;
+        ++m_counts.mismatched;
+      }
+    }
+  }
+  return done;
+}
 
 int TiledRun::tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes) const {
   int align = 1;
@@ -170,6 +244,7 @@ void TiledRun::run() {
   if (m_t.tile < 0) throw UsageError("run", fmt::format("--tile must be a positive number of cells, got {}", m_t.tile));
   if (m_t.halo && *m_t.halo < 0) throw UsageError("run", fmt::format("--halo must be >= 0 or auto, got {}", *m_t.halo));
   m_hash = m_p.hash();
+  if (const char* k = std::getenv("TERRACL_TEST_KILL_AFTER_TILES")) m_kill_after = std::strtoull(k, nullptr, 10);
   for (const auto& f : m_p.outputs()) {
     const fs::path dir = fs::path(f).parent_path();
     std::error_code ec;
@@ -201,6 +276,10 @@ void TiledRun::run() {
     }
     const StageTiling tl = tiling_of(st);
     if (tl.kind == TileKind::Untileable) refuse(st, tl.limit);
+    if (m_t.resume && tl.kind == TileKind::Sink && st.type != "write")
+      throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot --resume: it builds its picture in a file "
+                                          "of its own that keeps no journal; run without --resume",
+                                          m_p.source(), st.where, st.tag, st.type));
     if (st.info->input == DataKind::None && tl.kind != TileKind::Source)
       refuse(st, "a tiled chain starts with a reader");
   }
@@ -222,6 +301,7 @@ void TiledRun::run_chain(size_t first, size_t last) {
   Segment seg;
   seg.read_tag = reader.tag;
   seg.source = std::make_shared<io::GdalWindowReader>(reader.options.at("filename").get<std::string>());
+  seg.stamp = file_stamp(reader.options.at("filename").get<std::string>());
   seg.level0 = {seg.source->width(), seg.source->height(), seg.source->header().georef};
   add_seconds(reader, std::chrono::duration<double>(Clock::now() - t0).count());
   Level level = seg.level0;
@@ -248,6 +328,7 @@ void TiledRun::run_chain(size_t first, size_t last) {
       if (direct) return;
       Segment next;
       next.read_tag = st.tag;
+      next.stamp = st.tag;  // recomputed by every run from the same input: its name suffices
       next.source = std::make_shared<io::GdalWindowReader>(out);
       next.level0 = level;  // the level's own georef (metric cell size), not one recomputed from the file
       next.level0.georef.nodata = next.source->header().georef.nodata;
@@ -330,7 +411,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   }
 
   // Writers of this segment, created at the first tile that reaches them.
-  std::map<const PipelineStage*, std::unique_ptr<io::GeoTiffWindowWriter>> writers;
+  Writers writers;
+  Journals journals;  // --resume
   std::unique_ptr<io::GeoTiffWindowWriter> temp_writer;
   std::map<const PipelineStage*, std::unique_ptr<tile::TileSink>> stage_sinks;  // sinks other than `write`
   const Level& W0 = levels[0];
@@ -388,7 +470,23 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       }
       if (!need[0].empty()) plans.push_back({std::move(core), std::move(need)});
     }
+  // --resume: tiles an interrupted run finished (segments feeding a global stage are recomputed).
+  const bool resumable = m_t.resume && !to_temp;
+  std::vector<char> finished(plans.size(), 0);
+  if (resumable) {
+    std::vector<std::vector<Win>> cores;
+    for (const auto& pl : plans) cores.push_back(pl.core);
+    finished = prepare_resume(seg, levels, cores, T, writers, journals);
+  }
+  std::vector<std::pair<const PipelineStage*, uint64_t>> written;  // this tile's checksum per writer
   for (size_t ti = 0; ti < plans.size(); ++ti) {
+    if (finished[ti]) {
+      ++m_counts.skipped;
+      report_progress(prog, "tiles", double(ti + 1) / plans.size(),
+                      fmt::format("tile {}/{} (finished before)", ti + 1, plans.size()));
+      continue;
+    }
+    written.clear();
     const std::vector<Win>& core = plans[ti].core;
     const std::vector<Win>& need = plans[ti].need;
     auto t0 = Clock::now();
@@ -431,10 +529,11 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           drop_terracl_keys(md);
           for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
           const std::string f = op.st->options.at("filename").get<std::string>();
-          wr = std::make_unique<io::GeoTiffWindowWriter>(f, levels[l].w, levels[l].h, levels[l].georef, md);
+          wr = std::make_unique<io::GeoTiffWindowWriter>(f, levels[l].w, levels[l].h, levels[l].georef, md,
+                                                         resumable ? tile::partial_path_for(f) : std::string());
         }
         const Win& c = core[l];
-        wr->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+        written.emplace_back(op.st, wr->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h()));
       } else {
         const Win& n = need[l + 1];
         if (n.empty()) break;
@@ -476,11 +575,20 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       const Win& c = core[nl - 1];
       temp_writer->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
     }
+    // --resume: the tile's blocks reach the partial file before the journal names the tile.
+    for (const auto& [st, sum] : written)
+      if (auto j = journals.find(st); j != journals.end()) {
+        writers.at(st)->flush();
+        j->second->record(ti, sum);
+      }
+    ++m_counts.run;
+    if (m_kill_after && m_counts.run == m_kill_after) ::kill(::getpid(), SIGKILL);
     report_progress(prog, "tiles", double(ti + 1) / plans.size(), fmt::format("tile {}/{}", ti + 1, plans.size()));
   }
   for (auto& [st, wr] : writers) {
     auto t0 = Clock::now();
     wr->commit();
+    if (auto j = journals.find(st); j != journals.end()) j->second->remove();
     add_seconds(*st, std::chrono::duration<double>(Clock::now() - t0).count());
   }
   for (auto& [st, sink] : stage_sinks) {
@@ -529,11 +637,12 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
 
 }  // namespace
 
-void run_tiled(const Pipeline& p, const TileOptions& t, const RunOptions& o, RunReport& report) {
+void run_tiled(const Pipeline& p, const TileOptions& t, const RunOptions& o, RunReport& report, TileCounts* tiles) {
   const auto t_start = Clock::now();
   report = RunReport{};
   TiledRun run(p, t, o, report);
   run.run();
+  if (tiles) *tiles = run.m_counts;
   if (o.write_resolved) {
     report.resolved_path = p.resolved_path();
     const fs::path dir = fs::path(report.resolved_path).parent_path();
