@@ -5,6 +5,7 @@
 #include "tile_flags.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/hypre.hpp>
 #include <terracl/io.hpp>
 #include <terracl/stage.hpp>
 #include <terracl/stage_memory.hpp>
@@ -96,7 +97,8 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       throw Cancelled(s.name, "cancelled by Ctrl-C; no output was written");
     }
     finish_progress();
-    if (a->output.empty()) return;
+    // Under mpirun a hypre reconstruct runs on every rank; rank 0 writes the result.
+    if (a->output.empty() || !hypre_is_root_rank()) return;
     if (data.current == DataKind::Gradient || (s.output == DataKind::Gradient && data.gradient)) {
       GradientField& g = *data.gradient;
       for (const auto& [k, v] : ctx.provenance) g.metadata[k] = v;

@@ -10,6 +10,7 @@ PACKAGES=(
   libgdal-dev gdal-bin
   libflann-dev liblz4-dev
   libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev
+  libhypre-dev libopenmpi-dev openmpi-bin  # -DTERRACL_MPI=ON: reconstruct --solver hypre (docs/scale.md)
   libgtest-dev libbenchmark-dev
   libtinygltf-dev
   libcpp-httplib-dev libjs-three

@@ -1,10 +1,12 @@
 // `terracl extract` / `terracl reconstruct` / `terracl bench reconstruct` as a user runs them.
 #include "test_helpers.hpp"
 
+#include <terracl/hypre.hpp>
 #include <terracl/io.hpp>
 
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
 #include <fstream>
 
 using namespace terracl;
@@ -92,4 +94,25 @@ TEST(ReconstructCli, BenchPrintsTheFigures) {
   ASSERT_EQ(b.exit_code, 0) << b.out;
   for (const char* key : {"median_ms", "cycles", "final_relative_residual", "max_error_m", "device_memory_mb"})
     EXPECT_NE(b.out.find(key), std::string::npos) << key << "\n" << b.out;
+}
+
+// --solver hypre: a clear error in builds without hypre (the default build); with -DTERRACL_MPI=ON
+// it solves (tests/hypre/ checks its answers).
+TEST(ReconstructCli, SolverHypreIsRefusedWithoutHypreAndRunsWithIt) {
+  test::TempDir dir;
+  const std::string dem = test::data_path("crops/frontrange_64.asc");
+  ASSERT_EQ(test::run_cli("extract " + dem + " -o " + dir.path("g.exr") + " -q").exit_code, 0);
+  const auto r = test::run_cli("reconstruct " + dir.path("g.exr") + " --solver hypre -o " + dir.path("out.tif") + " -q");
+  if (hypre_available()) {
+    EXPECT_EQ(r.exit_code, 0) << r.out;
+    EXPECT_TRUE(std::filesystem::exists(dir.path("out.tif")));
+  } else {
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.out.find("--solver hypre: this build has no hypre (configure with -DTERRACL_MPI=ON"), std::string::npos)
+        << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("out.tif")));
+  }
+  const auto bad = test::run_cli("reconstruct " + dir.path("g.exr") + " --solver petsc -o " + dir.path("x.tif"));
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.out.find("hypre"), std::string::npos) << bad.out;  // the choices are listed
 }

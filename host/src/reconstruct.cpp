@@ -6,6 +6,7 @@
 #include "row_launch.hpp"
 #include <terracl/reconstruct.hpp>
 
+#include "hypre/hypre_solve.hpp"
 #include "multigrid/multigrid.hpp"
 
 #include <chrono>
@@ -26,7 +27,7 @@ using RhsMaker = std::function<void(Device&, cl::Buffer& g)>;
 
 ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
                                double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
-                               const SolverOptions& o) {
+                               const SolverOptions& o, const hypre::RowDivergence& row_div = {}) {
   const double t0 = now_ms();
   if (W < 1 || H < 1) fail("reconstruct", "empty input grid");
   const double cx = georef.cell_x, cy = georef.cell_y;
@@ -70,6 +71,10 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     double s = 0;
     for (float v : o.initial->z) s += v;
     target = s / double(o.initial->size());
+  }
+  if (o.solver == Solver::Hypre) {
+    if (!row_div) fail("reconstruct", "the hypre solver needs the problem on the host");
+    return hypre::solve(W, H, georef, meta, row_div, hard_index, hard_value, target, o);
   }
   // Work with the deviation from a reference level: float32 keeps more digits for the solve.
   const double m = singular ? target : hard_sum / double(hard);
@@ -220,6 +225,14 @@ Refinement parse_refinement(const std::string& s) {
   fail("reconstruct", "unknown refinement '{}' (off|auto|device|host)", s);
 }
 
+Solver parse_solver(const std::string& s) {
+  if (s == "multigrid") return Solver::Multigrid;
+  if (s == "hypre") return Solver::Hypre;
+  fail("reconstruct", "unknown solver '{}' (multigrid|hypre)", s);
+}
+
+const char* solver_name(Solver s) { return s == Solver::Hypre ? "hypre" : "multigrid"; }
+
 const char* refinement_name(Refinement r) {
   switch (r) {
     case Refinement::Off: return "off";
@@ -258,7 +271,9 @@ nlohmann::json ReconstructResult::to_json() const {
           {"device_bytes", device_bytes},
           {"refinement", refinement},
           {"refine_cycles", refine_cycles},
-          {"refine_relative_residuals", refine_residuals}};
+          {"refine_relative_residuals", refine_residuals},
+          {"solver", solver},
+          {"mpi_ranks", ranks}};
 }
 
 ReconstructResult reconstruct(Device& d, const GradientField& gin, const ConstraintSet& c, const SolverOptions& o) {
@@ -282,7 +297,18 @@ ReconstructResult reconstruct(Device& d, const GradientField& gin, const Constra
     dev.queue().enqueueWriteBuffer(gy, CL_FALSE, 0, bytes, g->gy.data());
     enqueue_divergence(dev, gx, gy, out, g->width, g->height, g->georef.cell_x, g->georef.cell_y, -1.0f);
   };
-  return solve_common(d, W, H, g->georef, g->metadata, g->mean_elevation, rhs, c, o);
+  // The same backward differences as kernels/gradient.cl's divergence, in double (hypre).
+  hypre::RowDivergence row_div = [g](int y, double* f) {
+    const int W = g->width, H = g->height;
+    const double icx = 1.0 / g->georef.cell_x, icy = 1.0 / g->georef.cell_y;
+    const size_t o = size_t(y) * W;
+    for (int x = 0; x < W; ++x) {
+      const double ex = x + 1 < W ? g->gx[o + x] : 0.0, wx = x > 0 ? g->gx[o + x - 1] : 0.0;
+      const double sy = y + 1 < H ? g->gy[o + x] : 0.0, ny = y > 0 ? g->gy[o - W + x] : 0.0;
+      f[x] = (ex - wx) * icx + (sy - ny) * icy;
+    }
+  };
+  return solve_common(d, W, H, g->georef, g->metadata, g->mean_elevation, rhs, c, o, row_div);
 }
 
 ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::Buffer& gy, const GradientField& like,
@@ -292,6 +318,18 @@ ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::
   const size_t need = size_t(like.width) * size_t(like.height) * sizeof(float);
   if (gx.getInfo<CL_MEM_SIZE>() < need || gy.getInfo<CL_MEM_SIZE>() < need)
     fail("reconstruct", "device gradient buffers are smaller than {}x{} floats", like.width, like.height);
+  if (o.solver == Solver::Hypre) {  // hypre solves on the host: bring the field back
+    GradientField g = like;
+    g.gx.resize(like.width * size_t(like.height));
+    g.gy.resize(g.gx.size());
+    try {
+      d.queue().enqueueReadBuffer(gx, CL_FALSE, 0, need, g.gx.data());
+      d.queue().enqueueReadBuffer(gy, CL_TRUE, 0, need, g.gy.data());
+    } catch (const cl::Error& e) {
+      fail("reconstruct", "{}", describe(e));
+    }
+    return reconstruct(d, g, c, o);
+  }
   RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
     enqueue_divergence(dev, gx, gy, out, like.width, like.height, like.georef.cell_x, like.georef.cell_y, -1.0f);
   };
@@ -306,8 +344,13 @@ ReconstructResult reconstruct_divergence(Device& d, const Heightfield& f, const 
     for (size_t i = 0; i < neg.size(); ++i) neg[i] = -f.z[i];
     dev.queue().enqueueWriteBuffer(out, CL_TRUE, 0, neg.size() * sizeof(float), neg.data());
   };
+  hypre::RowDivergence row_div = [&f](int y, double* out) {
+    const float* row = f.z.data() + size_t(y) * f.width;
+    for (int x = 0; x < f.width; ++x) out[x] = row[x];
+  };
   Georef geo = f.georef;
-  return solve_common(d, f.width, f.height, geo, f.metadata, std::numeric_limits<double>::quiet_NaN(), rhs, c, o);
+  return solve_common(d, f.width, f.height, geo, f.metadata, std::numeric_limits<double>::quiet_NaN(), rhs, c, o,
+                      row_div);
 }
 
 }  // namespace terracl

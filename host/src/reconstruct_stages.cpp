@@ -4,6 +4,7 @@
 #include <terracl/error.hpp>
 #include <terracl/memory.hpp>
 #include <terracl/gradient.hpp>
+#include <terracl/hypre.hpp>
 #include <terracl/io.hpp>
 #include <terracl/reconstruct.hpp>
 
@@ -49,10 +50,20 @@ void run_reconstruct(StageContext& c) {
   }
   const int W = use_div ? f.width : g.width, H = use_div ? f.height : g.height;
   const Georef& geo = use_div ? f.georef : g.georef;
+  const Solver solver = parse_solver(c.get<std::string>("solver"));
+  if (solver == Solver::Hypre && !hypre_available())
+    throw UsageError("reconstruct", "--solver hypre: this build has no hypre (configure with -DTERRACL_MPI=ON, "
+                                    "Debian's libhypre-dev and libopenmpi-dev); use --solver multigrid");
   // Before the solver allocates (terracl/memory.hpp): the multigrid hierarchy (4/3 of ~7 float
-  // fields of the finest level) on the device, the constraints and the result here.
-  require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid", W, H), double(W) * H * 24,
-                 double(W) * H * 40, double(W) * H * 4, &c.device(), "reconstruct a smaller grid (crop it)");
+  // fields of the finest level) on the device, the constraints and the result here; hypre's
+  // matrix, vectors and PFMG hierarchy in double on the host (this rank's band; every rank holds
+  // the inputs and the result).
+  if (solver == Solver::Hypre)
+    require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid with hypre", W, H),
+                   double(W) * H * kHypreHostBytesPerCell, 0, 0, nullptr, "reconstruct a smaller grid (crop it)");
+  else
+    require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid", W, H), double(W) * H * 24,
+                   double(W) * H * 40, double(W) * H * 4, &c.device(), "reconstruct a smaller grid (crop it)");
   if (initial && (initial->width != W || initial->height != H))
     fail("reconstruct", "the initial heightfield is {}x{}, the gradient {}x{}", initial->width, initial->height, W, H);
 
@@ -84,10 +95,11 @@ void run_reconstruct(StageContext& c) {
     throw UsageError("reconstruct", "--border dirichlet takes the border values from --initial, which is missing");
   if (initial && (c.has("initial") || o.dirichlet_border)) o.initial = &*initial;
   o.progress = c.progress;
+  o.solver = solver;
   ReconstructResult r = use_div ? reconstruct_divergence(c.device(), f, cs, o) : reconstruct(c.device(), g, cs, o);
-  if (c.has("report")) {
+  if (c.has("report") && hypre_is_root_rank()) {
     nlohmann::json j = r.to_json();
-    if (o.cycle == Cycle::Cascade) {
+    if (o.cycle == Cycle::Cascade && solver == Solver::Multigrid) {
       // How far the published one-pass schedule stays from the converged solution.
       SolverOptions fo = o;
       fo.cycle = Cycle::Fmg;
@@ -109,10 +121,10 @@ void run_reconstruct(StageContext& c) {
     }
     write_text_file_atomic(c.get<std::string>("report"), j.dump(2) + "\n");
   }
-  if (!r.converged && !r.stagnated && o.cycle != Cycle::Cascade)
-    fail("reconstruct", "did not converge in {} cycles (relative residual {:.3g}, tolerance {:.3g})", r.cycles,
-         r.residuals.back(), o.tolerance);
-  if (o.refine != Refinement::Off) r.height.metadata["terracl:refinement"] = r.refinement;
+  if (!r.converged && !r.stagnated && (o.cycle != Cycle::Cascade || solver == Solver::Hypre))
+    fail("reconstruct", "did not converge in {} {} (relative residual {:.3g}, tolerance {:.3g})", r.cycles,
+         solver == Solver::Hypre ? "CG iterations" : "cycles", r.residuals.back(), o.tolerance);
+  if (o.refine != Refinement::Off && solver == Solver::Multigrid) r.height.metadata["terracl:refinement"] = r.refinement;
   c.data.height = std::move(r.height);
   c.data.current = DataKind::Heightfield;
 }
@@ -190,12 +202,18 @@ void bench_reconstruct(const BenchArgs& a) {
   o.post_smooth = e.value("post", o.post_smooth);
   o.refine = parse_refinement(e.value("refine", std::string("off")));
   o.refine_tolerance = e.value("refine_tolerance", o.refine_tolerance);
+  o.solver = parse_solver(e.value("solver", std::string("multigrid")));
   const double fixed = e.value("fixed", 0.01);
   const int n = a.size;
   BenchProblem p = make_problem(n, fixed, 7);
-  fmt::print("reconstruct {}x{}: cycle {}, smoother {}, {:.4g} % fixed cells, refine {}, device {}\n", n, n,
-             cycle_name(o.cycle), smoother_name(o.smoother), 100 * fixed, refinement_name(o.refine), dev->info().name);
   ReconstructResult r = reconstruct(*dev, p.g, p.c, o);  // warm-up: builds kernels, first-touch memory
+  // Under mpirun (hypre) every rank runs the benchmark; rank 0 prints.
+  const bool print = hypre_is_root_rank();
+  if (print && o.solver == Solver::Hypre)
+    fmt::print("reconstruct {}x{}: solver hypre (PFMG-CG), {:.4g} % fixed cells, {}\n", n, n, 100 * fixed, r.device);
+  else if (print)
+    fmt::print("reconstruct {}x{}: cycle {}, smoother {}, {:.4g} % fixed cells, refine {}, device {}\n", n, n,
+               cycle_name(o.cycle), smoother_name(o.smoother), 100 * fixed, refinement_name(o.refine), dev->info().name);
   std::vector<double> ms, cpu;
   for (int i = 0; i < a.repeats; ++i) {
     const double c0 = cpu_ms();
@@ -205,6 +223,7 @@ void bench_reconstruct(const BenchArgs& a) {
   }
   std::sort(ms.begin(), ms.end());
   std::sort(cpu.begin(), cpu.end());
+  if (!print) return;
   double err = 0;
   for (size_t i = 0; i < p.exact.size(); ++i) err = std::max(err, std::fabs(double(r.height.z[i]) - p.exact[i]));
   fmt::print("median_ms {:.2f}   (min {:.2f}, max {:.2f}, {} runs after 1 warm-up; setup {:.2f} ms, cycles {:.2f} ms "
@@ -213,7 +232,10 @@ void bench_reconstruct(const BenchArgs& a) {
   fmt::print("median_cpu_ms {:.2f}   (CPU time of all threads per solve: on a shared machine wall time is inflated "
              "by other processes, CPU time much less)\n",
              cpu[cpu.size() / 2]);
-  fmt::print("cycles {}{}   levels {}\n", r.cycles, o.cycle == Cycle::Fmg ? " V(2,2) after the FMG pass" : "", r.levels);
+  if (o.solver == Solver::Hypre)
+    fmt::print("cg_iterations {}   (one PFMG V(1,1) cycle each)\n", r.cycles);
+  else
+    fmt::print("cycles {}{}   levels {}\n", r.cycles, o.cycle == Cycle::Fmg ? " V(2,2) after the FMG pass" : "", r.levels);
   fmt::print("final_relative_residual {:.3e}   ({})\n", r.residuals.back(),
              r.converged ? "converged" : r.stagnated ? "stopped at the float32 floor" : "not converged");
   fmt::print("residual_history");
@@ -263,6 +285,13 @@ void register_reconstruct_stages(StageRegistry& r) {
                         "refinement stops when a correction is at most this fraction of the range"}
                  .range(1e-16, 1),
              {"mean", OptionType::Float, nullptr, "m", "mean elevation when no cell is fixed (default: the source's)"},
+             {"solver",
+              OptionType::Enum,
+              "multigrid",
+              "",
+              "multigrid: the device's float32 multigrid; hypre: PFMG-preconditioned CG in double on the host, "
+              "over the MPI ranks under mpirun (builds with -DTERRACL_MPI=ON; max_cycles = CG iterations)",
+              {"multigrid", "hypre"}},
              {"border", OptionType::Enum, "neumann", "", "grid border condition", {"neumann", "dirichlet"}},
              {"report", OptionType::OutputPath, nullptr, "", "write cycles, residuals, times and device as JSON"},
          },
@@ -284,7 +313,7 @@ void register_reconstruct_stages(StageRegistry& r) {
 void register_reconstruct_benches(BenchRegistry& r) {
   r.add({"reconstruct",
          "Multigrid reconstruction of an NxN smooth terrain with 1 % random fixed cells (--set cycle=, smoother=, "
-         "fixed=, tolerance=, refine=off|auto|device|host)",
+         "fixed=, tolerance=, refine=off|auto|device|host, solver=multigrid|hypre)",
          bench_reconstruct});
 }
 

@@ -30,14 +30,20 @@ enum class Smoother { Rbgs, Jacobi };
 /// Auto: on the device where it has cl_khr_fp64, else on the host; Device: fp64 on the device
 /// (error without cl_khr_fp64); Host: residual and accumulation on the host (any device).
 enum class Refinement { Off, Auto, Device, Host };
+/// Multigrid: the device's float32 geometric multigrid. Hypre: hypre's structured solver
+/// (PFMG-preconditioned CG in double on the host, distributed over MPI ranks under mpirun; the
+/// same discretisation; only in builds with -DTERRACL_MPI=ON, see terracl/hypre.hpp).
+enum class Solver { Multigrid, Hypre };
 
 Cycle parse_cycle(const std::string& s);          ///< "v" | "w" | "fmg" | "cascade"
 Smoother parse_smoother(const std::string& s);    ///< "rbgs" | "jacobi"
 Refinement parse_refinement(const std::string& s);  ///< "off" | "auto" | "device" | "host"
+Solver parse_solver(const std::string& s);          ///< "multigrid" | "hypre"
 /// Names as the parsers take them (reports, --help).
 const char* cycle_name(Cycle c);
 const char* smoother_name(Smoother s);
 const char* refinement_name(Refinement r);
+const char* solver_name(Solver s);
 
 /// Multigrid settings (defaults: FMG then V-cycles, red-black Gauss-Seidel, 1e-6 relative residual).
 struct SolverOptions {
@@ -61,6 +67,9 @@ struct SolverOptions {
   /// Warm start (e.g. the previous solution of an interactive edit); not copied, may be null.
   const Heightfield* initial = nullptr;
   Progress progress;
+  /// Solver::Hypre: tolerance is hypre's relative residual (same definition, in double) and
+  /// max_cycles its CG iteration limit; cycle, smoother and refine do not apply.
+  Solver solver = Solver::Multigrid;
 };
 
 /// The solved heightfield and the solver's figures (the --report file).
@@ -82,6 +91,9 @@ struct ReconstructResult {
   std::string refinement = "off";
   int refine_cycles = 0;
   std::vector<double> refine_residuals;
+  /// "multigrid" or "hypre"; MPI ranks that took part (hypre; 1 otherwise).
+  std::string solver = "multigrid";
+  int ranks = 1;
   /// cycles, residuals, times, memory and device as JSON (the --report file).
   nlohmann::json to_json() const;
 };

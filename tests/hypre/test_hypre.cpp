@@ -1,0 +1,238 @@
+// hypre back end of the reconstruction (builds with -DTERRACL_MPI=ON; ctest label `mpi`): the
+// same discrete problem as the device multigrid, checked against an Eigen direct solve and
+// against the device on a real DEM crop. 2 ranks vs 1: scripts/hypre-ranks-check.sh.
+#include "recon_reference.hpp"
+
+#include <terracl/constraints.hpp>
+#include <terracl/gradient.hpp>
+#include <terracl/hypre.hpp>
+#include <terracl/io.hpp>
+#include <terracl/reconstruct.hpp>
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+using namespace terracl;
+
+// A few helpers of tests/test_helpers.cpp, inline: this executable compiles one file (CI time).
+namespace terracl::test {
+namespace {
+Device& device() {
+  static std::shared_ptr<Device> d = Device::open();
+  return *d;
+}
+std::string data_path(const std::string& rel) { return std::string(TERRACL_SOURCE_DIR) + "/data/" + rel; }
+struct TempDir {
+  std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                              ("terracl_hypre_" + std::to_string(::getpid()) + "_" + std::to_string(std::rand()));
+  TempDir() { std::filesystem::create_directories(dir); }
+  ~TempDir() { std::filesystem::remove_all(dir); }
+  std::string path(const std::string& n) const { return (dir / n).string(); }
+};
+struct CmdResult {
+  int exit_code;
+  std::string out;
+};
+CmdResult run_cli(const std::string& args) {
+  FILE* p = popen((std::string(TERRACL_CLI) + " " + args + " 2>&1").c_str(), "r");
+  CmdResult r{-1, ""};
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+// Smooth terrain: a sum of sines (as test_helpers' smooth_terrain).
+Heightfield smooth_terrain(int w, int h, double cell, double relief, unsigned seed) {
+  Heightfield t(w, h);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double kx[6], ky[6], ph[6];
+  for (int i = 0; i < 6; ++i) kx[i] = (1 + 3 * u(rng)) * 2 * M_PI / w, ky[i] = (1 + 3 * u(rng)) * 2 * M_PI / h, ph[i] = 2 * M_PI * u(rng);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      double v = 1000;
+      for (int i = 0; i < 6; ++i) v += relief / (i + 2) * std::sin(kx[i] * x + ky[i] * y + ph[i]);
+      t.z[size_t(y) * w + x] = float(v);
+    }
+  t.georef.cell_x = t.georef.cell_y = cell;
+  return t;
+}
+}  // namespace
+}  // namespace terracl::test
+
+namespace {
+
+// The divergence of a staggered gradient in double (what both solvers invert).
+std::vector<double> divergence_of(const GradientField& g) {
+  const int W = g.width, H = g.height;
+  const double cx = g.georef.cell_x, cy = g.georef.cell_y;
+  std::vector<double> f(g.size());
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      const double ex = x + 1 < W ? g.gx[i] : 0.0, wx = x > 0 ? g.gx[i - 1] : 0.0;
+      const double sy = y + 1 < H ? g.gy[i] : 0.0, ny = y > 0 ? g.gy[i - W] : 0.0;
+      f[i] = (ex - wx) / cx + (sy - ny) / cy;
+    }
+  return f;
+}
+
+GradientField staggered_of(const Heightfield& h) {
+  GradientField g(h.width, h.height);
+  g.georef = h.georef;
+  const int W = h.width, H = h.height;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      g.gx[i] = x + 1 < W ? float((double(h.z[i + 1]) - h.z[i]) / h.georef.cell_x) : 0.f;
+      g.gy[i] = y + 1 < H ? float((double(h.z[i + W]) - h.z[i]) / h.georef.cell_y) : 0.f;
+    }
+  return g;
+}
+
+SolverOptions hypre_options(double tol = 1e-11) {
+  SolverOptions o;
+  o.solver = Solver::Hypre;
+  o.tolerance = tol;
+  o.max_cycles = 500;
+  return o;
+}
+
+}  // namespace
+
+// Anisotropic cells, hard values off the terrain (so they shape the solution), a hard cell on the
+// border and two neighbouring hard cells: hypre == Eigen's LDLT of the same system.
+TEST(Hypre, MatchesTheEigenDirectSolve) {
+  const int W = 41, H = 29;
+  Heightfield h = test::smooth_terrain(W, H, 10.0, 300.0, 3);
+  h.georef.cell_x = 10.0;
+  h.georef.cell_y = 7.0;
+  const GradientField g = staggered_of(h);
+  ConstraintSet c(W, H);
+  std::vector<float> fixed(size_t(W) * H, NAN);
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> px(0, W - 1), py(0, H - 1);
+  auto fix = [&](int x, int y, float z) {
+    c.add_cell(x, y, z, ConstraintKind::Raster);
+    fixed[size_t(y) * W + x] = z;
+  };
+  for (int k = 0; k < 12; ++k) {
+    const int x = px(rng), y = py(rng);
+    fix(x, y, h.z[size_t(y) * W + x] + 40.0f * float(k % 3 - 1));
+  }
+  fix(0, 5, 900.f);
+  fix(20, 0, 1100.f);
+  fix(21, 0, 1105.f);
+  const ReconstructResult r = reconstruct(test::device(), g, c, hypre_options());
+  EXPECT_EQ(r.solver, "hypre");
+  EXPECT_TRUE(r.converged);
+  EXPECT_LE(r.residuals.back(), 1e-11);
+  const std::vector<double> ref = test::direct_solve(divergence_of(g), fixed, W, H, 10.0, 7.0);
+  const double range = test::range_of(ref);
+  std::printf("hypre vs Eigen: %.3e m of a %.1f m range, %d CG iterations\n", test::max_abs_diff(r.height.z, ref),
+              range, r.cycles);
+  EXPECT_LT(test::max_abs_diff(r.height.z, ref), 1e-6 * range) << "range " << range;
+  for (size_t i = 0; i < fixed.size(); ++i)
+    if (!std::isnan(fixed[i])) EXPECT_EQ(r.height.z[i], fixed[i]) << "hard cell " << i;
+}
+
+// No hard cell: the pure-Neumann problem (pinned and shifted to the mean) returns the terrain.
+TEST(Hypre, PureNeumannRoundTripKeepsTheMean) {
+  const int W = 37, H = 30;
+  const Heightfield h = test::smooth_terrain(W, H, 20.0, 400.0, 9);
+  GradientField g = staggered_of(h);
+  double mean = 0, lo = 1e30, hi = -1e30;
+  for (float v : h.z) mean += v, lo = std::min<double>(lo, v), hi = std::max<double>(hi, v);
+  mean /= double(h.size());
+  SolverOptions o = hypre_options();
+  o.mean = mean;
+  const ReconstructResult r = reconstruct(test::device(), g, ConstraintSet(), o);
+  EXPECT_TRUE(r.converged);
+  double err = 0, rmean = 0;
+  for (size_t i = 0; i < h.size(); ++i) err = std::max(err, std::fabs(double(r.height.z[i]) - h.z[i])), rmean += r.height.z[i];
+  EXPECT_LT(err, 1e-5 * (hi - lo));
+  EXPECT_NEAR(rmean / double(h.size()), mean, 1e-3);
+}
+
+// The acceptance: a real DEM crop's gradient with a few hard constraints, hypre vs the
+// device multigrid (refined to double accuracy) equal to 1e-5 of the range; the plain float
+// multigrid too.
+TEST(Hypre, EqualsTheDeviceMultigridOnADemCrop) {
+  const Heightfield dem = read_heightfield(test::data_path("dem/frontrange_srtm3_758.asc"));
+  const int W = 193, H = 161, x0 = 300, y0 = 250;
+  Heightfield crop(W, H);
+  crop.georef = dem.georef;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) crop.z[size_t(y) * W + x] = dem.z[size_t(y + y0) * dem.width + x + x0];
+  const GradientField g = extract_gradient(test::device(), crop);
+  ConstraintSet c(W, H);
+  // A raised summit, a lowered valley cell, a short ridge line and a corner.
+  c.add_cell(40, 30, crop.z[30 * W + 40] + 60.f, ConstraintKind::Point);
+  c.add_cell(150, 120, crop.z[120 * W + 150] - 45.f, ConstraintKind::Point);
+  for (int x = 80; x < 110; ++x) c.add_cell(x, 70, crop.z[70 * W + 80] + 10.f, ConstraintKind::Polyline);
+  c.add_cell(W - 1, H - 1, crop.z[size_t(H) * W - 1], ConstraintKind::Point);
+
+  const ReconstructResult hy = reconstruct(test::device(), g, c, hypre_options(1e-10));
+  ASSERT_TRUE(hy.converged);
+  SolverOptions mo;
+  mo.refine = Refinement::Auto;
+  const ReconstructResult mg = reconstruct(test::device(), g, c, mo);
+  SolverOptions fo;
+  const ReconstructResult mf = reconstruct(test::device(), g, c, fo);
+  double lo = 1e30, hi = -1e30, d_ref = 0, d_float = 0;
+  for (size_t i = 0; i < hy.height.size(); ++i) {
+    lo = std::min<double>(lo, hy.height.z[i]);
+    hi = std::max<double>(hi, hy.height.z[i]);
+    d_ref = std::max(d_ref, std::fabs(double(hy.height.z[i]) - mg.height.z[i]));
+    d_float = std::max(d_float, std::fabs(double(hy.height.z[i]) - mf.height.z[i]));
+  }
+  std::printf("range %.1f m: hypre (%d CG iterations) vs refined multigrid %.3e m, vs float multigrid %.3e m\n",
+              hi - lo, hy.cycles, d_ref, d_float);
+  EXPECT_GT(hi - lo, 100.0);
+  EXPECT_LT(d_ref, 1e-5 * (hi - lo)) << "hypre vs refined multigrid, range " << hi - lo;
+  EXPECT_LT(d_float, 1e-4 * (hi - lo)) << "hypre vs float multigrid, range " << hi - lo;
+  // And not by accident: the constraints moved the terrain far more than that.
+  double moved = 0;
+  for (size_t i = 0; i < crop.size(); ++i) moved = std::max(moved, std::fabs(double(hy.height.z[i]) - crop.z[i]));
+  EXPECT_GT(moved, 10.0);
+}
+
+// The stage and the CLI: --solver hypre writes the result and a report naming the solver.
+TEST(Hypre, CliSolverOptionAndReport) {
+  test::TempDir t;
+  ASSERT_TRUE(hypre_available());
+  const Heightfield h = test::smooth_terrain(65, 49, 10.0, 200.0, 4);
+  GradientField g = staggered_of(h);
+  g.mean_elevation = 0;
+  for (float v : h.z) g.mean_elevation += v / double(h.size());
+  write_gradient(g, t.path("g.exr"));
+  const auto r = test::run_cli("reconstruct " + t.path("g.exr") + " --solver hypre --tolerance 1e-10 --max-cycles 200 -o " +
+                               t.path("out.tif") + " --report " + t.path("r.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(t.path("r.json")));
+  EXPECT_EQ(j["solver"], "hypre");
+  EXPECT_EQ(j["mpi_ranks"], 1);
+  EXPECT_LE(j["final_relative_residual"].get<double>(), 1e-10);
+  const Heightfield out = read_heightfield(t.path("out.tif"));
+  double err = 0;
+  for (size_t i = 0; i < h.size(); ++i) err = std::max(err, std::fabs(double(out.z[i]) - h.z[i]));
+  EXPECT_LT(err, 1e-3);
+  // An iteration limit too small: a clear error, no output.
+  const auto bad = test::run_cli("reconstruct " + t.path("g.exr") + " --solver hypre --tolerance 1e-12 --max-cycles 1 -o " +
+                                 t.path("bad.tif"));
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.out.find("did not converge in 1 CG iterations"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(t.path("bad.tif")));
+}
