@@ -84,6 +84,10 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   learn->add_option("--iterations", la->o.iterations, "K-SVD iterations")->capture_default_str();
   learn->add_option("--stride", la->o.stride, "Spacing of training patches (cells)")->capture_default_str();
   learn->add_option("--max-patches", la->o.max_patches, "Random subset of training patches (0 = all)")->capture_default_str();
+  learn->add_option("--faithful-radius", la->o.faithful_radius,
+                    "Neighbourhood radius (input cells, 1-4) of the faithful mode's regression stored with the dictionary (0: none)")
+      ->check(CLI::Range(0, 4))
+      ->capture_default_str();
   learn->add_flag("--constrained", la->constrained, "Atoms must be real exemplar patches (problem 2)");
   learn->add_option("--method", la->method, "ksvd | constrained | complete (default ksvd, or constrained with --constrained)")
       ->check(CLI::IsMember({"ksvd", "constrained", "complete"}));

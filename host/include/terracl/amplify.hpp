@@ -89,6 +89,17 @@ KsvdResult learn_ksvd(const MatrixF& F, const KsvdOptions& o, const Progress& pr
 
 // ---------------------------------------------------------------- dictionaries (dictionary.cpp)
 
+/// Linear regression of an f x f output block (minus its input cell) from the input's (2r+1)^2
+/// neighbourhood (minus the cell), one per class of gradient direction: the least-squares linear
+/// upsampler of the exemplar's terrain. The block means of its output equal the input exactly (the
+/// training targets sum to zero per block, so do the weights).
+struct BlockRegression {
+  int factor = 4, radius = 2, classes = 1;
+  long samples = 0;                   ///< training blocks
+  std::vector<MatrixF> weights;       ///< per class: f^2 x features_count()
+  int features_count() const;
+};
+
 /// Coupled high/low-resolution patch dictionary (a .tdic file): atom i of `low` is matched
 /// against the input, atom i of `high` supplies the detail.
 struct Dictionary {
@@ -112,7 +123,12 @@ struct Dictionary {
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
+  /// Faithful mode's regression (learned on the same exemplar at the same cell size and factor;
+  /// `amplify --mode faithful --dictionary` uses it at every step); empty weights when absent
+  /// (version 1 and 2 files, or an exemplar too small). Stored from version 3 on.
+  BlockRegression regression;
   std::string description;
+  bool has_regression() const { return !regression.weights.empty(); }
   int atoms() const { return int(high.cols()); }
   int low_patch() const { return patch / factor; }
 };
@@ -153,6 +169,9 @@ struct LearnOptions {
   double calibration_hf_target = 1.1;
   /// Folds of the calibration's cross-validation (strips across the exemplar's longer axis).
   int calibration_folds = 2;
+  /// Faithful mode: neighbourhood radius of the BlockRegression learned and stored with the
+  /// dictionary (0: none). Skipped when the exemplar holds too few complete neighbourhoods.
+  int faithful_radius = 3;
 };
 /// Builds a multi-resolution dictionary (H, L) from exemplars at the high resolution.
 /// Throws when an exemplar is smaller than a patch or P is not a multiple of f.
@@ -306,16 +325,9 @@ void correct_block_means(Heightfield& high, const Heightfield& low, int f, int s
 
 // ---------------------------------------------------------------- faithful mode (regression.cpp)
 
-/// Linear regression of an f x f output block (minus its input cell) from the input's (2r+1)^2
-/// neighbourhood (minus the cell), one per class of gradient direction: the least-squares linear
-/// upsampler of the exemplar's terrain. The block means of its output equal the input exactly (the
-/// training targets sum to zero per block, so do the weights).
-struct BlockRegression {
-  int factor = 4, radius = 2, classes = 1;
-  long samples = 0;                   ///< training blocks
-  std::vector<MatrixF> weights;       ///< per class: f^2 x features_count()
-  int features_count() const;
-};
+/// Complete (2 radius + 1)^2 neighbourhoods of the exemplars' f x f block means: the training blocks
+/// learn_block_regression would use (it needs 4 features_count() of them).
+long regression_samples(const std::vector<Heightfield>& exemplars, int f, int radius);
 /// Learns from exemplars at the output cell size (their f x f block means are the inputs). `ridge`
 /// is relative to the mean feature energy. Throws when the exemplars hold too few blocks.
 BlockRegression learn_block_regression(const std::vector<Heightfield>& exemplars, int f, int radius = 2,

@@ -336,11 +336,28 @@ std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions&
 
 Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const Progress& progress) {
   require_finite(low, "amplify", "input");
-  if (o.mode == "faithful")
-    fail("amplify", "--mode faithful learns its regression from the exemplar: give --exemplar, not --dictionary");
   check_options(o, d);
   if (d.factor < 2) fail("amplify", "the dictionary has factor {}: amplification needs a multi-resolution dictionary", d.factor);
   const int steps = steps_for(o.factor, d.factor);
+  if (o.mode == "faithful") {
+    // The regression stored with the dictionary serves every step (self-similarity, as its atoms do).
+    if (!d.has_regression())
+      fail("amplify", "--mode faithful: the dictionary stores no faithful regression (written before format version 3, "
+           "or its exemplar was too small: {}); learn it again with `terracl dictionary learn`, or give --exemplar",
+           d.description);
+    Heightfield cur = low;
+    for (int k = 0; k < steps; ++k) {
+      Heightfield next = apply_block_regression(cur, d.regression, o.threads);
+      correct_block_means(next, cur, d.factor);  // exact already but for rounding
+      cur = std::move(next);
+      report_progress(progress, "amplify", double(k + 1) / steps, fmt::format("step {}/{}", k + 1, steps));
+    }
+    cur.metadata["amplify_mode"] = "faithful";
+    cur.metadata["amplify_calibration"] = fmt::format("dictionary's regression radius {} from {} exemplar blocks",
+                                                      d.regression.radius, d.regression.samples);
+    cur.metadata["amplify_dictionary"] = d.description;
+    return cur;
+  }
   const AmplifyOptions r = resolved(o, d);
   const auto index = make_index(d, r);
   Heightfield cur = low;
@@ -378,6 +395,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   lo.calibration_candidates = o.candidates;
   if (o.magnitude_weight >= 0) lo.calibration_magnitude_weight = o.magnitude_weight;
   if (o.blend != "auto") lo.calibration_blend = o.blend;
+  lo.faithful_radius = 0;  // detail mode here; faithful mode learns its own regression below
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
     const double rx = tx / e.cell_x, ry = ty / e.cell_y;
@@ -481,7 +499,9 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
     if (a0 >= o.patch) train.push_back(crop(0, a0, 0, other));
     if (len - a1 >= o.patch) train.push_back(crop(a1, len, 0, other));
     const Heightfield b = crop(a0, a0 + (a1 - a0) / f * f, 0, other / f * f);
-    const Dictionary d = learn_dictionary(train, o);
+    LearnOptions lo = o;
+    lo.faithful_radius = 0;  // the folds' dictionaries serve detail mode only
+    const Dictionary d = learn_dictionary(train, lo);
     const Heightfield low = block_mean(b, f);
     const Heightfield out = amplify(low, d, ao);
     // The output is bicubic + g detail followed by the bias correction C, which is affine

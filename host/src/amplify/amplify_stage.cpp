@@ -72,6 +72,11 @@ void run_amplify(StageContext& c) {
     out = amplify_styles(low, {&a, &b}, mask, c.get<double>("style_blend"), o, c.progress);
   } else if (has_dict) {
     const Dictionary d = load_dictionary(c.get<std::string>("dictionary"));
+    if (o.mode == "faithful" && !d.has_regression())
+      throw UsageError("amplify", fmt::format("--mode faithful: {} stores no faithful regression (format version 2 or "
+                                              "older, or learned with --faithful-radius 0); learn it again with "
+                                              "`terracl dictionary learn`, or give --exemplar",
+                                              c.get<std::string>("dictionary")));
     out = amplify(low, d, o, c.progress);
   } else {
     std::vector<Heightfield> ex;
@@ -142,7 +147,7 @@ void register_amplify_stages(StageRegistry& r) {
              OptionSpec{"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}}.range(-1, 100),
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
              {"resample_exemplar", OptionType::Bool, false, "", "Warp each exemplar (GDAL, averaging) to the output's cell size, and to the input's CRS when they differ", {}},
-             {"mode", OptionType::Enum, "detail", "", "detail: plausible relief from the exemplar's patches; faithful: the estimate closest to the truth (a regression learned on the exemplar, needs --exemplar)", {"detail", "faithful"}},
+             {"mode", OptionType::Enum, "detail", "", "detail: plausible relief from the exemplar's patches; faithful: the estimate closest to the truth (a regression learned on the exemplar, or the one a version 3 dictionary stores)", {"detail", "faithful"}},
              {"blend", OptionType::Enum, "auto", "", "Patch blend: detail (bicubic + variance-preserving blend of the patches' details, no patch-grid trace), average (the paper's weighted mean of the patches) or auto (the dictionary's; detail when learned now)", {"auto", "detail", "average"}},
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
              {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
