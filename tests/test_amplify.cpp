@@ -379,6 +379,7 @@ TEST(AmplifyDictionary, FaithfulRegressionRoundTripsBitForBit) {
   EXPECT_EQ(e.regression.classes, d.regression.classes);
   EXPECT_EQ(e.regression.samples, d.regression.samples);
   EXPECT_EQ(e.regression.factor, 4);
+  EXPECT_EQ(e.base, "bandlimited");
   for (size_t c = 0; c < d.regression.weights.size(); ++c) {
     const MatrixF& a = d.regression.weights[c];
     const MatrixF& b = e.regression.weights[c];
@@ -445,6 +446,7 @@ TEST(AmplifyDictionary, VersionTwoFilesStillLoadWithoutRegression) {
   EXPECT_TRUE(e.high == d.high);
   EXPECT_EQ(e.low_norm, d.low_norm);
   EXPECT_FALSE(e.has_regression());
+  EXPECT_EQ(e.base, "bicubic");  // the base its gain was calibrated for before version 3
   // Faithful mode needs the regression: a clear error.
   AmplifyOptions o;
   o.mode = "faithful";
@@ -533,17 +535,18 @@ TEST(AmplifyAmplify, CandidatePoolVariesIdenticalFootprints) {
   // On a tilted plane every patch has the same footprint: the nearest atoms repeat with the patch
   // spacing (8 cells); drawing them from a larger pool by position breaks the repetition.
   const Dictionary d = learn_dictionary({rough_terrain(96, 96, 5.0, 21)}, small_learn());
-  Heightfield low(24, 24);
+  // 40 x 40 input cells, measured 16 or more from the borders (the band-limited base's 8-cell reach).
+  Heightfield low(40, 40);
   low.georef.cell_x = low.georef.cell_y = 20.0;
-  for (int y = 0; y < 24; ++y)
-    for (int x = 0; x < 24; ++x) low.at(x, y) = 2.0f * x + 1.0f * y;
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 40; ++x) low.at(x, y) = 2.0f * x + 1.0f * y;
   AmplifyOptions o;
   o.search = "exact";
   o.detail_gain = 1;
   auto periodic_error = [&](const Heightfield& h) {
     double e = 0;
-    for (int y = 24; y < 64; ++y)
-      for (int x = 24; x < 64; ++x) e = std::max(e, double(std::fabs(h.at(x + 8, y) - h.at(x, y) - 2.0f * 8 / 4)));
+    for (int y = 64; y < 96; ++y)
+      for (int x = 64; x < 88; ++x) e = std::max(e, double(std::fabs(h.at(x + 8, y) - h.at(x, y) - 2.0f * 8 / 4)));
     return e;
   };
   EXPECT_LT(periodic_error(amplify(low, d, o)), 1e-2);

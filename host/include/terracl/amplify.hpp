@@ -120,6 +120,9 @@ struct Dictionary {
   /// The blend the gain was calibrated for (AmplifyOptions::blend): "detail", or "average" for files
   /// without flag bit 2 (written before the detail blend existed).
   std::string blend = "detail";
+  /// The base the gain was calibrated for (AmplifyOptions::base): "bicubic", or "bandlimited" (flag
+  /// bit 4, format version 3).
+  std::string base = "bicubic";
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
@@ -163,6 +166,8 @@ struct LearnOptions {
   int calibration_candidates = 0;
   float calibration_magnitude_weight = 0.4f;
   std::string calibration_blend = "detail";
+  /// AmplifyOptions::base the gain is calibrated for (and amplify's default with this dictionary).
+  std::string calibration_base = "bandlimited";
   /// HF energy ratio the gain aims at on the held-out folds. Slightly above 1: the exemplar's own
   /// folds resemble each other more than the input's terrain (x4 on the bundled DEMs: the ratio
   /// against the truth is 1.16 / 0.67 of the held-out one; docs/amplify.md).
@@ -263,6 +268,10 @@ struct AmplifyOptions {
   /// normalisation sqrt((1 - rho) sum w^2 + rho (sum w)^2) assumes (0: independent, 1: the average);
   /// < 0: measured on the output's own patches (a first pass over the tiles).
   float detail_correlation = -1.f;
+  /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
+  /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the
+  /// dictionary's). The patches' details are taken relative to the same base.
+  std::string base = "auto";
   /// "detail": plausible relief transferred from the exemplar (the dictionary); "faithful": the
   /// estimate closest to the truth, a BlockRegression per x4 step learned on the exemplar (needs
   /// exemplars, amplify_from_exemplars), block means exact.
@@ -316,12 +325,22 @@ Heightfield bicubic_upsample(const Heightfield& h, int f);
 /// The n x n matrix M = U B of one axis (B: block means by f, U: the bicubic upsampling above, clamped
 /// at the ends): M X M^T is the smooth part of an n x n patch X, the part its block means determine;
 /// X - M X M^T is its detail.
-MatrixF smooth_part_operator(int n, int f);
+/// `base` "bandlimited": the same with upsample()'s band-limited kernel (mirrored at the patch edges).
+MatrixF smooth_part_operator(int n, int f, const std::string& base = "bicubic");
 /// out += scale * bicubic_upsample(low, f), without a full-size temporary.
 void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale);
+/// Upsampling by f with cell-centre alignment: `base` "bicubic" (bicubic_upsample) or "bandlimited"
+/// (a consistent band-limited kernel: its block means reproduce the input up to its truncation, and
+/// its curvature has no peak at the input cells' centres; 16 taps, mirrored edges).
+Heightfield upsample(const Heightfield& h, int f, const std::string& base);
+/// out += scale * upsample(low, f, base), without a full-size temporary.
+void add_upsampled(Heightfield& out, const Heightfield& low, int f, float scale, const std::string& base);
+/// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low, f, base), row-major into `out` (w h floats).
+void upsample_window(const Heightfield& low, int f, const std::string& base, int X0, int Y0, int w, int h, float* out);
 /// Makes every f x f block mean of `high` equal the corresponding cell of `low`: a few smooth
-/// (bicubic back-projection) passes, then an exact constant shift per block.
-void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4);
+/// back-projection passes (upsample(residual, f, base)), then an exact constant shift per block.
+void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4,
+                         const std::string& base = "bicubic");
 
 // ---------------------------------------------------------------- faithful mode (regression.cpp)
 

@@ -22,7 +22,8 @@ constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
 // Version 2 added the atoms' low-resolution norms (flag bit 1), version 3 faithful mode's regression
 // (flag bit 3); version 1 and 2 files still load.
 constexpr uint32_t kVersion = 3;
-constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4, kFlagRegression = 8;
+constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4, kFlagRegression = 8,
+                  kFlagBandlimitedBase = 16;
 
 uint64_t fnv1a(const std::string& bytes) {
   uint64_t h = 1469598103934665603ull;
@@ -103,7 +104,8 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
            g.classes, d.factor);
   }
   put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0) |
-                         (d.blend == "detail" ? kFlagDetailBlend : 0) | (reg ? kFlagRegression : 0));
+                         (d.blend == "detail" ? kFlagDetailBlend : 0) | (reg ? kFlagRegression : 0) |
+                         (d.base == "bandlimited" ? kFlagBandlimitedBase : 0));
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
@@ -151,6 +153,7 @@ Dictionary load_dictionary(const std::string& path) {
   d.blend = (flags & kFlagDetailBlend) != 0 ? "detail" : "average";
   const bool norms = version >= 2 && (flags & kFlagNorms) != 0;
   const bool reg = version >= 3 && (flags & kFlagRegression) != 0;
+  d.base = version >= 3 && (flags & kFlagBandlimitedBase) != 0 ? "bandlimited" : "bicubic";
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
   d.detail_gain = r.get<float>("detail gain");
@@ -313,6 +316,7 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   d.neighbours = o.calibration_neighbours;
   d.magnitude_weight = o.calibration_magnitude_weight;
   d.blend = o.calibration_blend;
+  d.base = o.calibration_base;
   std::vector<Eigen::Index> good;
   MatrixF L(p * p, H.cols());
   for (Eigen::Index j = 0; j < H.cols(); ++j) {
