@@ -254,25 +254,22 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
         // With the band-limited base, rho flattens the output's curvature (base + gain detail) per
         // phase, not the detail's alone: the base has no phase pattern of its own to offset.
-        std::vector<float> base_win;
-        if (measure_output) {
-          base_win.resize(size_t(tw) * th);
-          upsample_window(low, f, o.base, X0, Y0, tw, th, base_win.data());
-        }
         parallel_for(size_t(th), o.threads, [&](size_t b, size_t e) {
           std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every rho
+          std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
           for (size_t yy = b; yy < e; ++yy) {
             const int y = int(yy);
             if (y < 1 || y + 1 >= th || ((Y0 + y) / S) % 4 != 0) continue;
             const int gy = (Y0 + y) % 64;
             if (gy == 0 || gy == 63) continue;
+            if (measure_output) upsample_window(low, f, o.base, X0, Y0 + y - 1, tw, 3, base_rows.data());
             for (int dy = 0; dy < 3; ++dy)
               for (int x = 0; x < tw; ++x) {
                 const size_t c = size_t(y - 1 + dy) * tw + x;
                 for (int t = 0; t < kRhos; ++t) {
                   const float r = float(t) / (kRhos - 1);
                   const double v = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
-                  bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_win[c] + kRhoGain * v : v;
+                  bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
                 }
               }
             double* k2 = &row_k2[size_t(y) * kRhos * S];

@@ -2,6 +2,7 @@
 #include <terracl/amplify.hpp>
 #include <terracl/error.hpp>
 
+#include <algorithm>
 #include <array>
 #include <deque>
 #include <string>
@@ -140,25 +141,28 @@ void upsample_into(const UpTable& t, const Heightfield& low, Heightfield& out, b
   });
 }
 
-// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low), row-major into out (single-threaded:
-// callers run it per tile).
+// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low), row-major into out; the vertical pass
+// covers only the input columns the window's taps reach.
 void upsample_window_into(const UpTable& t, const Heightfield& low, int X0, int Y0, int w, int h, float* out) {
   const int f = t.f, n = t.taps;
-  std::vector<float> row(static_cast<size_t>(low.width));
+  const int lo = X0 / f + *std::min_element(t.base.begin(), t.base.end());
+  const int hi = (X0 + w - 1) / f + *std::max_element(t.base.begin(), t.base.end()) + n;  // exclusive
+  std::vector<float> row(static_cast<size_t>(hi - lo));
   for (int Y = Y0; Y < Y0 + h; ++Y) {
     const int py = Y % f, by = Y / f + t.base[size_t(py)];
     const float* wy = t.weights(py);
-    for (int x = 0; x < low.width; ++x) {
+    for (int i = lo; i < hi; ++i) {
+      const int x = edge(t, i, low.width);
       float s = 0;
       for (int j = 0; j < n; ++j) s += wy[j] * low.at(x, edge(t, by + j, low.height));
-      row[size_t(x)] = s;
+      row[size_t(i - lo)] = s;
     }
     float* o = out + size_t(Y - Y0) * w;
     for (int X = X0; X < X0 + w; ++X) {
-      const int px = X % f, bx = X / f + t.base[size_t(px)];
+      const int px = X % f, bx = X / f + t.base[size_t(px)] - lo;
       const float* wx = t.weights(px);
       float s = 0;
-      for (int j = 0; j < n; ++j) s += wx[j] * row[size_t(edge(t, bx + j, low.width))];
+      for (int j = 0; j < n; ++j) s += wx[j] * row[size_t(bx + j)];
       o[X - X0] = s;
     }
   }
