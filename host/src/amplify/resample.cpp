@@ -116,56 +116,58 @@ inline int mirrori(int i, int n) {
 }
 inline int edge(const UpTable& t, int i, int n) { return t.mirror ? mirrori(i, n) : clampi(i, n); }
 
+// One output row Y of upsample(low) over the output columns [X0, X0 + w): the vertical pass over the
+// input columns [lo, hi) the taps reach (edges resolved once per row, not per tap), then the
+// horizontal pass. `row` is scratch of hi - lo floats.
+void upsample_row(const UpTable& t, const Heightfield& low, int Y, int X0, int w, int lo, int hi, float* row, float* o,
+                  bool add, float scale) {
+  const int f = t.f, n = t.taps, lw = low.width;
+  const int py = Y % f, by = Y / f + t.base[size_t(py)];
+  const float* wy = t.weights(py);
+  std::fill(row, row + (hi - lo), 0.f);
+  const int in0 = std::max(lo, 0), in1 = std::min(hi, lw);  // columns inside the input
+  for (int j = 0; j < n; ++j) {
+    const float* src = low.z.data() + size_t(edge(t, by + j, low.height)) * lw;
+    const float wj = wy[j];
+    for (int i = in0; i < in1; ++i) row[i - lo] += wj * src[i];
+  }
+  for (int i = lo; i < hi; ++i)  // columns outside the input: their edge images
+    if (i < 0 || i >= lw) row[i - lo] = row[edge(t, i, lw) - lo];
+  for (int X = X0; X < X0 + w; ++X) {
+    const int px = X % f, bx = X / f + t.base[size_t(px)] - lo;
+    const float* wx = t.weights(px);
+    float s = 0;
+    for (int j = 0; j < n; ++j) s += wx[j] * row[bx + j];
+    o[X - X0] = add ? o[X - X0] + scale * s : scale * s;
+  }
+}
+
+// Input columns [lo, hi) the output columns [X0, X0 + w) reach (their edge images included).
+std::pair<int, int> reach(const UpTable& t, const Heightfield& low, int X0, int w) {
+  int lo = X0 / t.f + *std::min_element(t.base.begin(), t.base.end());
+  int hi = (X0 + w - 1) / t.f + *std::max_element(t.base.begin(), t.base.end()) + t.taps;
+  for (int i = lo; i < hi; ++i) {
+    const int e = edge(t, i, low.width);
+    lo = std::min(lo, e), hi = std::max(hi, e + 1);
+  }
+  return {lo, hi};
+}
+
 // out(X, Y) (+)= upsampled(low)(X, Y) for every output cell, row by row (no full-size temporary).
 void upsample_into(const UpTable& t, const Heightfield& low, Heightfield& out, bool add, float scale = 1.f) {
-  const int f = t.f, w = low.width, h = low.height, W = out.width, n = t.taps;
+  const auto [lo, hi] = reach(t, low, 0, out.width);
   parallel_for(size_t(out.height), 0, [&](size_t y0, size_t y1) {
-    std::vector<float> row(static_cast<size_t>(w));
-    for (size_t Y = y0; Y < y1; ++Y) {
-      const int py = int(Y) % f, by = int(Y) / f + t.base[size_t(py)];
-      const float* wy = t.weights(py);
-      for (int x = 0; x < w; ++x) {
-        float s = 0;
-        for (int j = 0; j < n; ++j) s += wy[j] * low.at(x, edge(t, by + j, h));
-        row[size_t(x)] = s;
-      }
-      float* o = out.z.data() + Y * size_t(W);
-      for (int X = 0; X < W; ++X) {
-        const int px = X % f, bx = X / f + t.base[size_t(px)];
-        const float* wx = t.weights(px);
-        float s = 0;
-        for (int j = 0; j < n; ++j) s += wx[j] * row[size_t(edge(t, bx + j, w))];
-        o[X] = add ? o[X] + scale * s : scale * s;
-      }
-    }
+    std::vector<float> row(static_cast<size_t>(hi - lo));
+    for (size_t Y = y0; Y < y1; ++Y)
+      upsample_row(t, low, int(Y), 0, out.width, lo, hi, row.data(), out.z.data() + Y * size_t(out.width), add, scale);
   });
 }
 
-// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low), row-major into out; the vertical pass
-// covers only the input columns the window's taps reach.
+// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low), row-major into out.
 void upsample_window_into(const UpTable& t, const Heightfield& low, int X0, int Y0, int w, int h, float* out) {
-  const int f = t.f, n = t.taps;
-  const int lo = X0 / f + *std::min_element(t.base.begin(), t.base.end());
-  const int hi = (X0 + w - 1) / f + *std::max_element(t.base.begin(), t.base.end()) + n;  // exclusive
+  const auto [lo, hi] = reach(t, low, X0, w);
   std::vector<float> row(static_cast<size_t>(hi - lo));
-  for (int Y = Y0; Y < Y0 + h; ++Y) {
-    const int py = Y % f, by = Y / f + t.base[size_t(py)];
-    const float* wy = t.weights(py);
-    for (int i = lo; i < hi; ++i) {
-      const int x = edge(t, i, low.width);
-      float s = 0;
-      for (int j = 0; j < n; ++j) s += wy[j] * low.at(x, edge(t, by + j, low.height));
-      row[size_t(i - lo)] = s;
-    }
-    float* o = out + size_t(Y - Y0) * w;
-    for (int X = X0; X < X0 + w; ++X) {
-      const int px = X % f, bx = X / f + t.base[size_t(px)] - lo;
-      const float* wx = t.weights(px);
-      float s = 0;
-      for (int j = 0; j < n; ++j) s += wx[j] * row[size_t(bx + j)];
-      o[X - X0] = s;
-    }
-  }
+  for (int Y = Y0; Y < Y0 + h; ++Y) upsample_row(t, low, Y, X0, w, lo, hi, row.data(), out + size_t(Y - Y0) * w, false, 1.f);
 }
 
 void bicubic_into(const Heightfield& low, int f, Heightfield& out, bool add, float scale = 1.f) {
