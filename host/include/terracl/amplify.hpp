@@ -273,8 +273,9 @@ struct AmplifyOptions {
   /// dictionary's). The patches' details are taken relative to the same base.
   std::string base = "auto";
   /// "detail": plausible relief transferred from the exemplar (the dictionary); "faithful": the
-  /// estimate closest to the truth, a BlockRegression per x4 step learned on the exemplar (needs
-  /// exemplars, amplify_from_exemplars), block means exact.
+  /// estimate closest to the truth, a BlockRegression per x4 step learned on the exemplar
+  /// (amplify_from_exemplars) or the one a dictionary stores (amplify; Dictionary::regression),
+  /// block means exact.
   std::string mode = "detail";
   int faithful_radius = 3;  ///< faithful: neighbourhood radius of the regression (input cells)
   int threads = 0;
