@@ -84,6 +84,14 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   learn->add_option("--iterations", la->o.iterations, "K-SVD iterations")->capture_default_str();
   learn->add_option("--stride", la->o.stride, "Spacing of training patches (cells)")->capture_default_str();
   learn->add_option("--max-patches", la->o.max_patches, "Random subset of training patches (0 = all)")->capture_default_str();
+  learn->add_option("--base", la->o.calibration_base,
+                    "Detail mode's base the gain is calibrated for and amplify uses by default (see amplify --base)")
+      ->check(CLI::IsMember({"bicubic", "bandlimited"}))
+      ->capture_default_str();
+  learn->add_option("--faithful-radius", la->o.faithful_radius,
+                    "Neighbourhood radius (input cells, 1-4) of the faithful mode's regression stored with the dictionary (0: none)")
+      ->check(CLI::Range(0, 4))
+      ->capture_default_str();
   learn->add_flag("--constrained", la->constrained, "Atoms must be real exemplar patches (problem 2)");
   learn->add_option("--method", la->method, "ksvd | constrained | complete (default ksvd, or constrained with --constrained)")
       ->check(CLI::IsMember({"ksvd", "constrained", "complete"}));
@@ -185,6 +193,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       ->capture_default_str();
   ev->add_option("--mode", va->amp.mode, "detail | faithful (see amplify --mode)")->capture_default_str();
   ev->add_option("--detail-correlation", va->amp.detail_correlation, "Detail blend: assumed correlation of overlapping details")->capture_default_str();
+  ev->add_option("--base", va->amp.base, "bicubic | bandlimited | auto (see amplify --base)")->capture_default_str();
   ev->add_option("--blend", va->amp.blend, "detail | average | auto (see amplify --blend)")->capture_default_str();
   ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();
   ev->add_option("--seed", va->amp.seed, "Seed of the training subset and of FLANN's trees")->capture_default_str();

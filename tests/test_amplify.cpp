@@ -330,7 +330,8 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
     std::ifstream f(tmp.path("d.tdic"), std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(f), {});
   }
-  ASSERT_EQ(bytes[4], 2);
+  ASSERT_EQ(bytes[4], 3);
+  ASSERT_FALSE(d.has_regression());  // 12 x 12 input cells: too few 7 x 7 neighbourhoods
   bytes[4] = 1;
   bytes.erase(48, 8);
   uint64_t h = 1469598103934665603ull;  // FNV-1a 64 of everything before the hash
@@ -342,9 +343,119 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
   EXPECT_TRUE(e.low_norm.empty());
   EXPECT_EQ(e.neighbours, 1);  // its gain was calibrated for the nearest atom alone
   EXPECT_EQ(e.magnitude_weight, 0.f);
-  bytes[4] = 3;
-  std::ofstream(tmp.path("v3.tdic"), std::ios::binary) << bytes;
-  EXPECT_THROW(load_dictionary(tmp.path("v3.tdic")), Error);
+  bytes[4] = 4;
+  std::ofstream(tmp.path("v4.tdic"), std::ios::binary) << bytes;
+  EXPECT_THROW(load_dictionary(tmp.path("v4.tdic")), Error);
+}
+
+namespace {
+std::string file_bytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+// Rewrites the trailing FNV-1a 64 hash after an edit.
+void rehash(std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) h = (h ^ (unsigned char)bytes[i]) * 1099511628211ull;
+  for (int i = 0; i < 8; ++i) bytes[bytes.size() - 8 + i] = char((h >> (8 * i)) & 0xff);
+}
+}  // namespace
+
+TEST(AmplifyDictionary, FaithfulRegressionRoundTripsBitForBit) {
+  test::TempDir tmp;
+  const Heightfield ex = rough_terrain(96, 96, 5.0, 3);
+  const Dictionary d = learn_dictionary({ex}, small_learn());
+  ASSERT_TRUE(d.has_regression());
+  EXPECT_EQ(d.regression.radius, 3);
+  EXPECT_EQ(d.regression.samples, 18 * 18);  // 24 x 24 input cells, 7 x 7 neighbourhoods inside
+  // The stored regression is the one learn_block_regression gives on the same exemplar.
+  const BlockRegression g = learn_block_regression({ex}, 4, 3);
+  ASSERT_EQ(g.weights.size(), d.regression.weights.size());
+  EXPECT_TRUE(g.weights[0] == d.regression.weights[0]);
+  save_dictionary(d, tmp.path("d.tdic"));
+  const Dictionary e = load_dictionary(tmp.path("d.tdic"));
+  ASSERT_TRUE(e.has_regression());
+  EXPECT_EQ(e.regression.radius, d.regression.radius);
+  EXPECT_EQ(e.regression.classes, d.regression.classes);
+  EXPECT_EQ(e.regression.samples, d.regression.samples);
+  EXPECT_EQ(e.regression.factor, 4);
+  EXPECT_EQ(e.base, "bandlimited");
+  for (size_t c = 0; c < d.regression.weights.size(); ++c) {
+    const MatrixF& a = d.regression.weights[c];
+    const MatrixF& b = e.regression.weights[c];
+    ASSERT_EQ(a.rows(), b.rows());
+    ASSERT_EQ(a.cols(), b.cols());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), sizeof(float) * size_t(a.size())), 0) << "class " << c;
+  }
+  // Saved again: the same bytes.
+  save_dictionary(e, tmp.path("e.tdic"));
+  EXPECT_TRUE(file_bytes(tmp.path("d.tdic")) == file_bytes(tmp.path("e.tdic")));
+  // Faithful amplification with the loaded dictionary: the same output, bit for bit, as with the
+  // regression learned on the fly from the same exemplar (which is at the output's cell size).
+  const Heightfield low = block_mean(rough_terrain(128, 96, 5.0, 4), 4);
+  AmplifyOptions o;
+  o.mode = "faithful";
+  const Heightfield a = amplify(low, e, o);
+  const Heightfield b = amplify_from_exemplars(low, {ex}, small_learn(), o);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(std::memcmp(a.z.data(), b.z.data(), sizeof(float) * a.size()), 0);
+  EXPECT_EQ(a.metadata.at("amplify_mode"), "faithful");
+  const Heightfield m = block_mean(a, 4);
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 1e-3f);
+  // x16: the stored regression serves both steps.
+  o.factor = 16;
+  EXPECT_EQ(amplify(low, e, o).width, low.width * 16);
+  // A cut in the regression's weights, or a corrupt regression header: clear errors, not a crash.
+  std::string bytes = file_bytes(tmp.path("d.tdic"));
+  std::string cut = bytes.substr(0, bytes.size() - 8 - 40);
+  cut.resize(cut.size() + 8);
+  rehash(cut);
+  std::ofstream(tmp.path("cut.tdic"), std::ios::binary) << cut;
+  EXPECT_THROW(
+      {
+        try {
+          load_dictionary(tmp.path("cut.tdic"));
+        } catch (const Error& err) {
+          EXPECT_NE(std::string(err.what()).find("faithful regression"), std::string::npos) << err.what();
+          throw;
+        }
+      },
+      Error);
+  const size_t reg_at = bytes.size() - 8 - 4 * size_t(e.regression.weights[0].size()) - 16;
+  std::string bad = bytes;
+  bad[reg_at] = 9;  // radius 9
+  rehash(bad);
+  std::ofstream(tmp.path("bad.tdic"), std::ios::binary) << bad;
+  EXPECT_THROW(load_dictionary(tmp.path("bad.tdic")), Error);
+}
+
+TEST(AmplifyDictionary, VersionTwoFilesStillLoadWithoutRegression) {
+  // A version 2 file is version 3 without the regression (flag bit 3 clear), with version = 2.
+  test::TempDir tmp;
+  LearnOptions l = small_learn();
+  l.faithful_radius = 0;
+  const Dictionary d = learn_dictionary({rough_terrain(96, 96, 5.0, 3)}, l);
+  ASSERT_FALSE(d.has_regression());
+  save_dictionary(d, tmp.path("d.tdic"));
+  std::string bytes = file_bytes(tmp.path("d.tdic"));
+  ASSERT_EQ(bytes[4], 3);
+  bytes[4] = 2;
+  rehash(bytes);
+  std::ofstream(tmp.path("v2.tdic"), std::ios::binary) << bytes;
+  const Dictionary e = load_dictionary(tmp.path("v2.tdic"));
+  EXPECT_TRUE(e.high == d.high);
+  EXPECT_EQ(e.low_norm, d.low_norm);
+  EXPECT_FALSE(e.has_regression());
+  EXPECT_EQ(e.base, "bicubic");  // the base its gain was calibrated for before version 3
+  // Faithful mode needs the regression: a clear error.
+  AmplifyOptions o;
+  o.mode = "faithful";
+  try {
+    amplify(block_mean(rough_terrain(64, 64, 5.0, 5), 4), e, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("no faithful regression"), std::string::npos) << err.what();
+  }
 }
 
 TEST(AmplifyDictionary, CorruptFilesGiveClearErrors) {
@@ -424,17 +535,18 @@ TEST(AmplifyAmplify, CandidatePoolVariesIdenticalFootprints) {
   // On a tilted plane every patch has the same footprint: the nearest atoms repeat with the patch
   // spacing (8 cells); drawing them from a larger pool by position breaks the repetition.
   const Dictionary d = learn_dictionary({rough_terrain(96, 96, 5.0, 21)}, small_learn());
-  Heightfield low(24, 24);
+  // 40 x 40 input cells, measured 16 or more from the borders (the band-limited base's 8-cell reach).
+  Heightfield low(40, 40);
   low.georef.cell_x = low.georef.cell_y = 20.0;
-  for (int y = 0; y < 24; ++y)
-    for (int x = 0; x < 24; ++x) low.at(x, y) = 2.0f * x + 1.0f * y;
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 40; ++x) low.at(x, y) = 2.0f * x + 1.0f * y;
   AmplifyOptions o;
   o.search = "exact";
   o.detail_gain = 1;
   auto periodic_error = [&](const Heightfield& h) {
     double e = 0;
-    for (int y = 24; y < 64; ++y)
-      for (int x = 24; x < 64; ++x) e = std::max(e, double(std::fabs(h.at(x + 8, y) - h.at(x, y) - 2.0f * 8 / 4)));
+    for (int y = 64; y < 96; ++y)
+      for (int x = 64; x < 88; ++x) e = std::max(e, double(std::fabs(h.at(x + 8, y) - h.at(x, y) - 2.0f * 8 / 4)));
     return e;
   };
   EXPECT_LT(periodic_error(amplify(low, d, o)), 1e-2);

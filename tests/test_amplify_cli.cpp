@@ -151,3 +151,30 @@ TEST(AmplifyCli, ResampledExemplarMatchesItsBlockMeans) {
   for (size_t i = 0; i < ha.size(); ++i) worst = std::max(worst, double(std::fabs(ha.z[i] - hb.z[i])));
   EXPECT_LT(worst, 1e-3) << "the warped exemplar differs from its block means";
 }
+
+TEST(AmplifyCli, FaithfulModeWithAStoredRegression) {
+  // `dictionary learn` stores the faithful regression (format version 3); `amplify --mode faithful
+  // --dictionary` uses it without the exemplar and gives what --exemplar gives, bit for bit.
+  Files f;
+  const auto learn = test::run_cli("dictionary learn " + f.exemplar + " -o " + f.tmp.path("d.tdic") +
+                                   " --method complete --max-patches 2000");
+  ASSERT_EQ(learn.exit_code, 0) << learn.out;
+  EXPECT_NE(learn.out.find("faithful regression radius 3"), std::string::npos) << learn.out;
+  const auto a = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("a.tif") + " --mode faithful --dictionary " +
+                               f.tmp.path("d.tdic"));
+  ASSERT_EQ(a.exit_code, 0) << a.out;
+  const auto b = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("b.tif") + " --mode faithful --exemplar " + f.exemplar);
+  ASSERT_EQ(b.exit_code, 0) << b.out;
+  const Heightfield ha = read_heightfield(f.tmp.path("a.tif")), hb = read_heightfield(f.tmp.path("b.tif"));
+  ASSERT_EQ(ha.size(), hb.size());
+  EXPECT_EQ(0, std::memcmp(ha.z.data(), hb.z.data(), ha.size() * sizeof(float)));
+  // Without the regression: an error naming the dictionary, and no output.
+  const auto none = test::run_cli("dictionary learn " + f.exemplar + " -o " + f.tmp.path("n.tdic") +
+                                  " --method complete --max-patches 2000 --faithful-radius 0");
+  ASSERT_EQ(none.exit_code, 0) << none.out;
+  const auto c = test::run_cli("amplify " + f.low + " -o " + f.tmp.path("c.tif") + " --mode faithful --dictionary " +
+                               f.tmp.path("n.tdic"));
+  EXPECT_NE(c.exit_code, 0);
+  EXPECT_NE(c.out.find("n.tdic stores no faithful regression"), std::string::npos) << c.out;
+  EXPECT_FALSE(std::filesystem::exists(f.tmp.path("c.tif")));
+}

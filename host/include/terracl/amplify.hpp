@@ -89,6 +89,17 @@ KsvdResult learn_ksvd(const MatrixF& F, const KsvdOptions& o, const Progress& pr
 
 // ---------------------------------------------------------------- dictionaries (dictionary.cpp)
 
+/// Linear regression of an f x f output block (minus its input cell) from the input's (2r+1)^2
+/// neighbourhood (minus the cell), one per class of gradient direction: the least-squares linear
+/// upsampler of the exemplar's terrain. The block means of its output equal the input exactly (the
+/// training targets sum to zero per block, so do the weights).
+struct BlockRegression {
+  int factor = 4, radius = 2, classes = 1;
+  long samples = 0;                   ///< training blocks
+  std::vector<MatrixF> weights;       ///< per class: f^2 x features_count()
+  int features_count() const;
+};
+
 /// Coupled high/low-resolution patch dictionary (a .tdic file): atom i of `low` is matched
 /// against the input, atom i of `high` supplies the detail.
 struct Dictionary {
@@ -109,10 +120,18 @@ struct Dictionary {
   /// The blend the gain was calibrated for (AmplifyOptions::blend): "detail", or "average" for files
   /// without flag bit 2 (written before the detail blend existed).
   std::string blend = "detail";
+  /// The base the gain was calibrated for (AmplifyOptions::base): "bicubic", or "bandlimited" (flag
+  /// bit 4, format version 3).
+  std::string base = "bicubic";
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
+  /// Faithful mode's regression (learned on the same exemplar at the same cell size and factor;
+  /// `amplify --mode faithful --dictionary` uses it at every step); empty weights when absent
+  /// (version 1 and 2 files, or an exemplar too small). Stored from version 3 on.
+  BlockRegression regression;
   std::string description;
+  bool has_regression() const { return !regression.weights.empty(); }
   int atoms() const { return int(high.cols()); }
   int low_patch() const { return patch / factor; }
 };
@@ -147,12 +166,17 @@ struct LearnOptions {
   int calibration_candidates = 0;
   float calibration_magnitude_weight = 0.4f;
   std::string calibration_blend = "detail";
+  /// AmplifyOptions::base the gain is calibrated for (and amplify's default with this dictionary).
+  std::string calibration_base = "bandlimited";
   /// HF energy ratio the gain aims at on the held-out folds. Slightly above 1: the exemplar's own
   /// folds resemble each other more than the input's terrain (x4 on the bundled DEMs: the ratio
   /// against the truth is 1.16 / 0.67 of the held-out one; docs/amplify.md).
   double calibration_hf_target = 1.1;
   /// Folds of the calibration's cross-validation (strips across the exemplar's longer axis).
   int calibration_folds = 2;
+  /// Faithful mode: neighbourhood radius of the BlockRegression learned and stored with the
+  /// dictionary (0: none). Skipped when the exemplar holds too few complete neighbourhoods.
+  int faithful_radius = 3;
 };
 /// Builds a multi-resolution dictionary (H, L) from exemplars at the high resolution.
 /// Throws when an exemplar is smaller than a patch or P is not a multiple of f.
@@ -244,9 +268,14 @@ struct AmplifyOptions {
   /// normalisation sqrt((1 - rho) sum w^2 + rho (sum w)^2) assumes (0: independent, 1: the average);
   /// < 0: measured on the output's own patches (a first pass over the tiles).
   float detail_correlation = -1.f;
+  /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
+  /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the
+  /// dictionary's). The patches' details are taken relative to the same base.
+  std::string base = "auto";
   /// "detail": plausible relief transferred from the exemplar (the dictionary); "faithful": the
-  /// estimate closest to the truth, a BlockRegression per x4 step learned on the exemplar (needs
-  /// exemplars, amplify_from_exemplars), block means exact.
+  /// estimate closest to the truth, a BlockRegression per x4 step learned on the exemplar
+  /// (amplify_from_exemplars) or the one a dictionary stores (amplify; Dictionary::regression),
+  /// block means exact.
   std::string mode = "detail";
   int faithful_radius = 3;  ///< faithful: neighbourhood radius of the regression (input cells)
   int threads = 0;
@@ -297,25 +326,28 @@ Heightfield bicubic_upsample(const Heightfield& h, int f);
 /// The n x n matrix M = U B of one axis (B: block means by f, U: the bicubic upsampling above, clamped
 /// at the ends): M X M^T is the smooth part of an n x n patch X, the part its block means determine;
 /// X - M X M^T is its detail.
-MatrixF smooth_part_operator(int n, int f);
+/// `base` "bandlimited": the same with upsample()'s band-limited kernel (mirrored at the patch edges).
+MatrixF smooth_part_operator(int n, int f, const std::string& base = "bicubic");
 /// out += scale * bicubic_upsample(low, f), without a full-size temporary.
 void add_bicubic(Heightfield& out, const Heightfield& low, int f, float scale);
+/// Upsampling by f with cell-centre alignment: `base` "bicubic" (bicubic_upsample) or "bandlimited"
+/// (a consistent band-limited kernel: its block means reproduce the input up to its truncation, and
+/// its curvature has no peak at the input cells' centres; 16 taps, mirrored edges).
+Heightfield upsample(const Heightfield& h, int f, const std::string& base);
+/// out += scale * upsample(low, f, base), without a full-size temporary.
+void add_upsampled(Heightfield& out, const Heightfield& low, int f, float scale, const std::string& base);
+/// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low, f, base), row-major into `out` (w h floats).
+void upsample_window(const Heightfield& low, int f, const std::string& base, int X0, int Y0, int w, int h, float* out);
 /// Makes every f x f block mean of `high` equal the corresponding cell of `low`: a few smooth
-/// (bicubic back-projection) passes, then an exact constant shift per block.
-void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4);
+/// back-projection passes (upsample(residual, f, base)), then an exact constant shift per block.
+void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4,
+                         const std::string& base = "bicubic");
 
 // ---------------------------------------------------------------- faithful mode (regression.cpp)
 
-/// Linear regression of an f x f output block (minus its input cell) from the input's (2r+1)^2
-/// neighbourhood (minus the cell), one per class of gradient direction: the least-squares linear
-/// upsampler of the exemplar's terrain. The block means of its output equal the input exactly (the
-/// training targets sum to zero per block, so do the weights).
-struct BlockRegression {
-  int factor = 4, radius = 2, classes = 1;
-  long samples = 0;                   ///< training blocks
-  std::vector<MatrixF> weights;       ///< per class: f^2 x features_count()
-  int features_count() const;
-};
+/// Complete (2 radius + 1)^2 neighbourhoods of the exemplars' f x f block means: the training blocks
+/// learn_block_regression would use (it needs 4 features_count() of them).
+long regression_samples(const std::vector<Heightfield>& exemplars, int f, int radius);
 /// Learns from exemplars at the output cell size (their f x f block means are the inputs). `ridge`
 /// is relative to the mean feature energy. Throws when the exemplars hold too few blocks.
 BlockRegression learn_block_regression(const std::vector<Heightfield>& exemplars, int f, int radius = 2,

@@ -46,6 +46,8 @@ void check_options(const AmplifyOptions& o, const Dictionary& d) {
   if (o.candidates < 0 || o.candidates > 256) fail("amplify", "candidates must be between 0 and 256 (got {})", o.candidates);
   if (!(o.magnitude_weight < 1e6)) fail("amplify", "magnitude weight must be finite (got {})", o.magnitude_weight);
   if (o.mode != "detail" && o.mode != "faithful") fail("amplify", "mode '{}' is not one of detail|faithful", o.mode);
+  if (o.base != "bicubic" && o.base != "bandlimited" && o.base != "auto")
+    fail("amplify", "base '{}' is not one of bicubic|bandlimited|auto", o.base);
   if (o.blend != "detail" && o.blend != "average" && o.blend != "auto")
     fail("amplify", "blend '{}' is not one of detail|average|auto", o.blend);
   if (o.search != "auto" && o.search != "flann" && o.search != "exact" && o.search != "omp")
@@ -57,6 +59,7 @@ AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
   if (o.neighbours <= 0) o.neighbours = d.neighbours;
   if (o.magnitude_weight < 0) o.magnitude_weight = d.magnitude_weight;
   if (o.blend == "auto") o.blend = d.blend;
+  if (o.base == "auto") o.base = d.base;
   return o;
 }
 
@@ -80,7 +83,7 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   MatrixF bmat = MatrixF::Zero(pm_, P);
   for (int x = 0; x < pm_; ++x)
     for (int u = 0; u < f; ++u) bmat(x, x * f + u) = 1.f / f;
-  const MatrixF umat = float(f) * smooth_part_operator(P, f) * bmat.transpose();
+  const MatrixF umat = float(f) * smooth_part_operator(P, f, o.base) * bmat.transpose();
   // The magnitude term compares relief at the dictionary's cell size (self-similar scaling when a
   // dictionary serves a coarser step).
   const float qscale = d.cell_x > 0 && out.georef.cell_x > 0 ? float(d.cell_x / out.georef.cell_x) : 1.f;
@@ -97,7 +100,13 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
   // sums are per cell, so rho does not depend on the tiling.
   float rho = std::clamp(o.detail_correlation, 0.f, 1.f);
   const bool measure = detail_blend && o.detail_correlation < 0;
+  // Band-limited base: rho flattens the curvature of base + 2 detail per phase (2: a typical
+  // calibrated gain, fixed so that the output stays affine in the gain, as the calibration needs). The
+  // bicubic base's knots have a phase pattern of their own that the detail partly offsets; there
+  // rho flattens the detail alone (measuring the output as well moved no figure: docs/amplify.md).
+  const bool measure_output = measure && o.base == "bandlimited";
   constexpr int kRhos = 11;
+  constexpr double kRhoGain = 2.0;
   std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
   // The first pass's codes and patch means, per tile, reused by the second (no second atom search).
   struct TileCodes {
@@ -243,20 +252,24 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
         // One band of S rows in four (by the global row, every phase of the grid) is enough. Rows in
         // parallel, each into its own sums, added in row order: rho does not depend on the threads.
         std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
+        // With the band-limited base, rho flattens the output's curvature (base + gain detail) per
+        // phase, not the detail's alone: the base has no phase pattern of its own to offset.
         parallel_for(size_t(th), o.threads, [&](size_t b, size_t e) {
           std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every rho
+          std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
           for (size_t yy = b; yy < e; ++yy) {
             const int y = int(yy);
             if (y < 1 || y + 1 >= th || ((Y0 + y) / S) % 4 != 0) continue;
             const int gy = (Y0 + y) % 64;
             if (gy == 0 || gy == 63) continue;
+            if (measure_output) upsample_window(low, f, o.base, X0, Y0 + y - 1, tw, 3, base_rows.data());
             for (int dy = 0; dy < 3; ++dy)
               for (int x = 0; x < tw; ++x) {
                 const size_t c = size_t(y - 1 + dy) * tw + x;
                 for (int t = 0; t < kRhos; ++t) {
                   const float r = float(t) / (kRhos - 1);
-                  bl[(size_t(dy) * kRhos + t) * tw + x] =
-                      double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
+                  const double v = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
+                  bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
                 }
               }
             double* k2 = &row_k2[size_t(y) * kRhos * S];
@@ -314,13 +327,13 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
     // out = bicubic + gain detail
     if (gain != 1.f)
       for (auto& v : out.z) v *= gain;
-    add_bicubic(out, low, f, 1.f);
+    add_upsampled(out, low, f, 1.f, o.base);
   } else if (gain != 1.f) {
-    // out = bicubic + gain (out - bicubic)
+    // out = base + gain (out - base)
     for (auto& v : out.z) v *= gain;
-    add_bicubic(out, low, f, 1.f - gain);
+    add_upsampled(out, low, f, 1.f - gain, o.base);
   }
-  if (o.bias_correction) correct_block_means(out, low, f);
+  if (o.bias_correction) correct_block_means(out, low, f, 4, o.base);
   return out;
 }
 
@@ -336,11 +349,28 @@ std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions&
 
 Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const Progress& progress) {
   require_finite(low, "amplify", "input");
-  if (o.mode == "faithful")
-    fail("amplify", "--mode faithful learns its regression from the exemplar: give --exemplar, not --dictionary");
   check_options(o, d);
   if (d.factor < 2) fail("amplify", "the dictionary has factor {}: amplification needs a multi-resolution dictionary", d.factor);
   const int steps = steps_for(o.factor, d.factor);
+  if (o.mode == "faithful") {
+    // The regression stored with the dictionary serves every step (self-similarity, as its atoms do).
+    if (!d.has_regression())
+      fail("amplify", "--mode faithful: the dictionary stores no faithful regression (written before format version 3, "
+           "or its exemplar was too small: {}); learn it again with `terracl dictionary learn`, or give --exemplar",
+           d.description);
+    Heightfield cur = low;
+    for (int k = 0; k < steps; ++k) {
+      Heightfield next = apply_block_regression(cur, d.regression, o.threads);
+      correct_block_means(next, cur, d.factor);  // exact already but for rounding
+      cur = std::move(next);
+      report_progress(progress, "amplify", double(k + 1) / steps, fmt::format("step {}/{}", k + 1, steps));
+    }
+    cur.metadata["amplify_mode"] = "faithful";
+    cur.metadata["amplify_calibration"] = fmt::format("dictionary's regression radius {} from {} exemplar blocks",
+                                                      d.regression.radius, d.regression.samples);
+    cur.metadata["amplify_dictionary"] = d.description;
+    return cur;
+  }
   const AmplifyOptions r = resolved(o, d);
   const auto index = make_index(d, r);
   Heightfield cur = low;
@@ -348,6 +378,7 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
     cur = amplify_step(cur, d, r, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps));
   cur.metadata["amplify_mode"] = "detail";
   cur.metadata["amplify_blend"] = r.blend;
+  cur.metadata["amplify_base"] = r.base;
   cur.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", r.detail_gain < 0 ? d.detail_gain : r.detail_gain);
   cur.metadata["amplify_dictionary"] = d.description;
   return cur;
@@ -378,6 +409,8 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   lo.calibration_candidates = o.candidates;
   if (o.magnitude_weight >= 0) lo.calibration_magnitude_weight = o.magnitude_weight;
   if (o.blend != "auto") lo.calibration_blend = o.blend;
+  if (o.base != "auto") lo.calibration_base = o.base;
+  lo.faithful_radius = 0;  // detail mode here; faithful mode learns its own regression below
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
     const double rx = tx / e.cell_x, ry = ty / e.cell_y;
@@ -419,6 +452,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     gains.push_back(fmt::format("{:.3f}", r.detail_gain < 0 ? dict->detail_gain : r.detail_gain));
     cur = amplify_step(cur, *dict, r, index.get(), scaled_progress(pk, 0.5, 1));
     cur.metadata["amplify_blend"] = r.blend;
+    cur.metadata["amplify_base"] = r.base;
   }
   auto join = [](const std::vector<std::string>& v, const char* sep) {
     std::string s;
@@ -471,6 +505,7 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   ao.candidates = o.calibration_candidates;
   ao.magnitude_weight = o.calibration_magnitude_weight;
   ao.blend = o.calibration_blend;
+  ao.base = o.calibration_base;
   // Sums over every held-out fold (pooled cross-validation): the HF energy terms hb, hbd, hd, ht and
   // the RMSE terms e2, ed, d2, r2 defined below.
   double hb = 0, hbd = 0, hd = 0, ht = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0;
@@ -481,17 +516,19 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
     if (a0 >= o.patch) train.push_back(crop(0, a0, 0, other));
     if (len - a1 >= o.patch) train.push_back(crop(a1, len, 0, other));
     const Heightfield b = crop(a0, a0 + (a1 - a0) / f * f, 0, other / f * f);
-    const Dictionary d = learn_dictionary(train, o);
+    LearnOptions lo = o;
+    lo.faithful_radius = 0;  // the folds' dictionaries serve detail mode only
+    const Dictionary d = learn_dictionary(train, lo);
     const Heightfield low = block_mean(b, f);
     const Heightfield out = amplify(low, d, ao);
     // The output is bicubic + g detail followed by the bias correction C, which is affine
     // (back-projection and block shifts), so C(bic + g det) = cb + g cd with cb = C(bic) and
     // cd = C(out) - cb: two corrections give every candidate gain exactly, as the default output.
-    Heightfield cb = bicubic_upsample(low, f);
-    const std::vector<float> bic = cb.z;
-    correct_block_means(cb, low, f);
+    const std::vector<float> bic = bicubic_upsample(low, f).z;  // the RMSE budget's reference
+    Heightfield cb = upsample(low, f, o.calibration_base);
+    correct_block_means(cb, low, f, 4, o.calibration_base);
     Heightfield cd = out;
-    correct_block_means(cd, low, f);
+    correct_block_means(cd, low, f, 4, o.calibration_base);
     for (size_t j = 0; j < cd.z.size(); ++j) cd.z[j] -= cb.z[j];
     // HF energy (the evaluation's, linear in the heightfield): |Sb + g Sd|^2 against |St|^2.
     const auto sb = spectrum_above(cb, f), sd = spectrum_above(cd, f), st = spectrum_above(b, f);

@@ -51,6 +51,7 @@ AmplifyOptions amplify_options(const StageContext& c) {
   o.detail_gain = float(c.get<double>("detail_gain"));
   o.blend = c.get<std::string>("blend");
   o.mode = c.get<std::string>("mode");
+  o.base = c.get<std::string>("base");
   return o;
 }
 
@@ -72,6 +73,11 @@ void run_amplify(StageContext& c) {
     out = amplify_styles(low, {&a, &b}, mask, c.get<double>("style_blend"), o, c.progress);
   } else if (has_dict) {
     const Dictionary d = load_dictionary(c.get<std::string>("dictionary"));
+    if (o.mode == "faithful" && !d.has_regression())
+      throw UsageError("amplify", fmt::format("--mode faithful: {} stores no faithful regression (format version 2 or "
+                                              "older, or learned with --faithful-radius 0); learn it again with "
+                                              "`terracl dictionary learn`, or give --exemplar",
+                                              c.get<std::string>("dictionary")));
     out = amplify(low, d, o, c.progress);
   } else {
     std::vector<Heightfield> ex;
@@ -142,8 +148,9 @@ void register_amplify_stages(StageRegistry& r) {
              OptionSpec{"detail_gain", OptionType::Float, -1.0, "", "Gain on synthesized detail (-1: the dictionary's calibrated gain)", {}}.range(-1, 100),
              {"bias_correction", OptionType::Bool, true, "", "Match the output's block means to the input", {}},
              {"resample_exemplar", OptionType::Bool, false, "", "Warp each exemplar (GDAL, averaging) to the output's cell size, and to the input's CRS when they differ", {}},
-             {"mode", OptionType::Enum, "detail", "", "detail: plausible relief from the exemplar's patches; faithful: the estimate closest to the truth (a regression learned on the exemplar, needs --exemplar)", {"detail", "faithful"}},
+             {"mode", OptionType::Enum, "detail", "", "detail: plausible relief from the exemplar's patches; faithful: the estimate closest to the truth (a regression learned on the exemplar, or the one a version 3 dictionary stores)", {"detail", "faithful"}},
              {"blend", OptionType::Enum, "auto", "", "Patch blend: detail (bicubic + variance-preserving blend of the patches' details, no patch-grid trace), average (the paper's weighted mean of the patches) or auto (the dictionary's; detail when learned now)", {"auto", "detail", "average"}},
+             {"base", OptionType::Enum, "auto", "", "Detail mode's base (what the input's block means determine; details are taken relative to it): bicubic, bandlimited (a consistent band-limited kernel: no curvature peak at the input cells' centres) or auto (the dictionary's; bandlimited when learned now, bicubic for dictionaries older than format version 3)", {"auto", "bicubic", "bandlimited"}},
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
              {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
              OptionSpec{"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}}.range(0, 1000),
@@ -164,6 +171,7 @@ void register_amplify_benches(BenchRegistry& r) {
            l.atoms = a.extra.value("atoms", 1024);
            l.iterations = a.extra.value("iterations", l.iterations);
            l.max_patches = a.extra.value("max_patches", l.max_patches);
+           l.calibration_base = a.extra.value("base", l.calibration_base);  // amplify uses the dictionary's
            using clock = std::chrono::steady_clock;
            auto t0 = clock::now();
            const Dictionary d = learn_dictionary({full}, l);

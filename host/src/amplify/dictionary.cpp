@@ -19,9 +19,11 @@ namespace terracl {
 namespace {
 
 constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
-// Version 2 added the atoms' low-resolution norms (flag bit 1); version 1 files still load.
-constexpr uint32_t kVersion = 2;
-constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4;
+// Version 2 added the atoms' low-resolution norms (flag bit 1), version 3 faithful mode's regression
+// (flag bit 3); version 1 and 2 files still load.
+constexpr uint32_t kVersion = 3;
+constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4, kFlagRegression = 8,
+                  kFlagBandlimitedBase = 16;
 
 uint64_t fnv1a(const std::string& bytes) {
   uint64_t h = 1469598103934665603ull;
@@ -92,8 +94,18 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   const bool norms = !d.low_norm.empty();
   if (norms && d.low_norm.size() != size_t(d.atoms()))
     fail("dictionary", "{} atom norms for {} atoms", d.low_norm.size(), d.atoms());
+  const bool reg = d.has_regression();
+  if (reg) {
+    const BlockRegression& g = d.regression;
+    const auto rows = Eigen::Index(d.factor) * d.factor, cols = Eigen::Index(g.features_count());
+    if (g.factor != d.factor || g.weights.size() != size_t(g.classes) ||
+        std::any_of(g.weights.begin(), g.weights.end(), [&](const MatrixF& w) { return w.rows() != rows || w.cols() != cols; }))
+      fail("dictionary", "the faithful regression (factor {}, {} classes) does not fit the dictionary (factor {})", g.factor,
+           g.classes, d.factor);
+  }
   put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0) |
-                         (d.blend == "detail" ? kFlagDetailBlend : 0));
+                         (d.blend == "detail" ? kFlagDetailBlend : 0) | (reg ? kFlagRegression : 0) |
+                         (d.base == "bandlimited" ? kFlagBandlimitedBase : 0));
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
@@ -104,6 +116,14 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   for (Eigen::Index i = 0; i < d.high.size(); ++i) put<float>(out, d.high.data()[i]);
   for (Eigen::Index i = 0; i < d.low.size(); ++i) put<float>(out, d.low.data()[i]);
   for (float v : d.low_norm) put<float>(out, v);
+  if (reg) {
+    put<int32_t>(out, d.regression.radius);
+    put<int32_t>(out, d.regression.classes);
+    put<int64_t>(out, int64_t(d.regression.samples));
+    for (const MatrixF& w : d.regression.weights)  // f^2 x n, row-major
+      for (Eigen::Index i = 0; i < w.rows(); ++i)
+        for (Eigen::Index j = 0; j < w.cols(); ++j) put<float>(out, w(i, j));
+  }
   put<uint64_t>(out, fnv1a(out));
   write_atomically(path, [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::binary);
@@ -132,6 +152,8 @@ Dictionary load_dictionary(const std::string& path) {
   d.constrained = (flags & kFlagConstrained) != 0;
   d.blend = (flags & kFlagDetailBlend) != 0 ? "detail" : "average";
   const bool norms = version >= 2 && (flags & kFlagNorms) != 0;
+  const bool reg = version >= 3 && (flags & kFlagRegression) != 0;
+  d.base = version >= 3 && (flags & kFlagBandlimitedBase) != 0 ? "bandlimited" : "bicubic";
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
   d.detail_gain = r.get<float>("detail gain");
@@ -153,7 +175,8 @@ Dictionary load_dictionary(const std::string& path) {
   r.pos += dlen;
   const size_t K = size_t(d.patch) * d.patch, k = size_t(d.low_patch()) * d.low_patch();
   const size_t need = (K + k + (norms ? 1 : 0)) * size_t(atoms) * 4 + 8;
-  if (data.size() - r.pos != need)
+  // The regression's size follows from its own header (read below); here only a lower bound.
+  if (reg ? data.size() - r.pos < need + 16 : data.size() - r.pos != need)
     fail("dictionary", "{}: size {} bytes does not match its header ({} atoms of {}x{} need {} more bytes after byte {}); "
          "truncated or corrupt file", path, data.size(), atoms, d.patch, d.patch, need, r.pos);
   const uint64_t stored = [&] {
@@ -173,6 +196,29 @@ Dictionary load_dictionary(const std::string& path) {
     }
   }
   if (!d.high.allFinite() || !d.low.allFinite()) fail("dictionary", "{}: atoms contain NaN or Inf (corrupt file)", path);
+  if (reg) {
+    BlockRegression& g = d.regression;
+    g.factor = d.factor;
+    g.radius = r.get<int32_t>("regression radius");
+    g.classes = r.get<int32_t>("regression classes");
+    const int64_t samples = r.get<int64_t>("regression samples");
+    if (g.radius < 1 || g.radius > 4 || g.classes < 1 || g.classes > 64 || samples < 1)
+      fail("dictionary", "{}: corrupt faithful regression header (radius {}, classes {}, samples {})", path, g.radius,
+           g.classes, samples);
+    g.samples = long(samples);
+    const size_t rows = size_t(d.factor) * d.factor, cols = size_t(g.features_count());
+    const size_t left = rows * cols * size_t(g.classes) * 4 + 8;
+    if (data.size() - r.pos != left)
+      fail("dictionary", "{}: size {} bytes does not match its header (a faithful regression of {} classes of {}x{} weights "
+           "needs {} more bytes after byte {}); truncated or corrupt file", path, data.size(), g.classes, rows, cols, left,
+           r.pos);
+    g.weights.assign(size_t(g.classes), MatrixF(Eigen::Index(rows), Eigen::Index(cols)));
+    for (MatrixF& w : g.weights) {
+      for (Eigen::Index i = 0; i < w.rows(); ++i)
+        for (Eigen::Index j = 0; j < w.cols(); ++j) w(i, j) = r.get<float>("regression weights");
+      if (!w.allFinite()) fail("dictionary", "{}: faithful regression weights contain NaN or Inf (corrupt file)", path);
+    }
+  }
   return d;
 }
 
@@ -270,6 +316,7 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   d.neighbours = o.calibration_neighbours;
   d.magnitude_weight = o.calibration_magnitude_weight;
   d.blend = o.calibration_blend;
+  d.base = o.calibration_base;
   std::vector<Eigen::Index> good;
   MatrixF L(p * p, H.cols());
   for (Eigen::Index j = 0; j < H.cols(); ++j) {
@@ -288,10 +335,22 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
     d.high.col(Eigen::Index(i)) = H.col(good[i]);
     d.low.col(Eigen::Index(i)) = L.col(good[i]);
   }
+  if (o.faithful_radius > 0 && f > 1) {
+    // Faithful mode's regression from the same exemplars at the same scale (cheap: normal equations).
+    const long n = regression_samples(exemplars, f, o.faithful_radius);
+    const long need = 4L * ((2 * o.faithful_radius + 1) * (2 * o.faithful_radius + 1) - 1);
+    if (n >= need) {
+      d.regression = learn_block_regression(exemplars, f, o.faithful_radius);
+      d.description += fmt::format("; faithful regression radius {} from {} blocks", d.regression.radius, d.regression.samples);
+    } else {
+      d.description += fmt::format("; no faithful regression ({} complete neighbourhoods, {} needed)", n, need);
+    }
+  }
   if (o.calibrate && f > 1) {
     report_progress(progress, "dictionary", 0.95, "calibrating the detail gain");
     LearnOptions c = o;
     c.calibrate = false;
+    c.faithful_radius = 0;  // the folds' dictionaries serve detail mode only
     c.max_patches = o.max_patches / 2;
     const GainCalibration cal = calibrate_detail(exemplars[0], c);
     d.detail_gain = float(cal.gain);

@@ -44,6 +44,15 @@ int direction_class(const Heightfield& low, int x, int y, int classes) {
 
 int BlockRegression::features_count() const { return (2 * radius + 1) * (2 * radius + 1) - 1; }
 
+long regression_samples(const std::vector<Heightfield>& exemplars, int f, int radius) {
+  long n = 0;
+  for (const Heightfield& ex : exemplars) {
+    if (f < 1 || ex.width < 4 * f || ex.height < 4 * f) continue;
+    n += long(std::max(0, ex.width / f - 2 * radius)) * std::max(0, ex.height / f - 2 * radius);
+  }
+  return n;
+}
+
 BlockRegression learn_block_regression(const std::vector<Heightfield>& exemplars, int f, int radius, int classes,
                                        double ridge) {
   if (f < 2) fail("amplify", "faithful mode: factor {} must be >= 2", f);
