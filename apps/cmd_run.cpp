@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
 #include <terracl/tile.hpp>
 
 #include "cli.hpp"
+#include "tile_flags.hpp"
 
 namespace terracl::cli {
 namespace {
@@ -156,7 +158,15 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                                            : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
     }
     finish_progress();
+    const std::string ranks = tiled ? ranks_report() : std::string();  // collective under mpirun
+    if (distributed::rank() != 0) return;  // rank 0 wrote the outputs and reports them
     print_report(p, report);
+    if (!ranks.empty()) {
+      if (json_progress())
+        fmt::print("{}\n", json{{"event", "mpi"}, {"ranks", ranks}}.dump());
+      else
+        fmt::print("{}\n", ranks);
+    }
   });
 });
 

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
 
@@ -66,6 +67,23 @@ void TileFlags::run_stage(const std::string& command, const std::string& input, 
     throw Cancelled(command, "cancelled by Ctrl-C; no output was written");
   }
   finish_progress();
+  const std::string ranks = ranks_report();
+  if (!ranks.empty() && !globals().quiet) fmt::print(stderr, "{}\n", ranks);
+}
+
+std::string ranks_report() {
+  if (distributed::size() <= 1) return {};
+  std::string name;
+  try {
+    name = device().info().name;
+  } catch (const std::exception& e) {
+    name = std::string("no OpenCL device (") + e.what() + ")";
+  }
+  const auto all = distributed::gather_text(name);
+  if (distributed::rank() != 0) return {};
+  std::string text = "mpi: " + distributed::describe() + ", tiles round-robin, rank 0 writes;";
+  for (size_t r = 0; r < all.size(); ++r) text += fmt::format("{} rank {}: {}", r ? "," : "", r, all[r]);
+  return text;
 }
 
 void TileFlags::refuse_untiled_flag(const std::string& command, bool given, const std::string& flags) {
