@@ -90,11 +90,13 @@ bool setup_ranks(int argc, char** argv) {
   if (distributed::size() <= 1) return true;
   auto& g = globals();
   if (distributed::rank() != 0) g.quiet = true;
-  bool tiled = false;
+  bool tiled = false, amplify = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     tiled |= a == "--tile" || a.rfind("--tile=", 0) == 0 || a == "--memory-budget" || a.rfind("--memory-budget=", 0) == 0;
+    amplify |= a == "amplify";  // its --tile is its work memory, not a tiled run
   }
+  tiled &= !amplify;
   if (!tiled) {
     if (distributed::rank() == 0)
       std::cerr << "terracl ERROR: usage: under mpirun with " << distributed::size()

@@ -1,7 +1,10 @@
 // Tiled runs over MPI ranks (TERRACL_MPI, docs/scale.md): the communicator the tile runner uses
 // (tile_comm.hpp) on MPI_COMM_WORLD, and distributed.hpp. Messages are byte strings sent as a
-// 64-bit length and chunks of at most 1 GiB (MPI counts are int).
+// 64-bit length and chunks of at most 1 GiB (MPI counts are int). Every wait is a nonblocking
+// call tested with short sleeps: Open MPI's blocking calls spin, and a spinning rank took the CPU
+// from the others whenever ranks share cores (mpirun --oversubscribe, a loaded node).
 #include <mpi.h>
+#include <time.h>
 
 #include <algorithm>
 #include <climits>
@@ -20,20 +23,40 @@ constexpr size_t kChunk = size_t(1) << 30;
 bool g_started = false;
 int g_rank = 0, g_size = 1, g_local_rank = 0;
 
+// Completes `r`, sleeping between tests (from 20 us up to 1 ms) instead of spinning.
+void wait(MPI_Request& r) {
+  long ns = 20000;
+  for (;;) {
+    int done = 0;
+    MPI_Test(&r, &done, MPI_STATUS_IGNORE);
+    if (done) return;
+    const timespec ts{0, ns};
+    nanosleep(&ts, nullptr);
+    ns = std::min(ns * 2, 1000000L);
+  }
+}
+
 void send_bytes(int to, int tag, const tile::Bytes& b) {
   const uint64_t n = b.size();
-  MPI_Send(&n, 1, MPI_UINT64_T, to, tag, MPI_COMM_WORLD);
-  for (size_t at = 0; at < b.size(); at += kChunk)
-    MPI_Send(b.data() + at, int(std::min(kChunk, b.size() - at)), MPI_BYTE, to, tag, MPI_COMM_WORLD);
+  MPI_Request r;
+  MPI_Isend(&n, 1, MPI_UINT64_T, to, tag, MPI_COMM_WORLD, &r);
+  wait(r);
+  for (size_t at = 0; at < b.size(); at += kChunk) {
+    MPI_Isend(b.data() + at, int(std::min(kChunk, b.size() - at)), MPI_BYTE, to, tag, MPI_COMM_WORLD, &r);
+    wait(r);
+  }
 }
 
 tile::Bytes recv_bytes(int from, int tag) {
   uint64_t n = 0;
-  MPI_Recv(&n, 1, MPI_UINT64_T, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  MPI_Request r;
+  MPI_Irecv(&n, 1, MPI_UINT64_T, from, tag, MPI_COMM_WORLD, &r);
+  wait(r);
   tile::Bytes b(n);
-  for (size_t at = 0; at < b.size(); at += kChunk)
-    MPI_Recv(b.data() + at, int(std::min(kChunk, b.size() - at)), MPI_BYTE, from, tag, MPI_COMM_WORLD,
-             MPI_STATUS_IGNORE);
+  for (size_t at = 0; at < b.size(); at += kChunk) {
+    MPI_Irecv(b.data() + at, int(std::min(kChunk, b.size() - at)), MPI_BYTE, from, tag, MPI_COMM_WORLD, &r);
+    wait(r);
+  }
   return b;
 }
 
@@ -54,12 +77,20 @@ class MpiComm : public tile::Comm {
   }
   void broadcast(tile::Bytes& b) const override {
     uint64_t n = b.size();
-    MPI_Bcast(&n, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    MPI_Request r;
+    MPI_Ibcast(&n, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD, &r);
+    wait(r);
     b.resize(n);
-    for (size_t at = 0; at < b.size(); at += kChunk)
-      MPI_Bcast(b.data() + at, int(std::min(kChunk, b.size() - at)), MPI_BYTE, 0, MPI_COMM_WORLD);
+    for (size_t at = 0; at < b.size(); at += kChunk) {
+      MPI_Ibcast(b.data() + at, int(std::min(kChunk, b.size() - at)), MPI_BYTE, 0, MPI_COMM_WORLD, &r);
+      wait(r);
+    }
   }
-  void barrier() const override { MPI_Barrier(MPI_COMM_WORLD); }
+  void barrier() const override {
+    MPI_Request r;
+    MPI_Ibarrier(MPI_COMM_WORLD, &r);
+    wait(r);
+  }
 };
 
 bool launched_by_mpirun() {
