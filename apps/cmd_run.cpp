@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <filesystem>
 #include <optional>
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
 #include <terracl/stage_memory.hpp>
 #include <terracl/tile.hpp>
 
 #include "cli.hpp"
+#include "tile_flags.hpp"
 
 namespace terracl::cli {
 namespace {
@@ -178,6 +180,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                                           : fmt::format("complete outputs: {}", fmt::join(done, ", "))));
     }
     finish_progress();
+    const std::string ranks = tiled ? ranks_report() : std::string();  // collective under mpirun
+    if (distributed::rank() != 0) return;  // rank 0 wrote the outputs and reports them
     print_report(p, report);
     if (tiled && !json_progress())
       fmt::print("tiles: {} run{}\n", tiles.run,
@@ -185,6 +189,12 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                      ? fmt::format(", {} finished before (verified by checksum), {} re-run after a checksum mismatch",
                                    tiles.skipped, tiles.mismatched)
                      : std::string());
+    if (!ranks.empty()) {
+      if (json_progress())
+        fmt::print("{}\n", json{{"event", "mpi"}, {"ranks", ranks}}.dump());
+      else
+        fmt::print("{}\n", ranks);
+    }
   });
 });
 

@@ -2,6 +2,7 @@
 // print as `terracl ERROR: <stage>: <message>` and exit 1 (2 for usage errors).
 #include "cli.hpp"
 
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
 #include <terracl/version.hpp>
@@ -82,11 +83,69 @@ void disable_caches_if_unwritable() {
   }
 }
 
+// Under mpirun with several ranks (docs/scale.md): progress on rank 0 only, each rank on its own
+// OpenCL device where the node has several (the node's rank modulo its GPUs, else its devices),
+// and only tiled runs (each rank would otherwise write the same files). Returns false to refuse.
+bool setup_ranks(int argc, char** argv) {
+  if (distributed::size() <= 1) return true;
+  auto& g = globals();
+  if (distributed::rank() != 0) g.quiet = true;
+  bool tiled = false, amplify = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    tiled |= a == "--tile" || a.rfind("--tile=", 0) == 0 || a == "--memory-budget" || a.rfind("--memory-budget=", 0) == 0;
+    amplify |= a == "amplify";  // its --tile is its work memory, not a tiled run
+  }
+  tiled &= !amplify;
+  if (!tiled) {
+    if (distributed::rank() == 0)
+      std::cerr << "terracl ERROR: usage: under mpirun with " << distributed::size()
+                << " ranks only tiled runs are distributed (give --tile or --memory-budget to run, or a tiled "
+                   "subcommand); run other commands without mpirun\n";
+    return false;
+  }
+  const bool env_choice = std::getenv("OCL_DEVICE") || std::getenv("OCL_PLATFORM") || std::getenv("OCL_TYPE");
+  bool device_given = false;
+  for (int i = 1; i < argc; ++i) device_given |= std::string(argv[i]).rfind("--device", 0) == 0;
+  if (!device_given && !env_choice) {
+    const auto devices = list_devices();
+    std::vector<int> pick;
+    for (const auto& d : devices)
+      if (d.type == "GPU") pick.push_back(d.index);
+    if (pick.empty())
+      for (const auto& d : devices) pick.push_back(d.index);
+    if (pick.size() > 1) g.device = std::to_string(pick[size_t(distributed::local_rank()) % pick.size()]);
+  }
+  return true;
+}
+
 }  // namespace
 
 }  // namespace terracl::cli
 
+namespace {
+int run_cli(int argc, char** argv);
+}
+
 int main(int argc, char** argv) {
+  // Joins MPI when launched by mpirun (a build with TERRACL_MPI); else the only rank.
+  terracl::distributed::start(&argc, &argv);
+  if (!terracl::cli::setup_ranks(argc, argv)) {
+    terracl::distributed::finish();
+    return 2;
+  }
+  const int code = run_cli(argc, argv);
+  // An error on any rank stops every rank (the message is printed already).
+  if (code != 0 && terracl::distributed::size() > 1) {
+    std::cerr.flush();
+    terracl::distributed::abort(code);
+  }
+  terracl::distributed::finish();
+  return code;
+}
+
+namespace {
+int run_cli(int argc, char** argv) {
   using namespace terracl;
   auto& g = cli::globals();
   for (int i = 0; i < argc; ++i) g.command_line += (i ? " " : "") + std::string(argv[i]);
@@ -156,3 +215,4 @@ int main(int argc, char** argv) {
   cli::finish_progress();
   return 0;
 }
+}  // namespace

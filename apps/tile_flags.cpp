@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
+
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/pipeline.hpp>
 
@@ -84,6 +87,40 @@ void TileFlags::run_stage(const std::string& command, const std::string& input, 
   if (to.resume)
     fmt::print("tiles: {} run, {} finished before (verified by checksum), {} re-run after a checksum mismatch\n",
                tiles.run, tiles.skipped, tiles.mismatched);
+  const std::string ranks = ranks_report();
+  if (!ranks.empty() && !globals().quiet) fmt::print(stderr, "{}\n", ranks);
+}
+
+// The device this rank uses, named from the device list when the choice is an index or the default
+// (opening a device only to name it cost each rank about 2 s with PoCL).
+std::string rank_device_name() {
+  const std::string& spec = globals().device;
+  const bool env = std::getenv("OCL_DEVICE") || std::getenv("OCL_PLATFORM") || std::getenv("OCL_TYPE");
+  const bool index = !spec.empty() && spec.size() < 9 && spec.find_first_not_of("0123456789") == std::string::npos;
+  if (!env && (spec.empty() || index)) {
+    const auto devices = list_devices();
+    if (index && size_t(std::stoi(spec)) < devices.size()) return devices[size_t(std::stoi(spec))].name;
+    if (spec.empty()) {
+      for (const auto& d : devices)
+        if (d.type == "GPU") return d.name;
+      return devices.empty() ? std::string("no OpenCL device") : devices.front().name;
+    }
+  }
+  try {
+    return device().info().name;
+  } catch (const std::exception& e) {
+    return std::string("no OpenCL device (") + e.what() + ")";
+  }
+}
+
+std::string ranks_report() {
+  if (distributed::size() <= 1) return {};
+  const std::string name = rank_device_name();
+  const auto all = distributed::gather_text(name);
+  if (distributed::rank() != 0) return {};
+  std::string text = "mpi: " + distributed::describe() + ", tiles round-robin, rank 0 writes;";
+  for (size_t r = 0; r < all.size(); ++r) text += fmt::format("{} rank {}: {}", r ? "," : "", r, all[r]);
+  return text;
 }
 
 void TileFlags::refuse_untiled_flag(const std::string& command, bool given, const std::string& flags) {

@@ -27,4 +27,9 @@ struct TileFlags {
   static void refuse_untiled_flag(const std::string& command, bool given, const std::string& flags);
 };
 
+/// Under mpirun with several ranks: at rank 0, "mpi: <library>, N ranks; rank 0: <device>, rank 1:
+/// ..." (the OpenCL device each rank uses); "" elsewhere or in one process. Collective: every rank
+/// of a tiled run calls it once the run is done.
+std::string ranks_report();
+
 }  // namespace terracl::cli

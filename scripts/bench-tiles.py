@@ -7,12 +7,16 @@ the GDAL checksums of both outputs (the tests prove them equal bit for bit).
 
   scripts/bench-tiles.py --size 8192 --tile 2048 [--budget 1G] [--terracl build/bin/terracl]
   scripts/bench-tiles.py --job drainage --size 8192 --tile 2048 [--grass]
+  scripts/bench-tiles.py --job drainage --size 4096 --tile 1024 --skip-untiled --ranks 1,2
 
 --job drainage: untiled `read -> drainage` of the raw mosaic (the stage fills it with epsilon
 itself) against the tiled form: the epsilon fill untiled (it cannot run tiled), then `read ->
 drainage` tiled on the filled surface (exact tiled D8, Barnes 2017). --grass also runs GRASS
 r.watershed -s (D8) on the filled surface (needs Debian's grass-core, not a CI dependency) and
 reports its time and how its accumulation agrees with terracl's, cell for cell.
+
+--ranks 1,2: the tiled run once per rank count, under `mpirun --oversubscribe -n N` for N > 1 (a
+build with TERRACL_MPI), each output compared byte for byte with the first (docs/scale.md).
 """
 import argparse, os, resource, subprocess, sys, time
 
@@ -25,7 +29,11 @@ ap.add_argument("--out", default="/tmp/terracl-bench-tiles")
 ap.add_argument("--skip-untiled", action="store_true")
 ap.add_argument("--job", choices=["fill", "drainage"], default="fill")
 ap.add_argument("--grass", action="store_true")
+ap.add_argument("--ranks", default="1", help="comma-separated MPI rank counts for the tiled run (1: no mpirun)")
 a = ap.parse_args()
+if os.geteuid() == 0:  # OpenMPI refuses root (containers) without these
+    os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
 os.makedirs(a.out, exist_ok=True)
 src = os.path.abspath("data/dem/N44W072.hgt")
 n = a.size
@@ -66,13 +74,34 @@ def checksum(path):
     return [l.split("=")[1] for l in chk.splitlines() if "Checksum=" in l][0]
 
 
-def run(name, extra, stages='"fill_depressions"', src=None):
+def run(name, extra, stages='"fill_depressions"', src=None, ranks=1):
     p = f"{a.out}/{name}.json"
     with open(p, "w") as f:
         f.write(f'["{src or mosaic}", {stages}, "{a.out}/{name}.tif"]\n')
-    wall, cpu, rss = timed([a.terracl, "-q", "run", p] + extra)
-    print(f"| {name} | {' '.join(extra) or '(untiled)'} | {wall:.1f} | {cpu:.1f} | {rss:.0f} | {checksum(f'{a.out}/{name}.tif')} |",
-          flush=True)
+    mpi = ["mpirun", "--oversubscribe", "-n", str(ranks)] if ranks > 1 else []
+    wall, cpu, rss = timed(mpi + [a.terracl, "-q", "run", p] + extra)
+    label = ' '.join(extra) or '(untiled)'
+    if ranks > 1:
+        label = f"mpirun -n {ranks}, {label}"
+    print(f"| {name} | {label} | {wall:.1f} | {cpu:.1f} | {rss:.0f} | {checksum(f'{a.out}/{name}.tif')} |", flush=True)
+    return f"{a.out}/{name}.tif"
+
+
+def run_ranks(name, extra, stages, src=None):
+    """The tiled run once per --ranks count; outputs compared byte for byte (same pipeline file)."""
+    import filecmp, shutil
+    first = None
+    for r in [int(x) for x in a.ranks.split(",")]:
+        out = run(name, extra, stages, src, r)
+        kept = f"{a.out}/{name}-ranks{r}.tif"
+        shutil.move(out, kept)
+        if first is None:
+            first = kept
+        elif not filecmp.cmp(first, kept, shallow=False):
+            sys.exit(f"{kept} differs from {first}")
+        else:
+            print(f"{r} ranks: output byte-identical to {os.path.basename(first)}", flush=True)
+    shutil.copy(first, f"{a.out}/{name}.tif")
     return f"{a.out}/{name}.tif"
 
 
@@ -83,7 +112,7 @@ if a.job == "fill":
     print("|---|---|---|---|---|---|")
     if not a.skip_untiled:
         run("untiled", [])
-    run("tiled", extra)
+    run_ranks("tiled", extra, '"fill_depressions"')
     sys.exit(0)
 
 print(f"D8 drainage (m2) of a {n} x {n} SRTM mosaic ({n * n / 1e6:.0f} M cells, {n * n * 4 / 2**20:.0f} MiB float32)")
@@ -92,7 +121,7 @@ print("|---|---|---|---|---|---|")
 if not a.skip_untiled:
     run("drainage-untiled", [], '"drainage"')
 filled = run("filled-eps", [], '{"type": "fill_depressions", "epsilon": true}')
-tiled = run("drainage-tiled", extra, '"drainage"', filled)
+tiled = run_ranks("drainage-tiled", extra, '"drainage"', filled)
 if not a.skip_untiled:
     # GDAL's checksum rounds floats; compare the bits (block by block, to keep memory small).
     from osgeo import gdal

@@ -10,5 +10,6 @@ if command -v ccache >/dev/null 2>&1; then
   export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$(cd .. && pwd)}
   LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release "${LAUNCHER[@]}" >/dev/null
+# TERRACL_MPI=ON: tiled runs over MPI ranks (OpenMPI; test.sh turns it on so CI builds and tests it).
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DTERRACL_MPI="${TERRACL_MPI:-OFF}" "${LAUNCHER[@]}" >/dev/null
 cmake --build "$BUILD_DIR" -j "$JOBS"

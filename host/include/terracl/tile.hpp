@@ -73,6 +73,10 @@ namespace analysis {
 /// Reads cells [x, x + w) x [y, y + h) of the whole raster (nodata NaN).
 using WindowReader = std::function<Heightfield(int x, int y, int w, int h)>;
 /// Receives the final values of the tile whose core starts at (x, y).
+/// Under mpirun (terracl/distributed.hpp; a build with TERRACL_MPI) run_tiled and the two tiled
+/// algorithms below are collective: every rank calls them, each works on its share of the tiles,
+/// and the writer is called on rank 0 only, in tile order (with cores from other ranks carrying
+/// their cells only, no georef or metadata).
 using WindowWriter = std::function<void(int x, int y, const Heightfield& core)>;
 
 struct TiledFillStats {

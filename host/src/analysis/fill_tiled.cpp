@@ -10,6 +10,8 @@
 //  3. each tile is flooded again (same order, same labels) and every cell becomes
 //     max(local fill, spill of its label).
 // Only max/min of input values are taken, so the result is bit for bit the untiled fill.
+// Under MPI (tile_comm.hpp) each rank floods its tiles, rank 0 gathers the edges, solves step 2 and
+// broadcasts the spill elevations; step 3's tiles are written by rank 0 in tile order.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -19,6 +21,7 @@
 
 #include "analysis/grid.hpp"
 #include "analysis/tile_windows.hpp"
+#include "tile/tile_comm.hpp"
 
 namespace terracl::analysis {
 namespace {
@@ -30,8 +33,8 @@ struct Edge {
   float w;
 };
 
-using tiles::Tile;
 using tiles::make_tiles;
+using tiles::Tile;
 
 // One tile's flood: the padded core (one-cell NaN frame), its labels and filled values.
 struct LocalFlood {
@@ -136,9 +139,11 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
   std::vector<Edge> edges;
   LocalFlood f;
   const double n_steps = 2.0 * tiles.size() + 1;
+  const tile::Comm& comm = tile::comm();
 
   // Pass 1: local floods and the perimeter graph.
   for (size_t ti = 0; ti < tiles.size(); ++ti) {
+    if (!comm.mine(ti)) continue;
     const Tile& t = tiles[ti];
     int wx, wy;
     const Heightfield win = read_with_halo(read, t, W, H, wx, wy);
@@ -171,56 +176,78 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
                     fmt::format("tile {}/{}: perimeter graph", ti + 1, tiles.size()));
   }
 
-  // Pass 2: spill elevations, a minimax Dijkstra from the ocean over the perimeter graph.
+  // Pass 2: spill elevations, a minimax Dijkstra from the ocean over the perimeter graph (at rank 0).
   std::vector<uint64_t> nodes;
-  nodes.reserve(edges.size() + 1);
-  nodes.push_back(0);
-  for (const Edge& e : edges) nodes.push_back(e.a), nodes.push_back(e.b);
-  std::sort(nodes.begin(), nodes.end());
-  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  std::vector<float> spill;
   auto node_index = [&](uint64_t id) {
     return uint32_t(std::lower_bound(nodes.begin(), nodes.end(), id) - nodes.begin());
   };
-  std::vector<uint32_t> start(nodes.size() + 1, 0);
-  for (const Edge& e : edges) start[node_index(e.a) + 1]++, start[node_index(e.b) + 1]++;
-  for (size_t i = 0; i < nodes.size(); ++i) start[i + 1] += start[i];
-  std::vector<std::pair<uint32_t, float>> adj(start.back());
-  {
-    std::vector<uint32_t> fillp(start.begin(), start.end() - 1);
-    for (const Edge& e : edges) {
-      const uint32_t a = node_index(e.a), b = node_index(e.b);
-      adj[fillp[a]++] = {b, e.w};
-      adj[fillp[b]++] = {a, e.w};
+  if (comm.size() > 1) {
+    tile::ByteWriter w;
+    w.put_vector(edges);
+    const std::vector<tile::Bytes> all = comm.gather(w.bytes());
+    std::vector<Edge>().swap(edges);
+    for (const tile::Bytes& b : all) {
+      tile::ByteReader r(b);
+      const std::vector<Edge> part = r.get_vector<Edge>();
+      edges.insert(edges.end(), part.begin(), part.end());
     }
   }
-  st.graph_nodes = nodes.size();
-  st.graph_edges = edges.size();
-  st.graph_bytes = double(nodes.size()) * 12 + double(edges.size()) * (20 + 16);
-  std::vector<Edge>().swap(edges);
-  std::vector<float> spill(nodes.size(), INFINITY);
-  {
-    using Item = std::pair<float, uint32_t>;
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> q;
-    spill[0] = -INFINITY;
-    q.push({-INFINITY, 0});
-    while (!q.empty()) {
-      const auto [s, u] = q.top();
-      q.pop();
-      if (s > spill[u]) continue;
-      for (uint32_t e = start[u]; e < start[u + 1]; ++e) {
-        const auto [v, w] = adj[e];
-        const float ns = std::max(s, w);
-        if (ns < spill[v]) {
-          spill[v] = ns;
-          q.push({ns, v});
+  if (comm.rank() == 0) {
+    nodes.reserve(edges.size() + 1);
+    nodes.push_back(0);
+    for (const Edge& e : edges) nodes.push_back(e.a), nodes.push_back(e.b);
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    std::vector<uint32_t> start(nodes.size() + 1, 0);
+    for (const Edge& e : edges) start[node_index(e.a) + 1]++, start[node_index(e.b) + 1]++;
+    for (size_t i = 0; i < nodes.size(); ++i) start[i + 1] += start[i];
+    std::vector<std::pair<uint32_t, float>> adj(start.back());
+    {
+      std::vector<uint32_t> fillp(start.begin(), start.end() - 1);
+      for (const Edge& e : edges) {
+        const uint32_t a = node_index(e.a), b = node_index(e.b);
+        adj[fillp[a]++] = {b, e.w};
+        adj[fillp[b]++] = {a, e.w};
+      }
+    }
+    st.graph_nodes = nodes.size();
+    st.graph_edges = edges.size();
+    st.graph_bytes = double(nodes.size()) * 12 + double(edges.size()) * (20 + 16);
+    std::vector<Edge>().swap(edges);
+    spill.assign(nodes.size(), INFINITY);
+    {
+      using Item = std::pair<float, uint32_t>;
+      std::priority_queue<Item, std::vector<Item>, std::greater<Item>> q;
+      spill[0] = -INFINITY;
+      q.push({-INFINITY, 0});
+      while (!q.empty()) {
+        const auto [s, u] = q.top();
+        q.pop();
+        if (s > spill[u]) continue;
+        for (uint32_t e = start[u]; e < start[u + 1]; ++e) {
+          const auto [v, w] = adj[e];
+          const float ns = std::max(s, w);
+          if (ns < spill[v]) {
+            spill[v] = ns;
+            q.push({ns, v});
+          }
         }
       }
     }
+  }  // rank 0
+  if (comm.size() > 1) {
+    tile::ByteWriter w;
+    if (comm.rank() == 0) w.put_vector(nodes).put_vector(spill);
+    comm.broadcast(w.bytes());
+    tile::ByteReader r(w.bytes());
+    nodes = r.get_vector<uint64_t>();
+    spill = r.get_vector<float>();
   }
   report_progress(progress, "fill", (tiles.size() + 1) / n_steps, "spill elevations");
 
   // Pass 3: flood each tile again and raise it to its labels' spill elevations.
-  for (size_t ti = 0; ti < tiles.size(); ++ti) {
+  auto filled = [&](size_t ti) {
     const Tile& t = tiles[ti];
     int wx, wy;
     Heightfield win = read_with_halo(read, t, W, H, wx, wy);
@@ -234,10 +261,13 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
         const float v = f.z[i];
         core.at(x, y) = std::isnan(v) ? v : std::max(v, level[f.label[i]]);
       }
-    write(t.x0, t.y0, core);
+    return core;
+  };
+  tile::ordered_cores(comm, tiles.size(), filled, [&](size_t ti, const Heightfield& core) {
+    write(tiles[ti].x0, tiles[ti].y0, core);
     report_progress(progress, "fill", (tiles.size() + 1 + ti + 1) / n_steps,
                     fmt::format("tile {}/{}: filled", ti + 1, tiles.size()));
-  }
+  });
   return st;
 }
 

@@ -14,6 +14,8 @@
 // cell has a lower neighbour or is an outlet: d8_flow then routes it as is); on a surface with
 // pits or flats the untiled run resolves them with the epsilon flood, whose steps follow one
 // global processing order that tiles cannot reproduce, so the tiled run refuses it.
+// Under MPI (tile_comm.hpp) each rank runs pass 1 on its tiles, rank 0 gathers the links and exits,
+// solves pass 2 and broadcasts the inflow; pass 3's tiles are written by rank 0 in tile order.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -22,6 +24,7 @@
 
 #include "analysis/grid.hpp"
 #include "analysis/tile_windows.hpp"
+#include "tile/tile_comm.hpp"
 
 namespace terracl::analysis {
 namespace {
@@ -30,8 +33,8 @@ using namespace detail;
 
 constexpr uint32_t kNone = 0xffffffffu;
 
-using tiles::Tile;
 using tiles::make_tiles;
+using tiles::Tile;
 
 // One tile's directions and local accumulation.
 struct LocalFlow {
@@ -161,7 +164,9 @@ TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double 
   };
   std::vector<Link> links;
   std::vector<Exit> exits;
+  const tile::Comm& comm = tile::comm();
   for (size_t ti = 0; ti < tiles.size(); ++ti) {
+    if (!comm.mine(ti)) continue;
     const Tile& t = tiles[ti];
     int wx, wy;
     const Heightfield win = read_with_halo(read, t, W, H, wx, wy);
@@ -184,65 +189,89 @@ TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double 
   // entering cell c from other tiles; out(e): flow leaving exit e = its local accumulation plus
   // the inflow of every perimeter cell whose path leaves the tile at e.
   std::vector<uint64_t> nodes;
-  nodes.reserve(2 * exits.size() + links.size());
-  for (const Link& l : links) nodes.push_back(l.from);
-  for (const Exit& e : exits) nodes.push_back(e.into);
-  std::sort(nodes.begin(), nodes.end());
-  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  std::vector<uint64_t> in;
+  if (comm.size() > 1) {  // rank 0 gets every rank's links and exits
+    tile::ByteWriter w;
+    w.put_vector(links).put_vector(exits);
+    const std::vector<tile::Bytes> all = comm.gather(w.bytes());
+    for (size_t r = 1; r < all.size(); ++r) {
+      tile::ByteReader rd(all[r]);
+      const auto l = rd.get_vector<Link>();
+      const auto e = rd.get_vector<Exit>();
+      links.insert(links.end(), l.begin(), l.end());
+      exits.insert(exits.end(), e.begin(), e.end());
+    }
+  }
   auto node_index = [&](uint64_t id) {
     const auto it = std::lower_bound(nodes.begin(), nodes.end(), id);
     return it != nodes.end() && *it == id ? uint32_t(it - nodes.begin()) : kNone;
   };
-  const size_t nn = nodes.size();
-  std::vector<uint32_t> link_of(nn, kNone), into_of(nn, kNone), deg_in(nn, 0), deg_out(nn, 0);
-  std::vector<uint64_t> in(nn, 0), out(nn, 0);
-  for (const Link& l : links) {
-    const uint32_t a = node_index(l.from), b = node_index(l.to);
-    link_of[a] = b;
-    deg_out[b]++;
-  }
-  for (const Exit& e : exits) {
-    const uint32_t a = node_index(e.cell), b = node_index(e.into);
-    into_of[a] = b;
-    out[a] = e.local;
-    deg_in[b]++;
-  }
-  st.graph_nodes = nn;
-  st.graph_edges = links.size() + exits.size();
-  st.graph_bytes = double(nn) * (8 + 4 * 4 + 2 * 8) + double(links.size()) * 16 + double(exits.size()) * 24;
-  std::vector<Link>().swap(links);
-  std::vector<Exit>().swap(exits);
-  if (global_phase) {
-    std::vector<uint32_t> stack;  // node << 1 | (1 for out, 0 for in)
-    for (uint32_t v = 0; v < nn; ++v)
-      if (deg_in[v] == 0) stack.push_back(v << 1);
-    size_t done = 0;
-    while (!stack.empty()) {
-      const uint32_t s = stack.back();
-      stack.pop_back();
-      ++done;
-      const uint32_t v = s >> 1;
-      if ((s & 1) == 0) {
-        const uint32_t e = link_of[v];
-        if (e == kNone) continue;
-        out[e] += in[v];
-        if (--deg_out[e] == 0) stack.push_back(e << 1 | 1);
-      } else {
-        const uint32_t r = into_of[v];
-        in[r] += out[v];
-        if (--deg_in[r] == 0) stack.push_back(r << 1);
-      }
+  if (comm.rank() == 0) {
+    nodes.reserve(2 * exits.size() + links.size());
+    for (const Link& l : links) nodes.push_back(l.from);
+    for (const Exit& e : exits) nodes.push_back(e.into);
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    const size_t nn = nodes.size();
+    std::vector<uint32_t> link_of(nn, kNone), into_of(nn, kNone), deg_in(nn, 0), deg_out(nn, 0);
+    in.assign(nn, 0);
+    std::vector<uint64_t> out(nn, 0);
+    for (const Link& l : links) {
+      const uint32_t a = node_index(l.from), b = node_index(l.to);
+      link_of[a] = b;
+      deg_out[b]++;
     }
-    size_t expected = nn;
-    for (uint32_t v = 0; v < nn; ++v) expected += into_of[v] != kNone;
-    if (done != expected)
-      fail(stage, "internal: the perimeter flow graph has a cycle ({} of {} nodes ordered)", done, expected);
+    for (const Exit& e : exits) {
+      const uint32_t a = node_index(e.cell), b = node_index(e.into);
+      into_of[a] = b;
+      out[a] = e.local;
+      deg_in[b]++;
+    }
+    st.graph_nodes = nn;
+    st.graph_edges = links.size() + exits.size();
+    st.graph_bytes = double(nn) * (8 + 4 * 4 + 2 * 8) + double(links.size()) * 16 + double(exits.size()) * 24;
+    std::vector<Link>().swap(links);
+    std::vector<Exit>().swap(exits);
+    if (global_phase) {
+      std::vector<uint32_t> stack;  // node << 1 | (1 for out, 0 for in)
+      for (uint32_t v = 0; v < nn; ++v)
+        if (deg_in[v] == 0) stack.push_back(v << 1);
+      size_t done = 0;
+      while (!stack.empty()) {
+        const uint32_t s = stack.back();
+        stack.pop_back();
+        ++done;
+        const uint32_t v = s >> 1;
+        if ((s & 1) == 0) {
+          const uint32_t e = link_of[v];
+          if (e == kNone) continue;
+          out[e] += in[v];
+          if (--deg_out[e] == 0) stack.push_back(e << 1 | 1);
+        } else {
+          const uint32_t r = into_of[v];
+          in[r] += out[v];
+          if (--deg_in[r] == 0) stack.push_back(r << 1);
+        }
+      }
+      size_t expected = nn;
+      for (uint32_t v = 0; v < nn; ++v) expected += into_of[v] != kNone;
+      if (done != expected)
+        fail(stage, "internal: the perimeter flow graph has a cycle ({} of {} nodes ordered)", done, expected);
+    }
+  }  // rank 0
+  if (comm.size() > 1) {
+    tile::ByteWriter w;
+    if (comm.rank() == 0) w.put_vector(nodes).put_vector(in);
+    comm.broadcast(w.bytes());
+    tile::ByteReader r(w.bytes());
+    nodes = r.get_vector<uint64_t>();
+    in = r.get_vector<uint64_t>();
   }
   report_progress(progress, stage, (tiles.size() + 1) / n_steps, "inflow at tile perimeters");
 
   // Pass 3: accumulate each tile again with its inflow.
   std::vector<uint64_t> inflow;
-  for (size_t ti = 0; ti < tiles.size(); ++ti) {
+  auto accumulated = [&](size_t ti) {
     const Tile& t = tiles[ti];
     int wx, wy;
     const Heightfield win = read_with_halo(read, t, W, H, wx, wy);
@@ -264,9 +293,25 @@ TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double 
       // As run_drainage: float(double cells x area).
       core.z[i] = float(double(f.acc[i]) * scale);
     }
-    write(t.x0, t.y0, core);
+    return core;
+  };
+  tile::ordered_cores(comm, tiles.size(), accumulated, [&](size_t ti, const Heightfield& core) {
+    write(tiles[ti].x0, tiles[ti].y0, core);
     report_progress(progress, stage, (tiles.size() + 1 + ti + 1) / n_steps,
                     fmt::format("tile {}/{}: accumulated", ti + 1, tiles.size()));
+  });
+  if (comm.size() > 1) {  // the counts of every rank's tiles, summed at rank 0
+    tile::ByteWriter w;
+    w.put(uint64_t(st.valid_cells)).put(st.outflow_cells);
+    const std::vector<tile::Bytes> all = comm.gather(w.bytes());
+    if (comm.rank() == 0) {
+      st.valid_cells = 0, st.outflow_cells = 0;
+      for (const tile::Bytes& b : all) {
+        tile::ByteReader r(b);
+        st.valid_cells += size_t(r.get<uint64_t>());
+        st.outflow_cells += r.get<double>();
+      }
+    }
   }
   return st;
 }

@@ -7,6 +7,7 @@
 #include <gdal_utils.h>
 
 #include <cmath>
+#include <cstring>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
@@ -31,15 +32,26 @@ bool grey_picture(render::Mode m) { return m == render::Mode::Hillshade || m == 
 class RenderValuesSink : public TileSink {
  public:
   RenderValuesSink(const PipelineStage& st, int w, int h, const Georef& level, const Metadata& md,
-                   std::function<Device&()> device)
+                   std::function<Device&()> device, bool open)
       : m_opt(options_of(st)), m_host(st.options.at("backend").get<std::string>() == "host"), m_device(device) {
     Georef g = level;
     g.nodata = -9999.0;  // as render::values
-    m_writer = std::make_unique<io::GeoTiffWindowWriter>(st.options.at("file").get<std::string>(), w, h, g, md);
+    if (open)
+      m_writer = std::make_unique<io::GeoTiffWindowWriter>(st.options.at("file").get<std::string>(), w, h, g, md);
   }
-  void write(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
+  std::vector<uint8_t> draw(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
     const Heightfield v = m_host ? render::values(win, m_opt) : render::values(win, m_opt, m_device());
-    m_writer->write(cx, cy, v, cx - wx, cy - wy, cw, ch);
+    std::vector<uint8_t> out(size_t(cw) * ch * sizeof(float));
+    for (int y = 0; y < ch; ++y)
+      std::memcpy(&out[size_t(y) * cw * sizeof(float)], &v.z[size_t(cy - wy + y) * v.width + size_t(cx - wx)],
+                  size_t(cw) * sizeof(float));
+    return out;
+  }
+  void put(const std::vector<uint8_t>& drawn, int cx, int cy, int cw, int ch) override {
+    Heightfield core(cw, ch);
+    if (drawn.size() != core.z.size() * sizeof(float)) fail("render", "internal: drawn tile of {} bytes", drawn.size());
+    std::memcpy(core.z.data(), drawn.data(), drawn.size());
+    m_writer->write(cx, cy, core, 0, 0, cw, ch);
   }
   void commit() override { m_writer->commit(); }
 
@@ -55,7 +67,7 @@ class RenderValuesSink : public TileSink {
 class RenderPictureSink : public TileSink {
  public:
   RenderPictureSink(const PipelineStage& st, int w, int h, const Georef& level, const Metadata& provenance,
-                    std::function<Device&()> device)
+                    std::function<Device&()> device, bool open)
       : m_opt(options_of(st)),
         m_host(st.options.at("backend").get<std::string>() == "host"),
         m_device(device),
@@ -64,6 +76,7 @@ class RenderPictureSink : public TileSink {
         m_base(grey_picture(m_opt.mode) ? 1 : 3) {
     // As render's picture_layout: gdaldem's 3x3 products leave the border nodata without -compute_edges.
     m_alpha = grey_picture(m_opt.mode) && (!m_opt.compute_edges || w < 2 || h < 2);
+    if (!open) return;
     io::init_gdal();
     CPLErrorReset();
     GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
@@ -103,24 +116,34 @@ class RenderPictureSink : public TileSink {
     }
   }
 
-  void write(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
+  // The core's pixels (band-interleaved), then one byte: 1 when the core has a nodata cell.
+  std::vector<uint8_t> draw(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
     const render::Image img = m_host ? render::render(win, m_opt) : render::render(win, m_opt, m_device());
     const int n = m_base + 1, ic = img.channels;
     const bool has_alpha = ic > m_base;
-    m_buffer.assign(size_t(cw) * ch * n, 0);
+    std::vector<uint8_t> buffer(size_t(cw) * ch * n + 1, 0);
+    bool any_nan = false;
     for (int y = 0; y < ch; ++y)
       for (int x = 0; x < cw; ++x) {
         const size_t i = size_t(cy - wy + y) * win.width + size_t(cx - wx + x);
         const uint8_t* src = &img.pixels[i * ic];
-        uint8_t* dst = &m_buffer[(size_t(y) * cw + x) * n];
+        uint8_t* dst = &buffer[(size_t(y) * cw + x) * n];
         for (int c = 0; c < m_base; ++c) dst[c] = src[c];
         // Without an alpha band every cell of this window was drawn: 255, as the untiled alpha would be.
         dst[m_base] = has_alpha ? src[m_base] : 255;
-        m_any_nan |= std::isnan(win.z[i]);
+        any_nan |= std::isnan(win.z[i]);
       }
+    buffer.back() = any_nan ? 1 : 0;
+    return buffer;
+  }
+
+  void put(const std::vector<uint8_t>& drawn, int cx, int cy, int cw, int ch) override {
+    const int n = m_base + 1;
+    if (drawn.size() != size_t(cw) * ch * n + 1) fail("render", "internal: drawn tile of {} bytes", drawn.size());
+    m_any_nan |= drawn.back() != 0;
     CPLErrorReset();
-    if (m_ds->RasterIO(GF_Write, cx, cy, cw, ch, m_buffer.data(), cw, ch, GDT_Byte, n, nullptr, n, GSpacing(n) * cw, 1,
-                       nullptr) != CE_None)
+    if (m_ds->RasterIO(GF_Write, cx, cy, cw, ch, const_cast<uint8_t*>(drawn.data()), cw, ch, GDT_Byte, n, nullptr, n,
+                       GSpacing(n) * cw, 1, nullptr) != CE_None)
       fail("render", "writing {} failed at window {},{} ({})", m_path, cx, cy, io::last_gdal_error());
   }
 
@@ -139,8 +162,11 @@ class RenderPictureSink : public TileSink {
     }
     // No nodata anywhere: the untiled picture has no alpha band. GDALTranslate streams block by block.
     const std::string out = temporary_path_for(m_path);
-    std::vector<std::string> args{"-of", "GTiff", "-co", "TILED=YES", "-co", "COMPRESS=DEFLATE", "-co",
-                                  "BIGTIFF=IF_SAFER", "-co", m_base == 3 ? "PHOTOMETRIC=RGB" : "PHOTOMETRIC=MINISBLACK"};
+    std::vector<std::string> args{"-of", "GTiff",
+                                  "-co", "TILED=YES",
+                                  "-co", "COMPRESS=DEFLATE",
+                                  "-co", "BIGTIFF=IF_SAFER",
+                                  "-co", m_base == 3 ? "PHOTOMETRIC=RGB" : "PHOTOMETRIC=MINISBLACK"};
     for (int b = 1; b <= m_base; ++b) args.insert(args.end(), {"-b", std::to_string(b)});
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
@@ -173,24 +199,23 @@ class RenderPictureSink : public TileSink {
   int m_base;
   bool m_alpha = false, m_any_nan = false;
   GDALDataset* m_ds = nullptr;
-  std::vector<uint8_t> m_buffer;
 };
 
 }  // namespace
 
 std::unique_ptr<TileSink> make_render_sink(const PipelineStage& st, int w, int h, const Georef& level,
                                            const Metadata& metadata, const Metadata& provenance,
-                                           std::function<Device&()> device) {
+                                           std::function<Device&()> device, bool open) {
   const render::Mode m = render::mode_from_name(st.options.at("mode").get<std::string>());
   if (render::is_value_mode(m) &&
-      (m != render::Mode::Slope || format_from_extension(st.options.at("file").get<std::string>()) ==
-                                       FileFormat::GeoTIFF)) {
+      (m != render::Mode::Slope ||
+       format_from_extension(st.options.at("file").get<std::string>()) == FileFormat::GeoTIFF)) {
     // Slope to a GeoTIFF is gdaldem's float raster (as run_render).
     Metadata md = metadata;
     for (const auto& [k, v] : provenance) md[k] = v;
-    return std::make_unique<RenderValuesSink>(st, w, h, level, md, device);
+    return std::make_unique<RenderValuesSink>(st, w, h, level, md, device, open);
   }
-  return std::make_unique<RenderPictureSink>(st, w, h, level, provenance, device);
+  return std::make_unique<RenderPictureSink>(st, w, h, level, provenance, device, open);
 }
 
 }  // namespace terracl::tile

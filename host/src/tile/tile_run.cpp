@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -31,6 +32,7 @@
 
 #include "io/gdal_window.hpp"
 #include "tile/journal.hpp"
+#include "tile/tile_comm.hpp"
 #include "tile/tile_sinks.hpp"
 
 namespace terracl {
@@ -52,6 +54,49 @@ Win unite(const Win& a, const Win& b) {
   if (a.empty()) return b;
   if (b.empty()) return a;
   return {std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1), std::max(a.y1, b.y1)};
+}
+
+// One sink's share of one tile: computed by the tile's rank, written by rank 0 (tile_comm.hpp).
+struct SinkCall {
+  int op;  // index in the segment's ops; -1: the global stage's temporary input
+  Win core;
+  Metadata md;          // the tile's metadata (a writer is created at the first tile that reaches it)
+  tile::Bytes payload;  // `write` and the temporary: the core's floats; other sinks: what they drew
+};
+
+tile::Bytes pack_calls(const std::vector<SinkCall>& calls) {
+  tile::ByteWriter w;
+  w.put(uint64_t(calls.size()));
+  for (const SinkCall& c : calls) {
+    w.put(int32_t(c.op)).put(c.core);
+    w.put(uint64_t(c.md.size()));
+    for (const auto& [k, v] : c.md) w.put_string(k).put_string(v);
+    w.put_vector(c.payload);
+  }
+  return std::move(w.bytes());
+}
+
+std::vector<SinkCall> unpack_calls(const tile::Bytes& b) {
+  tile::ByteReader r(b);
+  std::vector<SinkCall> calls(size_t(r.get<uint64_t>()));
+  for (SinkCall& c : calls) {
+    c.op = r.get<int32_t>();
+    c.core = r.get<Win>();
+    for (uint64_t n = r.get<uint64_t>(); n > 0; --n) {
+      std::string k = r.get_string();
+      c.md[k] = r.get_string();
+    }
+    c.payload = r.get_vector<uint8_t>();
+  }
+  return calls;
+}
+
+Heightfield floats_to_core(const tile::Bytes& b, int w, int h) {
+  Heightfield core(w, h);
+  if (b.size() != core.z.size() * sizeof(float))
+    throw Error("tile", fmt::format("internal: a {} x {} core arrived as {} bytes", w, h, b.size()));
+  std::memcpy(core.z.data(), b.data(), b.size());
+  return core;
 }
 
 void drop_terracl_keys(Metadata& md) {
@@ -109,6 +154,7 @@ class TiledRun {
   TiledRun(const Pipeline& p, const TileOptions& t, const RunOptions& o, RunReport& r)
       : m_p(p), m_t(t), m_o(o), m_report(r) {}
   ~TiledRun() {
+    if (tile::comm().rank() != 0) return;  // rank 0 made them (and reads them last)
     for (const auto& f : m_temporaries) {
       std::error_code ec;
       fs::remove(f, ec);
@@ -448,7 +494,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
             const int h = op.tiling.halo;
             const Win c = core[l];
             need[l] = unite(need[l], h > 0 && !c.empty() ? intersect({c.x0 - h, c.y0 - h, c.x1 + h, c.y1 + h},
-                                                                       {0, 0, levels[l].w, levels[l].h})
+                                                                     {0, 0, levels[l].w, levels[l].h})
                                                          : c);
           }
         if (to_temp && l == int(nl) - 1) need[l] = unite(need[l], core[l]);
@@ -472,6 +518,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     }
   // --resume: tiles an interrupted run finished (segments feeding a global stage are recomputed).
   const bool resumable = m_t.resume && !to_temp;
+  if (resumable && tile::comm().size() > 1)
+    throw UsageError("run", "--resume runs in one process: it is not supported under mpirun with more than one rank yet");
   std::vector<char> finished(plans.size(), 0);
   if (resumable) {
     std::vector<std::vector<Win>> cores;
@@ -479,14 +527,29 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     finished = prepare_resume(seg, levels, cores, T, writers, journals);
   }
   std::vector<std::pair<const PipelineStage*, uint64_t>> written;  // this tile's checksum per writer
-  for (size_t ti = 0; ti < plans.size(); ++ti) {
-    if (finished[ti]) {
-      ++m_counts.skipped;
-      report_progress(prog, "tiles", double(ti + 1) / plans.size(),
-                      fmt::format("tile {}/{} (finished before)", ti + 1, plans.size()));
-      continue;
+  // A tile's results for its sinks are computed by the tile's rank and written by rank 0, in tile
+  // order (tile_comm.hpp): one process does both, tile by tile.
+  const tile::Comm& comm = tile::comm();
+  std::map<const PipelineStage*, std::unique_ptr<tile::TileSink>> draw_sinks;  // ranks > 0: draw only
+  auto sink_for = [&](const Op& op, const Metadata& tile_md) -> tile::TileSink& {
+    auto& sink = comm.rank() == 0 ? stage_sinks[op.st] : draw_sinks[op.st];
+    if (!sink) {
+      Metadata md = tile_md;
+      drop_terracl_keys(md);
+      const Level& L = levels[op.level];
+      sink = tile::make_render_sink(*op.st, L.w, L.h, L.georef, md, provenance(*op.st), m_device, comm.rank() == 0);
     }
-    written.clear();
+    return *sink;
+  };
+  auto core_floats = [](const Heightfield& h, const Win& have, const Win& c) {
+    tile::Bytes b(size_t(c.w()) * c.h() * sizeof(float));
+    for (int y = 0; y < c.h(); ++y)
+      std::memcpy(&b[size_t(y) * c.w() * sizeof(float)], &h.z[size_t(c.y0 - have.y0 + y) * h.width + (c.x0 - have.x0)],
+                  size_t(c.w()) * sizeof(float));
+    return b;
+  };
+  auto compute = [&](size_t ti) {
+    std::vector<SinkCall> calls;
     const std::vector<Win>& core = plans[ti].core;
     const std::vector<Win>& need = plans[ti].need;
     auto t0 = Clock::now();
@@ -496,44 +559,30 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     data.height->georef = georef_at(levels[0].georef, have.x0, have.y0);
     drop_terracl_keys(data.height->metadata);
     m_seconds[seg.read_tag] += std::chrono::duration<double>(Clock::now() - t0).count();
-    for (const Op& op : seg.ops) {
+    for (size_t oi = 0; oi < seg.ops.size(); ++oi) {
+      const Op& op = seg.ops[oi];
       const int l = op.level;
       m_report.running = op.st->tag;
       t0 = Clock::now();
       if (op.tiling.kind == TileKind::Sink) {
-        if (core[l].empty()) continue;
+        const Win& c = core[l];
+        if (c.empty()) continue;
         if (op.st->type != "write") {
-          auto& sink = stage_sinks[op.st];
-          if (!sink) {
-            Metadata md = data.height->metadata;
-            drop_terracl_keys(md);
-            sink = tile::make_render_sink(*op.st, levels[l].w, levels[l].h, levels[l].georef, md, provenance(*op.st),
-                                          m_device);
-          }
-          const Win& c = core[l];
           const int h = op.tiling.halo;
           const Win in = intersect({c.x0 - h, c.y0 - h, c.x1 + h, c.y1 + h}, {0, 0, levels[l].w, levels[l].h});
           try {
-            sink->write(extract(*data.height, have, in, levels[l].georef), in.x0, in.y0, c.x0, c.y0, c.w(), c.h());
+            tile::TileSink& sink = sink_for(op, data.height->metadata);
+            calls.push_back(
+                {int(oi), c, data.height->metadata,
+                 sink.draw(extract(*data.height, have, in, levels[l].georef), in.x0, in.y0, c.x0, c.y0, c.w(), c.h())});
           } catch (const Error& e) {
             throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
                                                std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
                                                op.st->tag, in.x0, in.y0, in.w(), in.h()));
           }
-          add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
-          continue;
+        } else {
+          calls.push_back({int(oi), c, data.height->metadata, core_floats(*data.height, have, c)});
         }
-        auto& wr = writers[op.st];
-        if (!wr) {
-          Metadata md = data.height->metadata;
-          drop_terracl_keys(md);
-          for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
-          const std::string f = op.st->options.at("filename").get<std::string>();
-          wr = std::make_unique<io::GeoTiffWindowWriter>(f, levels[l].w, levels[l].h, levels[l].georef, md,
-                                                         resumable ? tile::partial_path_for(f) : std::string());
-        }
-        const Win& c = core[l];
-        written.emplace_back(op.st, wr->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h()));
       } else {
         const Win& n = need[l + 1];
         if (n.empty()) break;
@@ -567,13 +616,40 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       }
       add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }
-    if (to_temp && !core[nl - 1].empty()) {
-      if (!temp_writer) {
-        const Level& L = levels[nl - 1];
-        temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
+    if (to_temp && !core[nl - 1].empty())
+      calls.push_back({-1, core[nl - 1], {}, core_floats(*data.height, have, core[nl - 1])});
+    return calls;
+  };
+  auto apply = [&](size_t ti, const std::vector<SinkCall>& calls) {
+    written.clear();
+    for (const SinkCall& call : calls) {
+      const Win& c = call.core;
+      auto t0 = Clock::now();
+      if (call.op < 0) {
+        if (!temp_writer) {
+          const Level& L = levels[nl - 1];
+          temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
+        }
+        temp_writer->write(c.x0, c.y0, floats_to_core(call.payload, c.w(), c.h()), 0, 0, c.w(), c.h());
+        continue;
       }
-      const Win& c = core[nl - 1];
-      temp_writer->write(c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h());
+      const Op& op = seg.ops[size_t(call.op)];
+      if (op.st->type != "write") {
+        sink_for(op, call.md).put(call.payload, c.x0, c.y0, c.w(), c.h());
+      } else {
+        auto& wr = writers[op.st];
+        if (!wr) {
+          Metadata md = call.md;
+          drop_terracl_keys(md);
+          for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
+          const std::string f = op.st->options.at("filename").get<std::string>();
+          const Level& L = levels[op.level];
+          wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, L.georef, md,
+                                                         resumable ? tile::partial_path_for(f) : std::string());
+        }
+        written.emplace_back(op.st, wr->write(c.x0, c.y0, floats_to_core(call.payload, c.w(), c.h()), 0, 0, c.w(), c.h()));
+      }
+      add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }
     // --resume: the tile's blocks reach the partial file before the journal names the tile.
     for (const auto& [st, sum] : written)
@@ -584,6 +660,21 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     ++m_counts.run;
     if (m_kill_after && m_counts.run == m_kill_after) ::kill(::getpid(), SIGKILL);
     report_progress(prog, "tiles", double(ti + 1) / plans.size(), fmt::format("tile {}/{}", ti + 1, plans.size()));
+  };
+  if (comm.size() == 1) {
+    for (size_t ti = 0; ti < plans.size(); ++ti) {
+      if (finished[ti]) {
+        ++m_counts.skipped;
+        report_progress(prog, "tiles", double(ti + 1) / plans.size(),
+                        fmt::format("tile {}/{} (finished before)", ti + 1, plans.size()));
+        continue;
+      }
+      apply(ti, compute(ti));
+    }
+  } else {
+    tile::ordered_tiles(
+        comm, plans.size(), [&](size_t ti) { return pack_calls(compute(ti)); },
+        [&](size_t ti, const tile::Bytes& b) { apply(ti, unpack_calls(b)); });
   }
   for (auto& [st, wr] : writers) {
     auto t0 = Clock::now();
@@ -598,6 +689,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   }
   if (temp_writer) temp_writer->commit();
   if (!global) return;
+  comm.barrier();  // every rank reads the temporary rank 0 just wrote
 
   // The global stage, from the segment's last level (a temporary file or the source) to its output.
   m_report.running = global->tag;
@@ -615,9 +707,12 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     out_georef.vertical_units = cells ? "cells" : "m2";
     md["terracl:quantity"] = "D8 drainage area";
   }
-  io::GeoTiffWindowWriter out(out_path, L.w, L.h, out_georef, md);
+  // Under MPI every rank floods its tiles; rank 0 gathers the perimeters, solves the graph and
+  // writes every tile (the tiled algorithms use tile::comm()).
+  std::unique_ptr<io::GeoTiffWindowWriter> out;
+  if (comm.rank() == 0) out = std::make_unique<io::GeoTiffWindowWriter>(out_path, L.w, L.h, out_georef, md);
   auto read = [&](int x, int y, int w, int h) { return in->read(x, y, w, h); };
-  auto write = [&](int x, int y, const Heightfield& core) { out.write(x, y, core, 0, 0, core.width, core.height); };
+  auto write = [&](int x, int y, const Heightfield& core) { out->write(x, y, core, 0, 0, core.width, core.height); };
   if (drainage) {
     const double cx = L.georef.cell_x, cy = L.georef.cell_y;
     const double scale = out_georef.vertical_units == "cells" ? 1.0 : cx * cy;
@@ -625,13 +720,16 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   } else {
     analysis::priority_flood_fill_tiled(L.w, L.h, T, read, write, progress(global->tag));
   }
-  out.commit();
   in.reset();
-  if (to_temp) {
-    std::error_code ec;
-    fs::rename(out_path, global_out, ec);
-    if (ec) fail("run", "cannot rename {} to {}: {}", out_path, global_out, ec.message());
+  if (out) {
+    out->commit();
+    if (to_temp) {
+      std::error_code ec;
+      fs::rename(out_path, global_out, ec);
+      if (ec) fail("run", "cannot rename {} to {}: {}", out_path, global_out, ec.message());
+    }
   }
+  comm.barrier();  // the next segment reads what rank 0 wrote
   add_seconds(*global, std::chrono::duration<double>(Clock::now() - t0).count());
 }
 
@@ -643,7 +741,7 @@ void run_tiled(const Pipeline& p, const TileOptions& t, const RunOptions& o, Run
   TiledRun run(p, t, o, report);
   run.run();
   if (tiles) *tiles = run.m_counts;
-  if (o.write_resolved) {
+  if (o.write_resolved && tile::comm().rank() == 0) {
     report.resolved_path = p.resolved_path();
     const fs::path dir = fs::path(report.resolved_path).parent_path();
     if (!dir.empty()) fs::create_directories(dir);

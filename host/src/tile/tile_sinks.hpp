@@ -8,16 +8,22 @@
 #include <terracl/device.hpp>
 #include <terracl/heightfield.hpp>
 #include <terracl/pipeline.hpp>
+#include <vector>
 
 namespace terracl::tile {
 
 class TileSink {
  public:
   virtual ~TileSink() = default;
-  /// `window` holds the level's cells from (wx, wy); writes the core [cx, cx + cw) x [cy, cy + ch)
+  /// `window` holds the level's cells from (wx, wy); draws the core [cx, cx + cw) x [cy, cy + ch)
   /// (level coordinates), which lies inside the window with the sink's halo around it where the
-  /// level has cells.
-  virtual void write(const Heightfield& window, int wx, int wy, int cx, int cy, int cw, int ch) = 0;
+  /// level has cells. No file access: under MPI the tile's rank draws, rank 0 puts (tile_comm.hpp).
+  virtual std::vector<uint8_t> draw(const Heightfield& window, int wx, int wy, int cx, int cy, int cw, int ch) = 0;
+  /// Writes what draw() returned for that core into the file.
+  virtual void put(const std::vector<uint8_t>& drawn, int cx, int cy, int cw, int ch) = 0;
+  void write(const Heightfield& window, int wx, int wy, int cx, int cy, int cw, int ch) {
+    put(draw(window, wx, wy, cx, cy, cw, ch), cx, cy, cw, ch);
+  }
   /// Finishes the file and renames it to its final name.
   virtual void commit() = 0;
 };
@@ -29,8 +35,9 @@ std::string render_tiling_limit(const json& options);
 /// The tiled `render`: pictures as a tiled GeoTIFF (grey or RGB, alpha as the untiled render would
 /// have it) and value rasters as a tiled float32 GeoTIFF, equal cell for cell to the untiled render
 /// of the whole level. `metadata` is the level's (without terracl keys), `provenance` the stage's.
+/// open = false: a sink that only draws (the ranks other than 0 of an MPI run); no file is made.
 std::unique_ptr<TileSink> make_render_sink(const PipelineStage& stage, int width, int height, const Georef& level,
                                            const Metadata& metadata, const Metadata& provenance,
-                                           std::function<Device&()> device);
+                                           std::function<Device&()> device, bool open = true);
 
 }  // namespace terracl::tile

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Tiled runs over MPI ranks (ctest label `mpi`, docs/scale.md): `mpirun -n 2` and `-n 3`
+# (--oversubscribe: CI has 2 cores) give files byte-identical (cmp) to the single-process tiled run,
+# for a pipeline with a render sink, the exact tiled fill (depressions across tile borders, a nodata
+# lake), the exact tiled D8 accumulation, a crop and a value render, and for tiled subcommands; an
+# error on one rank stops every rank with its message and a non-zero exit; an untiled command under
+# mpirun is refused. Usage: scripts/mpi-check.sh BUILD_DIR
+set -euo pipefail
+build=$(cd "${1:?usage: mpi-check.sh BUILD_DIR}" && pwd)
+src=$(cd "$(dirname "$0")/.." && pwd)
+T="$build/bin/terracl"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+# Root in CI containers: OpenMPI refuses root without these.
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+MPIRUN=(mpirun --oversubscribe)
+fail() { echo "mpi-check: FAIL: $*" >&2; exit 1; }
+
+# A 203 x 157 window of the SRTM tile (geographic) with a 30 x 30 nodata lake, and a copy with one
+# infinite cell that only the second tile's window of a 37-cell tiling reads (rank 1 of 2).
+/usr/bin/python3 - "$src/data/dem/N44W072.hgt" <<'PY'
+import sys
+import numpy as np
+from osgeo import gdal
+ds = gdal.Open(sys.argv[1])
+a = ds.ReadAsArray(300, 200, 203, 157).astype(np.float32)
+gt = list(ds.GetGeoTransform()); gt[0] += 300 * gt[1]; gt[3] += 200 * gt[5]
+a[40:70, 60:90] = -32768
+def write(name, z):
+    d = gdal.GetDriverByName("GTiff").Create(name, z.shape[1], z.shape[0], 1, gdal.GDT_Float32)
+    d.SetGeoTransform(gt); d.SetProjection(ds.GetProjection())
+    d.GetRasterBand(1).SetNoDataValue(-32768); d.GetRasterBand(1).WriteArray(z)
+write("raw.tif", a)
+b = a.copy(); b[5, 42] = np.inf
+write("bad.tif", b)
+PY
+"$T" -q fill_depressions raw.tif -o eps.tif --epsilon  # a surface that drains, for the tiled D8
+cat > p.json <<'J'
+["raw.tif", {"type": "render", "file": "out/hs.tif"}, "fill_depressions", "out/f.tif",
+ {"type": "read", "filename": "eps.tif"}, {"type": "drainage", "units": "cells"}, "out/d.tif",
+ {"type": "read", "filename": "raw.tif"}, {"type": "crop", "x": 3, "y": 5, "width": 190},
+ {"type": "render", "mode": "slope", "file": "out/s.tif"}, "out/c.tif"]
+J
+files="hs f d c s"
+"$T" -q run p.json --tile 37 >/dev/null
+mv out one
+# The fill must have raised cells on both sides of a tile border (the graph phase mattered).
+/usr/bin/python3 - <<'PY'
+import numpy as np
+from osgeo import gdal
+raw = gdal.Open("raw.tif").ReadAsArray(); f = gdal.Open("one/f.tif").ReadAsArray()
+up = (f > raw) & np.isfinite(f)
+across = (up[:, 36] & up[:, 37]).sum() + (up[36, :] & up[37, :]).sum()
+assert across > 0, "no filled depression crosses a tile border"
+print(f"mpi-check: {int(up.sum())} cells filled, {int(across)} pairs across the tile borders x|y = 36|37")
+PY
+for n in 2 3; do
+  "${MPIRUN[@]}" -n $n "$T" run p.json --tile 37 > "log$n.txt"
+  grep -q "mpi: MPI (.*), $n ranks" "log$n.txt" || fail "$n ranks: no rank/device line in the report: $(cat "log$n.txt")"
+  for f in $files; do cmp one/$f.tif out/$f.tif || fail "$n ranks: out/$f.tif differs from the single-process run"; done
+  rm -rf out
+  echo "mpi-check: $n ranks: $files identical to one process"
+done
+
+# Tiled subcommands (same command lines: the provenance records them).
+"$T" -q render raw.tif -o hs.tif --tile 40 && mv hs.tif hs1.tif
+"$T" -q drainage eps.tif -o d.tif --tile 29 --units cells && mv d.tif d1.tif
+"${MPIRUN[@]}" -n 3 "$T" -q render raw.tif -o hs.tif --tile 40
+"${MPIRUN[@]}" -n 2 "$T" -q drainage eps.tif -o d.tif --tile 29 --units cells
+cmp hs1.tif hs.tif || fail "render --tile 40 under 3 ranks differs"
+cmp d1.tif d.tif || fail "drainage --tile 29 under 2 ranks differs"
+echo "mpi-check: subcommands render (3 ranks) and drainage (2 ranks) identical to one process"
+
+# An error on rank 1 only: every rank stops, the message is printed, no output is left.
+echo '["bad.tif", "fill_depressions", "out/bad.tif"]' > bad.json
+set +e
+timeout 60 "${MPIRUN[@]}" -n 2 "$T" run bad.json --tile 37 > bad.txt 2>&1
+rc=$?
+set -e
+[ $rc -ne 0 ] && [ $rc -ne 124 ] || fail "error on rank 1: exit status $rc (124: hung)"
+grep -q "terracl ERROR: fill: heightfield has infinite elevations" bad.txt || fail "no message: $(cat bad.txt)"
+grep -q "MPI_ABORT was invoked on rank 1" bad.txt || fail "rank 1 did not stop the run: $(cat bad.txt)"
+[ ! -e out/bad.tif ] || fail "an output was left after the error"
+echo "mpi-check: an error on rank 1 stops every rank (exit $rc) with its message"
+
+# Untiled commands would write the same files from every rank: refused.
+set +e
+"${MPIRUN[@]}" -n 2 "$T" fill_depressions raw.tif -o u.tif > untiled.txt 2>&1
+rc=$?
+set -e
+[ $rc -eq 2 ] || fail "untiled command under mpirun: exit $rc, expected 2: $(cat untiled.txt)"
+grep -q "only tiled runs are distributed" untiled.txt || fail "untiled refusal message: $(cat untiled.txt)"
+[ ! -e u.tif ] || fail "the refused untiled command wrote u.tif"
+echo "mpi-check: untiled command under mpirun refused (exit 2)"
+echo "mpi-check: OK"
