@@ -100,6 +100,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       ->allow_extra_args(false);
   sub->add_option("--tile", a->tile,
                   "Run out of core, tile by tile: tile side in cells (GDAL windows in, tiled GeoTIFF out; docs/scale.md)")
+      ->check(CLI::Range(2, 1 << 30))  // 0 and 1 were silently untiled / a late 'tile size' error
       ->type_name("CELLS");
   sub->add_option("--halo", a->halo, "Halo around each tile: auto (each stage's footprint) or extra cells")
       ->type_name("auto|CELLS");

@@ -670,3 +670,17 @@ TEST(Reliability, TileFlagErrorsNameTheSubcommand) {
   expect_clean_error(r, 2, "fill_depressions: --memory-budget: '-5G' is not a memory size", "--memory-budget -5G");
   EXPECT_EQ(dir.count(), 0u);
 }
+
+// Range errors that can be known before running are refused by the option parser or --validate
+// (exit 2, nothing written): `--tile 0` ran untiled without a word, `--tile 1` failed late in the
+// fill, `render --scale 0` passed --validate and failed at run time with exit 1.
+TEST(Reliability, TileSizeAndRenderScaleAreCheckedBeforeRunning) {
+  test::TempDir dir;
+  for (const char* t : {"0", "1", "-5"}) {
+    const auto r = test::run_cli("fill_depressions -q " + q(crop()) + " -o " + q(dir.path("f.tif")) + " --tile " + t);
+    expect_clean_error(r, 2, "--tile", std::string("--tile ") + t);
+  }
+  const auto r = test::run_cli("render -q " + q(crop()) + " -o " + q(dir.path("h.png")) + " --scale 0");
+  expect_clean_error(r, 2, "scale", "render --scale 0");
+  EXPECT_EQ(dir.count(), 0u);
+}
