@@ -7,6 +7,7 @@
 #include <terracl/io.hpp>
 #include <terracl/reconstruct.hpp>
 
+#include <cstring>
 #include <random>
 
 using namespace terracl;
@@ -276,4 +277,35 @@ TEST(Reconstruct, DeviceBuffersGiveTheSameResultAsHostGradients) {
   // Buffers smaller than the grid are refused.
   cl::Buffer small = d.buffer(16, CL_MEM_READ_ONLY, "small");
   EXPECT_THROW(reconstruct_device(d, small, gy, g, c), Error);
+}
+
+// TERRACL_PHASES: the phase breakdown is reported, adds up to the total, and changes no bit.
+TEST(Reconstruct, PhaseBreakdownIsCompleteAndChangesNoResult) {
+  Case k = manufactured(97, 66, 2.0, 3.0, 0.02, 11);
+  Heightfield h(97, 66);
+  for (size_t i = 0; i < h.size(); ++i) h.z[i] = float(k.exact[i]);
+  h.georef.cell_x = 2.0;
+  h.georef.cell_y = 3.0;
+  GradientField g = extract_gradient(test::device(), h);
+  ReconstructResult plain = reconstruct(test::device(), g, k.c);
+  EXPECT_TRUE(plain.phases_ms.empty());
+  EXPECT_FALSE(plain.to_json().contains("phases_ms"));
+  setenv("TERRACL_PHASES", "1", 1);
+  ReconstructResult timed = reconstruct(test::device(), g, k.c);
+  unsetenv("TERRACL_PHASES");
+  ASSERT_EQ(plain.height.z.size(), timed.height.z.size());
+  EXPECT_EQ(0, std::memcmp(plain.height.z.data(), timed.height.z.data(), plain.height.z.size() * sizeof(float)));
+  std::vector<std::string> names;
+  double sum = 0;
+  for (const auto& [n, v] : timed.phases_ms) {
+    names.push_back(n);
+    EXPECT_GE(v, 0.0) << n;
+    sum += v;
+  }
+  const std::vector<std::string> want{"host constraints", "device init", "upload", "hierarchy", "cycles",
+                                      "refinement", "solver other", "read-back", "host finish"};
+  EXPECT_EQ(names, want);
+  EXPECT_LE(sum, timed.total_ms + 1e-6);
+  EXPECT_GE(sum, 0.9 * timed.total_ms);
+  EXPECT_TRUE(timed.to_json().contains("phases_ms"));
 }

@@ -23,7 +23,37 @@ double now_ms() {
   return duration<double, std::milli>(steady_clock::now().time_since_epoch()).count();
 }
 
-using RhsMaker = std::function<void(Device&, cl::Buffer& g)>;
+// The phase breakdown (TERRACL_PHASES or TERRACL_MG_PROFILE): mark() drains the queue and books
+// the time since the previous mark under `name`. Off, it costs nothing and adds no waits.
+class PhaseClock {
+ public:
+  PhaseClock(double t0, std::vector<std::pair<std::string, double>>& out)
+      : m_on(std::getenv("TERRACL_PHASES") || std::getenv("TERRACL_MG_PROFILE")), m_last(t0), m_out(out) {}
+  bool on() const { return m_on; }
+  void mark(Device& d, const char* name) {
+    if (!m_on) return;
+    d.queue().finish();
+    add(name, now_ms() - m_last);
+  }
+  // A phase timed elsewhere (the multigrid launcher's hierarchy, cycles, refinement).
+  void add(const char* name, double ms) {
+    if (!m_on) return;
+    m_last = now_ms();
+    for (auto& [n, v] : m_out)
+      if (n == name) {
+        v += ms;
+        return;
+      }
+    m_out.emplace_back(name, ms);
+  }
+
+ private:
+  bool m_on;
+  double m_last;
+  std::vector<std::pair<std::string, double>>& m_out;
+};
+
+using RhsMaker = std::function<void(Device&, cl::Buffer& g, PhaseClock& clk)>;
 
 ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
                                double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
@@ -60,6 +90,9 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     cin.hard_cells(hard_index, hard_value);
   }
   const double t_vals = now_ms();
+  std::vector<std::pair<std::string, double>> phases;
+  PhaseClock clk(t0, phases);
+  clk.add("host constraints", t_vals - t0);
   const size_t hard = hard_index.size();
   double hard_sum = 0;
   for (float v : hard_value) hard_sum += v;
@@ -104,19 +137,23 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     // list (u = value - m, g = NaN).
     if (o.initial) {
       q.enqueueWriteBuffer(p.u, CL_FALSE, 0, bytes, o.initial->z.data());
+      clk.mark(d, "upload");
       cl::Kernel sh = d.kernel("multigrid", "shift_level0");
       set_args(sh, p.u, W, H, float(m));
       launch_rows(d, sh, size_t(H));
     } else {
       d.fill(p.u, 0.0f, 0, size_t(W) * H);
     }
-    make_rhs(d, p.g);
+    clk.mark(d, "device init");
+    make_rhs(d, p.g, clk);
+    clk.mark(d, "device init");
     peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
     if (hard) {
       cl::Buffer bi = d.buffer(hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
       cl::Buffer bv = d.buffer(hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
       q.enqueueWriteBuffer(bi, CL_FALSE, 0, hard * sizeof(uint32_t), hard_index.data());
       q.enqueueWriteBuffer(bv, CL_FALSE, 0, hard * sizeof(float), hard_value.data());
+      clk.mark(d, "upload");
       const int chunk = 4096;
       cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
       set_args(sc, p.u, p.g, bi, bv, int(hard), chunk, float(m));
@@ -141,12 +178,19 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
         launch_rows(d, sh, size_t(H));
       }
     }
+    clk.mark(d, "device init");
     const double t_setup0 = now_ms() - t0;
     if (std::getenv("TERRACL_MG_PROFILE"))
       std::fprintf(stderr, "host constraints %.1f ms, upload+divergence+init %.1f ms\n", t_vals - t0, now_ms() - t_vals);
+    p.phases = clk.on();
     mg::SolveStats st = mg::solve(d, p, o, baseline);
     const double t_solved = now_ms();
+    clk.add("hierarchy", st.setup_ms);
+    clk.add("cycles", st.cycles_ms);
+    clk.add("refinement", st.refine_ms);
+    clk.add("solver other", t_solved - t0 - t_setup0 - st.setup_ms - st.cycles_ms - st.refine_ms);
     q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, out.data());
+    clk.mark(d, "read-back");
     res.cycles = st.cycles;
     res.residuals = st.residuals;
     res.converged = st.converged;
@@ -185,6 +229,8 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     if (!std::isfinite(h.z[i]))
       fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}): NaN/Inf in the input, or values too large for float32",
            i % W, i / W);
+  clk.mark(d, "host finish");
+  res.phases_ms = std::move(phases);
   res.total_ms = now_ms() - t0;
   return res;
 }
@@ -253,7 +299,7 @@ std::vector<std::pair<int, int>> multigrid_levels(int width, int height) {
 }
 
 nlohmann::json ReconstructResult::to_json() const {
-  return {{"device", device},
+  nlohmann::json j = {{"device", device},
           {"width", height.width},
           {"height", height.height},
           {"cycle", cycle_name(cycle)},
@@ -274,6 +320,12 @@ nlohmann::json ReconstructResult::to_json() const {
           {"refine_relative_residuals", refine_residuals},
           {"solver", solver},
           {"mpi_ranks", ranks}};
+  if (!phases_ms.empty()) {
+    nlohmann::json ph = nlohmann::json::object();
+    for (const auto& [n, v] : phases_ms) ph[n] = v;
+    j["phases_ms"] = ph;
+  }
+  return j;
 }
 
 ReconstructResult reconstruct(Device& d, const GradientField& gin, const ConstraintSet& c, const SolverOptions& o) {
@@ -289,12 +341,13 @@ ReconstructResult reconstruct(Device& d, const GradientField& gin, const Constra
     converted = to_staggered(d, gin);
     g = &converted;
   }
-  RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock& clk) {
     const size_t bytes = g->size() * sizeof(float);
     cl::Buffer gx = dev.buffer(bytes, CL_MEM_READ_ONLY, "gradient gx");
     cl::Buffer gy = dev.buffer(bytes, CL_MEM_READ_ONLY, "gradient gy");
     dev.queue().enqueueWriteBuffer(gx, CL_FALSE, 0, bytes, g->gx.data());
     dev.queue().enqueueWriteBuffer(gy, CL_FALSE, 0, bytes, g->gy.data());
+    clk.mark(dev, "upload");
     enqueue_divergence(dev, gx, gy, out, g->width, g->height, g->georef.cell_x, g->georef.cell_y, -1.0f);
   };
   // The same backward differences as kernels/gradient.cl's divergence, in double (hypre).
@@ -330,7 +383,7 @@ ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::
     }
     return reconstruct(d, g, c, o);
   }
-  RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock&) {
     enqueue_divergence(dev, gx, gy, out, like.width, like.height, like.georef.cell_x, like.georef.cell_y, -1.0f);
   };
   return solve_common(d, like.width, like.height, like.georef, like.metadata, like.mean_elevation, rhs, c, o);
@@ -339,10 +392,11 @@ ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::
 ReconstructResult reconstruct_divergence(Device& d, const Heightfield& f, const ConstraintSet& c,
                                          const SolverOptions& o) {
   require_finite(f, "reconstruct", "the divergence");
-  RhsMaker rhs = [&](Device& dev, cl::Buffer& out) {
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock& clk) {
     std::vector<float> neg(f.size());
     for (size_t i = 0; i < neg.size(); ++i) neg[i] = -f.z[i];
     dev.queue().enqueueWriteBuffer(out, CL_TRUE, 0, neg.size() * sizeof(float), neg.data());
+    clk.mark(dev, "upload");
   };
   hypre::RowDivergence row_div = [&f](int y, double* out) {
     const float* row = f.z.data() + size_t(y) * f.width;

@@ -229,6 +229,11 @@ void bench_reconstruct(const BenchArgs& a) {
   fmt::print("median_ms {:.2f}   (min {:.2f}, max {:.2f}, {} runs after 1 warm-up; setup {:.2f} ms, cycles {:.2f} ms "
              "in the last run)\n",
              ms[ms.size() / 2], ms.front(), ms.back(), ms.size(), r.setup_ms, r.solve_ms);
+  if (!r.phases_ms.empty()) {  // TERRACL_PHASES=1: the queue is drained between phases
+    fmt::print("phases_ms (last run, queue drained between phases):");
+    for (const auto& [name, v] : r.phases_ms) fmt::print("  {} {:.2f}", name, v);
+    fmt::print("\n");
+  }
   fmt::print("median_cpu_ms {:.2f}   (CPU time of all threads per solve: on a shared machine wall time is inflated "
              "by other processes, CPU time much less)\n",
              cpu[cpu.size() / 2]);

@@ -15,6 +15,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace terracl {
@@ -94,6 +95,10 @@ struct ReconstructResult {
   /// "multigrid" or "hypre"; MPI ranks that took part (hypre; 1 otherwise).
   std::string solver = "multigrid";
   int ranks = 1;
+  /// Wall time per set-up/solve phase, in order (host constraints, upload, device init, hierarchy,
+  /// cycles, refinement, read-back, host finish). Filled only when TERRACL_PHASES or
+  /// TERRACL_MG_PROFILE is set: the queue is then drained between phases, which adds waits.
+  std::vector<std::pair<std::string, double>> phases_ms;
   /// cycles, residuals, times, memory and device as JSON (the --report file).
   nlohmann::json to_json() const;
 };

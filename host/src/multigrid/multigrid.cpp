@@ -427,9 +427,16 @@ SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baselin
   s.track();
   if (o.cycle == Cycle::Cascade) return s.cascade();
   s.build();
-  s.stats().setup_ms = now_ms() - t0;
+  if (p.phases) d.queue().finish();
+  const double t_built = now_ms();
+  s.stats().setup_ms = t_built - t0;
   SolveStats st = s.run_cycles();
+  if (p.phases) d.queue().finish();
+  const double t_cycled = now_ms();
+  st.cycles_ms = t_cycled - t_built;
   refine(d, p, o, st, baseline, [&] { s.fine_cycle(); });
+  if (p.phases) d.queue().finish();
+  st.refine_ms = now_ms() - t_cycled;
   if (profiling()) print_profile();
   return st;
 }

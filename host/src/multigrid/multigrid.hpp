@@ -15,6 +15,7 @@ struct Problem {
   double cell_x = 1, cell_y = 1;
   cl::Buffer u, g;
   bool singular = false;  ///< no hard cell: pure Neumann, defined up to a constant
+  bool phases = false;    ///< drain the queue after the hierarchy build so the phase times are honest
 };
 
 struct SolveStats {
@@ -23,6 +24,7 @@ struct SolveStats {
   bool converged = false, stagnated = false;
   int levels = 0;
   double setup_ms = 0;
+  double cycles_ms = 0, refine_ms = 0;  ///< wall time of the fine-level cycles and of the refinement
   uint64_t peak_bytes = 0;
   double rhs_norm = 0;  ///< the norm the relative residuals divide by
   std::string refinement = "off";  ///< refinement path used (refine.cpp)
