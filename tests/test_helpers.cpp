@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <random>
 
 namespace terracl::test {
@@ -73,6 +74,16 @@ Heightfield smooth_terrain(int w, int h, double cell, double relief, unsigned se
     }
   t.georef.cell_x = t.georef.cell_y = cell;
   return t;
+}
+
+size_t bit_differences(const Heightfield& a, const Heightfield& b) {
+  if (a.width != b.width || a.height != b.height) return size_t(-1);
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const bool an = std::isnan(a.z[i]), bn = std::isnan(b.z[i]);
+    n += (an != bn) || (!an && std::memcmp(&a.z[i], &b.z[i], 4) != 0);
+  }
+  return n;
 }
 
 }  // namespace terracl::test

@@ -42,4 +42,7 @@ std::string data_path(const std::string& rel);
 /// A smooth synthetic terrain (sum of sines) with the given cell size, for numerics tests.
 Heightfield smooth_terrain(int w, int h, double cell = 10.0, double relief = 500.0, unsigned seed = 1);
 
+/// Cells whose float32 bits differ (any NaN equals any NaN: nodata); size_t(-1) when the sizes differ.
+size_t bit_differences(const Heightfield& a, const Heightfield& b);
+
 }  // namespace terracl::test

@@ -18,15 +18,7 @@
 namespace terracl {
 namespace {
 
-size_t bit_differences(const Heightfield& a, const Heightfield& b) {
-  if (a.width != b.width || a.height != b.height) return size_t(-1);
-  size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    const bool an = std::isnan(a.z[i]), bn = std::isnan(b.z[i]);
-    n += (an != bn) || (!an && std::memcmp(&a.z[i], &b.z[i], 4) != 0);
-  }
-  return n;
-}
+using test::bit_differences;
 
 void expect_same_raster(const std::string& untiled, const std::string& tiled, bool provenance = true) {
   SCOPED_TRACE(tiled);

@@ -39,11 +39,7 @@ Heightfield fill_tiled(const Heightfield& h, int tile, analysis::TiledFillStats*
   return out;
 }
 
-size_t bit_differences(const Heightfield& a, const Heightfield& b) {
-  size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a.z[i], &b.z[i], 4) != 0;
-  return n;
-}
+using test::bit_differences;
 
 // Rough terrain with pits at every scale: white noise plus a few wide bowls.
 Heightfield pitted(int w, int h, unsigned seed, double nodata_fraction = 0) {

@@ -53,14 +53,7 @@ Heightfield tiled_area(const Heightfield& h, int tile, bool global_phase = true,
   return out;
 }
 
-size_t bit_differences(const Heightfield& a, const Heightfield& b) {
-  size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    const bool an = std::isnan(a.z[i]), bn = std::isnan(b.z[i]);
-    n += (an != bn) || (!an && std::memcmp(&a.z[i], &b.z[i], 4) != 0);
-  }
-  return n;
-}
+using test::bit_differences;
 
 // Rough terrain with pits and flats at every scale (integer metres: many exact ties).
 Heightfield pitted(int w, int h, unsigned seed, double nodata_fraction = 0) {

@@ -29,15 +29,7 @@ std::string slurp(const std::string& f) {
   return ss.str();
 }
 
-size_t bit_differences(const Heightfield& a, const Heightfield& b) {
-  if (a.width != b.width || a.height != b.height) return size_t(-1);
-  size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    const bool an = std::isnan(a.z[i]), bn = std::isnan(b.z[i]);
-    n += (an != bn) || (!an && std::memcmp(&a.z[i], &b.z[i], 4) != 0);
-  }
-  return n;
-}
+using test::bit_differences;
 
 // An odd-sized SRTM window with nodata holes across tile borders, and a pipeline with writers at
 // two levels (after a crop, and after a second crop).
