@@ -11,5 +11,12 @@ if command -v ccache >/dev/null 2>&1; then
   LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
 # TERRACL_MPI=ON: tiled runs over MPI ranks (OpenMPI; test.sh turns it on so CI builds and tests it).
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DTERRACL_MPI="${TERRACL_MPI:-OFF}" "${LAUNCHER[@]}" >/dev/null
+# Unset, an existing build folder keeps its setting (demo.sh after test.sh does not rebuild everything).
+MPI_OPT=()
+if [ -n "${TERRACL_MPI:-}" ]; then
+  MPI_OPT=(-DTERRACL_MPI="$TERRACL_MPI")
+elif [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
+  MPI_OPT=(-DTERRACL_MPI=OFF)
+fi
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release "${MPI_OPT[@]}" "${LAUNCHER[@]}" >/dev/null
 cmake --build "$BUILD_DIR" -j "$JOBS"

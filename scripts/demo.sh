@@ -5,7 +5,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
-bash scripts/build.sh
+# The same build as scripts/test.sh (MPI on), so running both does not rebuild everything.
+TERRACL_MPI=${TERRACL_MPI:-ON} bash scripts/build.sh
 T=build/bin/terracl
 
 # The main job first, then the authoring examples (edit script -> reconstruct -> render) as they
