@@ -93,10 +93,10 @@ void release_near_polyline(EditState& s, const std::vector<Vec3>& pts, double ha
   auto& hard = s.hard();
   for (size_t i = 0; i + 1 < pts.size(); ++i) {
     const Vec3 &a = pts[i], &b = pts[i + 1];
-    const int x0 = std::max(0, int(std::floor((std::min(a.x, b.x) - half) / g.cell_x)));
-    const int x1 = std::min(g.width - 1, int(std::ceil((std::max(a.x, b.x) + half) / g.cell_x)));
-    const int y0 = std::max(0, int(std::floor((std::min(a.y, b.y) - half) / g.cell_y)));
-    const int y1 = std::min(g.height - 1, int(std::ceil((std::max(a.y, b.y) + half) / g.cell_y)));
+    const int x0 = std::max(0, cell_index(std::floor((std::min(a.x, b.x) - half) / g.cell_x)));
+    const int x1 = std::min(g.width - 1, cell_index(std::ceil((std::max(a.x, b.x) + half) / g.cell_x)));
+    const int y0 = std::max(0, cell_index(std::floor((std::min(a.y, b.y) - half) / g.cell_y)));
+    const int y1 = std::min(g.height - 1, cell_index(std::ceil((std::max(a.y, b.y) + half) / g.cell_y)));
     const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) {

@@ -81,8 +81,8 @@ Operation parse_copy_paste(Params& p) {
     const double c = std::cos(rot), sn = std::sin(rot);
     const double cx = (fx0 + (fw - 1) / 2.0) * scx, cy = (fy0 + (fh - 1) / 2.0) * scy;  // source centre
     const double ext = std::hypot(half_w, half_h) * scale;
-    const int x0 = std::max(0, int(std::floor((to.x - ext) / g.cell_x)) - 1), x1 = std::min(g.width - 1, int(std::ceil((to.x + ext) / g.cell_x)) + 1);
-    const int y0 = std::max(0, int(std::floor((to.y - ext) / g.cell_y)) - 1), y1 = std::min(g.height - 1, int(std::ceil((to.y + ext) / g.cell_y)) + 1);
+    const int x0 = std::max(0, cell_index(std::floor((to.x - ext) / g.cell_x)) - 1), x1 = std::min(g.width - 1, cell_index(std::ceil((to.x + ext) / g.cell_x)) + 1);
+    const int y0 = std::max(0, cell_index(std::floor((to.y - ext) / g.cell_y)) - 1), y1 = std::min(g.height - 1, cell_index(std::ceil((to.y + ext) / g.cell_y)) + 1);
     const GradientField& sg = src->g;
     size_t pasted = 0;
     for (int y = y0; y <= y1; ++y)

@@ -65,8 +65,8 @@ struct Parsed {
 nlohmann::json support_of(const std::string& name, const json& j, const edit::ParseTrace& t, const Grid& g) {
   const bool whole = name == "regularize" || (name == "fit" && (!j.contains("clear") || j.at("clear") != false));
   if (whole || !t.has_points()) return "grid";
-  const int x0 = std::max(0, int(std::floor((t.x0 - t.reach) / g.cell_x))), x1 = std::min(g.width - 1, int(std::ceil((t.x1 + t.reach) / g.cell_x)));
-  const int y0 = std::max(0, int(std::floor((t.y0 - t.reach) / g.cell_y))), y1 = std::min(g.height - 1, int(std::ceil((t.y1 + t.reach) / g.cell_y)));
+  const int x0 = std::max(0, edit::cell_index(std::floor((t.x0 - t.reach) / g.cell_x))), x1 = std::min(g.width - 1, edit::cell_index(std::ceil((t.x1 + t.reach) / g.cell_x)));
+  const int y0 = std::max(0, edit::cell_index(std::floor((t.y0 - t.reach) / g.cell_y))), y1 = std::min(g.height - 1, edit::cell_index(std::ceil((t.y1 + t.reach) / g.cell_y)));
   return nlohmann::json::array({x0, y0, x1, y1});
 }
 

@@ -171,7 +171,7 @@ void EditState::solve_local(bool warm) {
           sx0 = std::min(sx0, x), sx1 = std::max(sx1, x), sy0 = std::min(sy0, y), sy1 = std::max(sy1, y);
     if (sx1 < 0) return;
     f_max = std::max(f_max, f);
-    const int mx = int(std::ceil(f / cx)) + 1, my = int(std::ceil(f / cy)) + 1;
+    const int mx = cell_index(std::ceil(f / cx)) + 1, my = cell_index(std::ceil(f / cy)) + 1;
     const int ex0 = std::max(0, sx0 - mx), ex1 = std::min(W - 1, sx1 + mx), ey0 = std::max(0, sy0 - my), ey1 = std::min(H - 1, sy1 + my);
     const int ew = ex1 - ex0 + 1, eh = ey1 - ey0 + 1;
     src.assign(size_t(ew) * eh, 0);
@@ -356,8 +356,8 @@ std::vector<size_t> region_cells(const Region& r, const Grid& g) {
       bx0 = by0 = 1e300, bx1 = by1 = -1e300;
       for (const auto& v : r.polygon) bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
     }
-    x0 = std::max(x0, int(std::floor(bx0 / g.cell_x))), x1 = std::min(x1, int(std::ceil(bx1 / g.cell_x)));
-    y0 = std::max(y0, int(std::floor(by0 / g.cell_y))), y1 = std::min(y1, int(std::ceil(by1 / g.cell_y)));
+    x0 = std::max(x0, cell_index(std::floor(bx0 / g.cell_x))), x1 = std::min(x1, cell_index(std::ceil(bx1 / g.cell_x)));
+    y0 = std::max(y0, cell_index(std::floor(by0 / g.cell_y))), y1 = std::min(y1, cell_index(std::ceil(by1 / g.cell_y)));
   }
   for (int y = y0; y <= y1; ++y)
     for (int x = x0; x <= x1; ++x) {
@@ -375,8 +375,8 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
   const double half = std::max(width / 2, 0.5 * std::max(g.cell_x, g.cell_y));
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
   for (const auto& p : pts) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
-  const int cx0 = std::max(0, int(std::floor((x0 - half) / g.cell_x))), cx1 = std::min(g.width - 1, int(std::ceil((x1 + half) / g.cell_x)));
-  const int cy0 = std::max(0, int(std::floor((y0 - half) / g.cell_y))), cy1 = std::min(g.height - 1, int(std::ceil((y1 + half) / g.cell_y)));
+  const int cx0 = std::max(0, cell_index(std::floor((x0 - half) / g.cell_x))), cx1 = std::min(g.width - 1, cell_index(std::ceil((x1 + half) / g.cell_x)));
+  const int cy0 = std::max(0, cell_index(std::floor((y0 - half) / g.cell_y))), cy1 = std::min(g.height - 1, cell_index(std::ceil((y1 + half) / g.cell_y)));
   if (cx1 < cx0 || cy1 < cy0) return;
   for (int y = cy0; y <= cy1; ++y) {
     // Only the columns near some segment in this row (a diagonal curve's box is mostly empty): the
@@ -399,7 +399,7 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
       rx0 = std::min(rx0, std::min(xa, xb) - half - g.cell_x), rx1 = std::max(rx1, std::max(xa, xb) + half + g.cell_x);
     }
     if (rx0 > rx1) continue;
-    const int x0r = std::max(cx0, int(std::floor(rx0 / g.cell_x))), x1r = std::min(cx1, int(std::ceil(rx1 / g.cell_x)));
+    const int x0r = std::max(cx0, cell_index(std::floor(rx0 / g.cell_x))), x1r = std::min(cx1, cell_index(std::ceil(rx1 / g.cell_x)));
     for (int x = x0r; x <= x1r; ++x) {
       const double px = x * g.cell_x;
       double best = 1e300, z = 0;

@@ -9,11 +9,16 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <optional>
 #include <vector>
 
 namespace terracl::edit {
+
+/// A cell index from a floored/ceiled coordinate in cells, clamped in double before the cast: a
+/// point far off the grid (a vertex at 1e11 m) must not overflow int.
+inline int cell_index(double v) { return std::isfinite(v) ? int(std::clamp(v, -1e9, 1e9)) : 0; }
 
 class EditState {
  public:
