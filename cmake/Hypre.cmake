@@ -20,7 +20,7 @@ foreach(lib terracl_static terracl_shared)
 endforeach()
 
 if(TERRACL_BUILD_TESTS AND TERRACL_BUILD_APPS)
-  add_executable(terracl_hypre_tests ${CMAKE_SOURCE_DIR}/tests/hypre/test_hypre.cpp)
+  add_executable(terracl_hypre_tests ${CMAKE_SOURCE_DIR}/tests/hypre/test_hypre.cpp ${CMAKE_SOURCE_DIR}/tests/test_helpers.cpp)
   target_include_directories(terracl_hypre_tests PRIVATE ${CMAKE_SOURCE_DIR}/tests)
   target_link_libraries(terracl_hypre_tests PRIVATE terracl GTest::gtest GTest::gtest_main
                         OpenImageIO::OpenImageIO GDAL::GDAL)

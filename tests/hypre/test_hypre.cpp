@@ -2,6 +2,7 @@
 // same discrete problem as the device multigrid, checked against an Eigen direct solve and
 // against the device on a real DEM crop. 2 ranks vs 1: scripts/hypre-ranks-check.sh.
 #include "recon_reference.hpp"
+#include "test_helpers.hpp"
 
 #include <terracl/constraints.hpp>
 #include <terracl/gradient.hpp>
@@ -23,54 +24,6 @@
 
 using namespace terracl;
 
-// A few helpers of tests/test_helpers.cpp, inline: this executable compiles one file (CI time).
-namespace terracl::test {
-namespace {
-Device& device() {
-  static std::shared_ptr<Device> d = Device::open();
-  return *d;
-}
-std::string data_path(const std::string& rel) { return std::string(TERRACL_SOURCE_DIR) + "/data/" + rel; }
-struct TempDir {
-  std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                              ("terracl_hypre_" + std::to_string(::getpid()) + "_" + std::to_string(std::rand()));
-  TempDir() { std::filesystem::create_directories(dir); }
-  ~TempDir() { std::filesystem::remove_all(dir); }
-  std::string path(const std::string& n) const { return (dir / n).string(); }
-};
-struct CmdResult {
-  int exit_code;
-  std::string out;
-};
-CmdResult run_cli(const std::string& args) {
-  FILE* p = popen((std::string(TERRACL_CLI) + " " + args + " 2>&1").c_str(), "r");
-  CmdResult r{-1, ""};
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-// Smooth terrain: a sum of sines (as test_helpers' smooth_terrain).
-Heightfield smooth_terrain(int w, int h, double cell, double relief, unsigned seed) {
-  Heightfield t(w, h);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  double kx[6], ky[6], ph[6];
-  for (int i = 0; i < 6; ++i) kx[i] = (1 + 3 * u(rng)) * 2 * M_PI / w, ky[i] = (1 + 3 * u(rng)) * 2 * M_PI / h, ph[i] = 2 * M_PI * u(rng);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double v = 1000;
-      for (int i = 0; i < 6; ++i) v += relief / (i + 2) * std::sin(kx[i] * x + ky[i] * y + ph[i]);
-      t.z[size_t(y) * w + x] = float(v);
-    }
-  t.georef.cell_x = t.georef.cell_y = cell;
-  return t;
-}
-}  // namespace
-}  // namespace terracl::test
 
 namespace {
 
