@@ -72,7 +72,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     if (auto flat = parse_flat_spec(a->base)) {
       base = std::move(*flat);
     } else {
-      if (!std::filesystem::exists(a->base)) throw UsageError("edit", fmt::format("base terrain '{}' not found", a->base));
+      if (!path_exists(a->base)) throw UsageError("edit", fmt::format("base terrain '{}' not found", a->base));
       // From the DEM's header, before it is read (the check after reading also covers the device).
       require_stage_memory("edit", "", memory_of("edit", json::object(), raster_shape(a->base)), nullptr);
       base = read_heightfield(a->base, a->in.read_options());

@@ -397,6 +397,17 @@ TEST(Reliability, OverlongNamesAndNumbersGiveClearErrors) {
     expect_clean_error(test::run_cli("edit -q " + q(spec) + " --script " + q(script) + " -o " + q(dir.path("x.tif"))), 2,
                        "size must be 2..65536", spec);
   expect_clean_error(test::run_cli("--device 99999999999999999999999 info " + q(crop())), 2, "out of range", "--device");
+  // Input names longer than the file system allows (ENAMETOOLONG): std::filesystem::exists throws
+  // there, which stopped the edit-script fuzzer and read "internal: filesystem error" in the CLI.
+  const std::string long_input = std::string(300, 'b') + ".tif";
+  const std::string paste = write_text(
+      dir, "paste.json", R"({"units": "cells", "operations": [{"op": "copy_paste", "source": ")" + long_input + R"("}]})");
+  expect_clean_error(test::run_cli("edit -q flat:64x64 --script " + q(paste) + " -o " + q(dir.path("x.tif"))), 1,
+                     "/operations/0/source: file", "copy_paste source name too long");
+  expect_clean_error(test::run_cli("edit -q " + q(dir.path(long_input)) + " --script " + q(script) + " -o " +
+                                   q(dir.path("x.tif"))),
+                     2, "file name too long", "edit base name too long");
+  EXPECT_FALSE(fs::exists(dir.path("x.tif")));
 }
 
 TEST(Reliability, DownsampleErrorsNameDownsample) {

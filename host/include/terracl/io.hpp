@@ -76,6 +76,11 @@ void check_path_length(const std::string& stage, const std::string& label, const
 /// True when `a` and `b` name the same file: the same inode when both exist, else the same
 /// canonical path ("out/a.tif" and "./out/../out/a.tif").
 bool same_file(const std::string& a, const std::string& b);
+
+/// Whether `path` names something that exists (a regular file when `regular`). Never throws:
+/// std::filesystem::exists throws on a name too long or a loop of links, which for a user's
+/// path means "not there" (the caller's own not-found message then names the field).
+bool path_exists(const std::string& path, bool regular = false) noexcept;
 /// The one check every command and pipeline makes before running: refuses (UsageError naming the
 /// labels) an output that is also an input or another output, and an output that exists and is
 /// not a regular file (a device such as /dev/null, a folder, a pipe), which a rename would replace.

@@ -3,6 +3,7 @@
 // driver). A stale or corrupt cache entry is ignored and rebuilt, never an error.
 #include <terracl/device.hpp>
 #include <terracl/error.hpp>
+#include <terracl/io.hpp>
 
 #include <fmt/format.h>
 
@@ -112,7 +113,7 @@ cl::Program& Device::program_from_source(const std::string& file, const std::str
   const bool use_disk = disk_cache_enabled() && !dir.empty();
   const fs::path bin_path = dir / fmt::format("{}-{:016x}.bin", file, h);
 
-  if (use_disk && fs::exists(bin_path)) {
+  if (use_disk && path_exists(bin_path.string())) {
     std::ifstream in(bin_path, std::ios::binary);
     std::vector<unsigned char> bin((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (!bin.empty()) {

@@ -82,7 +82,7 @@ Operation parse_amplify(Params& p) {
   const std::string key = dict ? "dictionary" : "exemplar";
   const std::string given = p.string(key);
   const std::string path = resolve_path(given, p.grid().base_dir);
-  if (!fs::exists(path)) param_error(p.where(key), fmt::format("file '{}' not found", given));
+  if (!path_exists(path)) param_error(p.where(key), fmt::format("file '{}' not found", given));
   (dict ? a.dictionary : a.exemplar) = path;
   a.factor = p.integer("factor", 4, 2, 8);
   if (a.factor != 2 && a.factor != 4 && a.factor != 8)

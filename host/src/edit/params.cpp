@@ -1,6 +1,7 @@
 #include "edit/params.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/io.hpp>
 
 #include <fmt/format.h>
 
@@ -214,9 +215,9 @@ std::vector<Vec3> Params::points_of(const json& arr, const std::string& w, size_
 namespace terracl {
 std::string resolve_path(const std::string& path, const std::string& base_dir) {
   namespace fs = std::filesystem;
-  if (fs::exists(path) || base_dir.empty() || fs::path(path).is_absolute()) return path;
+  if (path_exists(path) || base_dir.empty() || fs::path(path).is_absolute()) return path;
   const fs::path alt = fs::path(base_dir) / path;
-  return fs::exists(alt) ? alt.string() : path;
+  return path_exists(alt.string()) ? alt.string() : path;
 }
 }  // namespace terracl
 

@@ -293,6 +293,11 @@ bool exists_not_regular(const std::string& path) {
 
 }  // namespace
 
+bool path_exists(const std::string& path, bool regular) noexcept {
+  struct stat s {};
+  return !path.empty() && ::stat(path.c_str(), &s) == 0 && (!regular || S_ISREG(s.st_mode));
+}
+
 void check_path_length(const std::string& stage, const std::string& label, const std::string& path) {
   size_t longest = 0;
   for (const auto& part : fs::path(path)) longest = std::max(longest, part.string().size());

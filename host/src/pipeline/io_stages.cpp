@@ -30,7 +30,7 @@ DataKind check_read(const json& o, DataKind, const std::string& where) {
   for (const char* k : {"zmin", "zmax"})
     if (!o.at(k).is_null() && !quantised)
       fail("pipeline", "{}/{}: only PNG and RAW16 inputs take a vertical range", where, k);
-  if (std::filesystem::exists(f) && is_gradient_file(f)) return DataKind::Gradient;
+  if (path_exists(f) && is_gradient_file(f)) return DataKind::Gradient;
   return DataKind::Heightfield;
 }
 

@@ -156,7 +156,7 @@ void StudioServer::Impl::routes() {
   s.Get(R"(/three/((?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-]+(?:\.[A-Za-z0-9_-]+)*\.js))",
         [this](const httplib::Request& req, httplib::Response& res) {
           const fs::path p = fs::path(opts.three_dir) / req.matches[1].str();
-          if (!fs::is_regular_file(p)) {
+          if (!path_exists(p.string(), true)) {
             res.status = 404;
             res.set_content(fmt::format("{} not found (install libjs-three)", p.string()), "text/plain");
             return;

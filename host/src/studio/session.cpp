@@ -36,7 +36,7 @@ Session::Session(Device& d, const std::string& base, const std::string& workspac
   if (auto flat = parse_flat_spec(base)) {
     m_base = std::move(*flat);
   } else {
-    if (!fs::exists(base)) throw UsageError("studio", fmt::format("base terrain '{}' not found", base));
+    if (!path_exists(base)) throw UsageError("studio", fmt::format("base terrain '{}' not found", base));
     m_base_spec = fs::absolute(base).string();  // the saved script replays from anywhere
     m_base = read_heightfield(base);
     m_nodata = nodata_cells(m_base);
@@ -237,12 +237,14 @@ std::string Session::resolve(const std::string& rel, bool must_exist) const {
   const fs::path p(rel);
   if (p.is_absolute())
     throw RequestError(403, fmt::format("/path: '{}' is absolute: only names inside the workspace", rel));
-  const fs::path full = fs::weakly_canonical(fs::path(m_workspace) / p);
+  std::error_code ec;  // a component longer than the file system allows, a loop of links
+  const fs::path full = fs::weakly_canonical(fs::path(m_workspace) / p, ec);
+  if (ec) throw RequestError(400, fmt::format("/path: '{}' is not a usable file name ({})", rel, ec.message()));
   const std::string f = full.string();
   if (f.size() <= m_workspace.size() || f.compare(0, m_workspace.size(), m_workspace) != 0 ||
       f[m_workspace.size()] != '/')
     throw RequestError(403, fmt::format("/path: '{}' is outside the workspace", rel));
-  if (must_exist && !fs::is_regular_file(full))
+  if (must_exist && !path_exists(full.string(), true))
     throw RequestError(404, fmt::format("/path: '{}' not found in the workspace", rel));
   return f;
 }
