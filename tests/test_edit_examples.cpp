@@ -86,6 +86,49 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         EXPECT_LT(banks - mid, 10.0) << "a trough in the sea past the ravine ending at " << bx << ", " << by;
       }
     }
+    if (kind == "fit" && name == "volcanic_island") {
+      // A volcanic cone: the caldera floor well below its rim and high above the sea, the flanks
+      // falling all the way from the rim to the coast (at 50 %, 75 % of the way: lower each time by
+      // >= 10 % of the rim's height), the coast at sea level (to 5 m: bilinear between 20 m cells
+      // of the 513^2 run) with land inside and sea outside.
+      const auto& rim = op.at("ridges").at(0).at("points");
+      double cx = 0, cy = 0, rim_top = -1e30;
+      for (const auto& q : rim) cx += double(q[0]) / rim.size(), cy += double(q[1]) / rim.size();
+      for (const auto& q : rim) rim_top = std::max(rim_top, at_m(h, cell, q[0], q[1]));
+      const double floor_z = at_m(h, cell, cx, cy);
+      EXPECT_GT(rim_top - floor_z, 150.0) << "no caldera: rim " << rim_top << " m, floor " << floor_z << " m";
+      EXPECT_GT(floor_z, 0.5 * rim_top) << "the caldera floor should sit high on the cone";
+      for (const auto& c : op.at("contours")) {
+        if (double(c.at("elevation")) != 0.0) continue;
+        int n_coast = 0;
+        for (const auto& q : c.at("points")) {
+          const double x = q[0], y = q[1], dx = x - cx, dy = y - cy, l = std::hypot(dx, dy);
+          const double ux = dx / l, uy = dy / l;
+          EXPECT_NEAR(at_m(h, cell, x, y), 0.0, 5.0) << "coast off sea level at " << x << ", " << y;
+          EXPECT_LT(at_m(h, cell, x + 300 * ux, y + 300 * uy), -5.0) << "no sea outside the coast at " << x << ", " << y;
+          EXPECT_GT(at_m(h, cell, x - 400 * ux, y - 400 * uy), 5.0) << "no land inside the coast at " << x << ", " << y;
+          // The flank from the rim (its nearest vertex in this direction) down to the coast.
+          double best = -1, rx = cx, ry = cy;
+          for (const auto& v : rim) {
+            const double vx = double(v[0]) - cx, vy = double(v[1]) - cy, dot = (vx * ux + vy * uy) / std::hypot(vx, vy);
+            if (dot > best) best = dot, rx = v[0], ry = v[1];
+          }
+          const double z0 = at_m(h, cell, rx, ry);
+          // The highest point across the flank within 300 m (a ravine may run under the line).
+          auto across = [&](double f) {
+            const double px = (1 - f) * rx + f * x, py = (1 - f) * ry + f * y;
+            double top = -1e30;
+            for (double s = -300; s <= 300; s += cell) top = std::max(top, at_m(h, cell, px - s * uy, py + s * ux));
+            return top;
+          };
+          const double z50 = across(0.5), z75 = across(0.75);
+          EXPECT_LT(z50, z0 - 0.1 * rim_top) << "flank towards " << x << ", " << y;
+          EXPECT_LT(z75, z50 - 0.1 * rim_top) << "flank towards " << x << ", " << y;
+          ++n_coast;
+        }
+        EXPECT_GE(n_coast, 24);
+      }
+    }
     if (kind == "ravine" && name == "cliff") {
       // A couloir starts on the brink: on the plateau a quarter of its half-width above the rim
       // (the smoothed cliff line, at the couloir's x) the ground across its line is level, no
