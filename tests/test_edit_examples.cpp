@@ -49,8 +49,43 @@ Stroke middle_of(const nlohmann::json& pts) {
 // Shape facts of the gallery (issue 12), so that a regression towards "1-pixel scratches", "a dark
 // line without scree" or "a crest that is only a shading edge" fails. `cell` is the cell size of
 // the run (twice the script's: the suite runs the 1025^2 examples at 513^2).
+void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell);
+
+// The cliff example faces west (into the light: a lit face), its plateau east. Its checks are
+// written for a plateau north of a west-east cliff: this turns the terrain and the script a
+// quarter turn (new (X, Y) -> (Y, extent - X)) and checks that.
+bool check_turned_cliff(const nlohmann::json& script, const Heightfield& h, double cell) {
+  const double extent = (h.width - 1) * cell;
+  for (const auto& op : script.at("operations")) {
+    if (op.at("op") != "cliff") continue;
+    const auto& pts = op.at("points");
+    const double dx = double(pts.back()[0]) - double(pts.front()[0]), dy = double(pts.back()[1]) - double(pts.front()[1]);
+    if (std::abs(dy) <= std::abs(dx)) return false;
+  }
+  Heightfield t = h;
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) t.at(x, y) = h.at(h.width - 1 - y, x);
+  nlohmann::json s = script;
+  auto turn = [&](nlohmann::json& q) {
+    const double X = q[0], Y = q[1];
+    q[0] = Y, q[1] = extent - X;
+  };
+  for (auto& op : s.at("operations")) {
+    if (op.contains("points"))
+      for (auto& q : op["points"]) turn(q);
+    if (op.contains("polygon"))
+      for (auto& q : op["polygon"]) turn(q);
+  }
+  check_shapes("cliff", s, t, cell);
+  return true;
+}
+
 void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell) {
   const double extent = (h.width - 1) * cell;
+  if (name == "cliff_turned") {
+    EXPECT_TRUE(check_turned_cliff(script, h, cell)) << "the cliff example should run north-south";
+    return;
+  }
   for (const auto& op : script.at("operations")) {
     const std::string kind = op.at("op");
     if (kind == "ravine" && (name == "volcanic_island" || name == "mountain_range")) {
@@ -251,7 +286,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
     EXPECT_GT(hi - lo, 50.0f) << name << ": the edits should make relief";
-    if (!cli_base.empty()) check_shapes(name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
+    if (!cli_base.empty()) check_shapes(name == "cliff" ? "cliff_turned" : name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
   }
   EXPECT_GE(n, 7);
 }
