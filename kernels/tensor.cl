@@ -152,6 +152,57 @@ CurveFoot hermite_foot(__global const float4* verts, int v0, int nv, vi seg, vf 
   return o;
 }
 
+// The local minima of the distance to the chords, in stroke order (chord s at step s): a chord whose
+// distance is below its predecessor's and not above its successor's. Each minimum keeps `sep`, the
+// smaller of the largest (squared) distances between it and the minima before and after it (the
+// stroke's ends count as infinitely far), so a minimum about to merge with a maximum (a leg whose
+// foot runs off round a bend) has sep -> its distance, and its blend weight fades to zero there.
+typedef struct {
+  vf pd, runmax, pmd2, pleft;  // previous distance, largest since the pending minimum, pending minimum
+  vi desc, pseg, pv;           // previous step went down, pending minimum's chord, pending valid
+  vf m0d2, m0sep, m1d2, m1sep; // the nearest two minima
+  vi m0seg, m1seg;
+} LegMins;
+
+LegMins legmins_init(void) {
+  LegMins l;
+  l.pd = l.runmax = l.pmd2 = l.pleft = (vf)(MAXFLOAT);
+  l.m0d2 = l.m0sep = l.m1d2 = l.m1sep = (vf)(MAXFLOAT);
+  l.desc = (vi)(-1);
+  l.pv = (vi)(0);
+  l.pseg = l.m0seg = l.m1seg = (vi)(-1);
+  return l;
+}
+
+void legmins_insert(LegMins* l, vi mask, vf d2, vi seg, vf sep) {
+  const vi b0 = mask & (d2 < l->m0d2);
+  const vi b1 = mask & (~b0) & (d2 < l->m1d2);
+  l->m1d2 = select(select(l->m1d2, d2, b1), l->m0d2, b0);
+  l->m1seg = select(select(l->m1seg, seg, b1), l->m0seg, b0);
+  l->m1sep = select(select(l->m1sep, sep, b1), l->m0sep, b0);
+  l->m0d2 = select(l->m0d2, d2, b0);
+  l->m0seg = select(l->m0seg, seg, b0);
+  l->m0sep = select(l->m0sep, sep, b0);
+}
+
+// One chord (s) of the stroke; s = nseg (d2 = MAXFLOAT) closes the sequence.
+void legmins_step(LegMins* l, vf d2, int s) {
+  const vi det = l->desc & (d2 >= l->pd) & (vi)(s > 0 ? -1 : 0);  // chord s - 1 is a minimum
+  legmins_insert(l, det & l->pv, l->pmd2, l->pseg, fmin(l->pleft, l->runmax));
+  l->pmd2 = select(l->pmd2, l->pd, det);
+  l->pseg = select(l->pseg, (vi)(s - 1), det);
+  l->pleft = select(l->pleft, l->runmax, det);
+  l->pv |= det;
+  l->runmax = select(fmax(l->runmax, d2), d2, det);
+  l->desc = select(l->pd > d2, (vi)(-1), (vi)(s == 0 ? -1 : 0));
+  l->pd = d2;
+}
+
+void legmins_finish(LegMins* l, int nseg) {
+  legmins_step(l, (vf)(MAXFLOAT), nseg);
+  legmins_insert(l, l->pv, l->pmd2, l->pseg, l->pleft);
+}
+
 // Anisotropic metric M = pr[8..11] (row-major); distances are |M (p - q)|, and the real-space
 // gradient of |M v| is M^T (M v / |M v|).
 ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px, vf py) {
@@ -207,6 +258,11 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   vf second = (vf)(MAXFLOAT), t0x = one, t0y = zero, t1x = one, t1y = zero, a0 = zero, a1 = zero;
   vf arc0 = zero, arc1 = zero, sg1 = one;  // arc lengths and the runner-up's side
   vf i0x = one, i0y = zero, i1x = one, i1y = zero;  // interpolated vertex tangents
+  // Smoothed strokes: the local minima of the chord distance along the stroke, the nearest two with
+  // the largest distance separating each from its neighbouring minima (LegMins). Between the legs of
+  // a bend tighter than the distance both legs are local minima: their profiles are blended below.
+  const int smoothed = pr[22] != 0.0f && !closed && nv >= 3;
+  LegMins lm = legmins_init();
   for (int s = 0; s < nseg; ++s) {
     const float4 a4 = verts[v0 + s];
     const float4 b4 = verts[v0 + ((s + 1) % nv)];
@@ -217,6 +273,7 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     const vf t = clamp(((Px - Ax) * abx + (Py - Ay) * aby) * il2, 0.0f, 1.0f);
     const vf dx = Px - (Ax + t * abx), dy = Py - (Ay + t * aby);
     const vf d2 = dx * dx + dy * dy;
+    if (smoothed) legmins_step(&lm, d2, s);
     const vi m = d2 < best;
     const float2 tr = b4.xy - a4.xy;
     const float trl = length(tr);
@@ -339,15 +396,42 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
       btx = select(btx, fp.tx, m2), bty = select(bty, fp.ty, m2);
       bcx = select(bcx, fp.cx, m2), bcy = select(bcy, fp.cy, m2);
       bamp = select(bamp, fp.amp, m2), barc = select(barc, fp.arc, m2);
-      const vf blen = sqrt(bd2);
-      c.dist = c.d0 = c.d1 = blen;
-      c.sdist = c.s0 = c.s1 = bside * blen;
-      c.a0 = c.a1 = bamp;
-      c.arc0 = c.arc1 = barc;
-      // No blend: the distance to the chain is C1 within its reach. A U-turn tighter than the
-      // distance keeps the crease of its medial axis (a valley line between the legs: the distance
-      // to any curve creases there), and the centre of such a bend is a cone point.
-      c.w1 = zero;
+      // The other leg: the runner-up local minimum of the chord distance, refined on the Hermite
+      // chain the same way. Between the legs of a bend tighter than the distance (a hairpin), the
+      // distance min(d_leg0, d_leg1) creases on the midline and so would the profile; the two legs'
+      // profiles are blended there as at a polyline's bend (blend_weight: C1 across the midline),
+      // the weight faded by how distinct the runner-up minimum is (its separating maximum over the
+      // band), so it reaches zero where that leg's foot runs off round the bend.
+      legmins_finish(&lm, nseg);
+      const float band = fmax(0.25f * pr[3], 1.0f);
+      const float reach = pr[3] + 2.0f * band;
+      vi other = (lm.m1seg >= 0) & (abs(lm.m1seg - seg) > 2) & (lm.m1d2 < reach * reach);
+      vf od2 = (vf)(MAXFLOAT), oside = one, oamp = zero, oarc = zero;
+      if (any(other)) {
+        const vi s1 = max(lm.m1seg, (vi)(0));
+        const CurveFoot g0 = hermite_foot(verts, v0, nv, s1, px, py);
+        const CurveFoot gm = hermite_foot(verts, v0, nv, max(s1 - 1, (vi)(0)), px, py);
+        const CurveFoot gp = hermite_foot(verts, v0, nv, min(s1 + 1, (vi)(nseg - 1)), px, py);
+        const vi n1 = gm.d2 < g0.d2;
+        od2 = select(g0.d2, gm.d2, n1), oside = select(g0.side, gm.side, n1);
+        oamp = select(g0.amp, gm.amp, n1), oarc = select(g0.arc, gm.arc, n1);
+        const vi n2 = gp.d2 < od2;
+        od2 = select(od2, gp.d2, n2), oside = select(oside, gp.side, n2);
+        oamp = select(oamp, gp.amp, n2), oarc = select(oarc, gp.arc, n2);
+        od2 = select((vf)(MAXFLOAT), od2, other);
+      }
+      const vf blen = sqrt(bd2), olen = sqrt(fmin(od2, (vf)(1e30f)));
+      c.dist = blen;
+      c.sdist = bside * blen;
+      // The nearer of the two feet carries the profile's main term (the chords and the chain can
+      // disagree on which leg is nearer by a fraction of a cell next to the midline).
+      const vi swap = od2 < bd2;
+      c.d0 = select(blen, olen, swap), c.d1 = select(olen, blen, swap);
+      c.s0 = select(bside * blen, oside * olen, swap), c.s1 = select(oside * olen, bside * blen, swap);
+      c.a0 = select(bamp, oamp, swap), c.a1 = select(oamp, bamp, swap);
+      c.arc0 = select(barc, oarc, swap), c.arc1 = select(oarc, barc, swap);
+      const vf sep = sqrt(fmin(lm.m1sep, (vf)(1e30f))) - sqrt(fmin(lm.m1d2, (vf)(1e30f)));
+      c.w1 = select(zero, blend_weight(pr, fmin(bd2, od2), fmax(bd2, od2), -one) * smoother_v(sep / band), other);
       c.amp = (1.0f - c.w1) * c.a0 + c.w1 * c.a1;
       c.tx = btx, c.ty = bty;
       const vf qx = bcx - px, qy = bcy - py;
@@ -361,7 +445,7 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
   }
   c.gx = m00 * fx + m10 * fy;
   c.gy = m01 * fx + m11 * fy;
-  c.d0 = c.dist;
+  if (!(pr[22] != 0.0f && !closed && nv >= 3)) c.d0 = c.dist;
   return c;
 }
 

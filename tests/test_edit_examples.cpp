@@ -49,8 +49,43 @@ Stroke middle_of(const nlohmann::json& pts) {
 // Shape facts of the gallery (issue 12), so that a regression towards "1-pixel scratches", "a dark
 // line without scree" or "a crest that is only a shading edge" fails. `cell` is the cell size of
 // the run (twice the script's: the suite runs the 1025^2 examples at 513^2).
+void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell);
+
+// The cliff example faces west (into the light: a lit face), its plateau east. Its checks are
+// written for a plateau north of a west-east cliff: this turns the terrain and the script a
+// quarter turn (new (X, Y) -> (Y, extent - X)) and checks that.
+bool check_turned_cliff(const nlohmann::json& script, const Heightfield& h, double cell) {
+  const double extent = (h.width - 1) * cell;
+  for (const auto& op : script.at("operations")) {
+    if (op.at("op") != "cliff") continue;
+    const auto& pts = op.at("points");
+    const double dx = double(pts.back()[0]) - double(pts.front()[0]), dy = double(pts.back()[1]) - double(pts.front()[1]);
+    if (std::abs(dy) <= std::abs(dx)) return false;
+  }
+  Heightfield t = h;
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) t.at(x, y) = h.at(h.width - 1 - y, x);
+  nlohmann::json s = script;
+  auto turn = [&](nlohmann::json& q) {
+    const double X = q[0], Y = q[1];
+    q[0] = Y, q[1] = extent - X;
+  };
+  for (auto& op : s.at("operations")) {
+    if (op.contains("points"))
+      for (auto& q : op["points"]) turn(q);
+    if (op.contains("polygon"))
+      for (auto& q : op["polygon"]) turn(q);
+  }
+  check_shapes("cliff", s, t, cell);
+  return true;
+}
+
 void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell) {
   const double extent = (h.width - 1) * cell;
+  if (name == "cliff_turned") {
+    EXPECT_TRUE(check_turned_cliff(script, h, cell)) << "the cliff example should run north-south";
+    return;
+  }
   for (const auto& op : script.at("operations")) {
     const std::string kind = op.at("op");
     if (kind == "ravine" && (name == "volcanic_island" || name == "mountain_range")) {
@@ -84,6 +119,49 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         const double mid = at_m(h, cell, px, py);
         const double banks = std::min(at_m(h, cell, px - r * uy, py + r * ux), at_m(h, cell, px + r * uy, py - r * ux));
         EXPECT_LT(banks - mid, 10.0) << "a trough in the sea past the ravine ending at " << bx << ", " << by;
+      }
+    }
+    if (kind == "fit" && name == "volcanic_island") {
+      // A volcanic cone: the caldera floor well below its rim and high above the sea, the flanks
+      // falling all the way from the rim to the coast (at 50 %, 75 % of the way: lower each time by
+      // >= 10 % of the rim's height), the coast at sea level (to 5 m: bilinear between 20 m cells
+      // of the 513^2 run) with land inside and sea outside.
+      const auto& rim = op.at("ridges").at(0).at("points");
+      double cx = 0, cy = 0, rim_top = -1e30;
+      for (const auto& q : rim) cx += double(q[0]) / rim.size(), cy += double(q[1]) / rim.size();
+      for (const auto& q : rim) rim_top = std::max(rim_top, at_m(h, cell, q[0], q[1]));
+      const double floor_z = at_m(h, cell, cx, cy);
+      EXPECT_GT(rim_top - floor_z, 150.0) << "no caldera: rim " << rim_top << " m, floor " << floor_z << " m";
+      EXPECT_GT(floor_z, 0.5 * rim_top) << "the caldera floor should sit high on the cone";
+      for (const auto& c : op.at("contours")) {
+        if (double(c.at("elevation")) != 0.0) continue;
+        int n_coast = 0;
+        for (const auto& q : c.at("points")) {
+          const double x = q[0], y = q[1], dx = x - cx, dy = y - cy, l = std::hypot(dx, dy);
+          const double ux = dx / l, uy = dy / l;
+          EXPECT_NEAR(at_m(h, cell, x, y), 0.0, 5.0) << "coast off sea level at " << x << ", " << y;
+          EXPECT_LT(at_m(h, cell, x + 300 * ux, y + 300 * uy), -5.0) << "no sea outside the coast at " << x << ", " << y;
+          EXPECT_GT(at_m(h, cell, x - 400 * ux, y - 400 * uy), 5.0) << "no land inside the coast at " << x << ", " << y;
+          // The flank from the rim (its nearest vertex in this direction) down to the coast.
+          double best = -1, rx = cx, ry = cy;
+          for (const auto& v : rim) {
+            const double vx = double(v[0]) - cx, vy = double(v[1]) - cy, dot = (vx * ux + vy * uy) / std::hypot(vx, vy);
+            if (dot > best) best = dot, rx = v[0], ry = v[1];
+          }
+          const double z0 = at_m(h, cell, rx, ry);
+          // The highest point across the flank within 300 m (a ravine may run under the line).
+          auto across = [&](double f) {
+            const double px = (1 - f) * rx + f * x, py = (1 - f) * ry + f * y;
+            double top = -1e30;
+            for (double s = -300; s <= 300; s += cell) top = std::max(top, at_m(h, cell, px - s * uy, py + s * ux));
+            return top;
+          };
+          const double z50 = across(0.5), z75 = across(0.75);
+          EXPECT_LT(z50, z0 - 0.1 * rim_top) << "flank towards " << x << ", " << y;
+          EXPECT_LT(z75, z50 - 0.1 * rim_top) << "flank towards " << x << ", " << y;
+          ++n_coast;
+        }
+        EXPECT_GE(n_coast, 24);
       }
     }
     if (kind == "ravine" && name == "cliff") {
@@ -208,7 +286,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
     EXPECT_GT(hi - lo, 50.0f) << name << ": the edits should make relief";
-    if (!cli_base.empty()) check_shapes(name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
+    if (!cli_base.empty()) check_shapes(name == "cliff" ? "cliff_turned" : name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
   }
   EXPECT_GE(n, 7);
 }

@@ -196,6 +196,41 @@ TEST(Landforms, TightSmoothedBendHasNoFan) {
   EXPECT_GT(c1, c2 / 3.0);
 }
 
+// A hairpin tighter than the half-width (legs 120 m apart, r = 100 m): between the legs the
+// distance to the stroke is min(d_leg1, d_leg2), which creases on the midline, and the profile
+// P(d) with it (a slope jump, a line in hillshades). The two legs' profiles are blended there
+// (the nearest and the runner-up local minimum of the distance along the stroke), so P is C1
+// across the midline: its largest second difference across it falls like h^2 (a slope jump: like h).
+TEST(Landforms, HairpinHasNoCreaseBetweenItsLegs) {
+  const double cy = 300, half = 60, r = 100;
+  std::vector<Vec2> ctrl;
+  for (double x = 40; x < 400; x += 60) ctrl.push_back({x, cy - half});
+  for (int i = 1; i < 6; ++i) {  // the turn: a half circle of radius 60 m around (400, cy)
+    const double a = M_PI * i / 6;
+    ctrl.push_back({400 + half * std::sin(a), cy - half * std::cos(a)});
+  }
+  for (double x = 400; x > 39; x -= 60) ctrl.push_back({x, cy + half});
+  const auto path = catmull_rom(ctrl, r / 8);
+  auto crease = [&](double cell) {
+    const int n = int(std::lround(600 / cell)) + 1;
+    Primitive p = line(path, r, Profile::Round, 100);
+    p.smooth = true;
+    const auto P = potential(n, n, cell, {p});
+    double worst = 0;
+    const int yc = int(std::lround(cy / cell));
+    for (int x = int(120 / cell); x <= int(320 / cell); ++x)
+      for (int y = yc - 2; y <= yc + 2; ++y) {
+        const size_t o = size_t(y) * n + x;
+        worst = std::max(worst, double(std::abs(P[o + n] - 2.0f * P[o] + P[o - n])));
+      }
+    return worst;
+  };
+  const double c4 = crease(4), c2 = crease(2), c1 = crease(1);
+  std::printf("largest second difference across a hairpin's midline: %.4g, %.4g, %.4g (cell 4, 2, 1 m)\n", c4, c2, c1);
+  EXPECT_LT(c2, c4 / 3.0);
+  EXPECT_LT(c1, c2 / 3.0);
+}
+
 // Stroke ends taper: with a taper the profile fades to zero at the end points (no round cap, no
 // knob); without one the end is a full-height cap.
 TEST(Landforms, StrokeEndsTaper) {
