@@ -187,7 +187,7 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 
     // Transport capacity (m of sediment) and the exchange with the bed: delta > 0 dissolves.
     // ws_dt (settling velocity x dt, m) settles the excess at w_s/d in the recession phase (0 while it
-    // rains; docs/erosion.md, "Recession").
+    // rains; docs/erosion.md, "The valley ribbon: recession phase and a depth-bounded pick-up").
     // conc_max bounds only the pick-up (a load of conc_max x depth picks up no more); a load above the
     // capacity still settles at the slow rate, so valleys do not fill at once.
     const V cap = ((kc * fmax(sin_slope, sin_min)) * speed) * fmin(d1 * inv_dramp, 1.0f);

@@ -71,9 +71,10 @@ TEST(ErosionSettle, BrushWeightZeroCellsStayFixed) {
   EXPECT_GT(out.totals.settled, 0.0);
 }
 
-// The recession phase (docs/erosion.md, "Recession"): after the rain the water drains for a while
-// and carries its load along. It must keep the material (closed border), count what leaves (open
-// border), stop the rain, and move load out that the plain run leaves to settle in place.
+// The recession phase (docs/erosion.md, "The valley ribbon: recession phase and a depth-bounded
+// pick-up"): after the rain the water drains for a while and carries its load along. It must keep
+// the material (closed border), count what leaves (open border), stop the rain, and move load out
+// that the plain run leaves to settle in place.
 TEST(ErosionRecession, DrainsTheLoadAndKeepsTheMaterial) {
   const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
   const double a = dem.georef.cell_x * dem.georef.cell_y;
@@ -118,8 +119,8 @@ TEST(ErosionRecession, DrainsTheLoadAndKeepsTheMaterial) {
   }
 }
 
-// max_concentration bounds the pick-up by the water depth (docs/erosion.md, "The valley ribbon"):
-// the load per metre of water ends far below the unbounded run's, and the bed moves less.
+// max_concentration bounds the pick-up by the water depth (docs/erosion.md, same section): the load
+// per metre of water ends far below the unbounded run's, and the bed moves less.
 TEST(ErosionRecession, MaxConcentrationBoundsTheLoadPerDepth) {
   const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
   auto run = [&](double c) {
@@ -139,7 +140,8 @@ TEST(ErosionRecession, MaxConcentrationBoundsTheLoadPerDepth) {
   };
   const auto [free_ratio, free_moved] = run(0);
   const auto [bound_ratio, bound_moved] = run(2);
-  std::printf("99th pct of sediment/depth: %.3g unbounded, %.3g with max_concentration 2; mean |change| %.3g -> %.3g m\n",
+  std::printf("99th pct of sediment/depth: %.3g unbounded, %.3g with max_concentration 2; "
+              "mean |change| %.3g -> %.3g m\n",
               free_ratio, bound_ratio, free_moved, bound_moved);
   EXPECT_GT(free_ratio, 4.0) << "the unbounded run must carry more than the bound for this test to mean anything";
   EXPECT_LT(bound_ratio, 0.5 * free_ratio);
