@@ -286,7 +286,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(30, float(a));
       k.setArg(33, float(p.deposit_layer ? p.rock_erodibility : 1.0));
       k.setArg(34, s.q);
-      k.setArg(35, 0.0f);    // no settling velocity and no depth bound while it rains
+      k.setArg(35, 0.0f);  // no settling velocity while it rains; 36: the pick-up bound (1e30 = none)
       k.setArg(36, float(p.max_concentration > 0 ? p.max_concentration : 1e30));
     }
     {
