@@ -117,7 +117,8 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
                                 const float ks_dt, const float kd_dt, const float max_change,
                                 const float dry_depth, const float evap_factor, const float cell_area,
                                 __global const float* restrict r, __global float* restrict r_out,
-                                const float rock_factor, __global float* restrict q_out) {
+                                const float rock_factor, __global float* restrict q_out, const float ws_dt,
+                                const float conc_max) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -185,8 +186,14 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     const V sin_slope = sqrt(g2 / (1.0f + g2));
 
     // Transport capacity (m of sediment) and the exchange with the bed: delta > 0 dissolves.
+    // ws_dt (settling velocity x dt, m) settles the excess at w_s/d in the recession phase (0 while it
+    // rains; docs/erosion.md, "The valley ribbon: recession phase and a depth-bounded pick-up").
+    // conc_max bounds only the pick-up (a load of conc_max x depth picks up no more); a load above the
+    // capacity still settles at the slow rate, so valleys do not fill at once.
     const V cap = ((kc * fmax(sin_slope, sin_min)) * speed) * fmin(d1 * inv_dramp, 1.0f);
-    V delta = select(kd_dt * (cap - s1), ks_dt * (cap - s1), cap > s1);
+    const V pick = fmin(cap, conc_max * d1);
+    const V kd = fmax(fmin(ws_dt / fmax(d1, dry_depth), 1.0f), kd_dt);
+    V delta = select(select(kd * (cap - s1), 0.0f, cap > s1), ks_dt * (pick - s1), pick > s1);
     delta = select(delta, -s1, d1 <= dry_depth);  // a dry cell deposits all it carries
     delta = fmin(fmax(delta, -max_change), max_change);
 #ifdef HAS_WEIGHT

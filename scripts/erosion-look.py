@@ -8,7 +8,8 @@ Measures: mean elevation change (0 when the material is kept), mean |change|, sh
 33-37 deg (a pile-up there means thermal erosion planed slopes into talus facets), share of cells
 flatter than 1 deg (flat ribbons), the ratio of the RMS Laplacian (crinkle: > 1 means rougher), the
 share of one-cell curvature flips (one-cell incised crinkles), the channel floor widths (share of
-carved channel cross-sections whose floor is a one-cell V notch) and the slope histogram.
+carved channel cross-sections whose floor is a one-cell V notch), the valley ribbon (the settled
+load raising the valley floors flat: see ribbon()) and the slope histogram.
 Needs build/bin/terracl, gdal-bin, python3-numpy, python3-matplotlib.
 """
 import os
@@ -84,6 +85,42 @@ def channel_floor_widths(z0, z1):
     return np.array(widths)
 
 
+def d8_area(z, cx, cy):
+    """Contributing area (m^2) of D8 flow on z, highest cell first (flats and pits keep their water)."""
+    h, w = z.shape
+    acc = np.full(z.size, cx * cy)
+    flat = z.ravel()
+    zp = np.pad(z, 1, constant_values=np.inf)
+    best = np.zeros(z.shape)
+    target = np.full(z.shape, -1, dtype=np.int64)
+    yy, xx = np.mgrid[0:h, 0:w]
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            if dy == 0 and dx == 0:
+                continue
+            drop = (z - zp[1 + dy:h + 1 + dy, 1 + dx:w + 1 + dx]) / np.hypot(dx * cx, dy * cy)
+            better = drop > best
+            best = np.where(better, drop, best)
+            target = np.where(better, (yy + dy) * w + (xx + dx), target)
+    t = target.ravel()
+    for i in np.argsort(-flat, kind="stable"):
+        if t[i] >= 0:
+            acc[t[i]] += acc[i]
+    return acc.reshape(h, w)
+
+
+def ribbon(z0, z1, cx, cy, min_area=0.5e6):
+    """The valley ribbon: on the valley floors (D8 contributing area of the input >= min_area m^2),
+    the share (%) of cells raised more than 1 m above the input, the share that is flatter than 1 deg
+    after the run and was not before, and the 95th percentile of the raise (m). A carved valley lies
+    at or below its input floor; the suspended load settled in place lifts it into a flat band."""
+    valley = d8_area(z0, cx, cy) >= min_area
+    d = (z1 - z0)[valley]
+    s0, s1 = slope_deg(z0, cx, cy)[valley], slope_deg(z1, cx, cy)[valley]
+    return (100.0 * float(np.mean(d > 1.0)), 100.0 * float(np.mean((s1 < 1) & (s0 >= 1))),
+            float(np.percentile(d, 95)), int(valley.sum()))
+
+
 def main():
     dem, out = sys.argv[1], sys.argv[2]
     extra = sys.argv[3:]
@@ -107,6 +144,9 @@ def main():
         if fw.size:
             print(f"  channel floors: {fw.size} cross-sections, {100.0 * np.mean(fw == 1):.1f} % one cell wide, mean "
                   f"{fw.mean():.2f} cells")
+        raised, flattened, p95, n = ribbon(z0, z1, cx, cy)
+        print(f"  valley ribbon ({n} valley-floor cells, area >= 0.5 km2): {raised:.1f} % raised > 1 m, "
+              f"{flattened:.1f} % newly flatter than 1 deg, 95th pct raise {p95:+.1f} m")
         hist0, edges = np.histogram(s0, bins=np.arange(0, 91, 5))
         hist1, _ = np.histogram(s1, bins=edges)
         print("  slope histogram (% of cells per 5 deg, before -> after): " + ", ".join(

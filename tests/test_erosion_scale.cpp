@@ -71,6 +71,83 @@ TEST(ErosionSettle, BrushWeightZeroCellsStayFixed) {
   EXPECT_GT(out.totals.settled, 0.0);
 }
 
+// The recession phase (docs/erosion.md, "The valley ribbon: recession phase and a depth-bounded
+// pick-up"): after the rain the water drains for a while and carries its load along. It must keep
+// the material (closed border), count what leaves (open border), stop the rain, and move load out
+// that the plain run leaves to settle in place.
+TEST(ErosionRecession, DrainsTheLoadAndKeepsTheMaterial) {
+  const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  const double a = dem.georef.cell_x * dem.georef.cell_y;
+  ErosionParams p = ErosionParams::defaults();
+  p.recession = 0;
+  p.boundary = ErosionBoundary::Closed;
+  ErosionParams r = p;
+  r.recession = 100;
+  r.recession_evaporation = 0.02;
+  {
+    Erosion sim(test::device(), dem, r);
+    EXPECT_EQ(sim.recession_steps(), int(std::ceil(100 / sim.step_dt() - 1e-9)));
+  }
+  ErosionOutputs plain, closed;
+  erode(test::device(), dem, p, 200, nullptr, &plain);
+  const Heightfield kept = erode(test::device(), dem, r, 200, nullptr, &closed);
+  double moved = 0;
+  for (size_t i = 0; i < dem.size(); ++i) moved += std::fabs(double(kept.z[i]) - dem.z[i]) * a;
+  const double drift = volume_m3(kept) - volume_m3(dem);
+  std::printf("recession, closed border: moved %.4g m3, output - input %.3g m3; rained %.4g m3 (plain %.4g)\n", moved,
+              drift, closed.totals.rained, plain.totals.rained);
+  ASSERT_GT(moved, 1e6);
+  EXPECT_LE(std::fabs(drift), 1e-4 * moved);
+  EXPECT_DOUBLE_EQ(closed.totals.rained, plain.totals.rained) << "no rain in the recession";
+  // Open border: the recession drains load that the plain run settles in place, and counts it.
+  p.boundary = r.boundary = ErosionBoundary::Open;
+  ErosionOutputs open_plain, open_rec;
+  const Heightfield a0 = erode(test::device(), dem, p, 200, nullptr, &open_plain);
+  const Heightfield a1 = erode(test::device(), dem, r, 200, nullptr, &open_rec);
+  std::printf("open border: drained sediment %.4g m3 plain, %.4g m3 with the recession\n",
+              open_plain.totals.drained_sediment, open_rec.totals.drained_sediment);
+  EXPECT_GT(open_rec.totals.drained_sediment, 1.05 * open_plain.totals.drained_sediment);
+  EXPECT_NEAR(volume_m3(dem) - volume_m3(a1), open_rec.totals.drained_sediment, 1e-4 * moved);
+  EXPECT_NE(a0.z, a1.z);
+  // Out-of-range recession parameters are errors naming them.
+  r.recession = -1;
+  try {
+    erode(test::device(), dem, r, 1);
+    ADD_FAILURE() << "a negative recession ran";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("recession"), std::string::npos) << e.what();
+  }
+}
+
+// max_concentration bounds the pick-up by the water depth (docs/erosion.md, same section): the load
+// per metre of water ends far below the unbounded run's, and the bed moves less.
+TEST(ErosionRecession, MaxConcentrationBoundsTheLoadPerDepth) {
+  const Heightfield dem = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  auto run = [&](double c) {
+    ErosionParams p = ErosionParams::defaults();
+    p.boundary = ErosionBoundary::Closed;
+    p.settle = false;
+    p.max_concentration = c;
+    ErosionOutputs out;
+    const Heightfield bed = erode(test::device(), dem, p, 150, nullptr, &out);
+    std::vector<double> ratio;
+    for (size_t i = 0; i < dem.size(); ++i)
+      if (out.water.z[i] > 0.05f) ratio.push_back(double(out.sediment.z[i]) / out.water.z[i]);
+    std::sort(ratio.begin(), ratio.end());
+    double moved = 0;
+    for (size_t i = 0; i < dem.size(); ++i) moved += std::fabs(double(bed.z[i]) - dem.z[i]);
+    return std::pair<double, double>(ratio.empty() ? 0.0 : ratio[ratio.size() * 99 / 100], moved / dem.size());
+  };
+  const auto [free_ratio, free_moved] = run(0);
+  const auto [bound_ratio, bound_moved] = run(2);
+  std::printf("99th pct of sediment/depth: %.3g unbounded, %.3g with max_concentration 2; "
+              "mean |change| %.3g -> %.3g m\n",
+              free_ratio, bound_ratio, free_moved, bound_moved);
+  EXPECT_GT(free_ratio, 4.0) << "the unbounded run must carry more than the bound for this test to mean anything";
+  EXPECT_LT(bound_ratio, 0.5 * free_ratio);
+  EXPECT_LT(bound_moved, free_moved);
+}
+
 namespace {
 
 /// Catmull-Rom upsampling by an integer factor (cell centres aligned, clamped border): the same

@@ -42,6 +42,11 @@ void validate(const ErosionParams& p) {
   check_param(p.substep_fraction, "substep_fraction", 1e-3, 100);
   check_param(p.rock_erodibility, "rock_erodibility", 0, 1);
   check_param(p.deposit_talus_deg, "deposit_talus", 0, 89.9);
+  check_param(p.recession, "recession", 0, 1e7);
+  check_param(p.max_concentration, "max_concentration", 0, 1e9);
+  check_param(p.settling_velocity, "settling_velocity", 0, 1e6);
+  check_param(p.recession_concentration, "recession_concentration", 0, 1e9);
+  check_param(p.recession_evaporation, "recession_evaporation", 0, 1e6);
 }
 
 }  // namespace
@@ -281,6 +286,8 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(30, float(a));
       k.setArg(33, float(p.deposit_layer ? p.rock_erodibility : 1.0));
       k.setArg(34, s.q);
+      k.setArg(35, 0.0f);  // no settling velocity while it rains; 36: the pick-up bound (1e30 = none)
+      k.setArg(36, float(p.max_concentration > 0 ? p.max_concentration : 1e30));
     }
     {
       cl::Kernel& k = s.k_thermal;
@@ -370,6 +377,27 @@ void Erosion::enqueue_steps(int n) {
   } catch (const cl::Error& e) {
     fail(kStage, "running the erosion kernels: {}", describe(e));
   }
+}
+
+int Erosion::recession_steps() const {
+  if (m->p.thermal_only || !(m->p.recession > 0)) return 0;
+  return int(std::min(1e6, std::ceil(m->p.recession / step_dt() * (1.0 - 1e-12))));
+}
+
+void Erosion::begin_recession() {
+  Impl& s = *m;
+  if (s.p.thermal_only) return;
+  const double h = m_dt_sub;
+  try {
+    s.k_flux.setArg(9, 0.0f);
+    s.k_transport.setArg(15, 0.0f);
+    s.k_transport.setArg(35, float(s.p.settling_velocity * h));
+    if (s.p.recession_concentration > 0) s.k_transport.setArg(36, float(s.p.recession_concentration));
+    s.k_transport.setArg(29, float(std::max(0.0, 1.0 - s.p.recession_evaporation * h)));
+  } catch (const cl::Error& e) {
+    fail(kStage, "starting the recession: {}", describe(e));
+  }
+  s.p.rain = 0;  // no more rain in the totals either
 }
 
 void Erosion::finish() {
@@ -484,7 +512,14 @@ Heightfield Erosion::settled_bed(const std::vector<float>* weight) {
 Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& params, int steps,
                   const std::vector<float>* weight, ErosionOutputs* outputs, const Progress& progress) {
   Erosion sim(dev, terrain, params, weight);
-  sim.run(steps, progress);
+  const int recession = sim.recession_steps();
+  // The progress bar covers both phases in proportion to their steps.
+  const double share = double(steps) / std::max(1, steps + recession);
+  sim.run(steps, scaled_progress(progress, 0.0, share));
+  if (recession > 0) {
+    sim.begin_recession();
+    sim.run(recession, scaled_progress(progress, share, 1.0));
+  }
   Heightfield out = sim.bed();
   ErosionState st = sim.state();
   double settled = 0, unsettled = 0;

@@ -121,6 +121,11 @@ ErosionParams params_from(const json& o) {
   num("dry_depth", p.dry_depth);
   num("rock_erodibility", p.rock_erodibility);
   num("deposit_talus", p.deposit_talus_deg);
+  num("max_concentration", p.max_concentration);
+  num("recession", p.recession);
+  num("settling_velocity", p.settling_velocity);
+  num("recession_concentration", p.recession_concentration);
+  num("recession_evaporation", p.recession_evaporation);
   if (o.contains("deposit_layer") && o.at("deposit_layer").is_boolean()) p.deposit_layer = o.at("deposit_layer").get<bool>();
   if (o.contains("cells_per_item") && o.at("cells_per_item").is_number_integer())
     p.cells_per_item = o.at("cells_per_item").get<int>();
@@ -199,6 +204,8 @@ int erode_tile_halo(const json& o, const Georef& g) {
   else if (!(o.contains("steps") && !o.at("steps").is_null()))
     steps = std::ceil(kDefaultTime / dt - 1e-9);
   const double substeps = std::max(1.0, std::ceil(dt / dt_max * (1.0 - 1e-12)));
+  // The recession phase (erode()) runs after the steps and reaches as far per sub-step.
+  if (!p.thermal_only && p.recession > 0) steps += std::ceil(p.recession / dt * (1.0 - 1e-12));
   // A window edge that is not the raster's is a closed wall; the wall is felt as far as the pipe
   // fluxes (the water's pressure) carry it: one cell per sub-step (water itself moves at most half
   // a cell, the velocity cap). Faster components of the exact dependency cone (up to three cells
@@ -319,6 +326,17 @@ void register_erosion_stages(StageRegistry& r) {
                  .range(0, max_region_feather),
              opt("keep_constraints", OptionType::Path, nullptr, "",
               "Constraints JSON (points/polygons/polylines, pixels or \"units\": \"georeferenced\"): those cells stay fixed"),
+             opt("max_concentration", OptionType::Float, d.max_concentration, "",
+                 "The flow picks up no more once its load is this times its depth (0 = no bound)"),
+             opt("recession", OptionType::Float, d.recession, "s",
+                 "After the rain: this much simulated time without rain in which the water drains and drops its "
+                 "load along its way (0 = off)"),
+             opt("settling_velocity", OptionType::Float, d.settling_velocity, "m/s",
+                 "In the recession: the load above capacity settles at this speed (rate w_s / depth)"),
+             opt("recession_concentration", OptionType::Float, d.recession_concentration, "",
+                 "In the recession: capacity at most this times the water depth (0 = no bound)"),
+             opt("recession_evaporation", OptionType::Float, d.recession_evaporation, "1/s",
+                 "In the recession: evaporation rate (the water drains with its load rather than vanish)"),
              opt("settle", OptionType::Bool, true, "",
                  "At the end, settle the suspended sediment onto the bed (the output keeps all the material)"),
              opt("water", OptionType::OutputPath, nullptr, "", "Write the final water depth (m), e.g. water.exr"),

@@ -54,6 +54,18 @@ struct ErosionParams {
   double rock_erodibility = 0.3;   ///< with a deposit layer: rock dissolves at this fraction of K_s
   double deposit_talus_deg = 30.0; ///< deg, with a deposit layer: talus of the deposit
   bool thermal_only = false;   ///< no water at all: only thermal erosion
+  double max_concentration = 0.0;  ///< the flow picks up no more once its load is this times its depth
+                                  ///< (m of sediment per m of water); 0 = no bound
+  double recession = 0.0;      ///< s, erode(): simulated time after the rain stops (no rain, the load
+                               ///< bounded by the depth and settling at w_s/d), so that the water drains
+                               ///< and drops its load along its way instead of all at once where it
+                               ///< stands at the end (the flat valley ribbon of issue 15); 0 = off
+  double settling_velocity = 0.0;  ///< m/s, w_s: during the recession the load above capacity settles
+                                   ///< at the rate w_s/d (capped at 1 per sub-step)
+  double recession_concentration = 0.0;  ///< during the recession the capacity is at most this times
+                                         ///< the water depth (m of sediment per m of water); 0 = no bound
+  double recession_evaporation = 0.0;  ///< 1/s, evaporation during the recession (the water should
+                                      ///< drain with its load, not vanish and leave it where it stands)
   bool settle = true;          ///< erode(): at the end the suspended sediment settles onto the bed
                                ///< (times the brush weight), so the output conserves the material
   ErosionBoundary boundary = ErosionBoundary::Closed;
@@ -110,6 +122,12 @@ class Erosion {
   void run(int n, const Progress& progress = {}, const std::string& stage = "erode");
   /// Waits for the queue.
   void finish();
+  /// Switches to the recession phase (ErosionParams::recession): no more rain, the capacity bounded
+  /// by recession_concentration x depth, the excess settling at settling_velocity / depth. Steps run
+  /// after this call are recession steps.
+  void begin_recession();
+  /// Steps of the recession phase: ceil(recession / step_dt()), 0 without rain or water.
+  int recession_steps() const;
 
   ErosionState state();
   ErosionTotals totals();

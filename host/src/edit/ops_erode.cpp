@@ -15,6 +15,10 @@ ErodeSpec parse_erode_spec(Params& p) {
   // Settles like the erode stage; the studio previews with Erosion::settled_bed, the same
   // settle_sediment on the same bits, so the committed script replays to the preview.
   e.params.settle = p.boolean("settle", true);
+  // No recession phase here: the live preview is the settled state after each step, and the
+  // committed operation must replay to exactly what it showed (docs/erosion.md, "The valley
+  // ribbon: recession phase and a depth-bounded pick-up").
+  e.params.recession = 0;
   e.steps = p.integer("steps", {}, 1, 100000);
   e.params.rain = p.number("rain", e.params.rain, 0.0, 1.0);
   e.params.capacity = p.number("capacity", e.params.capacity, 0.0, 1e6);
