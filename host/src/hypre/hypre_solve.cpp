@@ -30,8 +30,8 @@ bool hypre_available() { return false; }
 bool hypre_is_root_rank() { return true; }
 
 namespace hypre {
-ReconstructResult solve(int, int, const Georef&, const Metadata&, const RowDivergence&, const std::vector<uint32_t>&,
-                        const std::vector<float>&, double, const SolverOptions&) {
+ReconstructResult solve(int, int, const Georef&, const Metadata&, const BandDivergence&, const std::vector<uint32_t>&,
+                        const std::vector<float>&, double, const SolverOptions&, bool) {
   fail("reconstruct", "--solver hypre: this build has no hypre (configure with -DTERRACL_MPI=ON and Debian's "
                       "libhypre-dev and libopenmpi-dev); use --solver multigrid");
 }
@@ -116,9 +116,9 @@ struct Objects {
 
 }  // namespace
 
-ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta, const RowDivergence& div,
+ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta, const BandDivergence& band_div,
                         const std::vector<uint32_t>& hard_index, const std::vector<float>& hard_value, double target,
-                        const SolverOptions& o) {
+                        const SolverOptions& o, bool gather_to_all) {
   const size_t N = size_t(W) * size_t(H);
   if (N > size_t(INT_MAX)) fail("reconstruct", "hypre: grid {}x{} has more than 2^31 cells (MPI counts are int)", W, H);
   ensure_started();  // not timed: MPI's start-up happens once per process
@@ -160,7 +160,10 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   // relative residual is invariant under the scale).
   const double cx = georef.cell_x, cy = georef.cell_y, s = cx * cy, wx = cy / cx, wy = cx / cy;
   std::vector<double> f(band);
-  for (int y = y0; y < y1; ++y) div(y, f.data() + size_t(y - y0) * W);
+  {
+    const RowDivergence div = band_div(y0, y1);  // holds the band's input until the rows are done
+    for (int y = y0; y < y1; ++y) div(y, f.data() + size_t(y - y0) * W);
+  }
   if (singular) {
     double local = 0, total = 0;
     for (double v : f) local += v;
@@ -278,29 +281,43 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   Heightfield& h = res.height;
   h.width = W;
   h.height = H;
-  h.z.resize(N);
   std::vector<int> counts(ranks), displs(ranks);
   for (int r = 0; r < ranks; ++r) {
     const int a = int(int64_t(H) * r / ranks), e = int(int64_t(H) * (r + 1) / ranks);
     counts[r] = (e - a) * W;
     displs[r] = a * W;
   }
-  MPI_Allgatherv(mine.data(), int(band), MPI_FLOAT, h.z.data(), counts.data(), displs.data(), MPI_FLOAT, comm);
+  // The mean shift, the hard values and the finiteness check run on the whole field in one order
+  // (rank 0's, or every rank's alike), so that any number of ranks gives the same bytes.
+  const bool holds = gather_to_all || rank == 0;
+  if (holds) h.z.resize(N);
+  if (gather_to_all)
+    MPI_Allgatherv(mine.data(), int(band), MPI_FLOAT, h.z.data(), counts.data(), displs.data(), MPI_FLOAT, comm);
+  else
+    MPI_Gatherv(mine.data(), int(band), MPI_FLOAT, holds ? h.z.data() : nullptr, counts.data(), displs.data(),
+                MPI_FLOAT, 0, comm);
+  std::vector<float>().swap(mine);
 
   h.georef = georef;
   h.georef.vertical_units = "m";
   h.metadata = meta;
   h.metadata.erase("terracl:gradient");
-  if (singular) {
-    double sum = 0;
-    for (float v : h.z) sum += v;
-    const double shift = target - sum / double(N);
-    for (float& v : h.z) v = float(double(v) + shift);
+  int bad = -1;  // the first non-finite cell, told to every rank so that all fail alike
+  if (holds) {
+    if (singular) {
+      double sum = 0;
+      for (float v : h.z) sum += v;
+      const double shift = target - sum / double(N);
+      for (float& v : h.z) v = float(double(v) + shift);
+    }
+    for (size_t k = 0; k < hard_index.size(); ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
+    for (size_t i = 0; i < N && bad < 0; ++i)
+      if (!std::isfinite(h.z[i])) bad = int(i);
   }
-  for (size_t k = 0; k < hard_index.size(); ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
-  for (size_t i = 0; i < N; ++i)
-    if (!std::isfinite(h.z[i]))
-      fail("reconstruct", "hypre produced a non-finite value at cell ({}, {}): values too large for float32", i % W, i / W);
+  if (!gather_to_all) MPI_Bcast(&bad, 1, MPI_INT, 0, comm);
+  if (bad >= 0)
+    fail("reconstruct", "hypre produced a non-finite value at cell ({}, {}): values too large for float32", bad % W,
+         bad / W);
 
   res.solver = "hypre";
   res.ranks = ranks;
