@@ -103,7 +103,8 @@ struct Objects {
   HYPRE_StructMatrix A = nullptr;
   HYPRE_StructVector b = nullptr, x = nullptr;
   HYPRE_StructSolver pcg = nullptr, pfmg = nullptr;
-  ~Objects() {
+  ~Objects() { release(); }
+  void release() {
     if (pfmg) HYPRE_StructPFMGDestroy(pfmg);
     if (pcg) HYPRE_StructPCGDestroy(pcg);
     if (x) HYPRE_StructVectorDestroy(x);
@@ -111,6 +112,11 @@ struct Objects {
     if (A) HYPRE_StructMatrixDestroy(A);
     if (stencil) HYPRE_StructStencilDestroy(stencil);
     if (grid) HYPRE_StructGridDestroy(grid);
+    pfmg = pcg = nullptr;
+    x = b = nullptr;
+    A = nullptr;
+    stencil = nullptr;
+    grid = nullptr;
   }
 };
 
@@ -142,19 +148,22 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   // double would not need it).
   const double m = singular ? target : hard_sum / double(hard_value.size());
 
-  // Hard deviations u0 = value - m on rows [h0, h1), NaN on free cells. Without hard cells the
-  // pure-Neumann problem is singular: cell (0, 0) is pinned to 0 and the mean set afterwards
-  // (f is projected onto zero mean first, so that equation holds anyway).
-  constexpr double kFree = std::numeric_limits<double>::quiet_NaN();
-  std::vector<double> hard(size_t(h1 - h0) * W, kFree);
-  {
-    const auto lo = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h0) * W));
-    const auto hi = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h1) * W));
-    for (auto it = lo; it != hi; ++it) hard[*it - size_t(h0) * W] = double(hard_value[it - hard_index.begin()]) - m;
-  }
-  if (singular && h0 == 0) hard[0] = 0.0;
-  auto is_hard = [&](int x, int y) { return !std::isnan(hard[size_t(y - h0) * W + x]); };
-  auto hard_u = [&](int x, int y) { return hard[size_t(y - h0) * W + x]; };
+  // Hard deviations u0 = value - m on rows [h0, h1): one flag byte per cell (a dense double array
+  // would cost 8 bytes a cell), the values from this band's slice of the sorted hard list. Without
+  // hard cells the pure-Neumann problem is singular: cell (0, 0) is pinned to 0 and the mean set
+  // afterwards (f is projected onto zero mean first, so that equation holds anyway).
+  const auto lo = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h0) * W));
+  const auto hi = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h1) * W));
+  std::vector<uint8_t> hard_flag(size_t(h1 - h0) * W, 0);
+  for (auto it = lo; it != hi; ++it) hard_flag[*it - size_t(h0) * W] = 1;
+  const bool pinned = singular && h0 == 0;
+  if (pinned) hard_flag[0] = 1;
+  auto is_hard = [&](int x, int y) { return hard_flag[size_t(y - h0) * W + x] != 0; };
+  auto hard_u = [&](int x, int y) -> double {
+    const uint32_t i = uint32_t(size_t(y) * W + x);
+    if (pinned && i == 0) return 0.0;
+    return double(hard_value[std::lower_bound(lo, hi, i) - hard_index.begin()]) - m;
+  };
 
   // The divergence of this band, scaled by cx*cy so that the weights are cy/cx and cx/cy (the
   // relative residual is invariant under the scale).
@@ -277,6 +286,10 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
         mine[size_t(y - y0) * W + x] = float(m + u);
       }
   }
+  ob.release();  // hypre's matrix, vectors and hierarchy go before the whole field is gathered
+  std::vector<double>().swap(xv);
+  std::vector<uint8_t>().swap(hard_flag);
+
   ReconstructResult res;
   Heightfield& h = res.height;
   h.width = W;
