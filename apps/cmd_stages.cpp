@@ -81,9 +81,10 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
     StageData data;
     // `reconstruct GRAD.exr --solver hypre`: the stage reads the file itself, each MPI rank only
     // its band of rows (docs/scale.md), instead of every rank loading all of it here.
+    auto unset = [&](const char* k) { return !resolved.contains(k) || resolved.at(k).is_null(); };
     const bool hypre_reads = s.name == "reconstruct" && resolved.value("solver", std::string()) == "hypre" &&
-                             !resolved.contains("gradient") && !resolved.contains("divergence") &&
-                             !a->input.empty() && is_gradient_file(a->input);
+                             unset("gradient") && unset("divergence") && !a->input.empty() &&
+                             is_gradient_file(a->input);
     if (hypre_reads) {
       resolved["gradient"] = a->input;
     } else if (!a->input.empty()) {

@@ -36,6 +36,7 @@ three = gdal.Open(f"{t}/three.tif").ReadAsArray().astype(np.float64)
 r1, r2, r3 = (json.load(open(f"{t}/{n}.json")) for n in ("one", "two", "three"))
 for r, n in ((r1, 1), (r2, 2), (r3, 3)):
     assert r["solver"] == "hypre" and r["mpi_ranks"] == n and r["converged"], r
+    assert "input read by bands of rows" in r["device"], r  # each rank read only its rows
 rng = one.max() - one.min()
 for other, r, n in ((two, r2, 2), (three, r3, 3)):
     diff = np.abs(one - other).max()

@@ -207,8 +207,11 @@ TEST(Hypre, BandReadOfTheGradientFileEqualsTheWholeRead) {
   for (const bool constrained : {false, true}) {
     const std::string extra = constrained ? " --constraints " + t.path("c.json") : "";
     const auto r = test::run_cli("reconstruct " + t.path("g.exr") + " --solver hypre --tolerance 1e-9 --max-cycles 300" +
-                                 extra + " -o " + t.path("band.tif"));
+                                 extra + " -o " + t.path("band.tif") + " --report " + t.path("r.json"));
     ASSERT_EQ(r.exit_code, 0) << r.out;
+    // The CLI took the band reader (not a whole read of its input).
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(t.path("r.json")));
+    EXPECT_NE(j["device"].get<std::string>().find("input read by bands of rows"), std::string::npos) << j["device"];
     ConstraintSet c(whole.width, whole.height);
     if (constrained) add_constraints_file(c, t.path("c.json"), whole.georef, nullptr);
     SolverOptions o = hypre_options(1e-9);

@@ -334,7 +334,8 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
 
   res.solver = "hypre";
   res.ranks = ranks;
-  res.device = fmt::format("hypre PFMG-CG (host, double, {} MPI rank{})", ranks, ranks == 1 ? "" : "s");
+  res.device = fmt::format("hypre PFMG-CG (host, double, {} MPI rank{}{})", ranks, ranks == 1 ? "" : "s",
+                           gather_to_all ? "" : ", input read by bands of rows");
   res.cycle = o.cycle;
   res.smoother = o.smoother;
   res.hard_cells = hard_index.size();
