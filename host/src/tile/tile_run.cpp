@@ -530,7 +530,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     if (tile::comm().size() > 1) {
       tile::Bytes b(finished.begin(), finished.end());
       tile::comm().broadcast(b);
-      if (b.size() != plans.size()) fail("run", "internal: rank 0 resumes {} tiles, this rank planned {}", b.size(), plans.size());
+      if (b.size() != plans.size())
+        fail("run", "internal: rank 0 resumes {} tiles, this rank planned {}", b.size(), plans.size());
       finished.assign(b.begin(), b.end());
     }
   }
