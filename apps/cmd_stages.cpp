@@ -79,7 +79,15 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
     // The stage table's memory column, from the input's header, before anything is read.
     if (!a->input.empty()) require_stage_memory(s.name, "", memory_of(s.name, resolved, raster_shape(a->input)), nullptr);
     StageData data;
-    if (!a->input.empty()) {
+    // `reconstruct GRAD.exr --solver hypre`: the stage reads the file itself, each MPI rank only
+    // its band of rows (docs/scale.md), instead of every rank loading all of it here.
+    auto unset = [&](const char* k) { return !resolved.contains(k) || resolved.at(k).is_null(); };
+    const bool hypre_reads = s.name == "reconstruct" && resolved.value("solver", std::string()) == "hypre" &&
+                             unset("gradient") && unset("divergence") && !a->input.empty() &&
+                             is_gradient_file(a->input);
+    if (hypre_reads) {
+      resolved["gradient"] = a->input;
+    } else if (!a->input.empty()) {
       if (s.input == DataKind::Gradient || (s.input == DataKind::None && is_gradient_file(a->input))) {
         data.gradient = read_gradient(a->input);
         data.current = DataKind::Gradient;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # ctest hypre_two_ranks (label mpi): `terracl reconstruct --solver hypre` under
-# `mpirun --oversubscribe -n 2` equals the single-process solve (to 1e-7 of the range: the two
-# runs sum in different orders), on a DEM crop with hard constraints; rank 1 writes nothing.
+# `mpirun --oversubscribe -n 2` and `-n 3` (each rank reads only its band of the gradient file)
+# equals the single-process solve (to 1e-7 of the range: hypre's dot products sum in another
+# order), on a DEM crop with hard constraints; ranks other than 0 write nothing.
 # Usage: hypre-ranks-check.sh path/to/terracl [mpirun]
 set -euo pipefail
 CLI=$1
@@ -22,6 +23,7 @@ JSON
 opts=(--solver hypre --tolerance 1e-10 --max-cycles 300 --constraints "$tmp/c.json")
 "$CLI" reconstruct "$tmp/g.exr" "${opts[@]}" -o "$tmp/one.tif" --report "$tmp/one.json"
 "$MPIRUN" --oversubscribe -n 2 "$CLI" reconstruct "$tmp/g.exr" "${opts[@]}" -o "$tmp/two.tif" --report "$tmp/two.json"
+"$MPIRUN" --oversubscribe -n 3 "$CLI" reconstruct "$tmp/g.exr" "${opts[@]}" -o "$tmp/three.tif" --report "$tmp/three.json"
 
 /usr/bin/python3 - "$tmp" <<'PY'
 import json, sys
@@ -30,17 +32,19 @@ import numpy as np
 t = sys.argv[1]
 one = gdal.Open(f"{t}/one.tif").ReadAsArray().astype(np.float64)
 two = gdal.Open(f"{t}/two.tif").ReadAsArray().astype(np.float64)
-r1, r2 = json.load(open(f"{t}/one.json")), json.load(open(f"{t}/two.json"))
-assert r1["solver"] == "hypre" and r1["mpi_ranks"] == 1, r1
-assert r2["solver"] == "hypre" and r2["mpi_ranks"] == 2, r2
-assert r1["converged"] and r2["converged"], (r1, r2)
+three = gdal.Open(f"{t}/three.tif").ReadAsArray().astype(np.float64)
+r1, r2, r3 = (json.load(open(f"{t}/{n}.json")) for n in ("one", "two", "three"))
+for r, n in ((r1, 1), (r2, 2), (r3, 3)):
+    assert r["solver"] == "hypre" and r["mpi_ranks"] == n and r["converged"], r
+    assert "input read by bands of rows" in r["device"], r  # each rank read only its rows
 rng = one.max() - one.min()
-diff = np.abs(one - two).max()
-print(f"1 rank vs 2 ranks: max difference {diff:.3e} m of a {rng:.1f} m range "
-      f"({r1['cycles']} / {r2['cycles']} CG iterations)")
-assert rng > 100 and np.isfinite(two).all()
-assert diff <= 1e-7 * rng, diff
+for other, r, n in ((two, r2, 2), (three, r3, 3)):
+    diff = np.abs(one - other).max()
+    print(f"1 rank vs {n} ranks: max difference {diff:.3e} m of a {rng:.1f} m range "
+          f"({r1['cycles']} / {r['cycles']} CG iterations)")
+    assert rng > 100 and np.isfinite(other).all()
+    assert diff <= 1e-7 * rng, diff
 PY
 # Rank 1 must not have written anything of its own.
-test "$(ls "$tmp" | sort | tr '\n' ' ')" = "c.json dem.tif g.exr one.json one.tif two.json two.tif "
+test "$(ls "$tmp" | sort | tr '\n' ' ')" = "c.json dem.tif g.exr one.json one.tif three.json three.tif two.json two.tif "
 echo "hypre_two_ranks: OK"

@@ -3,8 +3,8 @@
 # (--oversubscribe: CI has 2 cores) give files byte-identical (cmp) to the single-process tiled run,
 # for a pipeline with a render sink, the exact tiled fill (depressions across tile borders, a nodata
 # lake), the exact tiled D8 accumulation, a crop and a value render, and for tiled subcommands; an
-# error on one rank stops every rank with its message and a non-zero exit; an untiled command under
-# mpirun is refused. Usage: scripts/mpi-check.sh BUILD_DIR
+# error on one rank stops every rank with its message and a non-zero exit; `--resume` after runs
+# killed under mpirun gives the uninterrupted run's files; an untiled command under mpirun is refused. Usage: scripts/mpi-check.sh BUILD_DIR
 set -euo pipefail
 build=$(cd "${1:?usage: mpi-check.sh BUILD_DIR}" && pwd)
 src=$(cd "$(dirname "$0")/.." && pwd)
@@ -71,6 +71,34 @@ done
 cmp hs1.tif hs.tif || fail "render --tile 40 under 3 ranks differs"
 cmp d1.tif d.tif || fail "drainage --tile 29 under 2 ranks differs"
 echo "mpi-check: subcommands render (3 ranks) and drainage (2 ranks) identical to one process"
+
+# --resume under mpirun (rank 0 owns the journals and decides the finished tiles): killed (SIGKILL
+# on rank 0, the test-only hook) after 12 tiles with 2 ranks, resumed with 3 ranks and killed after
+# 10 more, resumed with 2 ranks: only the 13 last tiles run, and the files are cmp-equal to an
+# uninterrupted single-process run. 203 x 157 with tiles of 32: 35 tiles; two writers after crops.
+cat > r.json <<'J'
+["raw.tif", {"type": "crop", "x": 3, "y": 2}, "r/a.tif",
+ {"type": "crop", "x": 17, "y": 5, "width": 151, "height": 117}, "r/b.tif"]
+J
+"$T" run r.json --tile 32 --resume > r1.txt
+grep -q "tiles: 35 run, 0 finished before" r1.txt || fail "resume: uninterrupted run: $(cat r1.txt)"
+mkdir r1 && mv r/a.tif r/b.tif r1/
+journal_tiles() { echo $(( $(wc -l < "$1") - 1 )); }
+set +e
+"${MPIRUN[@]}" -n 2 -x TERRACL_TEST_KILL_AFTER_TILES=12 "$T" run r.json --tile 32 --resume > rk1.txt 2>&1
+rc1=$?
+"${MPIRUN[@]}" -n 3 -x TERRACL_TEST_KILL_AFTER_TILES=10 "$T" run r.json --tile 32 --resume > rk2.txt 2>&1
+rc2=$?
+set -e
+[ $rc1 -ne 0 ] && [ $rc2 -ne 0 ] || fail "resume: the killed runs exited $rc1 and $rc2"
+[ ! -e r/a.tif ] && [ -e r/.a.partial.tif ] || fail "resume: the killed runs left no partial file or a final one"
+[ "$(journal_tiles r/a.tif.journal)" = 22 ] || fail "resume: journal of a after two kills: $(cat r/a.tif.journal)"
+"${MPIRUN[@]}" -n 2 "$T" run r.json --tile 32 --resume > r2.txt
+grep -q "tiles: 13 run, 22 finished before (verified by checksum), 0 re-run" r2.txt || fail "resume: $(cat r2.txt)"
+cmp r1/a.tif r/a.tif || fail "resume under 2 ranks: r/a.tif differs from the uninterrupted run"
+cmp r1/b.tif r/b.tif || fail "resume under 2 ranks: r/b.tif differs from the uninterrupted run"
+[ ! -e r/a.tif.journal ] && [ ! -e r/.a.partial.tif ] || fail "resume: journal or partial file left after the run"
+echo "mpi-check: --resume under mpirun (killed at 12 with 2 ranks, at 22 with 3, resumed with 2): cmp-equal"
 
 # An error on rank 1 only: every rank stops, the message is printed, no output is left.
 echo '["bad.tif", "fill_depressions", "out/bad.tif"]' > bad.json

@@ -34,6 +34,7 @@ void write_png16(const Heightfield&, const std::string& tmp_path, double, double
   unavailable("PNG writing", tmp_path);
 }
 void write_exr(const Heightfield&, const std::string& tmp_path) { unavailable("EXR writing", tmp_path); }
+GradientField read_gradient_rows(const std::string& path, int, int, int*) { unavailable("EXR gradient reading", path); }
 }  // namespace io
 
 Heightfield warp(const Heightfield&, const WarpOptions&, const Progress&, const std::string& stage) {

@@ -1,6 +1,9 @@
 // Stage table entries `extract` and `reconstruct`, and the `terracl bench reconstruct` benchmark.
 #include "pipeline/builtin.hpp"
+#include "hypre/hypre_solve.hpp"
+#include "io/io_common.hpp"
 
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/memory.hpp>
 #include <terracl/gradient.hpp>
@@ -36,7 +39,18 @@ void run_reconstruct(StageContext& c) {
   GradientField g;
   Heightfield f;
   bool use_div = false;
-  if (has_g) {
+  const Solver solver = parse_solver(c.get<std::string>("solver"));
+  // hypre from a gradient file: each MPI rank reads only its band of rows (reconstruct_hypre_file),
+  // unless something needs the whole field here (a start or border heightfield, central gradients).
+  bool banded = has_g && solver == Solver::Hypre && hypre_available() && !initial &&
+                c.get<std::string>("border") != "dirichlet";
+  if (banded) {
+    int rows = 0;
+    g = io::read_gradient_rows(c.get<std::string>("gradient"), 0, 0, &rows);  // the header
+    g.height = rows;
+    banded = gradient_format(g) != GradientFormat::Central;
+    if (!banded) g = read_gradient(c.get<std::string>("gradient"));
+  } else if (has_g) {
     g = read_gradient(c.get<std::string>("gradient"));
   } else if (has_f) {
     f = read_heightfield(c.get<std::string>("divergence"));
@@ -50,7 +64,6 @@ void run_reconstruct(StageContext& c) {
   }
   const int W = use_div ? f.width : g.width, H = use_div ? f.height : g.height;
   const Georef& geo = use_div ? f.georef : g.georef;
-  const Solver solver = parse_solver(c.get<std::string>("solver"));
   if (solver == Solver::Hypre && !hypre_available())
     throw UsageError("reconstruct", "--solver hypre: this build has no hypre (configure with -DTERRACL_MPI=ON, "
                                     "Debian's libhypre-dev and libopenmpi-dev); use --solver multigrid");
@@ -58,16 +71,20 @@ void run_reconstruct(StageContext& c) {
   // fields of the finest level) on the device, the constraints and the result here; hypre's
   // matrix, vectors and PFMG hierarchy in double on the host (this rank's band; every rank holds
   // the inputs and the result).
+  // Read by bands, a rank needs its share of hypre's bytes and rank 0 the float result besides.
   if (solver == Solver::Hypre)
     require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid with hypre", W, H),
-                   double(W) * H * kHypreHostBytesPerCell, 0, 0, nullptr, "reconstruct a smaller grid (crop it)");
+                   banded ? double(W) * H * (kHypreHostBytesPerCell / distributed::size() + 4)
+                          : double(W) * H * kHypreHostBytesPerCell,
+                   0, 0, nullptr, "reconstruct a smaller grid (crop it)");
   else
     require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid", W, H), double(W) * H * 24,
                    double(W) * H * 40, double(W) * H * 4, &c.device(), "reconstruct a smaller grid (crop it)");
   if (initial && (initial->width != W || initial->height != H))
     fail("reconstruct", "the initial heightfield is {}x{}, the gradient {}x{}", initial->width, initial->height, W, H);
 
-  ConstraintSet cs(W, H);
+  // Without constraints the banded path keeps no dense W x H set (7 bytes a cell) on each rank.
+  ConstraintSet cs = banded && !c.has("fixed_mask") && !c.has("constraints") ? ConstraintSet() : ConstraintSet(W, H);
   if (c.has("fixed_mask") != c.has("fixed_elevation"))
     throw UsageError("reconstruct", "--fixed-mask and --fixed-elevation go together");
   if (c.has("fixed_mask")) {
@@ -96,7 +113,9 @@ void run_reconstruct(StageContext& c) {
   if (initial && (c.has("initial") || o.dirichlet_border)) o.initial = &*initial;
   o.progress = c.progress;
   o.solver = solver;
-  ReconstructResult r = use_div ? reconstruct_divergence(c.device(), f, cs, o) : reconstruct(c.device(), g, cs, o);
+  ReconstructResult r = banded    ? reconstruct_hypre_file(c.device(), c.get<std::string>("gradient"), cs, o)
+                        : use_div ? reconstruct_divergence(c.device(), f, cs, o)
+                                  : reconstruct(c.device(), g, cs, o);
   if (c.has("report") && hypre_is_root_rank()) {
     nlohmann::json j = r.to_json();
     if (o.cycle == Cycle::Cascade && solver == Solver::Multigrid) {

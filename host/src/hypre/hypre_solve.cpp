@@ -30,8 +30,8 @@ bool hypre_available() { return false; }
 bool hypre_is_root_rank() { return true; }
 
 namespace hypre {
-ReconstructResult solve(int, int, const Georef&, const Metadata&, const RowDivergence&, const std::vector<uint32_t>&,
-                        const std::vector<float>&, double, const SolverOptions&) {
+ReconstructResult solve(int, int, const Georef&, const Metadata&, const BandDivergence&, const std::vector<uint32_t>&,
+                        const std::vector<float>&, double, const SolverOptions&, bool) {
   fail("reconstruct", "--solver hypre: this build has no hypre (configure with -DTERRACL_MPI=ON and Debian's "
                       "libhypre-dev and libopenmpi-dev); use --solver multigrid");
 }
@@ -103,7 +103,8 @@ struct Objects {
   HYPRE_StructMatrix A = nullptr;
   HYPRE_StructVector b = nullptr, x = nullptr;
   HYPRE_StructSolver pcg = nullptr, pfmg = nullptr;
-  ~Objects() {
+  ~Objects() { release(); }
+  void release() {
     if (pfmg) HYPRE_StructPFMGDestroy(pfmg);
     if (pcg) HYPRE_StructPCGDestroy(pcg);
     if (x) HYPRE_StructVectorDestroy(x);
@@ -111,14 +112,19 @@ struct Objects {
     if (A) HYPRE_StructMatrixDestroy(A);
     if (stencil) HYPRE_StructStencilDestroy(stencil);
     if (grid) HYPRE_StructGridDestroy(grid);
+    pfmg = pcg = nullptr;
+    x = b = nullptr;
+    A = nullptr;
+    stencil = nullptr;
+    grid = nullptr;
   }
 };
 
 }  // namespace
 
-ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta, const RowDivergence& div,
+ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta, const BandDivergence& band_div,
                         const std::vector<uint32_t>& hard_index, const std::vector<float>& hard_value, double target,
-                        const SolverOptions& o) {
+                        const SolverOptions& o, bool gather_to_all) {
   const size_t N = size_t(W) * size_t(H);
   if (N > size_t(INT_MAX)) fail("reconstruct", "hypre: grid {}x{} has more than 2^31 cells (MPI counts are int)", W, H);
   ensure_started();  // not timed: MPI's start-up happens once per process
@@ -142,25 +148,31 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   // double would not need it).
   const double m = singular ? target : hard_sum / double(hard_value.size());
 
-  // Hard deviations u0 = value - m on rows [h0, h1), NaN on free cells. Without hard cells the
-  // pure-Neumann problem is singular: cell (0, 0) is pinned to 0 and the mean set afterwards
-  // (f is projected onto zero mean first, so that equation holds anyway).
-  constexpr double kFree = std::numeric_limits<double>::quiet_NaN();
-  std::vector<double> hard(size_t(h1 - h0) * W, kFree);
-  {
-    const auto lo = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h0) * W));
-    const auto hi = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h1) * W));
-    for (auto it = lo; it != hi; ++it) hard[*it - size_t(h0) * W] = double(hard_value[it - hard_index.begin()]) - m;
-  }
-  if (singular && h0 == 0) hard[0] = 0.0;
-  auto is_hard = [&](int x, int y) { return !std::isnan(hard[size_t(y - h0) * W + x]); };
-  auto hard_u = [&](int x, int y) { return hard[size_t(y - h0) * W + x]; };
+  // Hard deviations u0 = value - m on rows [h0, h1): one flag byte per cell (a dense double array
+  // would cost 8 bytes a cell), the values from this band's slice of the sorted hard list. Without
+  // hard cells the pure-Neumann problem is singular: cell (0, 0) is pinned to 0 and the mean set
+  // afterwards (f is projected onto zero mean first, so that equation holds anyway).
+  const auto lo = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h0) * W));
+  const auto hi = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h1) * W));
+  std::vector<uint8_t> hard_flag(size_t(h1 - h0) * W, 0);
+  for (auto it = lo; it != hi; ++it) hard_flag[*it - size_t(h0) * W] = 1;
+  const bool pinned = singular && h0 == 0;
+  if (pinned) hard_flag[0] = 1;
+  auto is_hard = [&](int x, int y) { return hard_flag[size_t(y - h0) * W + x] != 0; };
+  auto hard_u = [&](int x, int y) -> double {
+    const uint32_t i = uint32_t(size_t(y) * W + x);
+    if (pinned && i == 0) return 0.0;
+    return double(hard_value[std::lower_bound(lo, hi, i) - hard_index.begin()]) - m;
+  };
 
   // The divergence of this band, scaled by cx*cy so that the weights are cy/cx and cx/cy (the
   // relative residual is invariant under the scale).
   const double cx = georef.cell_x, cy = georef.cell_y, s = cx * cy, wx = cy / cx, wy = cx / cy;
   std::vector<double> f(band);
-  for (int y = y0; y < y1; ++y) div(y, f.data() + size_t(y - y0) * W);
+  {
+    const RowDivergence div = band_div(y0, y1);  // holds the band's input until the rows are done
+    for (int y = y0; y < y1; ++y) div(y, f.data() + size_t(y - y0) * W);
+  }
   if (singular) {
     double local = 0, total = 0;
     for (double v : f) local += v;
@@ -274,37 +286,56 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
         mine[size_t(y - y0) * W + x] = float(m + u);
       }
   }
+  ob.release();  // hypre's matrix, vectors and hierarchy go before the whole field is gathered
+  std::vector<double>().swap(xv);
+  std::vector<uint8_t>().swap(hard_flag);
+
   ReconstructResult res;
   Heightfield& h = res.height;
   h.width = W;
   h.height = H;
-  h.z.resize(N);
   std::vector<int> counts(ranks), displs(ranks);
   for (int r = 0; r < ranks; ++r) {
     const int a = int(int64_t(H) * r / ranks), e = int(int64_t(H) * (r + 1) / ranks);
     counts[r] = (e - a) * W;
     displs[r] = a * W;
   }
-  MPI_Allgatherv(mine.data(), int(band), MPI_FLOAT, h.z.data(), counts.data(), displs.data(), MPI_FLOAT, comm);
+  // The mean shift, the hard values and the finiteness check run on the whole field in one order
+  // (rank 0's, or every rank's alike), so that any number of ranks gives the same bytes.
+  const bool holds = gather_to_all || rank == 0;
+  if (holds) h.z.resize(N);
+  if (gather_to_all)
+    MPI_Allgatherv(mine.data(), int(band), MPI_FLOAT, h.z.data(), counts.data(), displs.data(), MPI_FLOAT, comm);
+  else
+    MPI_Gatherv(mine.data(), int(band), MPI_FLOAT, holds ? h.z.data() : nullptr, counts.data(), displs.data(),
+                MPI_FLOAT, 0, comm);
+  std::vector<float>().swap(mine);
 
   h.georef = georef;
   h.georef.vertical_units = "m";
   h.metadata = meta;
   h.metadata.erase("terracl:gradient");
-  if (singular) {
-    double sum = 0;
-    for (float v : h.z) sum += v;
-    const double shift = target - sum / double(N);
-    for (float& v : h.z) v = float(double(v) + shift);
+  int bad = -1;  // the first non-finite cell, told to every rank so that all fail alike
+  if (holds) {
+    if (singular) {
+      double sum = 0;
+      for (float v : h.z) sum += v;
+      const double shift = target - sum / double(N);
+      for (float& v : h.z) v = float(double(v) + shift);
+    }
+    for (size_t k = 0; k < hard_index.size(); ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
+    for (size_t i = 0; i < N && bad < 0; ++i)
+      if (!std::isfinite(h.z[i])) bad = int(i);
   }
-  for (size_t k = 0; k < hard_index.size(); ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
-  for (size_t i = 0; i < N; ++i)
-    if (!std::isfinite(h.z[i]))
-      fail("reconstruct", "hypre produced a non-finite value at cell ({}, {}): values too large for float32", i % W, i / W);
+  if (!gather_to_all) MPI_Bcast(&bad, 1, MPI_INT, 0, comm);
+  if (bad >= 0)
+    fail("reconstruct", "hypre produced a non-finite value at cell ({}, {}): values too large for float32", bad % W,
+         bad / W);
 
   res.solver = "hypre";
   res.ranks = ranks;
-  res.device = fmt::format("hypre PFMG-CG (host, double, {} MPI rank{})", ranks, ranks == 1 ? "" : "s");
+  res.device = fmt::format("hypre PFMG-CG (host, double, {} MPI rank{}{})", ranks, ranks == 1 ? "" : "s",
+                           gather_to_all ? "" : ", input read by bands of rows");
   res.cycle = o.cycle;
   res.smoother = o.smoother;
   res.hard_cells = hard_index.size();

@@ -19,6 +19,9 @@ std::string sniff_magic(const std::string& path);
 /// Throws when an EXR file's header claims an attribute larger than the file: OpenEXR allocates
 /// what the header says (a fuzzed 1.5 KB file took 1.8 GB and 6 s) before noticing.
 void check_exr_header(const std::string& path);
+/// Rows [y0, y1) of a two-channel gradient EXR (y0 == y1: the header only), every check of
+/// read_gradient applied; `full_height` receives the file's row count.
+GradientField read_gradient_rows(const std::string& path, int y0, int y1, int* full_height = nullptr);
 /// Refuses a PNG whose chunk lengths run past the end of the file, before libpng allocates them.
 void check_png_chunks(const std::string& path);
 /// Throws "io: <path>: ..." when the file is missing, unreadable, empty or a folder.

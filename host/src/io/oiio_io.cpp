@@ -130,6 +130,46 @@ void write_exr(const Heightfield& h, const std::string& tmp_path) {
   write_image(tmp_path, spec, TypeDesc::FLOAT, h.z.data());
 }
 
+
+// Rows [y0, y1) of a gradient EXR: EXR stores scanline chunks, so OpenImageIO reads only the chunks
+// of the band (the hypre solve's per-rank read). The georef is the whole raster's.
+GradientField read_gradient_rows(const std::string& path, int y0, int y1, int* full_height) {
+  require_readable(path);
+  if (sniff_magic(path) != "EXR") fail("io", "{}: a gradient field must be a two-channel float EXR", path);
+  check_exr_header(path);
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) fail("io", "{}: cannot open EXR ({})", path, OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.nchannels != 2)
+    fail("io", "{}: a gradient field has 2 channels (gx, gy), this file has {}", path, spec.nchannels);
+  require_raster_size("io", path, spec.width, spec.height, 16);
+  if (full_height) *full_height = spec.height;
+  if (y0 < 0 || y1 < y0 || y1 > spec.height)
+    fail("io", "{}: rows [{}, {}) are outside the gradient's {} rows", path, y0, y1, spec.height);
+  GradientField g(spec.width, y1 - y0);
+  if (y1 > y0) {
+    std::vector<float> px(size_t(spec.width) * size_t(y1 - y0) * 2);
+    if (!in->read_scanlines(0, 0, spec.y + y0, spec.y + y1, 0, 0, 2, OIIO::TypeDesc::FLOAT, px.data()))
+      fail("io", "{}: reading pixels failed: {}", path, in->geterror());
+    // Channel order on disk is alphabetical in EXR; find gx/gy by name when present.
+    int ix = 0, iy = 1;
+    if (spec.channelnames.size() == 2 && spec.channelnames[0] == "gy") std::swap(ix, iy);
+    for (size_t i = 0; i < g.size(); ++i) {
+      g.gx[i] = px[2 * i + ix];
+      g.gy[i] = px[2 * i + iy];
+    }
+  }
+  apply_georef_attributes(spec, g.georef, g.metadata);
+  if (auto it = g.metadata.find("terracl:mean_elevation"); it != g.metadata.end()) {
+    g.mean_elevation = std::strtod(it->second.c_str(), nullptr);
+    g.metadata.erase(it);
+  }
+  for (size_t i = 0; i < g.size(); ++i)
+    if (!std::isfinite(g.gx[i]) || !std::isfinite(g.gy[i]))
+      fail("io", "{}: gradient has a non-finite value at cell ({}, {})", path, i % g.width, y0 + i / g.width);
+  return g;
+}
+
 }  // namespace terracl::io
 
 namespace terracl {
@@ -143,35 +183,9 @@ bool is_gradient_file(const std::string& path) {
 }
 
 GradientField read_gradient(const std::string& path) {
-  io::require_readable(path);
-  if (io::sniff_magic(path) != "EXR") fail("io", "{}: a gradient field must be a two-channel float EXR", path);
-  io::check_exr_header(path);
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) fail("io", "{}: cannot open EXR ({})", path, OIIO::geterror());
-  const OIIO::ImageSpec& spec = in->spec();
-  if (spec.nchannels != 2)
-    fail("io", "{}: a gradient field has 2 channels (gx, gy), this file has {}", path, spec.nchannels);
-  require_raster_size("io", path, spec.width, spec.height, 16);
-  GradientField g(spec.width, spec.height);
-  std::vector<float> px(size_t(spec.width) * spec.height * 2);
-  if (!in->read_image(0, 0, 0, 2, OIIO::TypeDesc::FLOAT, px.data()))
-    fail("io", "{}: reading pixels failed: {}", path, in->geterror());
-  // Channel order on disk is alphabetical in EXR; find gx/gy by name when present.
-  int ix = 0, iy = 1;
-  if (spec.channelnames.size() == 2 && spec.channelnames[0] == "gy") std::swap(ix, iy);
-  for (size_t i = 0; i < g.size(); ++i) {
-    g.gx[i] = px[2 * i + ix];
-    g.gy[i] = px[2 * i + iy];
-  }
-  io::apply_georef_attributes(spec, g.georef, g.metadata);
-  if (auto it = g.metadata.find("terracl:mean_elevation"); it != g.metadata.end()) {
-    g.mean_elevation = std::strtod(it->second.c_str(), nullptr);
-    g.metadata.erase(it);
-  }
-  for (size_t i = 0; i < g.size(); ++i)
-    if (!std::isfinite(g.gx[i]) || !std::isfinite(g.gy[i]))
-      fail("io", "{}: gradient has a non-finite value at cell ({}, {})", path, i % g.width, i / g.width);
-  return g;
+  int height = 0;
+  io::read_gradient_rows(path, 0, 0, &height);
+  return io::read_gradient_rows(path, 0, height);
 }
 
 void write_gradient(const GradientField& g, const std::string& path) {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <terracl/device.hpp>
 #include <terracl/error.hpp>
+#include <terracl/distributed.hpp>
 #include <terracl/hypre.hpp>
 #include <terracl/memory.hpp>
 #include <terracl/stage_memory.hpp>
@@ -78,7 +79,9 @@ PerCell per_cell(const std::string& type, const json& o) {
   if (type == "amplify") return {4, 8};                // the output grid and its accumulator (not measured)
   if (type == "extract") return {16, 0, 12, 4};        // measured 24 in all
   if (type == "reconstruct" && o.value("solver", std::string("multigrid")) == "hypre")
-    return {kHypreHostBytesPerCell};                   // double matrix, vectors and PFMG levels on the host
+    // double matrix, vectors and PFMG levels on the host: each MPI rank its band's share (the
+    // subcommand reads a gradient file by bands), rank 0 the float result besides.
+    return {kHypreHostBytesPerCell / distributed::size() + 4};
   if (type == "reconstruct") return {24, 0, 40, 4};   // measured 43 in all
   if (type == "fill_nodata") return {24};              // a host solve over the nodata cells (13 without any)
   if (type == "erode") return {80, 0, 56, 16};         // measured 128 in all

@@ -517,14 +517,23 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       if (!need[0].empty()) plans.push_back({std::move(core), std::move(need)});
     }
   // --resume: tiles an interrupted run finished (segments feeding a global stage are recomputed).
+  // Under mpirun rank 0 owns the journals and the partial files (it writes every output): it
+  // decides which tiles are finished and tells the other ranks before the hand-out.
   const bool resumable = m_t.resume && !to_temp;
-  if (resumable && tile::comm().size() > 1)
-    throw UsageError("run", "--resume runs in one process: it is not supported under mpirun with more than one rank yet");
   std::vector<char> finished(plans.size(), 0);
   if (resumable) {
-    std::vector<std::vector<Win>> cores;
-    for (const auto& pl : plans) cores.push_back(pl.core);
-    finished = prepare_resume(seg, levels, cores, T, writers, journals);
+    if (tile::comm().rank() == 0) {
+      std::vector<std::vector<Win>> cores;
+      for (const auto& pl : plans) cores.push_back(pl.core);
+      finished = prepare_resume(seg, levels, cores, T, writers, journals);
+    }
+    if (tile::comm().size() > 1) {
+      tile::Bytes b(finished.begin(), finished.end());
+      tile::comm().broadcast(b);
+      if (b.size() != plans.size())
+        fail("run", "internal: rank 0 resumes {} tiles, this rank planned {}", b.size(), plans.size());
+      finished.assign(b.begin(), b.end());
+    }
   }
   std::vector<std::pair<const PipelineStage*, uint64_t>> written;  // this tile's checksum per writer
   // A tile's results for its sinks are computed by the tile's rank and written by rank 0, in tile
@@ -672,9 +681,14 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       apply(ti, compute(ti));
     }
   } else {
+    // The tiles left to run go round-robin over the ranks (finished ones are not handed out).
+    std::vector<size_t> todo;
+    for (size_t ti = 0; ti < plans.size(); ++ti)
+      if (!finished[ti]) todo.push_back(ti);
+    if (comm.rank() == 0) m_counts.skipped += plans.size() - todo.size();
     tile::ordered_tiles(
-        comm, plans.size(), [&](size_t ti) { return pack_calls(compute(ti)); },
-        [&](size_t ti, const tile::Bytes& b) { apply(ti, unpack_calls(b)); });
+        comm, todo.size(), [&](size_t k) { return pack_calls(compute(todo[k])); },
+        [&](size_t k, const tile::Bytes& b) { apply(todo[k], unpack_calls(b)); });
   }
   for (auto& [st, wr] : writers) {
     auto t0 = Clock::now();
