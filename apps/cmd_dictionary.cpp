@@ -235,7 +235,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       write_heightfield(bic, va->save + "_bicubic.tif");
       write_heightfield(out, va->save + "_out.tif");
     }
-    for (const char* key : {"amplify_detail_gain", "amplify_calibration"})
+    for (const char* key : {"amplify_detail_gain", "amplify_calibration", "amplify_hf_calibration"})
       if (out.metadata.count(key)) fmt::print("# {} x{} {}: {}\n", name, f, key, out.metadata.at(key));
     if (o.mode == "faithful") return;
     if (va->no_corr) {

@@ -131,6 +131,10 @@ struct Dictionary {
   /// (version 1 and 2 files, or an exemplar too small). Stored from version 3 on.
   BlockRegression regression;
   std::string description;
+  /// In memory only (not in the .tdic; -1 for loaded files): the calibration's HF-matching and
+  /// RMSE-budget gains, its HF target and spectral scale (GainCalibration), which let `amplify`
+  /// recalibrate the gain on each input's own spectrum (docs/amplify.md, "per-input HF").
+  double hf_gain = -1, rmse_gain = -1, hf_target = -1, spectral_scale = -1;
   bool has_regression() const { return !regression.weights.empty(); }
   int atoms() const { return int(high.cols()); }
   int low_patch() const { return patch / factor; }
@@ -259,6 +263,10 @@ struct AmplifyOptions {
   int tile = 1024;         ///< output tile size (cells); memory stays bounded by the tiles
   bool bias_correction = true;
   float detail_gain = -1;  ///< < 0: the dictionary's calibrated gain
+  /// With the dictionary's gain (detail_gain < 0), the detail blend and the bias correction: recalibrate
+  /// the gain on each step's input spectrum when the dictionary was calibrated in this process
+  /// (Dictionary::spectral_scale; `amplify --exemplar`, `dictionary evaluate`). docs/amplify.md.
+  bool hf_from_input = true;
   /// Patch blend. "detail": the bicubic of the input plus the patches' details (patch minus the smooth part of
   /// its block means, smooth_part_operator) blended by sum w d / sqrt(sum w^2), variance-preserving,
   /// so the patch grid leaves no trace; "average": the patches themselves blended by sum w p / sum w
@@ -299,6 +307,8 @@ struct GainCalibration {
   double gain = 1;
   double hf_gain = 1, rmse_gain = 0;     ///< the HF-matching gain and the RMSE budget's largest gain
   double hf_ratio = 0, rmse_ratio = 0;   ///< held-out HF energy ratio and RMSE / bicubic's at `gain`
+  /// Held-out truth's HF energy over predicted_energy_above of its block means (pooled); -1 unknown.
+  double spectral_scale = -1;
   std::string summary() const;
 };
 GainCalibration calibrate_detail(const Heightfield& exemplar, const LearnOptions& o);
@@ -376,6 +386,12 @@ AmplifyMetrics evaluate_amplification(const Heightfield& out, const Heightfield&
 /// its energy.
 std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f);
 double energy_above(const Heightfield& h, int f);
+/// The energy_above(., f) a terrain f times finer than `low` (its block means) should have: a power
+/// law fitted to low's radially averaged spectrum over the octave below its Nyquist (the f-cell box
+/// response undone), extrapolated over the finer grid's bins above that Nyquist. -1 when low is too
+/// small (< 16 cells a side) or the fit fails. Real spectra steepen above SRTM's Nyquist, so callers
+/// scale it by the ratio measured on the exemplar (GainCalibration::spectral_scale).
+double predicted_energy_above(const Heightfield& low, int f);
 
 /// Drainage kept: rivers are the cells whose D8 accumulation (analysis.hpp, d8_flow) reaches
 /// `river_fraction` of the grid; the agreement is the mean of the fraction of the truth's river cells

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <numeric>
 
@@ -63,9 +64,58 @@ AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
   return o;
 }
 
+constexpr int kMinSpectralInput = 64;
+
+// Per-input HF calibration (docs/amplify.md, "per-input HF"): the gain whose output HF energy, on
+// the central (up to) 256 x 256 input cells, is the geometric mean of two estimates of the truth's:
+// the held-out folds' (the output's HF at the dictionary's HF-matching gain over its HF target) and
+// the input's own spectrum extrapolated (predicted_energy_above, scaled by the ratio the folds
+// measured). Their errors are independent (the folds know the dictionary, the spectrum knows this
+// terrain). Capped by the folds' RMSE-budget gain. `detail` is the blended detail before the gain;
+// -1 when the dictionary carries no in-memory calibration (loaded files) or the input is too small.
+double input_hf_gain(const Heightfield& low, const Heightfield& detail, const Dictionary& d, const std::string& base,
+                     Metadata* metadata) {
+  if (!(d.spectral_scale > 0) || !(d.hf_gain > 0) || !(d.hf_target > 0) || !(d.rmse_gain > 0)) return -1;
+  const int f = d.factor;
+  const int cw = std::min(low.width, 256), ch = std::min(low.height, 256);
+  // Smaller inputs leave too few bins in the octave for the fit (a 23 x 47 input, the Front Range at
+  // x16, gave 0.06 x the held-out estimate).
+  if (cw < kMinSpectralInput || ch < kMinSpectralInput) return -1;
+  const int lx0 = (low.width - cw) / 2, ly0 = (low.height - ch) / 2;
+  Heightfield lowc(cw, ch);
+  for (int y = 0; y < ch; ++y)
+    for (int x = 0; x < cw; ++x) lowc.at(x, y) = low.at(lx0 + x, ly0 + y);
+  const double pred = predicted_energy_above(lowc, f);
+  if (!(pred > 0)) return -1;
+  // cb = C(base), cd = C(base + detail) - cb on the crop (C: the bias correction, affine).
+  Heightfield cb(cw * f, ch * f), cd(cw * f, ch * f);
+  upsample_window(low, f, base, lx0 * f, ly0 * f, cw * f, ch * f, cb.z.data());
+  for (int y = 0; y < ch * f; ++y)
+    for (int x = 0; x < cw * f; ++x) cd.at(x, y) = cb.at(x, y) + detail.at(lx0 * f + x, ly0 * f + y);
+  correct_block_means(cb, lowc, f, 4, base);
+  correct_block_means(cd, lowc, f, 4, base);
+  for (size_t j = 0; j < cd.z.size(); ++j) cd.z[j] -= cb.z[j];
+  const auto sb = spectrum_above(cb, f), sd = spectrum_above(cd, f);
+  double hb = 0, hbd = 0, hd = 0;
+  for (size_t j = 0; j < sb.size(); ++j)
+    hb += std::norm(sb[j]), hbd += std::real(sb[j] * std::conj(sd[j])), hd += std::norm(sd[j]);
+  if (!(hd > 0)) return -1;
+  const double gh = d.hf_gain;
+  const double held_out = (hb + 2 * gh * hbd + gh * gh * hd) / d.hf_target, spectral = d.spectral_scale * pred;
+  const double target = std::sqrt(held_out * spectral);
+  const double disc = hbd * hbd - hd * (hb - target);
+  double g = disc > 0 ? (-hbd + std::sqrt(disc)) / hd : gh;
+  g = std::clamp(g, 0.25, std::min(4.0, d.rmse_gain));
+  if (metadata)
+    (*metadata)["amplify_hf_calibration"] = fmt::format(
+        "gain {:.3f} (dictionary's {:.3f}): HF energy target {:.4g} = geometric mean of held-out {:.4g} and "
+        "input spectrum {:.4g} (central {}x{} input cells)", g, d.detail_gain, target, held_out, spectral, cw, ch);
+  return g;
+}
+
 // One x f step.
 Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const AtomIndex* index,
-                         const Progress& progress) {
+                         const Progress& progress, bool first_step) {
   const int f = d.factor, P = d.patch, p = d.low_patch(), S = o.spacing, Q = P - S;
   const int W = low.width * f, H = low.height * f;
   Heightfield out(W, H);
@@ -322,7 +372,15 @@ Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const Ampl
     }
   }
   if (detail_blend) out.metadata["amplify_detail_correlation"] = fmt::format("{:.3f}", rho);
-  const float gain = o.detail_gain < 0 ? d.detail_gain : o.detail_gain;
+  float gain = o.detail_gain < 0 ? d.detail_gain : o.detail_gain;
+  // Only the first step of a cascade sees measured terrain: later steps' inputs carry the previous
+  // step's synthesized spectrum (at x16 on the Front Range its RMSE-capped gain made the second
+  // step's estimate 0.55 x the held-out one and the HF fell from 0.66 to 0.31; docs/amplify.md).
+  if (first_step && detail_blend && o.detail_gain < 0 && o.hf_from_input && o.bias_correction) {
+    const double g = input_hf_gain(low, out, d, o.base, &out.metadata);
+    if (g > 0) gain = float(g);
+  }
+  out.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", gain);
   if (detail_blend) {
     // out = bicubic + gain detail
     if (gain != 1.f)
@@ -374,12 +432,15 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
   const AmplifyOptions r = resolved(o, d);
   const auto index = make_index(d, r);
   Heightfield cur = low;
-  for (int k = 0; k < steps; ++k)
-    cur = amplify_step(cur, d, r, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps));
+  std::string gains;
+  for (int k = 0; k < steps; ++k) {
+    cur = amplify_step(cur, d, r, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps), k == 0);
+    gains += (k ? "," : "") + cur.metadata["amplify_detail_gain"];
+  }
   cur.metadata["amplify_mode"] = "detail";
   cur.metadata["amplify_blend"] = r.blend;
   cur.metadata["amplify_base"] = r.base;
-  cur.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", r.detail_gain < 0 ? d.detail_gain : r.detail_gain);
+  cur.metadata["amplify_detail_gain"] = gains;
   cur.metadata["amplify_dictionary"] = d.description;
   return cur;
 }
@@ -403,7 +464,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   Heightfield cur = low;
   std::unique_ptr<Dictionary> dict;
   std::unique_ptr<BlockRegression> reg;
-  std::vector<std::string> gains, notes;
+  std::vector<std::string> gains, notes, hf_notes;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
   if (o.neighbours > 0) lo.calibration_neighbours = o.neighbours;
   lo.calibration_candidates = o.candidates;
@@ -449,8 +510,10 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     check_options(o, *dict);
     const AmplifyOptions r = resolved(o, *dict);
     const auto index = make_index(*dict, r);
-    gains.push_back(fmt::format("{:.3f}", r.detail_gain < 0 ? dict->detail_gain : r.detail_gain));
-    cur = amplify_step(cur, *dict, r, index.get(), scaled_progress(pk, 0.5, 1));
+    cur = amplify_step(cur, *dict, r, index.get(), scaled_progress(pk, 0.5, 1), k == 0);
+    gains.push_back(cur.metadata["amplify_detail_gain"]);
+    if (cur.metadata.count("amplify_hf_calibration"))
+      hf_notes.push_back(fmt::format("step {}: {}", k + 1, cur.metadata["amplify_hf_calibration"]));
     cur.metadata["amplify_blend"] = r.blend;
     cur.metadata["amplify_base"] = r.base;
   }
@@ -462,6 +525,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   cur.metadata["amplify_mode"] = o.mode;
   if (!gains.empty()) cur.metadata["amplify_detail_gain"] = join(gains, ",");
   cur.metadata["amplify_calibration"] = join(notes, " | ");
+  if (!hf_notes.empty()) cur.metadata["amplify_hf_calibration"] = join(hf_notes, " | ");
   return cur;
 }
 
@@ -508,7 +572,7 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   ao.base = o.calibration_base;
   // Sums over every held-out fold (pooled cross-validation): the HF energy terms hb, hbd, hd, ht and
   // the RMSE terms e2, ed, d2, r2 defined below.
-  double hb = 0, hbd = 0, hd = 0, ht = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0;
+  double hb = 0, hbd = 0, hd = 0, ht = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0, sp = 0, spt = 0;
   const int fold = len / k;
   for (int i = 0; i < k; ++i) {
     const int a0 = i * fold, a1 = i == k - 1 ? len : a0 + fold;
@@ -532,10 +596,15 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
     for (size_t j = 0; j < cd.z.size(); ++j) cd.z[j] -= cb.z[j];
     // HF energy (the evaluation's, linear in the heightfield): |Sb + g Sd|^2 against |St|^2.
     const auto sb = spectrum_above(cb, f), sd = spectrum_above(cd, f), st = spectrum_above(b, f);
+    double htf = 0;
     for (size_t j = 0; j < sb.size(); ++j) {
       hb += std::norm(sb[j]), hbd += std::real(sb[j] * std::conj(sd[j])), hd += std::norm(sd[j]);
-      ht += std::norm(st[j]);
+      htf += std::norm(st[j]);
     }
+    ht += htf;
+    // How the input-spectrum extrapolation relates to the held-out truth on this exemplar.
+    const double pred = predicted_energy_above(low, f);
+    if (pred > 0) sp += pred, spt += htf;
     for (size_t j = 0; j < cd.z.size(); ++j) {
       const double e0 = double(cb.z[j]) - b.z[j], rb = double(bic[j]) - b.z[j];
       e2 += e0 * e0, ed += e0 * cd.z[j], d2 += double(cd.z[j]) * cd.z[j], r2 += rb * rb;
@@ -556,6 +625,7 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   cal.gain = g;
   cal.hf_ratio = (hb + 2 * g * hbd + g * g * hd) / std::max(1e-30, ht);
   cal.rmse_ratio = std::sqrt(std::max(0.0, e2 + 2 * g * ed + g * g * d2) / r2);
+  if (sp > 0 && spt > 0) cal.spectral_scale = spt / sp;
   return cal;
 }
 

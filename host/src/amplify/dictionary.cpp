@@ -354,6 +354,10 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
     c.max_patches = o.max_patches / 2;
     const GainCalibration cal = calibrate_detail(exemplars[0], c);
     d.detail_gain = float(cal.gain);
+    if (cal.calibrated) {
+      d.hf_gain = cal.hf_gain, d.rmse_gain = cal.rmse_gain, d.hf_target = c.calibration_hf_target;
+      d.spectral_scale = cal.spectral_scale;
+    }
     d.description += "; calibrated " + cal.summary();
   }
   report_progress(progress, "dictionary", 1.0, fmt::format("{} atoms", d.atoms()));

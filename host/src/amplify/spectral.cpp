@@ -1,0 +1,136 @@
+// The HF energy a finer grid of the input's terrain should have, from the input's own spectrum
+// (issue 16: detail calibrated per input, not only on the exemplar's average).
+#include <terracl/amplify.hpp>
+
+#include <unsupported/Eigen/FFT>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+namespace terracl {
+
+double predicted_energy_above(const Heightfield& low, int f) {
+  const int w = low.width, h = low.height;
+  if (f < 2 || w < 16 || h < 16) return -1;
+  // The evaluation's windowing (spectrum_above): plane removed, 2-D Hann window.
+  double sz = 0, sxz = 0, syz = 0, sxx = 0, syy = 0;
+  const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double z = low.at(x, y), dx = x - cx, dy = y - cy;
+      sz += z, sxz += dx * z, syz += dy * z, sxx += dx * dx, syy += dy * dy;
+    }
+  const double a = sz / (double(w) * h), b = sxx > 0 ? sxz / sxx : 0, c = syy > 0 ? syz / syy : 0;
+  std::vector<std::complex<double>> grid(size_t(w) * h), in, out;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double win = (0.5 - 0.5 * std::cos(2 * M_PI * (x + 0.5) / w)) * (0.5 - 0.5 * std::cos(2 * M_PI * (y + 0.5) / h));
+      grid[size_t(y) * w + x] = win * (low.at(x, y) - a - b * (x - cx) - c * (y - cy));
+    }
+  Eigen::FFT<double> fft;
+  for (int y = 0; y < h; ++y) {
+    in.assign(grid.begin() + size_t(y) * w, grid.begin() + size_t(y + 1) * w);
+    fft.fwd(out, in);
+    std::copy(out.begin(), out.end(), grid.begin() + size_t(y) * w);
+  }
+  // The input is the block mean of the terrain: its spectrum at (fx, fy) (cycles per input cell) is
+  // the terrain's times the f-cell box's response B(u) = sin(pi u) / (f sin(pi u / f)) per axis, plus
+  // the aliases (fx + mx, fy + my) of the finer frequencies folded onto it (|fx + mx| < f / 2). The
+  // model A |k|^beta is fitted through all of them: dividing by B^2 alone ignored the aliases and
+  // over-predicted a beta = -3 power law by 1.3 x.
+  auto box2 = [f](double u) {
+    const double b = u == 0 ? 1.0 : std::sin(M_PI * u) / (f * std::sin(M_PI * u / f));
+    return b * b;
+  };
+  // Radially averaged power in 8 log-spaced shells over the octave below the input's Nyquist (0.25 to
+  // 0.5 cycles per input cell): the mean power per shell (not the mean log power, which is biased low
+  // by Euler's constant for exponentially distributed periodogram values). Each bin keeps its aliases'
+  // log |k| and B^2 for the model.
+  constexpr int kShells = 8;
+  const int na = f / 2;  // aliases -na..na per axis
+  const int nal = (2 * na + 1) * (2 * na + 1);
+  std::vector<double> psum(kShells, 0.0), cnt(kShells, 0.0);
+  std::vector<int> bin_shell;
+  std::vector<double> alias_logk, alias_w;
+  in.resize(size_t(h));
+  for (int x = 0; x < w; ++x) {
+    for (int y = 0; y < h; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
+    fft.fwd(out, in);
+    const double fx = double(x <= w / 2 ? x : x - w) / w;
+    for (int y = 0; y < h; ++y) {
+      const double fy = double(y <= h / 2 ? y : y - h) / h, k = std::hypot(fx, fy);
+      if (k < 0.25 || k >= 0.5) continue;
+      const int s = std::min(kShells - 1, int(std::log2(k / 0.25) * kShells));
+      psum[size_t(s)] += std::norm(out[size_t(y)]);
+      cnt[size_t(s)] += 1;
+      bin_shell.push_back(s);
+      for (int my = -na; my <= na; ++my)
+        for (int mx = -na; mx <= na; ++mx) {
+          const double ux = fx + mx, uy = fy + my, ka = std::hypot(ux, uy);
+          const bool inside = std::fabs(ux) < 0.5 * f && std::fabs(uy) < 0.5 * f && ka > 0;
+          alias_logk.push_back(inside ? std::log(ka) : 0.0);
+          alias_w.push_back(inside ? box2(ux) * box2(uy) : 0.0);
+        }
+    }
+  }
+  std::vector<double> lp;  // log mean power per non-empty shell
+  std::vector<int> shells;
+  for (int s = 0; s < kShells; ++s)
+    if (cnt[size_t(s)] > 0 && psum[size_t(s)] > 0) shells.push_back(s), lp.push_back(std::log(psum[size_t(s)] / cnt[size_t(s)]));
+  if (shells.size() < 4) return -1;
+  // For a given beta: the model's mean per shell, the best log A (mean log ratio) and the residual.
+  auto fit = [&](double beta, double* la) {
+    std::vector<double> msum(kShells, 0.0);
+    for (size_t b = 0; b < bin_shell.size(); ++b) {
+      double m = 0;
+      for (int a = 0; a < nal; ++a) {
+        const size_t i = b * size_t(nal) + size_t(a);
+        if (alias_w[i] > 0) m += alias_w[i] * std::exp(beta * alias_logk[i]);
+      }
+      msum[size_t(bin_shell[b])] += m;
+    }
+    std::vector<double> r;
+    double mean = 0;
+    for (size_t j = 0; j < shells.size(); ++j) {
+      const int s = shells[j];
+      r.push_back(lp[j] - std::log(std::max(1e-300, msum[size_t(s)] / cnt[size_t(s)])));
+      mean += r.back();
+    }
+    mean /= double(r.size());
+    double res = 0;
+    for (double v : r) res += (v - mean) * (v - mean);
+    if (la) *la = mean;
+    return res;
+  };
+  // Golden-section search for beta in [-7, -0.5] (terrain: about -4 to -2).
+  double lo = -7, hi = -0.5;
+  const double gr = 0.5 * (std::sqrt(5.0) - 1);
+  double c1 = hi - gr * (hi - lo), c2 = lo + gr * (hi - lo), r1 = fit(c1, nullptr), r2 = fit(c2, nullptr);
+  for (int it = 0; it < 30; ++it) {
+    if (r1 < r2) hi = c2, c2 = c1, r2 = r1, c1 = hi - gr * (hi - lo), r1 = fit(c1, nullptr);
+    else lo = c1, c1 = c2, r1 = r2, c2 = lo + gr * (hi - lo), r2 = fit(c2, nullptr);
+  }
+  const double beta = 0.5 * (lo + hi);
+  double la = 0;
+  fit(beta, &la);
+  if (!std::isfinite(la)) return -1;
+  // Extrapolated over the bins of the f times finer grid above the input's Nyquist. At one physical
+  // frequency, the periodogram of the fine grid (f^2 times the cells, each 1/f^2 the area) is f^4
+  // times the coarse one's.
+  const int W = w * f, H = h * f;
+  const double nyq = 0.5 / f;
+  double e = 0;
+  for (int Y = 0; Y < H; ++Y) {
+    const double gy = double(Y <= H / 2 ? Y : Y - H) / H;
+    for (int X = 0; X < W; ++X) {
+      const double gx = double(X <= W / 2 ? X : X - W) / W;
+      if (std::fabs(gx) <= nyq && std::fabs(gy) <= nyq) continue;
+      e += std::exp(la + beta * std::log(f * std::hypot(gx, gy)));
+    }
+  }
+  e *= double(f) * f * f * f;
+  return std::isfinite(e) && e > 0 ? e : -1;
+}
+
+}  // namespace terracl
