@@ -128,12 +128,7 @@ StageTiling tiling_of(const PipelineStage& st) {
         "a cell's breach path follows the back-links of one global priority flood (first reached, ties "
         "by raster index) and each cut lowers cells that later comparisons see, so tiles cannot reproduce "
         "it; run it untiled (docs/scale.md says what a tiled form needs)");
-  if (t == "warp" || t == "resize")
-    return refuse(
-        "its output grid follows the whole raster's extent (GDAL's suggested output for a new CRS or size) and "
-        "each output cell reads a source window found through the transform and the resampling kernel, which "
-        "the tile engine's windows (crops, integer block factors) do not describe; warp untiled, or with "
-        "gdalwarp (which warps out of core in chunks) on the tiled output");
+  if (t == "warp" || t == "resize") return kind(TileKind::Global);  // GDAL's warped VRT, window by window (warp_tiles.cpp)
   if (t == "metrics")
     return refuse(
         "its report is of the whole raster: slope quantiles over every cell, one spectrum of the raster, and "

@@ -1,0 +1,157 @@
+// Tiled warp and resize (docs/scale.md, "Tiled warp"): the output grid of the whole input and
+// every cell equal to the untiled run bit for bit, for each resampling, a reprojection to UTM, odd
+// sizes, tiles that do not divide them, nodata, behind and before other stages, and under --resume.
+#include <gdal.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/tile.hpp>
+
+#include "test_helpers.hpp"
+
+namespace terracl {
+namespace {
+
+void expect_same_raster(const std::string& untiled, const std::string& tiled) {
+  SCOPED_TRACE(tiled);
+  const Heightfield a = read_heightfield(untiled), b = read_heightfield(tiled);
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  EXPECT_EQ(test::bit_differences(a, b), 0u);
+  EXPECT_EQ(a.georef.geotransform, b.georef.geotransform);
+  EXPECT_EQ(a.georef.crs_wkt, b.georef.crs_wkt);
+  EXPECT_EQ(a.georef.nodata.has_value(), b.georef.nodata.has_value());
+  EXPECT_EQ(a.georef.cell_x, b.georef.cell_x);
+  EXPECT_EQ(a.georef.cell_y, b.georef.cell_y);
+  EXPECT_EQ(a.count_nodata(), b.count_nodata());
+  EXPECT_EQ(a.metadata.at("terracl:stages"), b.metadata.count("terracl:stages") ? b.metadata.at("terracl:stages") : "");
+  // Items read_heightfield does not give back: the metric cell size and resize's engine scale.
+  for (const char* k : {"terracl_cell_x", "terracl_cell_y", "engine_unreal_z_scale", "engine_unity_terrain_height_m"}) {
+    std::string va, vb;
+    for (auto [f, v] : {std::pair{&untiled, &va}, std::pair{&tiled, &vb}}) {
+      GDALDatasetH ds = GDALOpen(f->c_str(), GA_ReadOnly);
+      ASSERT_TRUE(ds);
+      const char* item = GDALGetMetadataItem(ds, k, nullptr);
+      *v = item ? item : "(missing)";
+      GDALClose(ds);
+    }
+    EXPECT_EQ(va, vb) << k;
+  }
+}
+
+void run_both(const test::TempDir& dir, const std::string& doc, const TileOptions& to) {
+  for (const char* which : {"u", "t"}) {
+    std::string text = doc;
+    const std::string out = dir.path(which);
+    for (size_t p; (p = text.find("OUT")) != std::string::npos;) text.replace(p, 3, out);
+    Pipeline p = Pipeline::parse(json::parse(text), "tiles", "tiles.json");
+    p.validate();
+    RunOptions ro;
+    ro.device = []() -> Device& { return test::device(); };
+    ro.write_resolved = false;
+    RunReport r;
+    if (which[0] == 'u')
+      p.run(ro, r);
+    else
+      run_tiled(p, to, ro, r);
+  }
+}
+
+// An odd-sized crop of the SRTM tile (EPSG:4326), with a nodata hole across tile borders and
+// scattered voids.
+std::string dem_input(const test::TempDir& dir, int w, int h) {
+  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  Heightfield t(w, h);
+  t.georef = dem.georef;
+  auto& gt = t.georef.geotransform;
+  gt[0] += 300 * gt[1];
+  gt[3] += 200 * gt[5];
+  t.georef.update_metric_cell_size(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(300 + x, 200 + y);
+  t.georef.nodata = -32768;
+  for (int y = 40; y < std::min(h, 90); ++y)
+    for (int x = 100; x < std::min(w, 170); ++x) t.at(x, y) = NAN;
+  std::mt19937 rng(3);
+  for (int k = 0; k < 200; ++k) t.at(int(rng() % w), int(rng() % h)) = NAN;
+  const std::string f = dir.path("in.tif");
+  write_heightfield(t, f);
+  return f;
+}
+
+}  // namespace
+
+TEST(TileWarp, ReprojectionEqualsUntiledForEveryResampling) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 211, 157);
+  for (const std::string r : {"near", "bilinear", "cubic", "lanczos", "average"}) {
+    // Straight from the reader, then behind a crop and before a downsample (a warp between segments).
+    const std::string doc = R"([")" + in + R"(", {"type": "warp", "t_srs": "EPSG:32619", "tr": [70, 70],
+        "resampling": ")" + r + R"("}, "OUT/a.tif", {"type": "crop", "x": 3, "y": 5}, {"type": "warp",
+        "tr": [150, 150], "resampling": ")" + r + R"("}, "OUT/b.tif", {"type": "crop", "x": 1, "y": 2, "width": 40}, "OUT/c.tif"])";
+    TileOptions to;
+    to.tile = r == "near" ? 64 : 37;
+    run_both(dir, doc, to);
+    for (const char* f : {"a.tif", "b.tif", "c.tif"})
+      expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
+    const Heightfield a = read_heightfield(dir.path("t/a.tif"));
+    EXPECT_FALSE(a.georef.geographic) << r;
+    EXPECT_GT(a.count_nodata(), 1000u) << r << ": the hole and the reprojection margins stay nodata";
+  }
+}
+
+TEST(TileWarp, ResizeAndSizeEqualUntiled) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 203, 141);
+  const std::string doc = R"([")" + in + R"(", {"type": "resize", "width": 517, "height": 389, "resampling": "cubic"},
+      "OUT/r.tif", {"type": "warp", "ts": [99, 0], "resampling": "average"}, "OUT/s.tif",
+      {"type": "resize", "preset": "unreal-505"}, "OUT/e.tif"])";
+  TileOptions to;
+  to.tile = 100;
+  run_both(dir, doc, to);
+  for (const char* f : {"r.tif", "s.tif", "e.tif"})
+    expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
+  const Heightfield e = read_heightfield(dir.path("t/e.tif"));
+  EXPECT_EQ(e.width, 505);
+  GDALDatasetH ds = GDALOpen(dir.path("t/e.tif").c_str(), GA_ReadOnly);
+  ASSERT_TRUE(ds);
+  EXPECT_TRUE(GDALGetMetadataItem(ds, "engine_unreal_z_scale", nullptr)) << "resize records the engine Z scale";
+  GDALClose(ds);
+}
+
+TEST(TileWarp, ResumedOutputEqualsUntiled) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 150, 111);
+  const std::string doc = R"([")" + in + R"(", {"type": "warp", "t_srs": "EPSG:32619", "tr": [60, 60],
+      "resampling": "bilinear"}, "OUT/w.tif"])";
+  TileOptions to;
+  to.tile = 40;
+  to.resume = true;
+  run_both(dir, doc, to);
+  expect_same_raster(dir.path("u/w.tif"), dir.path("t/w.tif"));
+}
+
+TEST(TileWarp, BadOptionsNameTheStage) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 64, 64);
+  Pipeline p = Pipeline::parse(
+      json::parse("[\"" + in + R"(", {"type": "warp", "tr": [30]}, ")" + dir.path("o.tif") + "\"]"), "x", "x.json");
+  p.validate();
+  RunReport r;
+  TileOptions to;
+  to.tile = 32;
+  try {
+    run_tiled(p, to, RunOptions{}, r);
+    ADD_FAILURE() << "a bad tr ran";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'tr'"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path("o.tif")));
+}
+
+}  // namespace terracl
