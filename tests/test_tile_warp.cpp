@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -16,6 +18,8 @@
 
 namespace terracl {
 namespace {
+
+namespace fs = std::filesystem;
 
 void expect_same_raster(const std::string& untiled, const std::string& tiled) {
   SCOPED_TRACE(tiled);
@@ -124,16 +128,26 @@ TEST(TileWarp, ResizeAndSizeEqualUntiled) {
   GDALClose(ds);
 }
 
-TEST(TileWarp, ResumedOutputEqualsUntiled) {
+TEST(TileWarp, KilledRunResumesToTheUntiledOutput) {
   test::TempDir dir;
   const std::string in = dem_input(dir, 150, 111);
-  const std::string doc = R"([")" + in + R"(", {"type": "warp", "t_srs": "EPSG:32619", "tr": [60, 60],
-      "resampling": "bilinear"}, "OUT/w.tif"])";
-  TileOptions to;
-  to.tile = 40;
-  to.resume = true;
-  run_both(dir, doc, to);
-  expect_same_raster(dir.path("u/w.tif"), dir.path("t/w.tif"));
+  const std::string p = dir.path("p.json");
+  std::ofstream(p) << R"([")" << in << R"(", {"type": "warp", "t_srs": "EPSG:32619", "tr": [60, 60],
+      "resampling": "bilinear"}, ")" << dir.path("w.tif") << R"("])";
+  auto u = test::run_cli("run " + p);
+  ASSERT_EQ(u.exit_code, 0) << u.out;
+  fs::rename(dir.path("w.tif"), dir.path("u.tif"));
+  // 12 tiles of the warp's input, then the output's tiles: killed 5 tiles into the output.
+  setenv("TERRACL_TEST_KILL_AFTER_TILES", "17", 1);
+  auto killed = test::run_cli("run " + p + " --tile 40 --resume");
+  unsetenv("TERRACL_TEST_KILL_AFTER_TILES");
+  EXPECT_NE(killed.exit_code, 0) << killed.out;
+  EXPECT_FALSE(fs::exists(dir.path("w.tif")));
+  ASSERT_TRUE(fs::exists(dir.path("w.tif.journal")));
+  auto resumed = test::run_cli("run " + p + " --tile 40 --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.out;
+  EXPECT_NE(resumed.out.find("5 finished before"), std::string::npos) << resumed.out;
+  expect_same_raster(dir.path("u.tif"), dir.path("w.tif"));
 }
 
 TEST(TileWarp, BadOptionsNameTheStage) {
