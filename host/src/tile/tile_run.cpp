@@ -557,7 +557,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       Metadata md = tile_md;
       drop_terracl_keys(md);
       const Level& L = levels[op.level];
-      sink = tile::make_render_sink(*op.st, L.w, L.h, L.georef, md, provenance(*op.st), m_device, comm.rank() == 0);
+      sink = op.st->type == "metrics"
+                 ? tile::make_metrics_sink(*op.st, L.w, L.h, L.georef, provenance(*op.st), comm.rank() == 0)
+                 : tile::make_render_sink(*op.st, L.w, L.h, L.georef, md, provenance(*op.st), m_device, comm.rank() == 0);
     }
     return *sink;
   };

@@ -129,11 +129,7 @@ StageTiling tiling_of(const PipelineStage& st) {
         "by raster index) and each cut lowers cells that later comparisons see, so tiles cannot reproduce "
         "it; run it untiled (docs/scale.md says what a tiled form needs)");
   if (t == "warp" || t == "resize") return kind(TileKind::Global);  // GDAL's warped VRT, window by window (warp_tiles.cpp)
-  if (t == "metrics")
-    return refuse(
-        "its report is of the whole raster: slope quantiles over every cell, one spectrum of the raster, and "
-        "fill, breach and drainage figures from global floods; tiles' reports do not add up to it; run it "
-        "untiled on the output (or on a downsample of it)");
+  if (t == "metrics") return kind(TileKind::Sink, 1);  // local statistics, exact; global figures left out (metrics_tiles.cpp)
   if (t == "sketch")
     return refuse(
         "its river and ridge thresholds are fractions of the whole raster's cells on a D8 accumulation of the "
