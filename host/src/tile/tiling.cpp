@@ -94,7 +94,11 @@ StageTiling tiling_of(const PipelineStage& st) {
         "two things depend on the whole output, so tiles would differ from the untiled run: the patch choice "
         "is hashed on the output width, and the detail blend's correlation is measured over all of the "
         "output's patches (a first pass); amplify untiled (its own --tile bounds its work memory)");
-  if (t == "extract") return refuse("it produces a gradient field; tiled runs carry heightfields only");
+  if (t == "extract")
+    return refuse(
+        "it produces a gradient field, which terracl writes only as OpenEXR (two float channels, written whole); "
+        "tiled runs carry heightfields and write GeoTIFF windows (a tiled 2-band gradient GeoTIFF is not "
+        "implemented yet); run extract untiled");
   if (t == "render") {
     // gdaldem's 3x3 window: a halo of one cell; written by its own sink (tile/render_tiles.cpp).
     const std::string why = tile::render_tiling_limit(o);
