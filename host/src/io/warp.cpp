@@ -1,6 +1,6 @@
 // `warp` on GDAL's warper through gdal_utils' GDALWarp (the code of the gdalwarp program), so the
 // options mean and do exactly what they do in gdalwarp; no resampler of our own. The heightfield
-// travels as an in-memory (MEM) dataset both ways.
+// goes in as an in-memory (MEM) dataset and comes out of gdalwarp's virtual (VRT) output.
 #include "io/gdal_common.hpp"
 #include "io/warp_vrt.hpp"
 
@@ -52,7 +52,7 @@ void check_options(const WarpOptions& o, const std::string& stage) {
 // The output size gdalwarp will choose, computed as it does (GDALSuggestedWarpOutput2, then -te /
 // -tr / -ts), and refused before GDAL allocates it: `--tr 1e-7` asked GDAL for 3.4 TB, `--tr
 // 1e-12` and a 1e300 --projwin overflowed its int sizes ("-2147483648x-2147483648 dataset").
-void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string& stage) {
+void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string& stage, bool whole) {
   std::string dst_wkt;
   if (!o.t_srs.empty()) {
     OGRSpatialReference srs;
@@ -87,7 +87,8 @@ void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string&
   if (!(w <= double(max_raster_side) && h <= double(max_raster_side)))
     fail(stage, "the output would be {} x {} cells; each side may be at most {} cells: {}", cells(w), cells(h),
          max_raster_side, hint);
-  // The MEM output and the heightfield copied from it.
+  if (!whole) return;  // a tiled warp holds one tile of it
+  // The output read whole and the heightfield copied from it.
   const int64_t iw = std::max<int64_t>(1, int64_t(w)), ih = std::max<int64_t>(1, int64_t(h));
   require_memory(stage, fmt::format("the warp output ({} x {} cells)", iw, ih), double(iw) * double(ih) * 8, 0, 0,
                  nullptr, hint);
@@ -112,8 +113,8 @@ std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_ha
 }
 
 io::DatasetPtr io::warped_vrt(GDALDatasetH in, const WarpOptions& o, bool source_has_nodata,
-                              const std::string& stage) {
-  check_output_size(in, o, stage);
+                              const std::string& stage, bool whole) {
+  check_output_size(in, o, stage, whole);
   std::vector<std::string> args = gdalwarp_arguments(o, source_has_nodata);
   // A virtual (VRT) output: nothing is warped until a window is read, and each of its blocks is
   // warped on its own (its own source window and approximate transformer along the block's rows),
@@ -163,7 +164,7 @@ Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& pro
   if (progress && !progress(0.0, "warping")) throw Cancelled(stage, "cancelled");
   Heightfield r;
   {
-    io::DatasetPtr dst = io::warped_vrt(GDALDataset::ToHandle(mem.get()), o, has_nodata, stage);
+    io::DatasetPtr dst = io::warped_vrt(GDALDataset::ToHandle(mem.get()), o, has_nodata, stage, true);
     CPLErrorReset();
     r = io::from_dataset(*dst, "warp output");
     if (CPLGetLastErrorType() >= CE_Failure) fail(stage, "GDAL's warp failed ({})", io::last_gdal_error());

@@ -10,8 +10,10 @@
 namespace terracl::io {
 
 /// gdalwarp's VRT output (the options of gdalwarp_arguments) over `in`, which must outlive it.
-/// Checks the output size first; throws "<stage>: ..." on GDAL errors.
-DatasetPtr warped_vrt(GDALDatasetH in, const WarpOptions& o, bool source_has_nodata, const std::string& stage);
+/// Checks the output size first (its sides; with `whole`, also the memory to read it whole);
+/// throws "<stage>: ..." on GDAL errors.
+DatasetPtr warped_vrt(GDALDatasetH in, const WarpOptions& o, bool source_has_nodata, const std::string& stage,
+                      bool whole);
 /// What warp() keeps of its input `in` in its output `r` (metadata, vertical units, nodata).
 void finish_warp_georef(Heightfield& r, const Heightfield& in, const WarpOptions& o);
 /// Checks the options as warp() does (resampling, tr/ts, projwin, CRS).

@@ -92,7 +92,7 @@ Heightfield warp_tiles(const PipelineStage& st, const std::string& in_path, cons
   in->GetRasterBand(1)->GetNoDataValue(&has_nodata);
   Heightfield header;
   {
-    io::DatasetPtr vrt = io::warped_vrt(GDALDataset::ToHandle(in.get()), o, has_nodata != FALSE, st.tag);
+    io::DatasetPtr vrt = io::warped_vrt(GDALDataset::ToHandle(in.get()), o, has_nodata != FALSE, st.tag, false);
     header.width = vrt->GetRasterXSize();
     header.height = vrt->GetRasterYSize();
     io::read_gdal_header(*vrt, header);
