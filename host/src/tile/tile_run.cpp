@@ -332,7 +332,7 @@ void TiledRun::run() {
     const StageTiling tl = tiling_of(st);
     if (tl.kind == TileKind::Untileable) refuse(st, tl.limit);
     if (m_t.resume && tl.kind == TileKind::Sink && st.type != "write")
-      throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot --resume: it builds its picture in a file "
+      throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot --resume: it builds its picture or report in a file "
                                           "of its own that keeps no journal; run without --resume",
                                           m_p.source(), st.where, st.tag, st.type));
     if (st.info->input == DataKind::None && tl.kind != TileKind::Source)
