@@ -2,6 +2,7 @@
 // the pipeline's JSON arrays), and the engine import scale printed after a resize.
 #include "cli.hpp"
 #include "stage_flags.hpp"
+#include "tile_flags.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -20,6 +21,7 @@ struct WarpArgs {
   bool fill_nodata = false;
   InputScaleFlags in;
   OutputFlags out;
+  TileFlags tile;  // --tile: out of core (docs/scale.md, "Tiled warp and resize")
 };
 
 struct ResizeArgs {
@@ -28,6 +30,7 @@ struct ResizeArgs {
   bool fill_nodata = false;
   InputScaleFlags in;
   OutputFlags out;
+  TileFlags tile;  // --tile: out of core (docs/scale.md, "Tiled warp and resize")
 };
 
 void print_engine_scale(const Heightfield& h, const EngineScale& s) {
@@ -38,6 +41,15 @@ void print_engine_scale(const Heightfield& h, const EngineScale& s) {
   fmt::print("Unity import:    Terrain Height {:.4f} m  Position Y {:.4f} m\n", s.unity_height, s.unity_position_y);
   if (std::fabs(h.georef.cell_x - h.georef.cell_y) > 1e-3 * h.georef.cell_x)
     fmt::print(stderr, "terracl: warning: {}\n", square_cell_advice(h));
+}
+
+// As the stage subcommands: what a tiled run (GDAL windows in, tiled float32 GeoTIFF out) cannot honour.
+void refuse_untiled_flags(const std::string& command, bool fill_nodata, const InputScaleFlags& in,
+                          const OutputFlags& out) {
+  TileFlags::refuse_untiled_flag(command, fill_nodata || in.zmin || in.zmax || in.cell_size,
+                                 "--fill-nodata, --zmin, --zmax, --cell-size");
+  TileFlags::refuse_untiled_flag(command, out.cog || !out.creation_options.empty() || out.output_type != "Float32",
+                                 "--co, --cog, --ot");
 }
 
 CommandRegistrar reg(13, [](CLI::App& app) {
@@ -57,6 +69,7 @@ CommandRegistrar reg(13, [](CLI::App& app) {
     sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells of the input first (harmonic)");
     a->in.add(sub);
     a->out.add(sub);
+    a->tile.add(sub);
     sub->callback([a] {
       check_output_paths("warp", {{"input", a->input}}, {{"-o", a->output}});
       WarpOptions o;
@@ -65,6 +78,17 @@ CommandRegistrar reg(13, [](CLI::App& app) {
       if (!a->tr.empty()) o.tr = std::array<double, 2>{a->tr[0], a->tr[1]};
       if (!a->ts.empty()) o.ts = std::array<int, 2>{a->ts[0], a->ts[1]};
       if (!a->projwin.empty()) o.projwin = std::array<double, 4>{a->projwin[0], a->projwin[1], a->projwin[2], a->projwin[3]};
+      if (a->tile.tiled()) {
+        refuse_untiled_flags("warp", a->fill_nodata, a->in, a->out);
+        json st{{"resampling", o.resampling}};
+        if (!o.t_srs.empty()) st["t_srs"] = o.t_srs;
+        if (o.tr) st["tr"] = *o.tr;
+        if (o.ts) st["ts"] = *o.ts;
+        if (o.projwin) st["projwin"] = *o.projwin;
+        a->tile.run_stage("warp", a->input, "warp", st, a->output);
+        return;
+      }
+      (void)a->tile.options("warp");  // --halo alone
       Heightfield h = read_heightfield(a->input, a->in.read_options(a->fill_nodata));
       Heightfield r = warp(h, o, make_progress("warp"));
       finish_progress();
@@ -89,11 +113,19 @@ CommandRegistrar reg(13, [](CLI::App& app) {
     sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells of the input first (harmonic)");
     a->in.add(sub);
     a->out.add(sub);
+    a->tile.add(sub);
     sub->callback([a] {
       if (a->preset.empty() && a->size.empty()) throw UsageError("resize", "needs --preset NAME or --size WIDTH HEIGHT");
       check_output_paths("resize", {{"input", a->input}}, {{"-o", a->output}});
       const int w = a->preset.empty() ? a->size[0] : engine_preset_size(a->preset);
       const int ht = a->preset.empty() ? a->size[1] : w;
+      if (a->tile.tiled()) {  // the engine scale is in the output's metadata (engine_*)
+        refuse_untiled_flags("resize", a->fill_nodata, a->in, a->out);
+        a->tile.run_stage("resize", a->input, "resize", json{{"width", w}, {"height", ht}, {"resampling", a->resampling}},
+                          a->output);
+        return;
+      }
+      (void)a->tile.options("resize");  // --halo alone
       Heightfield h = read_heightfield(a->input, a->in.read_options(a->fill_nodata));
       Heightfield r = resize(h, w, ht, a->resampling, make_progress("resize"));
       finish_progress();

@@ -10,6 +10,7 @@
 #include <unsupported/Eigen/FFT>
 
 #include "analysis/grid.hpp"
+#include "analysis/local_metrics.hpp"
 
 namespace terracl::analysis {
 
@@ -27,31 +28,120 @@ inline float clamped(const Heightfield& h, int x, int y, float centre) {
   return std::isnan(v) ? centre : v;
 }
 
-double quantile_sorted(const std::vector<float>& v, double q) {
-  if (v.empty()) return NAN;
-  const double pos = q * double(v.size() - 1);
-  const size_t a = size_t(pos);
-  const size_t b = std::min(a + 1, v.size() - 1);
-  return v[a] + (pos - double(a)) * (double(v[b]) - double(v[a]));
+}  // namespace
+
+namespace {
+
+// Horn's slope at (x, y) of `h` (clamped at its edges), NaN on a nodata cell.
+float slope_at(const Heightfield& h, int x, int y) {
+  const float c = h.at(x, y);
+  if (std::isnan(c)) return NAN;
+  const double cx = h.georef.cell_x, cy = h.georef.cell_y;
+  const double a = clamped(h, x - 1, y - 1, c), b = clamped(h, x, y - 1, c), cc = clamped(h, x + 1, y - 1, c);
+  const double d = clamped(h, x - 1, y, c), f = clamped(h, x + 1, y, c);
+  const double g = clamped(h, x - 1, y + 1, c), hh = clamped(h, x, y + 1, c), i = clamped(h, x + 1, y + 1, c);
+  const double dzdx = ((cc + 2 * f + i) - (a + 2 * d + g)) / (8 * cx);
+  const double dzdy = ((g + 2 * hh + i) - (a + 2 * b + cc)) / (8 * cy);
+  return float(std::atan(std::hypot(dzdx, dzdy)) * 180.0 / M_PI);
 }
 
 }  // namespace
 
 std::vector<float> slope_degrees(const Heightfield& h) {
   std::vector<float> s(h.size(), NAN);
-  const double cx = h.georef.cell_x, cy = h.georef.cell_y;
   for (int y = 0; y < h.height; ++y)
-    for (int x = 0; x < h.width; ++x) {
-      const float c = h.at(x, y);
-      if (std::isnan(c)) continue;
-      const double a = clamped(h, x - 1, y - 1, c), b = clamped(h, x, y - 1, c), cc = clamped(h, x + 1, y - 1, c);
-      const double d = clamped(h, x - 1, y, c), f = clamped(h, x + 1, y, c);
-      const double g = clamped(h, x - 1, y + 1, c), hh = clamped(h, x, y + 1, c), i = clamped(h, x + 1, y + 1, c);
-      const double dzdx = ((cc + 2 * f + i) - (a + 2 * d + g)) / (8 * cx);
-      const double dzdy = ((g + 2 * hh + i) - (a + 2 * b + cc)) / (8 * cy);
-      s[size_t(y) * h.width + x] = float(std::atan(std::hypot(dzdx, dzdy)) * 180.0 / M_PI);
-    }
+    for (int x = 0; x < h.width; ++x) s[size_t(y) * h.width + x] = slope_at(h, x, y);
   return s;
+}
+
+void LocalMetrics::merge(const LocalMetrics& o) {
+  valid += o.valid, nodata += o.nodata;
+  zmin = std::min(zmin, o.zmin), zmax = std::max(zmax, o.zmax);
+  z_sum.merge(o.z_sum);
+  slope_max = std::max(slope_max, o.slope_max);
+  slope_sum.merge(o.slope_sum);
+  for (size_t b = 0; b < slope_bins.size(); ++b) slope_bins[b] += o.slope_bins[b];
+  lap_sum.merge(o.lap_sum), lap_sum2.merge(o.lap_sum2);
+  lap_n += o.lap_n, lap_pos += o.lap_pos;
+}
+
+void accumulate_local_metrics(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch, int W, int H,
+                              LocalMetrics& m, std::vector<float>& slopes) {
+  const double cx2 = win.georef.cell_x * win.georef.cell_x, cy2 = win.georef.cell_y * win.georef.cell_y;
+  for (int gy = cy; gy < cy + ch; ++gy)
+    for (int gx = cx; gx < cx + cw; ++gx) {
+      const int x = gx - wx, y = gy - wy;
+      const float v = win.at(x, y);
+      if (!std::isfinite(v)) {
+        ++m.nodata;
+        continue;
+      }
+      ++m.valid;
+      m.zmin = std::min<double>(m.zmin, v), m.zmax = std::max<double>(m.zmax, v);
+      m.z_sum.add(v);
+      // The window holds the cell's 3x3 neighbours, or ends where the raster does (clamped alike).
+      const float s = slope_at(win, x, y);
+      slopes.push_back(s);
+      m.slope_max = std::max(m.slope_max, s);
+      m.slope_sum.add(s);
+      m.slope_bins[std::min<size_t>(17, size_t(s / 5.0f))]++;
+    }
+  // Laplacian curvature (1/m) on the raster's interior cells with valid 4-neighbours.
+  for (int gy = std::max(cy, 1); gy < std::min(cy + ch, H - 1); ++gy)
+    for (int gx = std::max(cx, 1); gx < std::min(cx + cw, W - 1); ++gx) {
+      const int x = gx - wx, y = gy - wy;
+      const double c = win.at(x, y), e = win.at(x + 1, y), wv = win.at(x - 1, y), n = win.at(x, y - 1),
+                   so = win.at(x, y + 1);
+      const double lap = (e + wv - 2 * c) / cx2 + (n + so - 2 * c) / cy2;
+      if (std::isnan(lap)) continue;
+      m.lap_sum.add(lap), m.lap_sum2.add(lap * lap), ++m.lap_n;
+      if (lap > 0) ++m.lap_pos;
+    }
+}
+
+std::pair<size_t, size_t> quantile_ranks(size_t n, double q) {
+  const double pos = q * double(n - 1);
+  const size_t a = size_t(pos);
+  return {a, std::min(a + 1, n - 1)};
+}
+
+double quantile_between(size_t n, double q, float va, float vb) {
+  const double pos = q * double(n - 1);
+  return va + (pos - double(size_t(pos))) * (double(vb) - double(va));
+}
+
+json local_metrics_json(const LocalMetrics& m, const std::array<double, 5>& quantiles, int W, int H, double cell_x,
+                        double cell_y) {
+  json j;
+  j["width"] = W;
+  j["height"] = H;
+  j["cell_x_m"] = cell_x;
+  j["cell_y_m"] = cell_y;
+  j["valid_cells"] = m.valid;
+  j["nodata_cells"] = m.nodata;
+  const double area = double(m.valid) * cell_x * cell_y;
+  j["area_m2"] = area;
+  const double mean = m.z_sum.value() / double(m.valid);
+  j["elevation"] = {{"min_m", m.zmin}, {"max_m", m.zmax}, {"mean_m", mean}, {"relief_m", m.zmax - m.zmin}};
+  j["hypsometric_integral"] = m.zmax > m.zmin ? (mean - m.zmin) / (m.zmax - m.zmin) : 0.0;
+  json hist = json::array();
+  for (uint64_t b : m.slope_bins) hist.push_back(double(b) / double(m.valid));
+  j["slope_deg"] = {{"mean", m.slope_sum.value() / double(m.valid)},
+                    {"max", m.slope_max},
+                    {"quantiles",
+                     {{"p05", quantiles[0]},
+                      {"p25", quantiles[1]},
+                      {"p50", quantiles[2]},
+                      {"p75", quantiles[3]},
+                      {"p95", quantiles[4]}}},
+                    {"histogram_5deg", hist}};
+  const double n = double(m.lap_n);
+  const double lmean = m.lap_n > 0 ? m.lap_sum.value() / n : 0.0;
+  j["laplacian_per_m"] = {
+      {"mean", lmean},
+      {"std", m.lap_n > 0 ? std::sqrt(std::max(0.0, m.lap_sum2.value() / n - lmean * lmean)) : 0.0},
+      {"fraction_concave_up", m.lap_n > 0 ? double(m.lap_pos) / n : 0.0}};
+  return j;
 }
 
 double gini(std::vector<double> v) {
@@ -140,61 +230,22 @@ double spectral_slope(const Heightfield& h) {
 json terrain_metrics(const Heightfield& h, const Progress& progress) {
   const char* stage = "metrics";
   require_indexable(h, stage);
-  const HeightStats st = compute_stats(h);
-  if (st.valid == 0) fail(stage, "the heightfield has no valid cell");
-  json j;
-  j["width"] = h.width;
-  j["height"] = h.height;
-  j["cell_x_m"] = h.georef.cell_x;
-  j["cell_y_m"] = h.georef.cell_y;
-  j["valid_cells"] = st.valid;
-  j["nodata_cells"] = st.nodata;
-  const double area = double(st.valid) * h.georef.cell_x * h.georef.cell_y;
-  j["area_m2"] = area;
-  j["elevation"] = {{"min_m", st.min}, {"max_m", st.max}, {"mean_m", st.mean}, {"relief_m", st.max - st.min}};
-  j["hypsometric_integral"] = st.max > st.min ? (st.mean - st.min) / (st.max - st.min) : 0.0;
-
-  // Slope distribution.
-  std::vector<float> s = slope_degrees(h);
-  s.erase(std::remove_if(s.begin(), s.end(), [](float v) { return std::isnan(v); }), s.end());
+  // The local statistics as a tiled run gathers them (exact sums; tile/metrics_tiles.cpp).
+  LocalMetrics m;
+  std::vector<float> s;
+  s.reserve(h.size());
+  accumulate_local_metrics(h, 0, 0, 0, 0, h.width, h.height, h.width, h.height, m, s);
+  if (m.valid == 0) fail(stage, "the heightfield has no valid cell");
   std::sort(s.begin(), s.end());
-  double smean = 0;
-  for (float v : s) smean += v;
-  smean /= double(s.size());
-  json hist = json::array();
-  {
-    std::vector<size_t> bins(18, 0);  // 5-degree bins
-    for (float v : s) bins[std::min<size_t>(17, size_t(v / 5.0f))]++;
-    for (size_t b = 0; b < bins.size(); ++b) hist.push_back(double(bins[b]) / double(s.size()));
+  std::array<double, 5> q{};
+  for (size_t i = 0; i < kMetricQuantiles.size(); ++i) {
+    const auto [a, b] = quantile_ranks(s.size(), kMetricQuantiles[i]);
+    q[i] = quantile_between(s.size(), kMetricQuantiles[i], s[a], s[b]);
   }
-  j["slope_deg"] = {{"mean", smean},
-                    {"max", s.back()},
-                    {"quantiles",
-                     {{"p05", quantile_sorted(s, 0.05)},
-                      {"p25", quantile_sorted(s, 0.25)},
-                      {"p50", quantile_sorted(s, 0.50)},
-                      {"p75", quantile_sorted(s, 0.75)},
-                      {"p95", quantile_sorted(s, 0.95)}}},
-                    {"histogram_5deg", hist}};
+  std::vector<float>().swap(s);
+  json j = local_metrics_json(m, q, h.width, h.height, h.georef.cell_x, h.georef.cell_y);
+  const double area = j["area_m2"].get<double>();
   report_progress(progress, stage, 0.1, "slope");
-
-  // Laplacian curvature (1/m) on interior cells with valid 4-neighbours.
-  {
-    const double cx2 = h.georef.cell_x * h.georef.cell_x, cy2 = h.georef.cell_y * h.georef.cell_y;
-    double sum = 0, sum2 = 0, cnt = 0, pos = 0;
-    for (int y = 1; y < h.height - 1; ++y)
-      for (int x = 1; x < h.width - 1; ++x) {
-        const double c = h.at(x, y), e = h.at(x + 1, y), wv = h.at(x - 1, y), n = h.at(x, y - 1), so = h.at(x, y + 1);
-        const double lap = (e + wv - 2 * c) / cx2 + (n + so - 2 * c) / cy2;
-        if (std::isnan(lap)) continue;
-        sum += lap, sum2 += lap * lap, cnt += 1;
-        if (lap > 0) pos += 1;
-      }
-    const double mean = cnt > 0 ? sum / cnt : 0.0;
-    j["laplacian_per_m"] = {{"mean", mean},
-                            {"std", cnt > 0 ? std::sqrt(std::max(0.0, sum2 / cnt - mean * mean)) : 0.0},
-                            {"fraction_concave_up", cnt > 0 ? pos / cnt : 0.0}};
-  }
   const double beta = spectral_slope(h);
   j["spectral_slope"] = std::isnan(beta) ? json(nullptr) : json(beta);
   report_progress(progress, stage, 0.25, "spectrum");

@@ -197,6 +197,14 @@ uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h) {
   return window_checksum(m_buffer.data(), m_buffer.size());
 }
 
+void GeoTiffWindowWriter::set_metadata_item(const std::string& key, const std::string& value) {
+  if (!m_ds) fail("io", "{}: metadata after commit", m_path);
+  std::string k = key;
+  for (char& c : k)
+    if (c == ':') c = '_';
+  m_ds->SetMetadataItem(k.c_str(), value.c_str());
+}
+
 void GeoTiffWindowWriter::flush() {
   if (!m_ds) return;
   // FlushCache() leaves the last bytes in the stdio buffer of GDAL's file handle (a killed process

@@ -64,6 +64,9 @@ class GeoTiffWindowWriter {
   /// afterwards leaves a readable file holding every window written so far.
   void flush();
   bool reopened() const { return m_reopened; }
+  /// One more metadata item (terracl:x is stored as terracl_x, as in the constructor), for what is
+  /// only known once every window is written (resize's engine scale).
+  void set_metadata_item(const std::string& key, const std::string& value);
   /// Closes the file and renames it to its final name.
   void commit();
   const std::string& path() const { return m_path; }

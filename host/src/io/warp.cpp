@@ -1,7 +1,8 @@
 // `warp` on GDAL's warper through gdal_utils' GDALWarp (the code of the gdalwarp program), so the
 // options mean and do exactly what they do in gdalwarp; no resampler of our own. The heightfield
-// travels as an in-memory (MEM) dataset both ways.
+// goes in as an in-memory (MEM) dataset and comes out of gdalwarp's virtual (VRT) output.
 #include "io/gdal_common.hpp"
+#include "io/warp_vrt.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
@@ -22,11 +23,6 @@ namespace terracl {
 namespace {
 
 std::string num(double v) { return fmt::format("{:.17g}", v); }
-
-int CPL_STDCALL warp_progress(double fraction, const char*, void* data) {
-  const Progress& p = *static_cast<const Progress*>(data);
-  return (!p || p(fraction, "warping")) ? TRUE : FALSE;
-}
 
 void check_options(const WarpOptions& o, const std::string& stage) {
   const auto& r = warp_resamplings();
@@ -56,7 +52,7 @@ void check_options(const WarpOptions& o, const std::string& stage) {
 // The output size gdalwarp will choose, computed as it does (GDALSuggestedWarpOutput2, then -te /
 // -tr / -ts), and refused before GDAL allocates it: `--tr 1e-7` asked GDAL for 3.4 TB, `--tr
 // 1e-12` and a 1e300 --projwin overflowed its int sizes ("-2147483648x-2147483648 dataset").
-void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string& stage) {
+void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string& stage, bool whole) {
   std::string dst_wkt;
   if (!o.t_srs.empty()) {
     OGRSpatialReference srs;
@@ -91,13 +87,16 @@ void check_output_size(GDALDatasetH in, const WarpOptions& o, const std::string&
   if (!(w <= double(max_raster_side) && h <= double(max_raster_side)))
     fail(stage, "the output would be {} x {} cells; each side may be at most {} cells: {}", cells(w), cells(h),
          max_raster_side, hint);
-  // The MEM output and the heightfield copied from it.
+  if (!whole) return;  // a tiled warp holds one tile of it
+  // The output read whole and the heightfield copied from it.
   const int64_t iw = std::max<int64_t>(1, int64_t(w)), ih = std::max<int64_t>(1, int64_t(h));
   require_memory(stage, fmt::format("the warp output ({} x {} cells)", iw, ih), double(iw) * double(ih) * 8, 0, 0,
                  nullptr, hint);
 }
 
 }  // namespace
+
+void io::check_warp_options(const WarpOptions& o, const std::string& stage) { check_options(o, stage); }
 
 std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_has_nodata) {
   std::vector<std::string> a = {"-r", o.resampling, "-ot", "Float32"};
@@ -111,6 +110,37 @@ std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_ha
   // Without a source nodata, gdalwarp fills cells outside the source with 0, an elevation.
   if (!source_has_nodata) a.insert(a.end(), {"-dstnodata", "nan"});
   return a;
+}
+
+io::DatasetPtr io::warped_vrt(GDALDatasetH in, const WarpOptions& o, bool source_has_nodata,
+                              const std::string& stage, bool whole) {
+  check_output_size(in, o, stage, whole);
+  std::vector<std::string> args = gdalwarp_arguments(o, source_has_nodata);
+  // A virtual (VRT) output: nothing is warped until a window is read, and each of its blocks is
+  // warped on its own (its own source window and approximate transformer along the block's rows),
+  // so a cell's value depends on its block only, not on which window asked for it. That makes the
+  // untiled warp (one read of the whole) and the tiled one (windows; tile/warp_tiles.cpp) equal
+  // bit for bit; a one-shot GDALWarp to MEM chunks by its memory limit instead, and its
+  // transformer's row interpolation then depends on the chunk (differences of ~1e-3 m).
+  args.insert(args.begin(), {"-of", "VRT"});
+  CPLStringList argv;
+  for (const auto& s : args) argv.AddString(s.c_str());
+  GDALWarpAppOptions* wo = GDALWarpAppOptionsNew(argv.List(), nullptr);
+  if (!wo) fail(stage, "GDAL refused the warp options ({})", io::last_gdal_error());
+  int usage_error = FALSE;
+  CPLErrorReset();
+  GDALDatasetH out = GDALWarp("", nullptr, 1, &in, wo, &usage_error);
+  GDALWarpAppOptionsFree(wo);
+  if (!out) fail(stage, "GDAL's warp failed ({})", io::last_gdal_error());
+  return io::DatasetPtr(GDALDataset::FromHandle(out));
+}
+
+void io::finish_warp_georef(Heightfield& r, const Heightfield& in, const WarpOptions& o) {
+  r.metadata = in.metadata;
+  // The source's CRS note ("assumed WGS 84") says nothing true of a reprojected output.
+  if (!o.t_srs.empty()) r.metadata.erase("terracl:crs_assumed");
+  r.georef.vertical_units = in.georef.vertical_units;
+  r.georef.nodata = in.georef.nodata;
 }
 
 Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& progress, const std::string& stage) {
@@ -131,34 +161,16 @@ Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& pro
   }
   const bool has_nodata = h.georef.nodata.has_value() || h.count_nodata() > 0;
   io::DatasetPtr mem = io::to_mem_dataset(*src, GDT_Float32);
-
-  GDALDatasetH in = GDALDataset::ToHandle(mem.get());
-  check_output_size(in, o, stage);
-
-  std::vector<std::string> args = gdalwarp_arguments(o, has_nodata);
-  args.insert(args.begin(), {"-of", "MEM"});
-  // GDAL's default of 64 MB of warp memory makes large rasters crawl in small chunks.
-  args.insert(args.end(), {"-wm", "512"});
-  CPLStringList argv;
-  for (const auto& s : args) argv.AddString(s.c_str());
-  GDALWarpAppOptions* wo = GDALWarpAppOptionsNew(argv.List(), nullptr);
-  if (!wo) fail(stage, "GDAL refused the warp options ({})", io::last_gdal_error());
-  GDALWarpAppOptionsSetProgress(wo, warp_progress, const_cast<Progress*>(&progress));
-  int usage_error = FALSE;
-  CPLErrorReset();
-  GDALDatasetH out = GDALWarp("", nullptr, 1, &in, wo, &usage_error);
-  GDALWarpAppOptionsFree(wo);
-  if (!out) {
-    if (progress && !progress(1.0, "warping")) throw Cancelled(stage, "cancelled");
-    fail(stage, "GDAL's warp failed ({})", io::last_gdal_error());
-  }
-  io::DatasetPtr dst(GDALDataset::FromHandle(out));
-  Heightfield r = io::from_dataset(*dst, "warp output");
-  r.metadata = h.metadata;
-  // The source's CRS note ("assumed WGS 84") says nothing true of a reprojected output.
-  if (!o.t_srs.empty()) r.metadata.erase("terracl:crs_assumed");
-  r.georef.vertical_units = h.georef.vertical_units;
-  r.georef.nodata = h.georef.nodata;
+  if (progress && !progress(0.0, "warping")) throw Cancelled(stage, "cancelled");
+  Heightfield r;
+  {
+    io::DatasetPtr dst = io::warped_vrt(GDALDataset::ToHandle(mem.get()), o, has_nodata, stage, true);
+    CPLErrorReset();
+    r = io::from_dataset(*dst, "warp output");
+    if (CPLGetLastErrorType() >= CE_Failure) fail(stage, "GDAL's warp failed ({})", io::last_gdal_error());
+  }  // the VRT goes before the source it reads
+  if (progress && !progress(1.0, "warping")) throw Cancelled(stage, "cancelled");
+  io::finish_warp_georef(r, h, o);
   if (local) {
     r.georef.cell_x = std::fabs(r.georef.geotransform[1]);
     r.georef.cell_y = std::fabs(r.georef.geotransform[5]);

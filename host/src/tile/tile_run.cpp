@@ -24,6 +24,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/memory.hpp>
@@ -34,6 +35,8 @@
 #include "tile/journal.hpp"
 #include "tile/tile_comm.hpp"
 #include "tile/tile_sinks.hpp"
+#include "tile/warp_tiles.hpp"
+#include "io/warp_vrt.hpp"
 
 namespace terracl {
 namespace fs = std::filesystem;
@@ -146,6 +149,7 @@ struct Segment {
   std::shared_ptr<io::GdalWindowReader> source;
   Level level0;
   std::vector<Op> ops;
+  Metadata metadata;  // items a global stage made that its file's header does not give back (resize's engine scale)
 };
 
 // Runs tile by tile and writes what the run needs: shared state of one run_tiled call.
@@ -198,11 +202,16 @@ class TiledRun {
   std::vector<std::string> m_temporaries;
   size_t m_progress_index = 0, m_progress_count = 1;
   std::function<Device&()> m_device;
+  std::optional<Level> m_warped;  // the output grid of the last global warp / resize
+  Metadata m_warped_metadata;     // and the metadata items it added
   size_t m_kill_after = 0;  // TERRACL_TEST_KILL_AFTER_TILES: SIGKILL after this many tiles (tests of --resume)
 
  public:
   TileCounts m_counts;
 };
+
+// A warp's options are checked before any tile runs (as the untiled stage checks them first).
+void io_check_warp(const PipelineStage& st) { io::check_warp_options(tile::warp_options_of(st), st.tag); }
 
 // What identifies a source file's content for a resume journal.
 std::string file_stamp(const std::string& path) {
@@ -323,7 +332,7 @@ void TiledRun::run() {
     const StageTiling tl = tiling_of(st);
     if (tl.kind == TileKind::Untileable) refuse(st, tl.limit);
     if (m_t.resume && tl.kind == TileKind::Sink && st.type != "write")
-      throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot --resume: it builds its picture in a file "
+      throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot --resume: it builds its picture or report in a file "
                                           "of its own that keeps no journal; run without --resume",
                                           m_p.source(), st.where, st.tag, st.type));
     if (st.info->input == DataKind::None && tl.kind != TileKind::Source)
@@ -359,7 +368,10 @@ void TiledRun::run_chain(size_t first, size_t last) {
     if (tl.kind == TileKind::Global) {
       // Is the global stage's output written right away and nothing else follows? Then it writes
       // the final file itself (no temporary copy).
-      const bool direct = i + 2 == last && stages[i + 1].type == "write";
+      // (Not a warp: it writes its input to the global stage's file first, and a warp's output
+      // is a new grid; a failed warp must leave no output behind.)
+      const bool direct = i + 2 == last && stages[i + 1].type == "write" && !tile::is_warp_stage(st);
+      if (tile::is_warp_stage(st)) io_check_warp(st);
       std::string out;
       Metadata md;
       if (direct) {
@@ -376,6 +388,11 @@ void TiledRun::run_chain(size_t first, size_t last) {
       next.read_tag = st.tag;
       next.stamp = st.tag;  // recomputed by every run from the same input: its name suffices
       next.source = std::make_shared<io::GdalWindowReader>(out);
+      next.metadata = seg.metadata;
+      if (tile::is_warp_stage(st)) {
+        level = *m_warped;  // a new grid: GDAL's for the whole input
+        for (const auto& [k, v] : m_warped_metadata) next.metadata[k] = v;
+      }
       next.level0 = level;  // the level's own georef (metric cell size), not one recomputed from the file
       next.level0.georef.nodata = next.source->header().georef.nodata;
       next.level0.georef.vertical_units = next.source->header().georef.vertical_units;  // m2 after drainage
@@ -433,7 +450,10 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   }
   const size_t nl = levels.size();
   const bool has_global = global != nullptr;
-  const bool to_temp = has_global && !seg.ops.empty();  // else the global stage reads the source directly
+  const bool warp = has_global && tile::is_warp_stage(*global);
+  // Else the global stage reads the source directly; a warp always reads the level as the tile
+  // writer stores it (float32, NaN as the level's nodata), which is what the untiled warp sees.
+  const bool to_temp = has_global && (!seg.ops.empty() || warp);
   // Memory: the windows of one tile (about 3 copies of a float cell per level: the window, the
   // extracted input, the stage's output) and the writers' buffers.
   double per_cell = 12.0 * double(nl) + 4.0 * 2;
@@ -445,7 +465,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     fixed = 0;  // the perimeter graph is added below once the tile size is known
   }
   int T = tile_size(seg, per_cell * (1 + 4.0 * (total_halo + extra_halo) / 256.0), fixed);
-  if (has_global && m_t.memory_budget > 0) {
+  if (has_global && !warp && m_t.memory_budget > 0) {
     // Perimeter cells (4 per tile side cell), each with its node, about four edges while the graph
     // is built (24 B each) and its adjacency: about 200 B per perimeter cell at the peak.
     const double graph = 4.0 * double(levels.back().w) * levels.back().h / T * 200.0;
@@ -472,7 +492,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     std::vector<Win> core, need;
   };
   std::vector<TilePlan> plans;
-  for (int j = 0; j < ty && !seg.ops.empty(); ++j)
+  for (int j = 0; j < ty && (!seg.ops.empty() || to_temp); ++j)
     for (int i = 0; i < tx; ++i) {
       std::vector<Win> core(nl), need(nl);
       core[0] = {i * T, j * T, std::min(W0.w, (i + 1) * T), std::min(W0.h, (j + 1) * T)};
@@ -546,7 +566,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       Metadata md = tile_md;
       drop_terracl_keys(md);
       const Level& L = levels[op.level];
-      sink = tile::make_render_sink(*op.st, L.w, L.h, L.georef, md, provenance(*op.st), m_device, comm.rank() == 0);
+      sink = op.st->type == "metrics"
+                 ? tile::make_metrics_sink(*op.st, L.w, L.h, L.georef, provenance(*op.st), comm.rank() == 0)
+                 : tile::make_render_sink(*op.st, L.w, L.h, L.georef, md, provenance(*op.st), m_device, comm.rank() == 0);
     }
     return *sink;
   };
@@ -567,6 +589,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     data.height = seg.source->read(have.x0, have.y0, have.w(), have.h());
     data.height->georef = georef_at(levels[0].georef, have.x0, have.y0);
     drop_terracl_keys(data.height->metadata);
+    for (const auto& [k, v] : seg.metadata) data.height->metadata[k] = v;
     m_seconds[seg.read_tag] += std::chrono::duration<double>(Clock::now() - t0).count();
     for (size_t oi = 0; oi < seg.ops.size(); ++oi) {
       const Op& op = seg.ops[oi];
@@ -710,10 +733,27 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   auto t0 = Clock::now();
   // From a temporary file, the result goes to a second one that then replaces it (and becomes the
   // next segment's source).
-  std::shared_ptr<io::GdalWindowReader> in = to_temp ? std::make_shared<io::GdalWindowReader>(global_out) : seg.source;
   const Level& L = levels[nl - 1];
   const std::string out_path = to_temp ? global_out + ".filled.tif" : global_out;
   Metadata md = global_md;
+  if (warp) {
+    // Rank 0 warps; every rank needs the output grid for the next segment.
+    const Heightfield hdr =
+        tile::warp_tiles(*global, global_out, L.georef, out_path, T, md, comm.rank() == 0, progress(global->tag));
+    m_warped = Level{hdr.width, hdr.height, hdr.georef};
+    m_warped_metadata.clear();
+    for (const auto& [k, v] : hdr.metadata)
+      if (k.rfind("engine:", 0) == 0) m_warped_metadata[k] = v;
+    if (comm.rank() == 0 && to_temp) {
+      std::error_code ec;
+      fs::rename(out_path, global_out, ec);
+      if (ec) fail("run", "cannot rename {} to {}: {}", out_path, global_out, ec.message());
+    }
+    comm.barrier();
+    add_seconds(*global, std::chrono::duration<double>(Clock::now() - t0).count());
+    return;
+  }
+  std::shared_ptr<io::GdalWindowReader> in = to_temp ? std::make_shared<io::GdalWindowReader>(global_out) : seg.source;
   const bool drainage = global->type == "drainage";
   Georef out_georef = L.georef;
   if (drainage) {  // as run_drainage labels its output

@@ -40,4 +40,10 @@ std::unique_ptr<TileSink> make_render_sink(const PipelineStage& stage, int width
                                            const Metadata& metadata, const Metadata& provenance,
                                            std::function<Device&()> device, bool open = true);
 
+/// The tiled `metrics` (metrics_tiles.cpp): the report's local statistics equal to the untiled
+/// report's bit for bit, without the global figures (a note in the JSON says so). open = false:
+/// a sink that only draws.
+std::unique_ptr<TileSink> make_metrics_sink(const PipelineStage& stage, int width, int height, const Georef& level,
+                                            const Metadata& provenance, bool open = true);
+
 }  // namespace terracl::tile

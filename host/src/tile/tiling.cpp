@@ -94,7 +94,11 @@ StageTiling tiling_of(const PipelineStage& st) {
         "two things depend on the whole output, so tiles would differ from the untiled run: the patch choice "
         "is hashed on the output width, and the detail blend's correlation is measured over all of the "
         "output's patches (a first pass); amplify untiled (its own --tile bounds its work memory)");
-  if (t == "extract") return refuse("it produces a gradient field; tiled runs carry heightfields only");
+  if (t == "extract")
+    return refuse(
+        "it produces a gradient field, which terracl writes only as OpenEXR (two float channels, written whole); "
+        "tiled runs carry heightfields and write GeoTIFF windows (a tiled 2-band gradient GeoTIFF is not "
+        "implemented yet); run extract untiled");
   if (t == "render") {
     // gdaldem's 3x3 window: a halo of one cell; written by its own sink (tile/render_tiles.cpp).
     const std::string why = tile::render_tiling_limit(o);
@@ -128,17 +132,8 @@ StageTiling tiling_of(const PipelineStage& st) {
         "a cell's breach path follows the back-links of one global priority flood (first reached, ties "
         "by raster index) and each cut lowers cells that later comparisons see, so tiles cannot reproduce "
         "it; run it untiled (docs/scale.md says what a tiled form needs)");
-  if (t == "warp" || t == "resize")
-    return refuse(
-        "its output grid follows the whole raster's extent (GDAL's suggested output for a new CRS or size) and "
-        "each output cell reads a source window found through the transform and the resampling kernel, which "
-        "the tile engine's windows (crops, integer block factors) do not describe; warp untiled, or with "
-        "gdalwarp (which warps out of core in chunks) on the tiled output");
-  if (t == "metrics")
-    return refuse(
-        "its report is of the whole raster: slope quantiles over every cell, one spectrum of the raster, and "
-        "fill, breach and drainage figures from global floods; tiles' reports do not add up to it; run it "
-        "untiled on the output (or on a downsample of it)");
+  if (t == "warp" || t == "resize") return kind(TileKind::Global);  // GDAL's warped VRT, window by window (warp_tiles.cpp)
+  if (t == "metrics") return kind(TileKind::Sink, 1);  // local statistics, exact; global figures left out (metrics_tiles.cpp)
   if (t == "sketch")
     return refuse(
         "its river and ridge thresholds are fractions of the whole raster's cells on a D8 accumulation of the "

@@ -1,0 +1,189 @@
+// Tiled warp and resize (docs/scale.md, "Tiled warp"): the output grid of the whole input and
+// every cell equal to the untiled run bit for bit, for each resampling, a reprojection to UTM, odd
+// sizes, tiles that do not divide them, nodata, behind and before other stages, and under --resume.
+#include <gdal.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/tile.hpp>
+
+#include "test_helpers.hpp"
+
+namespace terracl {
+namespace {
+
+namespace fs = std::filesystem;
+
+void expect_same_raster(const std::string& untiled, const std::string& tiled, bool provenance = true) {
+  SCOPED_TRACE(tiled);
+  const Heightfield a = read_heightfield(untiled), b = read_heightfield(tiled);
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  EXPECT_EQ(test::bit_differences(a, b), 0u);
+  EXPECT_EQ(a.georef.geotransform, b.georef.geotransform);
+  EXPECT_EQ(a.georef.crs_wkt, b.georef.crs_wkt);
+  EXPECT_EQ(a.georef.nodata.has_value(), b.georef.nodata.has_value());
+  EXPECT_EQ(a.georef.cell_x, b.georef.cell_x);
+  EXPECT_EQ(a.georef.cell_y, b.georef.cell_y);
+  EXPECT_EQ(a.count_nodata(), b.count_nodata());
+  if (provenance)
+    EXPECT_EQ(a.metadata.at("terracl:stages"), b.metadata.count("terracl:stages") ? b.metadata.at("terracl:stages") : "");
+  // Items read_heightfield does not give back: the metric cell size and resize's engine scale.
+  for (const char* k : {"terracl_cell_x", "terracl_cell_y", "engine_unreal_z_scale", "engine_unity_terrain_height_m"}) {
+    std::string va, vb;
+    for (auto [f, v] : {std::pair{&untiled, &va}, std::pair{&tiled, &vb}}) {
+      GDALDatasetH ds = GDALOpen(f->c_str(), GA_ReadOnly);
+      ASSERT_TRUE(ds);
+      const char* item = GDALGetMetadataItem(ds, k, nullptr);
+      *v = item ? item : "(missing)";
+      GDALClose(ds);
+    }
+    EXPECT_EQ(va, vb) << k;
+  }
+}
+
+void run_both(const test::TempDir& dir, const std::string& doc, const TileOptions& to) {
+  for (const char* which : {"u", "t"}) {
+    std::string text = doc;
+    const std::string out = dir.path(which);
+    for (size_t p; (p = text.find("OUT")) != std::string::npos;) text.replace(p, 3, out);
+    Pipeline p = Pipeline::parse(json::parse(text), "tiles", "tiles.json");
+    p.validate();
+    RunOptions ro;
+    ro.device = []() -> Device& { return test::device(); };
+    ro.write_resolved = false;
+    RunReport r;
+    if (which[0] == 'u')
+      p.run(ro, r);
+    else
+      run_tiled(p, to, ro, r);
+  }
+}
+
+// An odd-sized crop of the SRTM tile (EPSG:4326), with a nodata hole across tile borders and
+// scattered voids.
+std::string dem_input(const test::TempDir& dir, int w, int h) {
+  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  Heightfield t(w, h);
+  t.georef = dem.georef;
+  auto& gt = t.georef.geotransform;
+  gt[0] += 300 * gt[1];
+  gt[3] += 200 * gt[5];
+  t.georef.update_metric_cell_size(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(300 + x, 200 + y);
+  t.georef.nodata = -32768;
+  for (int y = 40; y < std::min(h, 90); ++y)
+    for (int x = 100; x < std::min(w, 170); ++x) t.at(x, y) = NAN;
+  std::mt19937 rng(3);
+  for (int k = 0; k < 200; ++k) t.at(int(rng() % w), int(rng() % h)) = NAN;
+  const std::string f = dir.path("in.tif");
+  write_heightfield(t, f);
+  return f;
+}
+
+}  // namespace
+
+TEST(TileWarp, ReprojectionEqualsUntiledForEveryResampling) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 211, 157);
+  for (const std::string r : {"near", "bilinear", "cubic", "lanczos", "average"}) {
+    // Straight from the reader, then behind a crop and before a downsample (a warp between segments).
+    const std::string doc = R"([")" + in + R"(", {"type": "warp", "t_srs": "EPSG:32619", "tr": [70, 70],
+        "resampling": ")" + r + R"("}, "OUT/a.tif", {"type": "crop", "x": 3, "y": 5}, {"type": "warp",
+        "tr": [150, 150], "resampling": ")" + r + R"("}, "OUT/b.tif", {"type": "crop", "x": 1, "y": 2, "width": 40}, "OUT/c.tif"])";
+    TileOptions to;
+    to.tile = r == "near" ? 64 : 37;
+    run_both(dir, doc, to);
+    for (const char* f : {"a.tif", "b.tif", "c.tif"})
+      expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
+    const Heightfield a = read_heightfield(dir.path("t/a.tif"));
+    EXPECT_FALSE(a.georef.geographic) << r;
+    EXPECT_GT(a.count_nodata(), 1000u) << r << ": the hole and the reprojection margins stay nodata";
+  }
+}
+
+TEST(TileWarp, ResizeAndSizeEqualUntiled) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 203, 141);
+  const std::string doc = R"([")" + in + R"(", {"type": "resize", "width": 517, "height": 389, "resampling": "cubic"},
+      "OUT/r.tif", {"type": "warp", "ts": [99, 0], "resampling": "average"}, "OUT/s.tif",
+      {"type": "resize", "preset": "unreal-505"}, "OUT/e.tif"])";
+  TileOptions to;
+  to.tile = 100;
+  run_both(dir, doc, to);
+  for (const char* f : {"r.tif", "s.tif", "e.tif"})
+    expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
+  const Heightfield e = read_heightfield(dir.path("t/e.tif"));
+  EXPECT_EQ(e.width, 505);
+  GDALDatasetH ds = GDALOpen(dir.path("t/e.tif").c_str(), GA_ReadOnly);
+  ASSERT_TRUE(ds);
+  EXPECT_TRUE(GDALGetMetadataItem(ds, "engine_unreal_z_scale", nullptr)) << "resize records the engine Z scale";
+  GDALClose(ds);
+}
+
+TEST(TileWarp, KilledRunResumesToTheUntiledOutput) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 150, 111);
+  const std::string p = dir.path("p.json");
+  std::ofstream(p) << R"([")" << in << R"(", {"type": "warp", "t_srs": "EPSG:32619", "tr": [60, 60],
+      "resampling": "bilinear"}, ")" << dir.path("w.tif") << R"("])";
+  auto u = test::run_cli("run " + p);
+  ASSERT_EQ(u.exit_code, 0) << u.out;
+  fs::rename(dir.path("w.tif"), dir.path("u.tif"));
+  // 12 tiles of the warp's input, then the output's tiles: killed 5 tiles into the output.
+  setenv("TERRACL_TEST_KILL_AFTER_TILES", "17", 1);
+  auto killed = test::run_cli("run " + p + " --tile 40 --resume");
+  unsetenv("TERRACL_TEST_KILL_AFTER_TILES");
+  EXPECT_NE(killed.exit_code, 0) << killed.out;
+  EXPECT_FALSE(fs::exists(dir.path("w.tif")));
+  ASSERT_TRUE(fs::exists(dir.path("w.tif.journal")));
+  auto resumed = test::run_cli("run " + p + " --tile 40 --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.out;
+  EXPECT_NE(resumed.out.find("5 finished before"), std::string::npos) << resumed.out;
+  expect_same_raster(dir.path("u.tif"), dir.path("w.tif"));
+}
+
+TEST(TileWarp, SubcommandsTakeTile) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 140, 101);
+  for (const auto& [cmd, args] : {std::pair<std::string, std::string>{"warp", "--t-srs EPSG:32619 --tr 70 70 -r cubic"},
+                                  {"resize", "--size 333 257 -r lanczos"}}) {
+    const std::string u = dir.path(cmd + "_u.tif"), t = dir.path(cmd + "_t.tif");
+    auto r = test::run_cli(cmd + " " + in + " -o " + u + " " + args);
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    r = test::run_cli(cmd + " " + in + " -o " + t + " " + args + " --tile 50");
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    expect_same_raster(u, t, false);
+  }
+  const auto bad = test::run_cli("warp " + in + " -o " + dir.path("x.tif") + " --tr 70 70 --tile 50 --fill-nodata");
+  EXPECT_EQ(bad.exit_code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--fill-nodata"), std::string::npos) << bad.out;
+}
+
+TEST(TileWarp, BadOptionsNameTheStage) {
+  test::TempDir dir;
+  const std::string in = dem_input(dir, 64, 64);
+  Pipeline p = Pipeline::parse(
+      json::parse("[\"" + in + R"(", {"type": "warp", "tr": [30]}, ")" + dir.path("o.tif") + "\"]"), "x", "x.json");
+  p.validate();
+  RunReport r;
+  TileOptions to;
+  to.tile = 32;
+  try {
+    run_tiled(p, to, RunOptions{}, r);
+    ADD_FAILURE() << "a bad tr ran";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'tr'"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path("o.tif")));
+}
+
+}  // namespace terracl
