@@ -194,7 +194,7 @@ TEST(Tile, UntileableStagesAreRefusedNamingStageAndLimit) {
   for (const Case& c :
        {Case{R"({"type": "erode", "delta": "d.tif"})", "/1: stage 'erode' (erode) cannot run tiled"},
         Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"}, Case{R"("extract")", "gradient field"},
-        Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "amplify untiled"},
+        Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "learns its dictionaries in the run"},
         // Stages whose result depends on the whole raster say what (docs/scale.md).
         Case{R"({"type": "warp", "t_srs": "EPSG:32619"})", "/1: stage 'warp' (warp) cannot run tiled: its output grid"},
         Case{R"({"type": "resize", "width": 32, "height": 32})", "GDAL's suggested output"},
