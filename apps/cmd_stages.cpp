@@ -47,6 +47,11 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   for (const auto& o : s.options)
     tileable &= (o.name != "tile" || s.name == "amplify") && o.name != "halo" && o.name != "memory_budget";
   if (tileable) a->tile.add(sub);
+  if (s.name == "amplify")  // the stage option it stands in for, named (its help and unit) for `--help`
+    for (const auto& o : s.options)
+      if (o.name == "tile")
+        sub->get_option("--tile")->description("Tiled out-of-core run with tiles of this many input cells [" + o.unit +
+                                               "]; in a pipeline, \"tile\" is the work tiling: " + o.help);
   const StageInfo* sp = &s;
   sub->callback([a, sp, sub] {
     const StageInfo& s = *sp;
