@@ -38,13 +38,20 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   auto* out = sub->add_option("-o,--output", a->output, "Output file (format from the extension)");
   if (!passes) out->required();
   if (s.input == DataKind::Heightfield) sub->add_flag("--fill-nodata", a->fill_nodata, "Fill nodata cells first");
+  // amplify: --tile is a tiled run (docs/scale.md); its work tiling stays the pipeline option "tile".
+  if (s.name == "amplify") a->flags.skip = {"tile"};
   a->flags.add(sub, s);
   if (s.input == DataKind::Heightfield || s.input == DataKind::Any) a->in.add(sub);
   if (s.output == DataKind::Heightfield) a->out.add(sub);
-  // amplify has a --tile of its own (it bounds its work memory) and cannot run tiled anyway.
   bool tileable = s.input == DataKind::Heightfield && s.output == DataKind::Heightfield;
-  for (const auto& o : s.options) tileable &= o.name != "tile" && o.name != "halo" && o.name != "memory_budget";
+  for (const auto& o : s.options)
+    tileable &= (o.name != "tile" || s.name == "amplify") && o.name != "halo" && o.name != "memory_budget";
   if (tileable) a->tile.add(sub);
+  if (s.name == "amplify")  // the stage option it stands in for, named (its help and unit) for `--help`
+    for (const auto& o : s.options)
+      if (o.name == "tile")
+        sub->get_option("--tile")->description("Tiled out-of-core run with tiles of this many input cells [" + o.unit +
+                                               "]; in a pipeline, \"tile\" is the work tiling: " + o.help);
   const StageInfo* sp = &s;
   sub->callback([a, sp, sub] {
     const StageInfo& s = *sp;

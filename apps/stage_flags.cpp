@@ -1,5 +1,6 @@
 #include "stage_flags.hpp"
 
+#include <algorithm>
 #include <fmt/format.h>
 
 namespace terracl::cli {
@@ -12,6 +13,7 @@ std::string kebab(std::string s) {
 
 void StageFlags::add(CLI::App* sub, const StageInfo& stage, const std::string& output_option, bool enforce_required) {
   for (const auto& o : stage.options) {
+    if (std::find(skip.begin(), skip.end(), o.name) != skip.end()) continue;
     std::string help = o.help;
     if (!o.unit.empty()) help += fmt::format(" [{}]", o.unit);
     if (o.type == OptionType::Enum) help += fmt::format(" ({})", fmt::join(o.choices, "|"));
@@ -47,6 +49,7 @@ void check_stage_files(const StageInfo& stage, const json& resolved, std::vector
 json StageFlags::given(const CLI::App* sub, const StageInfo& stage) const {
   json opts = json::object();
   for (const auto& o : stage.options) {
+    if (std::find(skip.begin(), skip.end(), o.name) != skip.end()) continue;
     const std::string flag = "--" + kebab(o.name);
     if (o.type == OptionType::Bool) {
       if (sub->count(flag) || sub->count("--no-" + kebab(o.name))) opts[o.name] = m_flags.at(o.name);

@@ -46,6 +46,8 @@ class StageFlags {
   void add(CLI::App* sub, const StageInfo& stage, const std::string& output_option = "", bool enforce_required = true);
   /// The options the user gave, as JSON values of their declared types (not yet validated).
   json given(const CLI::App* sub, const StageInfo& stage) const;
+  /// Options left out of add() (and given()): amplify's "tile", whose --tile is a tiled run.
+  std::vector<std::string> skip;
 
  private:
   std::map<std::string, std::string> m_values;

@@ -91,15 +91,13 @@ bool setup_ranks(int argc, char** argv) {
   if (distributed::size() <= 1) return true;
   auto& g = globals();
   if (distributed::rank() != 0) g.quiet = true;
-  bool tiled = false, amplify = false, reconstruct = false, hypre = false;
+  bool tiled = false, reconstruct = false, hypre = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     tiled |= a == "--tile" || a.rfind("--tile=", 0) == 0 || a == "--memory-budget" || a.rfind("--memory-budget=", 0) == 0;
-    amplify |= a == "amplify";  // its --tile is its work memory, not a tiled run
     reconstruct |= a == "reconstruct";
     hypre |= a == "--solver=hypre" || (a == "--solver" && i + 1 < argc && std::string(argv[i + 1]) == "hypre");
   }
-  tiled &= !amplify;
   // `reconstruct --solver hypre` distributes its solve over the ranks itself (rank 0 writes).
   if (reconstruct && hypre) return true;
   if (!tiled) {

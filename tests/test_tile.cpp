@@ -194,7 +194,7 @@ TEST(Tile, UntileableStagesAreRefusedNamingStageAndLimit) {
   for (const Case& c :
        {Case{R"({"type": "erode", "delta": "d.tif"})", "/1: stage 'erode' (erode) cannot run tiled"},
         Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"}, Case{R"("extract")", "gradient field"},
-        Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "amplify untiled"},
+        Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "learns its dictionaries in the run"},
         // Stages whose result depends on the whole raster say what (docs/scale.md).
         Case{R"({"type": "sketch", "file": ")" + dir.path("s.png") + R"("})",
              "fractions of the whole raster's cells"}}) {

@@ -7,6 +7,7 @@
 #include "mesh/mesh_gltf.hpp"
 #include "pipeline/builtin.hpp"
 #include "render/render_internal.hpp"
+#include "tile/amplify_tiles.hpp"
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
@@ -66,6 +67,14 @@ void write_gltf(const Mesh&, const std::string& path, bool, const Metadata&, con
 }  // namespace mesh
 
 // Tiled runs read and write GDAL windows.
+namespace tile {
+StageTiling amplify_tiling(const json&) {
+  StageTiling t;
+  t.limit = "amplify is not available in the core build (TERRACL_CORE_ONLY); use the full build";
+  return t;
+}
+}  // namespace tile
+
 void run_tiled(const Pipeline&, const TileOptions&, const RunOptions&, RunReport&, TileCounts*) {
   fail("run", "--tile: tiled runs read and write GeoTIFF windows through GDAL, which the core build "
        "(TERRACL_CORE_ONLY) leaves out; use the full build");

@@ -293,6 +293,23 @@ struct AmplifyOptions {
 /// georeferenced at the finer cell size and its f x f block means equal the input (correction).
 Heightfield amplify(const Heightfield& low, const Dictionary& dict, const AmplifyOptions& o,
                     const Progress& progress = {});
+/// Tiled amplification (docs/scale.md, "Tiled amplify"): reads cells [x, x + w) x [y, y + h) of the
+/// whole input (its georef's cell size the whole raster's).
+using AmplifyWindowReader = std::function<Heightfield(int x, int y, int w, int h)>;
+/// The detail blend's correlation of every step (empty for the average blend and faithful mode),
+/// measured on the central 256^2 cells of each step's input (through `read`): a function of the
+/// whole `width` x `height` input only, computed once before the tiles.
+std::vector<float> amplify_correlations(const AmplifyWindowReader& read, int width, int height, const Dictionary& dict,
+                                        const AmplifyOptions& o);
+/// Input cells on each side that an output cell of the whole cascade depends on (patch footprints,
+/// the base's taps, the bias correction's passes).
+int amplify_halo(const Dictionary& dict, const AmplifyOptions& o);
+/// Amplifies the window `low` of the whole input, whose first cell is the input's cell (x0, y0),
+/// with the whole input's `correlations` (amplify_correlations): every output cell farther than
+/// amplify_halo input cells from a window edge that is not the input's edge equals amplify()'s bit
+/// for bit. amplify() is this with the window = the whole input.
+Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Dictionary& dict, const AmplifyOptions& o,
+                           const std::vector<float>& correlations, const Progress& progress = {});
 /// Learns a dictionary per step from the exemplars brought to that step's output cell size
 /// (block means when the exemplar is finer), then amplifies. Throws on mismatched cell sizes.
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
@@ -348,6 +365,8 @@ Heightfield upsample(const Heightfield& h, int f, const std::string& base);
 void add_upsampled(Heightfield& out, const Heightfield& low, int f, float scale, const std::string& base);
 /// The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low, f, base), row-major into `out` (w h floats).
 void upsample_window(const Heightfield& low, int f, const std::string& base, int X0, int Y0, int w, int h, float* out);
+/// Input cells on each side that upsample(low, f, base) reads for one output cell (its taps' reach).
+int upsample_reach(int f, const std::string& base);
 /// Makes every f x f block mean of `high` equal the corresponding cell of `low`: a few smooth
 /// back-projection passes (upsample(residual, f, base)), then an exact constant shift per block.
 void correct_block_means(Heightfield& high, const Heightfield& low, int f, int smooth_passes = 4,

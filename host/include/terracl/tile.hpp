@@ -28,10 +28,17 @@ struct StageTiling {
   TileKind kind = TileKind::Untileable;
   int halo = 0;       ///< Local: footprint radius in input cells
   int down = 1;       ///< Local: output cell = block of down x down input cells (downsample)
+  int up = 1;         ///< Local: input cell = block of up x up output cells (amplify); halo in input cells
   std::string limit;  ///< Untileable: the reason, for the error message
   /// Local: when set, the halo from the input level's georeferencing (erosion: its step count
   /// follows the metric cell size); replaces `halo`.
   std::function<int(const Georef& level)> halo_of;
+  /// Local: when set, run once before the tiles with a reader of the stage's whole input (any
+  /// window of its level, computed through the stages before it) and its size; what it returns is
+  /// handed to the stage on every tile as metadata "terracl:tile_prepass" (amplify: the detail
+  /// blend's correlations, a global quantity). Each tile also gets "terracl:tile_window" = "x y",
+  /// its window's first cell in the level.
+  std::function<std::string(const std::function<Heightfield(int x, int y, int w, int h)>& read, int w, int h)> prepass;
 };
 
 /// The stage table's tiling column: how `stage` (with its resolved options) tiles.

@@ -64,24 +64,355 @@ AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
   return o;
 }
 
+// One x f step over a window of the step's input whose first cell is the input's global cell
+// (ox, oy). Every choice and every sum follows global output coordinates - which patches exist,
+// their low-resolution footprints, the candidate draw (hashed on the patch's global index and the
+// step), the order in which a cell's patches are added (by the global patch row's phase, then
+// column) - so a window with enough halo (amplify_halo) gives the whole raster's cells bit for bit.
+// Patch k covers output cells [k S - Q, k S - Q + P) globally; its footprint starts at (k S - Q) / f.
+class StepEngine {
+ public:
+  StepEngine(const Heightfield& low, int ox, int oy, int step, const Dictionary& d, const AmplifyOptions& o,
+             const AtomIndex* index)
+      : m_low(low), m_ox(ox * d.factor), m_oy(oy * d.factor), m_step(step), m_d(d), m_o(o), m_index(index),
+        f(d.factor), P(d.patch), p(d.low_patch()), S(o.spacing), Q(P - S), pm_(P / f),
+        m_weights(patch_weights(P)), m_lmask(patch_mask(p)) {
+    for (float m : m_lmask) m_lmsum += m;
+    m_use_omp = o.sparsity > 1 || o.search == "omp";
+    m_detail_blend = o.blend == "detail";
+    // The smooth part M X M^T with M = U B (B: P/f x P block means, U = f M B^T: P x P/f bicubic),
+    // computed as U (B X B^T) U^T: ~2.5k multiply-adds per patch instead of 8k for two P^3 products.
+    m_bmat = MatrixF::Zero(pm_, P);
+    for (int x = 0; x < pm_; ++x)
+      for (int u = 0; u < f; ++u) m_bmat(x, x * f + u) = 1.f / f;
+    m_umat = float(f) * smooth_part_operator(P, f, o.base) * m_bmat.transpose();
+    // The magnitude term compares relief at the dictionary's cell size (self-similar scaling when a
+    // dictionary serves a coarser step).
+    const Georef g = low.georef.resampled(f);
+    m_qscale = d.cell_x > 0 && g.cell_x > 0 ? float(d.cell_x / g.cell_x) : 1.f;
+  }
+
+  bool detail_blend() const { return m_detail_blend; }
+
+  // Sums of the blend over the local output cells [X0, X1) x [Y0, Y1): num, den (sum w^2 for the
+  // detail blend, else sum w) and den1 (sum w, detail blend only).
+  void blend(int X0, int Y0, int X1, int Y1, std::vector<float>& num, std::vector<float>& den,
+             std::vector<float>& den1) const {
+    const int gx0 = m_ox + X0, gy0 = m_oy + Y0;
+    const int kx0 = first(gx0), kx1 = last(m_ox + X1), ky0 = first(gy0), ky1 = last(m_oy + Y1);
+    const int nx = kx1 - kx0, ny = ky1 - ky0;
+    const size_t m = size_t(nx) * ny;
+    const int tw = X1 - X0, th = Y1 - Y0;
+    num.assign(size_t(tw) * th, 0.f);
+    den.assign(num.size(), 0.f);
+    den1.assign(m_detail_blend ? num.size() : 0, 0.f);
+    if (m == 0) return;
+    std::vector<float> z(m);
+    MatrixF q(p * p, Eigen::Index(m));
+    parallel_for(m, m_o.threads, [&](size_t b, size_t e) {
+      for (size_t c = b; c < e; ++c) {
+        const int lx = ((kx0 + int(c % nx)) * S - Q) / f - m_ox / f, ly = ((ky0 + int(c / nx)) * S - Q) / f - m_oy / f;
+        double s = 0;
+        for (int v = 0; v < p; ++v)
+          for (int u = 0; u < p; ++u)
+            s += m_lmask[v * p + u] * m_low.at(clampi(lx + u, m_low.width), clampi(ly + v, m_low.height));
+        const float mean = float(s / m_lmsum);
+        for (int v = 0; v < p; ++v)
+          for (int u = 0; u < p; ++u)
+            q(v * p + u, Eigen::Index(c)) =
+                m_lmask[v * p + u] * (m_low.at(clampi(lx + u, m_low.width), clampi(ly + v, m_low.height)) - mean);
+        z[c] = mean;
+      }
+    });
+    SparseCodes codes;
+    if (m_use_omp) {
+      codes = batch_omp(m_d.low, q, m_o.sparsity, m_o.threads);
+    } else {
+      // k nearest atoms averaged: their shared detail adds up, the rest partly cancels. With a
+      // larger candidate pool, each patch draws its k from the pool by a hash of its position, so
+      // that equal footprints (straight painted edges) do not repeat the same detail.
+      const int k = std::max(1, m_o.neighbours), pool = std::max(k, m_o.candidates);
+      AtomMatch a = m_index ? m_index->search(q, m_o.threads, pool, m_qscale)
+                            : exact_atom_search(m_d.low, q, m_o.threads, pool, &m_d.low_norm, m_o.magnitude_weight,
+                                                m_qscale);
+      codes.sparsity = k;
+      codes.index.assign(m * size_t(k), -1);
+      codes.coef.assign(m * size_t(k), 0.f);
+      for (size_t c = 0; c < m; ++c) {
+        int32_t* idx = &a.index[c * pool];
+        float* coef = &a.coef[c * pool];
+        int found = 0;
+        while (found < pool && idx[found] >= 0) ++found;
+        if (found > k) {
+          // Hashed on the patch's global index and the step (not on the output's size): a tile
+          // draws what the whole raster draws.
+          uint64_t h = position_hash(m_o.seed, m_step + 1, kx0 + int(c % nx), ky0 + int(c / nx));
+          for (int t = 0; t < k; ++t) {  // partial Fisher-Yates
+            h = position_hash(h, t, 0, 0);
+            const int r = t + int(h % uint64_t(found - t));
+            std::swap(idx[t], idx[r]);
+            std::swap(coef[t], coef[r]);
+          }
+          found = k;
+        }
+        for (int t = 0; t < found; ++t) {
+          codes.index[c * k + t] = idx[t];
+          codes.coef[c * k + t] = coef[t] / float(found);
+        }
+      }
+    }
+    const int s = codes.sparsity;
+    const int phases = (P + S - 1) / S;  // patch rows this far apart never overlap
+    // A cell's patches are added phase by phase of their global row (then by column): the same
+    // order in every window.
+    for (int ph = 0; ph < phases; ++ph) {
+      std::vector<int> rows;
+      for (int r = 0; r < ny; ++r)
+        if ((ky0 + r) % phases == ph) rows.push_back(r);
+      parallel_for(rows.size(), m_o.threads, [&](size_t b, size_t e) {
+        VectorF patch(P * P);
+        MatrixF detail(P, P), bx(pm_, P), cm(pm_, pm_), ucm(P, pm_);
+        for (size_t ri = b; ri < e; ++ri) {
+          const int r = rows[ri];
+          for (int cx = 0; cx < nx; ++cx) {
+            const size_t c = size_t(r) * nx + cx;
+            const int px = (kx0 + cx) * S - Q - gx0, py = (ky0 + r) * S - Q - gy0;
+            // The patch (its atoms combined once), then its weighted blend.
+            patch.setConstant(z[c]);
+            for (int t = 0; t < s; ++t) {
+              const int a = codes.index[c * s + t];
+              if (a >= 0) patch += codes.coef[c * s + t] * m_d.high.col(a);
+            }
+            if (m_detail_blend) {
+              // Only the patch's detail (what its block means do not determine) is blended; the
+              // bicubic of the input supplies the rest.
+              Eigen::Map<MatrixF> pmap(patch.data(), P, P);
+              bx.noalias() = m_bmat * pmap;  // preallocated: no allocation per patch
+              cm.noalias() = bx * m_bmat.transpose();
+              ucm.noalias() = m_umat * cm;
+              detail = pmap;
+              detail.noalias() -= ucm * m_umat.transpose();
+            }
+            const float* src = m_detail_blend ? detail.data() : patch.data();
+            for (int v = std::max(0, -py); v < P && py + v < th; ++v)
+              for (int u = std::max(0, -px); u < P && px + u < tw; ++u) {
+                const int k = v * P + u;
+                const float w = m_weights[k];
+                if (w == 0.f) continue;
+                const size_t o2 = size_t(py + v) * tw + px + u;
+                num[o2] += w * src[k];
+                den[o2] += m_detail_blend ? w * w : w;
+                if (m_detail_blend) den1[o2] += w;
+              }
+          }
+        }
+      });
+    }
+  }
+
+  // Detail blend: the correlation rho measured on the output cells [X0, X1) x [Y0, Y1) (local
+  // coordinates of a window that holds them with their footprint): for candidate correlations, the
+  // squared curvature of the blended detail per phase of the patch grid (the weights repeat with the
+  // spacing); rho makes it the same at every phase (the evaluation's periodic trace).
+  float measure_rho(int X0, int Y0, int X1, int Y1) const {
+    // Band-limited base: rho flattens the curvature of base + 2 detail per phase (2: a typical
+    // calibrated gain, fixed so that the output stays affine in the gain, as the calibration needs). The
+    // bicubic base's knots have a phase pattern of their own that the detail partly offsets; there
+    // rho flattens the detail alone (measuring the output as well moved no figure: docs/amplify.md).
+    const bool measure_output = m_o.base == "bandlimited";
+    constexpr int kRhos = 11;
+    constexpr double kRhoGain = 2.0;
+    // One cell of margin for the Laplacian, where the window has it.
+    const int W = m_low.width * f, H = m_low.height * f;
+    const int bx0 = std::max(0, X0 - 1), by0 = std::max(0, Y0 - 1), bx1 = std::min(W, X1 + 1), by1 = std::min(H, Y1 + 1);
+    std::vector<float> num, den, den1;
+    blend(bx0, by0, bx1, by1, num, den, den1);
+    const int tw = bx1 - bx0, th = by1 - by0;
+    std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
+    // One band of S rows in four (by the global row, every phase of the grid) is enough. Rows in
+    // parallel, each into its own sums, added in row order: rho does not depend on the threads.
+    std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
+    parallel_for(size_t(th), m_o.threads, [&](size_t b, size_t e) {
+      std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every rho
+      std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
+      for (size_t yy = b; yy < e; ++yy) {
+        const int y = int(yy), gy = m_oy + by0 + y;
+        if (y < 1 || y + 1 >= th || by0 + y < Y0 || by0 + y >= Y1 || (gy / S) % 4 != 0) continue;
+        if (gy % 64 == 0 || gy % 64 == 63) continue;
+        if (measure_output) upsample_window(m_low, f, m_o.base, bx0, by0 + y - 1, tw, 3, base_rows.data());
+        for (int dy = 0; dy < 3; ++dy)
+          for (int x = 0; x < tw; ++x) {
+            const size_t c = size_t(y - 1 + dy) * tw + x;
+            for (int t = 0; t < kRhos; ++t) {
+              const float r = float(t) / (kRhos - 1);
+              const double v = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
+              bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
+            }
+          }
+        double* k2 = &row_k2[size_t(y) * kRhos * S];
+        double* n = &row_n[size_t(y) * S];
+        for (int x = 1; x + 1 < tw; ++x) {
+          const int gx = m_ox + bx0 + x;
+          if (bx0 + x < X0 || bx0 + x >= X1 || gx % 64 == 0 || gx % 64 == 63) continue;
+          const int ph = gx % S;
+          n[ph] += 1;
+          for (int t = 0; t < kRhos; ++t) {
+            const double* r0 = &bl[(size_t(0) * kRhos + t) * tw];
+            const double* r1 = &bl[(size_t(1) * kRhos + t) * tw];
+            const double* r2 = &bl[(size_t(2) * kRhos + t) * tw];
+            const double lap = double(r1[x - 1]) + r1[x + 1] + r0[x] + r2[x] - 4.0 * r1[x];
+            k2[size_t(t) * S + ph] += lap * lap;
+          }
+        }
+      }
+    });
+    for (int y = 0; y < th; ++y) {
+      const size_t py = size_t((m_oy + by0 + y) % S) * S;
+      for (int ph = 0; ph < S; ++ph) {
+        phase_n[py + ph] += row_n[size_t(y) * S + ph];
+        for (int t = 0; t < kRhos; ++t)
+          phase_k2[size_t(t) * phase_n.size() + py + ph] += row_k2[(size_t(y) * kRhos + t) * S + ph];
+      }
+    }
+    std::vector<double> cv(kRhos, 0.0);
+    for (int t = 0; t < kRhos; ++t) {
+      double s = 0, s2 = 0, n = 0;
+      for (size_t k = 0; k < phase_n.size(); ++k) {
+        if (phase_n[k] == 0) continue;
+        const double e = phase_k2[size_t(t) * phase_n.size() + k] / phase_n[k];
+        s += e, s2 += e * e, n += 1;
+      }
+      cv[size_t(t)] = n > 1 && s > 0 ? (s2 / n - (s / n) * (s / n)) / ((s / n) * (s / n)) : 0;
+    }
+    const int t = int(std::min_element(cv.begin(), cv.end()) - cv.begin());
+    double r = double(t) / (kRhos - 1);
+    if (t > 0 && t < kRhos - 1) {  // parabola through the minimum and its neighbours
+      const double a = cv[size_t(t - 1)], b = cv[size_t(t)], c = cv[size_t(t + 1)], dd = a - 2 * b + c;
+      if (dd > 0) r += std::clamp(0.5 * (a - c) / dd, -0.5, 0.5) / (kRhos - 1);
+    }
+    return float(r);
+  }
+
+ private:
+  // First patch whose cells reach past global output cell a; first patch starting at or after b.
+  int first(int a) const { return std::max(0, a / S); }
+  int last(int b) const { return (b + Q + S - 1) / S; }
+
+  const Heightfield& m_low;
+  const int m_ox, m_oy, m_step;  // global output cell of the window's first output cell; step index
+  const Dictionary& m_d;
+  const AmplifyOptions& m_o;
+  const AtomIndex* m_index;
+  const int f, P, p, S, Q, pm_;
+  const std::vector<float> m_weights, m_lmask;
+  double m_lmsum = 0;
+  bool m_use_omp = false, m_detail_blend = false;
+  MatrixF m_bmat, m_umat;
+  float m_qscale = 1.f;
+};
+
+// The output of one step over the window `low` (first cell: the step input's global cell ox, oy),
+// with the detail blend's correlation rho (detail blend only).
+// `input_gain` > 0: the gain chosen for this input (input_hf_gain) where the options leave it open;
+// `raw`: the blended detail only (no gain, base or bias correction), what input_hf_gain measures.
+Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float rho, const Dictionary& d,
+                         const AmplifyOptions& o, const AtomIndex* index, const Progress& progress,
+                         float input_gain = -1, bool raw = false) {
+  const int f = d.factor, S = o.spacing;
+  const int W = low.width * f, H = low.height * f;
+  Heightfield out(W, H);
+  out.georef = low.georef.resampled(f);
+  out.metadata = low.metadata;
+  const StepEngine eng(low, ox, oy, step, d, o, index);
+  const bool detail_blend = eng.detail_blend();
+  // Work tiles bound the memory of codes and sums; no result depends on them.
+  const int tile_unit = std::lcm(S, 64), tile = std::max(tile_unit, o.tile / tile_unit * tile_unit);
+  const int tx = (W + tile - 1) / tile, ty = (H + tile - 1) / tile;
+  std::vector<float> num, den, den1;
+  for (int j = 0; j < ty; ++j)
+    for (int i = 0; i < tx; ++i) {
+      const int X0 = i * tile, X1 = std::min(W, X0 + tile), Y0 = j * tile, Y1 = std::min(H, Y0 + tile);
+      eng.blend(X0, Y0, X1, Y1, num, den, den1);
+      const int tw = X1 - X0, th = Y1 - Y0;
+      for (int y = 0; y < th; ++y)
+        for (int x = 0; x < tw; ++x) {
+          const float dn = den[size_t(y) * tw + x];
+          if (!(dn > 0)) fail("amplify", "spacing {} leaves cells uncovered by {}-cell patches", S, d.patch);
+          // Detail blend: details with pairwise correlation rho have var(sum w_i d_i) = sigma^2 ((1 - rho)
+          // sum w_i^2 + rho (sum w_i)^2); dividing by its square root keeps the detail's variance the
+          // same wherever the patches overlap (a partition of unity, sum w_i d_i / sum w_i, right for
+          // rho = 1 only, halves the variance of uncorrelated details between two patch centres and
+          // quarters it between four: a ripple with the spacing).
+          const size_t c = size_t(y) * tw + x;
+          const float norm = detail_blend ? std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c]) : dn;
+          out.at(X0 + x, Y0 + y) = num[c] / norm;
+        }
+      report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
+    }
+  if (raw) return out;
+  if (detail_blend) out.metadata["amplify_detail_correlation"] = fmt::format("{:.3f}", rho);
+  const float gain = o.detail_gain >= 0 ? o.detail_gain : input_gain > 0 ? input_gain : d.detail_gain;
+  out.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", gain);
+  if (detail_blend) {
+    // out = bicubic + gain detail
+    if (gain != 1.f)
+      for (auto& v : out.z) v *= gain;
+    add_upsampled(out, low, f, 1.f, o.base);
+  } else if (gain != 1.f) {
+    // out = base + gain (out - base)
+    for (auto& v : out.z) v *= gain;
+    add_upsampled(out, low, f, 1.f - gain, o.base);
+  }
+  if (o.bias_correction) correct_block_means(out, low, f, 4, o.base);
+  return out;
+}
+
+// Input cells a step's output cell depends on, on each side: the patches' footprints (a cell's
+// patches start up to P - 1 cells before it), the base's taps, and the bias correction's passes
+// (each spreads block residuals over the base's taps again, plus the final block shift).
+int step_halo(const Dictionary& d, const AmplifyOptions& o) {
+  const int f = d.factor;
+  const int patches = (d.patch + f - 1) / f + d.low_patch() + 1;
+  const int base = upsample_reach(f, o.base);
+  return std::max(patches, base) + (o.bias_correction ? 5 * base + 1 : 0) + 1;
+}
+
+// The measured region of a step's input (global cells): its central kRhoRegion x kRhoRegion
+// cells, corner a multiple of 16 (the whole input when smaller).
+constexpr int kRhoRegion = 256;
+struct Rect {
+  int x0, y0, x1, y1;
+};
+Rect rho_region(int w, int h) {
+  auto axis = [](int n, int& a0, int& a1) {
+    a0 = n > kRhoRegion ? (n - kRhoRegion) / 2 / 16 * 16 : 0;
+    a1 = std::min(n, a0 + kRhoRegion);
+  };
+  Rect r{};
+  axis(w, r.x0, r.x1);
+  axis(h, r.y0, r.y1);
+  return r;
+}
+
 constexpr int kMinSpectralInput = 64;
 
 // Per-input HF calibration (docs/amplify.md, "per-input HF"): the gain whose output HF energy, on
-// the central (up to) 256 x 256 input cells, is the geometric mean of two estimates of the truth's:
+// the first step's measured region (rho_region: the central (up to) 256 x 256 input cells, here
+// cells [lx0, lx0 + cw) x [ly0, ly0 + ch) of the window `low`), is the geometric mean of two estimates of the truth's:
 // the held-out folds' (the output's HF at the dictionary's HF-matching gain over its HF target) and
 // the input's own spectrum extrapolated (predicted_energy_above, scaled by the ratio the folds
 // measured). Their errors are independent (the folds know the dictionary, the spectrum knows this
-// terrain). Capped by the folds' RMSE-budget gain. `detail` is the blended detail before the gain;
-// -1 when the dictionary carries no in-memory calibration (loaded files) or the input is too small.
-double input_hf_gain(const Heightfield& low, const Heightfield& detail, const Dictionary& d, const std::string& base,
-                     Metadata* metadata) {
+// terrain). Capped by the folds' RMSE-budget gain. `detail` is the window's blended detail before
+// the gain (amplify_step's raw output); -1 when the dictionary carries no in-memory calibration
+// (loaded files) or the region is too small. A function of the whole input only: tiled and untiled
+// runs get the same gain.
+double input_hf_gain(const Heightfield& low, int lx0, int ly0, int cw, int ch, const Heightfield& detail,
+                     const Dictionary& d, const std::string& base) {
   if (!(d.spectral_scale > 0) || !(d.hf_gain > 0) || !(d.hf_target > 0) || !(d.rmse_gain > 0)) return -1;
   const int f = d.factor;
-  const int cw = std::min(low.width, 256), ch = std::min(low.height, 256);
   // Smaller inputs leave too few bins in the octave for the fit (a 23 x 47 input, the Front Range at
   // x16, gave 0.06 x the held-out estimate).
   if (cw < kMinSpectralInput || ch < kMinSpectralInput) return -1;
-  const int lx0 = (low.width - cw) / 2, ly0 = (low.height - ch) / 2;
   Heightfield lowc(cw, ch);
   for (int y = 0; y < ch; ++y)
     for (int x = 0; x < cw; ++x) lowc.at(x, y) = low.at(lx0 + x, ly0 + y);
@@ -105,294 +436,69 @@ double input_hf_gain(const Heightfield& low, const Heightfield& detail, const Di
   const double target = std::sqrt(held_out * spectral);
   const double disc = hbd * hbd - hd * (hb - target);
   double g = disc > 0 ? (-hbd + std::sqrt(disc)) / hd : gh;
-  g = std::clamp(g, 0.25, std::min(4.0, d.rmse_gain));
-  if (metadata)
-    (*metadata)["amplify_hf_calibration"] = fmt::format(
-        "gain {:.3f} (dictionary's {:.3f}): HF energy target {:.4g} = geometric mean of held-out {:.4g} and "
-        "input spectrum {:.4g} (central {}x{} input cells)", g, d.detail_gain, target, held_out, spectral, cw, ch);
-  return g;
+  return std::clamp(g, 0.25, std::min(4.0, d.rmse_gain));
 }
 
-// One x f step.
-Heightfield amplify_step(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const AtomIndex* index,
-                         const Progress& progress, bool first_step) {
-  const int f = d.factor, P = d.patch, p = d.low_patch(), S = o.spacing, Q = P - S;
-  const int W = low.width * f, H = low.height * f;
-  Heightfield out(W, H);
-  out.georef = low.georef.resampled(f);
-  out.metadata = low.metadata;
-  const auto weights = patch_weights(P);
-  const auto lmask = patch_mask(p);
-  double lmsum = 0;
-  for (float m : lmask) lmsum += m;
-  const bool use_omp = o.sparsity > 1 || o.search == "omp";
-  const bool detail_blend = o.blend == "detail";
-  // The smooth part M X M^T with M = U B (B: P/f x P block means, U = f M B^T: P x P/f bicubic),
-  // computed as U (B X B^T) U^T: ~2.5k multiply-adds per patch instead of 8k for two P^3 products.
-  const int pm_ = P / f;
-  MatrixF bmat = MatrixF::Zero(pm_, P);
-  for (int x = 0; x < pm_; ++x)
-    for (int u = 0; u < f; ++u) bmat(x, x * f + u) = 1.f / f;
-  const MatrixF umat = float(f) * smooth_part_operator(P, f, o.base) * bmat.transpose();
-  // The magnitude term compares relief at the dictionary's cell size (self-similar scaling when a
-  // dictionary serves a coarser step).
-  const float qscale = d.cell_x > 0 && out.georef.cell_x > 0 ? float(d.cell_x / out.georef.cell_x) : 1.f;
-  const int tile_unit = std::lcm(S, 64), tile = std::max(tile_unit, o.tile / tile_unit * tile_unit);
-  const int tx = (W + tile - 1) / tile, ty = (H + tile - 1) / tile;
-  // Patch k covers output cells [k S - Q, k S - Q + P); its low-resolution footprint starts at (k S - Q) / f.
-  auto first = [&](int a) { int k = 0; while (k * S - Q + P <= a) ++k; return k; };
-  auto last = [&](int b) { int k = 0; while (k * S - Q < b) ++k; return k; };  // exclusive
-  const int phases = (P + S - 1) / S;  // patch rows this far apart never overlap
-
-  // Detail blend: a first pass measures, for candidate correlations rho, the squared curvature of the
-  // blended detail per phase of the patch grid (the weights repeat with the spacing); the second
-  // blends with the rho that makes it the same at every phase (the evaluation's periodic trace). The
-  // sums are per cell, so rho does not depend on the tiling.
-  float rho = std::clamp(o.detail_correlation, 0.f, 1.f);
-  const bool measure = detail_blend && o.detail_correlation < 0;
-  // Band-limited base: rho flattens the curvature of base + 2 detail per phase (2: a typical
-  // calibrated gain, fixed so that the output stays affine in the gain, as the calibration needs). The
-  // bicubic base's knots have a phase pattern of their own that the detail partly offsets; there
-  // rho flattens the detail alone (measuring the output as well moved no figure: docs/amplify.md).
-  const bool measure_output = measure && o.base == "bandlimited";
-  constexpr int kRhos = 11;
-  constexpr double kRhoGain = 2.0;
-  std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
-  // The first pass's codes and patch means, per tile, reused by the second (no second atom search).
-  struct TileCodes {
-    SparseCodes codes;
-    std::vector<float> z;
-  };
-  std::vector<TileCodes> cache(measure ? size_t(tx) * ty : 0);
-  for (int pass = measure ? 0 : 1; pass < 2; ++pass) {
-  if (pass == 1 && measure) {
-    std::vector<double> cv(kRhos, 0.0);
-    for (int t = 0; t < kRhos; ++t) {
-      double s = 0, s2 = 0, n = 0;
-      for (size_t k = 0; k < phase_n.size(); ++k) {
-        if (phase_n[k] == 0) continue;
-        const double e = phase_k2[size_t(t) * phase_n.size() + k] / phase_n[k];
-        s += e, s2 += e * e, n += 1;
-      }
-      cv[size_t(t)] = n > 1 && s > 0 ? (s2 / n - (s / n) * (s / n)) / ((s / n) * (s / n)) : 0;
-    }
-    const int t = int(std::min_element(cv.begin(), cv.end()) - cv.begin());
-    double r = double(t) / (kRhos - 1);
-    if (t > 0 && t < kRhos - 1) {  // parabola through the minimum and its neighbours
-      const double a = cv[size_t(t - 1)], b = cv[size_t(t)], c = cv[size_t(t + 1)], d = a - 2 * b + c;
-      if (d > 0) r += std::clamp(0.5 * (a - c) / d, -0.5, 0.5) / (kRhos - 1);
-    }
-    rho = float(r);
-  }
-  for (int j = 0; j < ty; ++j)
-    for (int i = 0; i < tx; ++i) {
-      const int X0 = i * tile, X1 = std::min(W, X0 + tile), Y0 = j * tile, Y1 = std::min(H, Y0 + tile);
-      const int kx0 = first(X0), kx1 = last(X1), ky0 = first(Y0), ky1 = last(Y1);
-      const int nx = kx1 - kx0, ny = ky1 - ky0;
-      const size_t m = size_t(nx) * ny;
-      std::vector<float> z;
-      SparseCodes codes;
-      const size_t tile_id = size_t(j) * tx + i;
-      if (pass == 1 && measure) {
-        codes = std::move(cache[tile_id].codes);
-        z = std::move(cache[tile_id].z);
-      } else {
-        z.resize(m);
-        MatrixF q(p * p, Eigen::Index(m));
-        parallel_for(m, o.threads, [&](size_t b, size_t e) {
-          for (size_t c = b; c < e; ++c) {
-            const int lx = ((kx0 + int(c % nx)) * S - Q) / f, ly = ((ky0 + int(c / nx)) * S - Q) / f;
-            double s = 0;
-            for (int v = 0; v < p; ++v)
-              for (int u = 0; u < p; ++u)
-                s += lmask[v * p + u] * low.at(clampi(lx + u, low.width), clampi(ly + v, low.height));
-            const float mean = float(s / lmsum);
-            for (int v = 0; v < p; ++v)
-              for (int u = 0; u < p; ++u)
-                q(v * p + u, Eigen::Index(c)) =
-                    lmask[v * p + u] * (low.at(clampi(lx + u, low.width), clampi(ly + v, low.height)) - mean);
-            z[c] = mean;
-          }
-        });
-        if (use_omp) {
-          codes = batch_omp(d.low, q, o.sparsity, o.threads);
-        } else {
-          // k nearest atoms averaged: their shared detail adds up, the rest partly cancels. With a
-          // larger candidate pool, each patch draws its k from the pool by a hash of its position, so
-          // that equal footprints (straight painted edges) do not repeat the same detail.
-          const int k = std::max(1, o.neighbours), pool = std::max(k, o.candidates);
-          AtomMatch a = index ? index->search(q, o.threads, pool, qscale)
-                              : exact_atom_search(d.low, q, o.threads, pool, &d.low_norm, o.magnitude_weight, qscale);
-          AtomMatch chosen;
-          chosen.index.assign(m * size_t(k), -1);
-          chosen.coef.assign(m * size_t(k), 0.f);
-          for (size_t c = 0; c < m; ++c) {
-            int32_t* idx = &a.index[c * pool];
-            float* coef = &a.coef[c * pool];
-            int found = 0;
-            while (found < pool && idx[found] >= 0) ++found;
-            if (found > k) {
-              uint64_t h = position_hash(o.seed, W, kx0 + int(c % nx), ky0 + int(c / nx));
-              for (int t = 0; t < k; ++t) {  // partial Fisher-Yates
-                h = position_hash(h, t, 0, 0);
-                const int r = t + int(h % uint64_t(found - t));
-                std::swap(idx[t], idx[r]);
-                std::swap(coef[t], coef[r]);
-              }
-              found = k;
-            }
-            for (int t = 0; t < found; ++t) {
-              chosen.index[c * k + t] = idx[t];
-              chosen.coef[c * k + t] = coef[t] / float(found);
-            }
-          }
-          a = std::move(chosen);
-          codes.sparsity = k;
-          codes.index = std::move(a.index);
-          codes.coef = std::move(a.coef);
-        }
-      }
-      const int s = codes.sparsity;
-      const int tw = X1 - X0, th = Y1 - Y0;
-      std::vector<float> num(size_t(tw) * th, 0.f), den(num.size(), 0.f), den1(detail_blend ? num.size() : 0, 0.f);
-
-      for (int ph = 0; ph < phases; ++ph) {
-        std::vector<int> rows;
-        for (int r = ph; r < ny; r += phases) rows.push_back(r);
-        parallel_for(rows.size(), o.threads, [&](size_t b, size_t e) {
-          VectorF patch(P * P);
-          MatrixF detail(P, P), bx(pm_, P), cm(pm_, pm_), ucm(P, pm_);
-          for (size_t ri = b; ri < e; ++ri) {
-            const int r = rows[ri];
-            for (int cx = 0; cx < nx; ++cx) {
-              const size_t c = size_t(r) * nx + cx;
-              const int px = (kx0 + cx) * S - Q - X0, py = (ky0 + r) * S - Q - Y0;
-              // The patch (its atoms combined once), then its weighted blend.
-              patch.setConstant(z[c]);
-              for (int t = 0; t < s; ++t) {
-                const int a = codes.index[c * s + t];
-                if (a >= 0) patch += codes.coef[c * s + t] * d.high.col(a);
-              }
-              if (detail_blend) {
-                // Only the patch's detail (what its block means do not determine) is blended; the
-                // bicubic of the input supplies the rest.
-                Eigen::Map<MatrixF> pm(patch.data(), P, P);
-                bx.noalias() = bmat * pm;  // preallocated: no allocation per patch
-                cm.noalias() = bx * bmat.transpose();
-                ucm.noalias() = umat * cm;
-                detail = pm;
-                detail.noalias() -= ucm * umat.transpose();
-              }
-              const float* src = detail_blend ? detail.data() : patch.data();
-              for (int v = std::max(0, -py); v < P && py + v < th; ++v)
-                for (int u = std::max(0, -px); u < P && px + u < tw; ++u) {
-                  const int k = v * P + u;
-                  const float w = weights[k];
-                  if (w == 0.f) continue;
-                  const size_t o2 = size_t(py + v) * tw + px + u;
-                  num[o2] += w * src[k];
-                  den[o2] += detail_blend ? w * w : w;
-                  if (detail_blend) den1[o2] += w;
-                }
-            }
-          }
-        });
-      }
-      if (pass == 0) {
-        // One band of S rows in four (by the global row, every phase of the grid) is enough. Rows in
-        // parallel, each into its own sums, added in row order: rho does not depend on the threads.
-        std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
-        // With the band-limited base, rho flattens the output's curvature (base + gain detail) per
-        // phase, not the detail's alone: the base has no phase pattern of its own to offset.
-        parallel_for(size_t(th), o.threads, [&](size_t b, size_t e) {
-          std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every rho
-          std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
-          for (size_t yy = b; yy < e; ++yy) {
-            const int y = int(yy);
-            if (y < 1 || y + 1 >= th || ((Y0 + y) / S) % 4 != 0) continue;
-            const int gy = (Y0 + y) % 64;
-            if (gy == 0 || gy == 63) continue;
-            if (measure_output) upsample_window(low, f, o.base, X0, Y0 + y - 1, tw, 3, base_rows.data());
-            for (int dy = 0; dy < 3; ++dy)
-              for (int x = 0; x < tw; ++x) {
-                const size_t c = size_t(y - 1 + dy) * tw + x;
-                for (int t = 0; t < kRhos; ++t) {
-                  const float r = float(t) / (kRhos - 1);
-                  const double v = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
-                  bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
-                }
-              }
-            double* k2 = &row_k2[size_t(y) * kRhos * S];
-            double* n = &row_n[size_t(y) * S];
-            for (int x = 1; x + 1 < tw; ++x) {
-              // Cells next to a multiple of 64 are left out: tiles are multiples of 64 (below), so the
-              // cells measured, and rho, are the same for every tile size.
-              const int gx = (X0 + x) % 64;
-              if (gx == 0 || gx == 63) continue;
-              const int ph = (X0 + x) % S;
-              n[ph] += 1;
-              for (int t = 0; t < kRhos; ++t) {
-                const double* r0 = &bl[(size_t(0) * kRhos + t) * tw];
-                const double* r1 = &bl[(size_t(1) * kRhos + t) * tw];
-                const double* r2 = &bl[(size_t(2) * kRhos + t) * tw];
-                const double lap = double(r1[x - 1]) + r1[x + 1] + r0[x] + r2[x] - 4.0 * r1[x];
-                k2[size_t(t) * S + ph] += lap * lap;
-              }
-            }
-          }
-        });
-        for (int y = 0; y < th; ++y) {
-          const size_t py = size_t((Y0 + y) % S) * S;
-          for (int ph = 0; ph < S; ++ph) {
-            phase_n[py + ph] += row_n[size_t(y) * S + ph];
-            for (int t = 0; t < kRhos; ++t)
-              phase_k2[size_t(t) * phase_n.size() + py + ph] += row_k2[(size_t(y) * kRhos + t) * S + ph];
-          }
-        }
-        if (measure) {
-          cache[tile_id].codes = std::move(codes);
-          cache[tile_id].z = std::move(z);
-        }
-        continue;
-      }
-      for (int y = 0; y < th; ++y)
-        for (int x = 0; x < tw; ++x) {
-          const float dn = den[size_t(y) * tw + x];
-          if (!(dn > 0)) fail("amplify", "spacing {} leaves cells uncovered by {}-cell patches", S, P);
-          // Detail blend: details with pairwise correlation rho have var(sum w_i d_i) = sigma^2 ((1 - rho)
-          // sum w_i^2 + rho (sum w_i)^2); dividing by its square root keeps the detail's variance the
-          // same wherever the patches overlap (a partition of unity, sum w_i d_i / sum w_i, right for
-          // rho = 1 only, halves the variance of uncorrelated details between two patch centres and
-          // quarters it between four: a ripple with the spacing).
-          const size_t c = size_t(y) * tw + x;
-          const float norm = detail_blend ? std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c]) : dn;
-          out.at(X0 + x, Y0 + y) = num[c] / norm;
-        }
-      report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
-    }
-  }
-  if (detail_blend) out.metadata["amplify_detail_correlation"] = fmt::format("{:.3f}", rho);
-  float gain = o.detail_gain < 0 ? d.detail_gain : o.detail_gain;
+// Correlations rho of every step (detail blend; empty otherwise), each measured on its step's
+// rho_region: the input of step k > 0 there is the previous steps' output over that region's
+// footprint, amplified from a window of the input with the rhos found so far. Then the gain per step
+// chosen for this input (input_hf_gain: the first step of a cascade only, `first_is_input`; -1 for
+// the dictionary's or the options' gain): the result holds `steps` rhos, then `steps` gains. A
+// function of the whole input only, so tiles and the untiled run use the same values.
+std::vector<float> step_correlations(const AmplifyWindowReader& read, int width, int height, int steps,
+                                     const Dictionary& d, const AmplifyOptions& o, const AtomIndex* index,
+                                     bool first_is_input = true) {
+  std::vector<float> rhos, gains(size_t(steps), -1.f);
+  if (o.blend != "detail") return rhos;
+  const bool fixed_rho = o.detail_correlation >= 0;
   // Only the first step of a cascade sees measured terrain: later steps' inputs carry the previous
   // step's synthesized spectrum (at x16 on the Front Range its RMSE-capped gain made the second
   // step's estimate 0.55 x the held-out one and the HF fell from 0.66 to 0.31; docs/amplify.md).
-  if (first_step && detail_blend && o.detail_gain < 0 && o.hf_from_input && o.bias_correction) {
-    const double g = input_hf_gain(low, out, d, o.base, &out.metadata);
-    if (g > 0) gain = float(g);
+  const bool input_gain = first_is_input && o.detail_gain < 0 && o.hf_from_input && o.bias_correction &&
+                          d.spectral_scale > 0;
+  if (fixed_rho && !input_gain) {
+    rhos.assign(size_t(steps), std::clamp(o.detail_correlation, 0.f, 1.f));
+    rhos.insert(rhos.end(), gains.begin(), gains.end());
+    return rhos;
   }
-  out.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", gain);
-  if (detail_blend) {
-    // out = bicubic + gain detail
-    if (gain != 1.f)
-      for (auto& v : out.z) v *= gain;
-    add_upsampled(out, low, f, 1.f, o.base);
-  } else if (gain != 1.f) {
-    // out = base + gain (out - base)
-    for (auto& v : out.z) v *= gain;
-    add_upsampled(out, low, f, 1.f - gain, o.base);
+  const int f = d.factor, halo = step_halo(d, o);
+  // The window [x0, x1) x [y0, y1) of step k's input.
+  std::function<Heightfield(int, int, int, int, int)> input = [&](int k, int x0, int y0, int x1, int y1) {
+    if (k == 0) return read(x0, y0, x1 - x0, y1 - y0);
+    int lw = width, lh = height;
+    for (int j = 1; j < k; ++j) lw *= f, lh *= f;  // step k-1's input size
+    const int a0 = std::max(0, x0 / f - halo), b0 = std::max(0, y0 / f - halo);
+    const int a1 = std::min(lw, (x1 + f - 1) / f + halo), b1 = std::min(lh, (y1 + f - 1) / f + halo);
+    const Heightfield prev = input(k - 1, a0, b0, a1, b1);
+    const Heightfield up = amplify_step(prev, a0, b0, k - 1, rhos[size_t(k - 1)], d, o, index, {}, gains[size_t(k - 1)]);
+    Heightfield w(x1 - x0, y1 - y0);
+    for (int y = 0; y < w.height; ++y)
+      for (int x = 0; x < w.width; ++x) w.at(x, y) = up.at(x0 - a0 * f + x, y0 - b0 * f + y);
+    w.georef = up.georef;
+    return w;
+  };
+  int w = width, h = height;
+  for (int k = 0; k < steps; ++k, w *= f, h *= f) {
+    const Rect r = rho_region(w, h);
+    const int a0 = std::max(0, r.x0 - halo), b0 = std::max(0, r.y0 - halo);
+    const int a1 = std::min(w, r.x1 + halo), b1 = std::min(h, r.y1 + halo);
+    if (fixed_rho && k > 0) {  // only the first step's gain needed measuring
+      rhos.push_back(std::clamp(o.detail_correlation, 0.f, 1.f));
+      continue;
+    }
+    const Heightfield win = input(k, a0, b0, a1, b1);
+    require_finite(win, "amplify", "input");
+    const StepEngine eng(win, a0, b0, k, d, o, index);
+    const float rho = fixed_rho ? std::clamp(o.detail_correlation, 0.f, 1.f)
+                                : eng.measure_rho((r.x0 - a0) * f, (r.y0 - b0) * f, (r.x1 - a0) * f, (r.y1 - b0) * f);
+    rhos.push_back(rho);
+    if (k == 0 && input_gain) {
+      const Heightfield detail = amplify_step(win, a0, b0, k, rho, d, o, index, {}, -1, true);
+      gains[0] = float(input_hf_gain(win, r.x0 - a0, r.y0 - b0, r.x1 - r.x0, r.y1 - r.y0, detail, d, o.base));
+    }
   }
-  if (o.bias_correction) correct_block_means(out, low, f, 4, o.base);
-  return out;
+  rhos.insert(rhos.end(), gains.begin(), gains.end());
+  return rhos;
 }
 
 std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions& o) {
@@ -405,7 +511,28 @@ std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions&
 
 }  // namespace
 
-Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const Progress& progress) {
+
+int amplify_halo(const Dictionary& d, const AmplifyOptions& o) {
+  const AmplifyOptions r = resolved(o, d);
+  const int steps = steps_for(o.factor, d.factor), h = step_halo(d, r);
+  int total = 0, scale = 1;
+  for (int k = 0; k < steps; ++k, scale *= d.factor) total += (h + scale - 1) / scale;
+  return total;
+}
+
+std::vector<float> amplify_correlations(const AmplifyWindowReader& read, int width, int height, const Dictionary& d,
+                                        const AmplifyOptions& o) {
+  check_options(o, d);
+  if (d.factor < 2) fail("amplify", "the dictionary has factor {}: amplification needs a multi-resolution dictionary", d.factor);
+  if (o.mode != "detail") return {};
+  const int steps = steps_for(o.factor, d.factor);
+  const AmplifyOptions r = resolved(o, d);
+  const auto index = make_index(d, r);
+  return step_correlations(read, width, height, steps, d, r, index.get());
+}
+
+Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Dictionary& d, const AmplifyOptions& o,
+                           const std::vector<float>& correlations, const Progress& progress) {
   require_finite(low, "amplify", "input");
   check_options(o, d);
   if (d.factor < 2) fail("amplify", "the dictionary has factor {}: amplification needs a multi-resolution dictionary", d.factor);
@@ -430,12 +557,21 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
     return cur;
   }
   const AmplifyOptions r = resolved(o, d);
+  const bool detail = r.blend == "detail";
+  if (detail && correlations.size() != 2 * size_t(steps))
+    fail("amplify", "internal: {} detail correlations and gains for {} steps", correlations.size(), steps);
   const auto index = make_index(d, r);
   Heightfield cur = low;
   std::string gains;
-  for (int k = 0; k < steps; ++k) {
-    cur = amplify_step(cur, d, r, index.get(), scaled_progress(progress, double(k) / steps, double(k + 1) / steps), k == 0);
+  for (int k = 0, scale = 1; k < steps; ++k, scale *= d.factor) {
+    const float input_gain = detail ? correlations[size_t(steps + k)] : -1.f;
+    cur = amplify_step(cur, x0 * scale, y0 * scale, k, detail ? correlations[size_t(k)] : 0.f, d, r, index.get(),
+                       scaled_progress(progress, double(k) / steps, double(k + 1) / steps), input_gain);
     gains += (k ? "," : "") + cur.metadata["amplify_detail_gain"];
+    if (input_gain > 0 && r.detail_gain < 0)
+      cur.metadata["amplify_hf_calibration"] = fmt::format(
+          "step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this input's own spectrum",
+          k + 1, input_gain, d.detail_gain);
   }
   cur.metadata["amplify_mode"] = "detail";
   cur.metadata["amplify_blend"] = r.blend;
@@ -443,6 +579,22 @@ Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOp
   cur.metadata["amplify_detail_gain"] = gains;
   cur.metadata["amplify_dictionary"] = d.description;
   return cur;
+}
+
+Heightfield amplify(const Heightfield& low, const Dictionary& d, const AmplifyOptions& o, const Progress& progress) {
+  require_finite(low, "amplify", "input");
+  check_options(o, d);
+  std::vector<float> rhos;
+  if (o.mode == "detail") {
+    const AmplifyWindowReader read = [&](int x, int y, int w, int h) {
+      Heightfield c(w, h);
+      for (int v = 0; v < h; ++v) std::copy_n(&low.z[size_t(y + v) * low.width + x], w, &c.z[size_t(v) * w]);
+      c.georef = low.georef;
+      return c;
+    };
+    rhos = amplify_correlations(read, low.width, low.height, d, o);
+  }
+  return amplify_window(low, 0, 0, d, o, rhos, progress);
 }
 
 // The `terracl warp` command that resamples a raster of georef `g` to cells of cx x cy metres: --tr
@@ -510,10 +662,21 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     check_options(o, *dict);
     const AmplifyOptions r = resolved(o, *dict);
     const auto index = make_index(*dict, r);
-    cur = amplify_step(cur, *dict, r, index.get(), scaled_progress(pk, 0.5, 1), k == 0);
+    const Heightfield& in = cur;
+    const AmplifyWindowReader read = [&in](int x, int y, int w, int h) {
+      Heightfield c(w, h);
+      for (int v = 0; v < h; ++v) std::copy_n(&in.z[size_t(y + v) * in.width + x], w, &c.z[size_t(v) * w]);
+      c.georef = in.georef;
+      return c;
+    };
+    const auto rho = step_correlations(read, cur.width, cur.height, 1, *dict, r, index.get(), k == 0);
+    const float input_gain = rho.size() == 2 ? rho[1] : -1.f;
+    cur = amplify_step(cur, 0, 0, k, rho.empty() ? 0.f : rho[0], *dict, r, index.get(), scaled_progress(pk, 0.5, 1),
+                       input_gain);
     gains.push_back(cur.metadata["amplify_detail_gain"]);
-    if (cur.metadata.count("amplify_hf_calibration"))
-      hf_notes.push_back(fmt::format("step {}: {}", k + 1, cur.metadata["amplify_hf_calibration"]));
+    if (input_gain > 0 && r.detail_gain < 0)
+      hf_notes.push_back(fmt::format("step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this "
+                                     "input's own spectrum", k + 1, input_gain, dict->detail_gain));
     cur.metadata["amplify_blend"] = r.blend;
     cur.metadata["amplify_base"] = r.base;
   }

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <sys/resource.h>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 
 namespace terracl {
@@ -34,30 +35,48 @@ std::vector<std::string> split_list(const std::string& s) {
   return out;
 }
 
-AmplifyOptions amplify_options(const StageContext& c) {
+}  // namespace
+
+AmplifyOptions amplify_options(const json& options) {
   AmplifyOptions o;
-  o.factor = c.get<int>("factor");
-  o.spacing = c.get<int>("spacing");
-  o.sparsity = c.get<int>("sparsity");
-  o.search = c.get<std::string>("search");
-  o.trees = c.get<int>("trees");
-  o.checks = c.get<int>("checks");
-  o.seed = unsigned(c.get<int>("seed"));
-  o.neighbours = c.get<int>("neighbours");
-  o.candidates = c.get<int>("candidates");
-  o.magnitude_weight = float(c.get<double>("magnitude_weight"));
-  o.tile = c.get<int>("tile");
-  o.bias_correction = c.get<bool>("bias_correction");
-  o.detail_gain = float(c.get<double>("detail_gain"));
-  o.blend = c.get<std::string>("blend");
-  o.mode = c.get<std::string>("mode");
-  o.base = c.get<std::string>("base");
+  o.factor = options.at("factor").get<int>();
+  o.spacing = options.at("spacing").get<int>();
+  o.sparsity = options.at("sparsity").get<int>();
+  o.search = options.at("search").get<std::string>();
+  o.trees = options.at("trees").get<int>();
+  o.checks = options.at("checks").get<int>();
+  o.seed = unsigned(options.at("seed").get<int>());
+  o.neighbours = options.at("neighbours").get<int>();
+  o.candidates = options.at("candidates").get<int>();
+  o.magnitude_weight = float(options.at("magnitude_weight").get<double>());
+  o.tile = options.at("tile").get<int>();
+  o.bias_correction = options.at("bias_correction").get<bool>();
+  o.detail_gain = float(options.at("detail_gain").get<double>());
+  o.blend = options.at("blend").get<std::string>();
+  o.mode = options.at("mode").get<std::string>();
+  o.base = options.at("base").get<std::string>();
   return o;
 }
 
+namespace {
+
 void run_amplify(StageContext& c) {
   Heightfield& low = c.height();
-  const AmplifyOptions o = amplify_options(c);
+  const AmplifyOptions o = amplify_options(c.options);
+  // A tile of a tiled run (tile/amplify_tiles.cpp): its window's first cell in the whole input, and
+  // the whole input's detail correlations.
+  std::optional<std::pair<int, int>> window;
+  std::vector<float> correlations;
+  if (auto it = low.metadata.find("terracl:tile_window"); it != low.metadata.end()) {
+    std::istringstream w(it->second);
+    int x = 0, y = 0;
+    w >> x >> y;
+    window = {x, y};
+    std::istringstream r(low.metadata.at("terracl:tile_prepass"));
+    for (float v; r >> v;) correlations.push_back(v);
+    low.metadata.erase("terracl:tile_window");
+    low.metadata.erase("terracl:tile_prepass");
+  }
   // Before any work: x256 of a 1201^2 tile asked for 10+ GB and failed after 27 s.
   require_raster_size("amplify", fmt::format("the x{} output of a {} x {} input", o.factor, low.width, low.height),
                       int64_t(low.width) * o.factor, int64_t(low.height) * o.factor, 8);
@@ -78,7 +97,8 @@ void run_amplify(StageContext& c) {
                                               "older, or learned with --faithful-radius 0); learn it again with "
                                               "`terracl dictionary learn`, or give --exemplar",
                                               c.get<std::string>("dictionary")));
-    out = amplify(low, d, o, c.progress);
+    out = window ? amplify_window(low, window->first, window->second, d, o, correlations, c.progress)
+                 : amplify(low, d, o, c.progress);
   } else {
     std::vector<Heightfield> ex;
     std::vector<std::string> notes;

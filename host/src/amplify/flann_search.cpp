@@ -64,6 +64,22 @@ namespace terracl {
 float magnitude_feature(float norm) { return std::log(norm + 0.1f); }
 
 namespace {
+// In index order, not vectorised: Eigen's reductions peel by the column's address, which for a
+// query depends on its place in the batch; these give a query the same value in every batch.
+float column_norm(const MatrixF& m, size_t c) {
+  const float* x = m.data() + c * size_t(m.rows());
+  float s = 0;
+  for (Eigen::Index i = 0; i < m.rows(); ++i) s += x[i] * x[i];
+  return std::sqrt(s);
+}
+float column_dot(const MatrixF& a, size_t ca, const MatrixF& b, size_t cb) {
+  const float* x = a.data() + ca * size_t(a.rows());
+  const float* y = b.data() + cb * size_t(b.rows());
+  float s = 0;
+  for (Eigen::Index i = 0; i < a.rows(); ++i) s += x[i] * y[i];
+  return s;
+}
+
 bool magnitude_active(const std::vector<float>* atom_norm, float weight, size_t atoms) {
   if (!(weight > 0) || !atom_norm || atom_norm->empty()) return false;
   if (atom_norm->size() != atoms) fail("amplify", "{} atom norms for {} atoms", atom_norm->size(), atoms);
@@ -88,11 +104,16 @@ AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads, int
   const size_t blocks = (n + kBlock - 1) / kBlock;
   parallel_for(blocks, threads, [&](size_t b0, size_t b1) {
     std::vector<std::pair<float, int32_t>> best;  // (score, atom), the kk highest, best first
+    MatrixF qb(Q.rows(), Eigen::Index(kBlock));
     for (size_t b = b0; b < b1; ++b) {
       const size_t c0 = b * kBlock, cn = std::min(kBlock, n - c0);
-      const MatrixF A = D.transpose() * Q.middleCols(Eigen::Index(c0), Eigen::Index(cn));
+      // Always a full block (zero-padded): every query's scores then come from the same product
+      // shape, so a query scores the same whatever batch it is in (tiled amplify is exact).
+      qb.setZero();
+      qb.leftCols(Eigen::Index(cn)) = Q.middleCols(Eigen::Index(c0), Eigen::Index(cn));
+      const MatrixF A = D.transpose() * qb;
       for (size_t c = 0; c < cn; ++c) {
-        const float nrm = Q.col(Eigen::Index(c0 + c)).norm();
+        const float nrm = column_norm(Q, c0 + c);
         if (!(nrm > 0)) continue;
         // The FLANN criterion (search below): minimise |q/|q| -+ d|^2 + w^2 (feature(q) - feature(d))^2.
         const float fq = mag ? magnitude_feature(nrm * query_scale) : 0.f;
@@ -173,7 +194,7 @@ AtomMatch AtomIndex::search(const MatrixF& Q, int threads, int k, float query_sc
       live.clear();
       for (size_t c = 0; c < cn; ++c) {
         const auto col = Q.col(Eigen::Index(c0 + c));
-        const float nrm = col.norm();
+        const float nrm = column_norm(Q, c0 + c);
         if (!(nrm > 0)) continue;
         for (size_t k2 = 0; k2 < K0; ++k2) q[live.size() * K + k2] = col[Eigen::Index(k2)] / nrm;
         if (m_weight > 0) q[live.size() * K + K0] = m_weight * magnitude_feature(nrm * query_scale);
@@ -191,7 +212,7 @@ AtomMatch AtomIndex::search(const MatrixF& Q, int threads, int k, float query_sc
           if (idx[i * kk + t] >= 2 * N) continue;  // fewer than k neighbours found
           const size_t a = idx[i * kk + t] % N;
           m.index[(c0 + c) * kk + t] = int32_t(a);
-          m.coef[(c0 + c) * kk + t] = m_atoms.col(Eigen::Index(a)).dot(Q.col(Eigen::Index(c0 + c)));
+          m.coef[(c0 + c) * kk + t] = column_dot(m_atoms, a, Q, c0 + c);
         }
       }
     }

@@ -35,14 +35,20 @@ SparseCodes batch_omp(const MatrixF& D, const MatrixF& X, int sparsity, int thre
     Eigen::MatrixXd L(s, s);
     Eigen::VectorXd gamma, rhs, w;
     Eigen::VectorXf alpha;
+    MatrixF xb(X.rows(), Eigen::Index(kBlock));
     MatrixF Gcols(N, s);  // columns of G for the active set (on demand without a full Gram matrix)
     std::vector<int> I;
     for (size_t b = b0; b < b1; ++b) {
       const size_t c0 = b * kBlock, m = std::min<size_t>(kBlock, n - c0);
-      const MatrixF A = D.transpose() * X.middleCols(c0, m);
+      // A full (zero-padded) block and a sequential energy: a signal's code does not depend on its
+      // batch (tiled amplify is exact).
+      xb.setZero();
+      xb.leftCols(Eigen::Index(m)) = X.middleCols(c0, m);
+      const MatrixF A = D.transpose() * xb;
       for (size_t c = 0; c < m; ++c) {
         const auto alpha0 = A.col(c);
-        const double energy = X.col(c0 + c).squaredNorm();
+        double energy = 0;
+        for (Eigen::Index i = 0; i < X.rows(); ++i) energy += double(X(i, Eigen::Index(c0 + c))) * X(i, Eigen::Index(c0 + c));
         if (!(energy > 0)) continue;
         alpha = alpha0;
         I.clear();

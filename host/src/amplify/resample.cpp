@@ -225,6 +225,13 @@ void upsample_window(const Heightfield& low, int f, const std::string& base, int
   upsample_window_into(table_for(base, f), low, X0, Y0, w, h, out);
 }
 
+int upsample_reach(int f, const std::string& base) {
+  const UpTable& t = table_for(base, f);
+  int r = 0;
+  for (int b : t.base) r = std::max({r, -b, b + t.taps - 1});
+  return r + 1;
+}
+
 MatrixF smooth_part_operator(int n, int f, const std::string& base) {
   if (f < 1 || n % f) fail("amplify", "smooth part: {} cells are not whole blocks of {}", n, f);
   const int m = n / f;

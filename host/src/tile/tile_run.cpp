@@ -136,6 +136,12 @@ struct Level {
   Georef georef;
 };
 
+// The level after a local stage: blocks of f x f cells (downsample) or u x u cells per cell (amplify).
+Level next_level(const Level& l, int f, int u) {
+  if (u > 1) return {l.w * u, l.h * u, l.georef.resampled(u)};
+  return {l.w / f, l.h / f, f > 1 ? l.georef.resampled(1.0 / f) : l.georef};
+}
+
 // One step of a segment: a stage with its tiling, the level it reads.
 struct Op {
   const PipelineStage* st;
@@ -415,11 +421,11 @@ void TiledRun::run_chain(size_t first, size_t last) {
       level = {int(w), int(h), g};
       ++li;
     } else if (tl.kind == TileKind::Local) {
-      const int f = tl.down;
+      const int f = tl.down, u = tl.up;
       if (level.w < f || level.h < f)
         throw Error(st.tag, fmt::format("a {} x {} raster has no complete {} x {} block (pipeline stage {}, tag '{}')",
                                         level.w, level.h, f, f, st.where, st.tag));
-      level = {level.w / f, level.h / f, f > 1 ? level.georef.resampled(1.0 / f) : level.georef};
+      level = next_level(level, f, u);
       ++li;
     }
   }
@@ -443,8 +449,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       if (g.has_geotransform) g.update_metric_cell_size(w, h);
       levels.push_back({w, h, g});
     } else if (op.tiling.kind == TileKind::Local) {
-      const int f = op.tiling.down;
-      levels.push_back({l.w / f, l.h / f, f > 1 ? l.georef.resampled(1.0 / f) : l.georef});
+      levels.push_back(next_level(l, op.tiling.down, op.tiling.up));
       total_halo += op.tiling.halo;
     }
   }
@@ -456,7 +461,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   const bool to_temp = has_global && (!seg.ops.empty() || warp);
   // Memory: the windows of one tile (about 3 copies of a float cell per level: the window, the
   // extracted input, the stage's output) and the writers' buffers.
-  double per_cell = 12.0 * double(nl) + 4.0 * 2;
+  // A level that amplify made finer holds up^2 cells per cell of the source.
+  double per_cell = 4.0 * 2;
+  for (const Level& l : levels) per_cell += 12.0 * std::max(1.0, double(l.w) * l.h / (double(levels[0].w) * levels[0].h));
   double fixed = 0;
   if (has_global) {
     per_cell = std::max(per_cell, 4.0 + 4 + 1 + 4 + 4 + 8);  // fill: z, labels, closed, window, core, heap share
@@ -486,6 +493,69 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   const Progress prog = progress(seg.ops.empty() ? (global ? global->tag : "tiles") : seg.ops.front().st->tag);
   StageData data;
   const Metadata no_provenance;
+  // The window of its input level that a (non-sink) op needs for the window n of its output level.
+  auto window_before = [&](const Op& op, const Win& n) -> Win {
+    if (op.tiling.kind == TileKind::Window) {
+      const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
+      return {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0};
+    }
+    // Local: f x f blocks (downsample) or u x u cells per input cell (amplify), and the halo.
+    const int f = op.tiling.down, u = op.tiling.up, h = op.tiling.halo + (op.tiling.halo > 0 ? extra_halo : 0);
+    const int x0 = n.x0 / u, y0 = n.y0 / u, x1 = (n.x1 + u - 1) / u, y1 = (n.y1 + u - 1) / u;
+    return intersect({x0 * f - h, y0 * f - h, x1 * f + h, y1 * f + h}, {0, 0, levels[op.level].w, levels[op.level].h});
+  };
+  // Prepass results (amplify's correlations), by op.
+  std::map<const Op*, std::string> prepass;
+  // Runs the (non-sink) op on data, which holds the window `have` of its input level, into the
+  // window n of its output level.
+  auto run_step = [&](const Op& op, StageData& d, Win& have, const Win& n) {
+    const int l = op.level;
+    if (op.tiling.kind == TileKind::Window) {
+      const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
+      Heightfield part = extract(*d.height, have, {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0}, levels[l].georef);
+      part.georef = georef_at(levels[l + 1].georef, n.x0, n.y0);
+      d.height = std::move(part);
+      have = n;
+      return;
+    }
+    const int f = op.tiling.down, u = op.tiling.up;
+    const Win in = window_before(op, n);
+    d.height = extract(*d.height, have, in, levels[l].georef);
+    d.current = DataKind::Heightfield;
+    if (auto it = prepass.find(&op); it != prepass.end()) {
+      d.height->metadata["terracl:tile_window"] = fmt::format("{} {}", in.x0, in.y0);
+      d.height->metadata["terracl:tile_prepass"] = it->second;
+    }
+    StageContext ctx{d, op.st->options, m_device, Progress{}, op.st->tag, no_provenance};
+    try {
+      op.st->info->run(ctx);
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const Error& e) {
+      throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
+                                         std::string(e.what()).substr(e.stage().size() + 2), op.st->where, op.st->tag,
+                                         in.x0, in.y0, in.w(), in.h()));
+    }
+    const Win out = {in.x0 / f * u, in.y0 / f * u, in.x0 / f * u + d.height->width, in.y0 / f * u + d.height->height};
+    d.height = extract(*d.height, out, n, levels[l + 1].georef);
+    have = n;
+  };
+  // The window w of level l, computed from the source through the ops before it.
+  auto read_level = [&](int l, const Win& w) {
+    std::vector<Win> need(nl);
+    need[size_t(l)] = w;
+    std::vector<const Op*> chain(nl, nullptr);
+    for (const Op& o : seg.ops)
+      if (o.tiling.kind != TileKind::Sink && o.level < l) chain[size_t(o.level)] = &o;
+    for (int k = l - 1; k >= 0; --k) need[size_t(k)] = window_before(*chain[size_t(k)], need[size_t(k) + 1]);
+    StageData d;
+    Win have = need[0];
+    d.height = seg.source->read(have.x0, have.y0, have.w(), have.h());
+    d.height->georef = georef_at(levels[0].georef, have.x0, have.y0);
+    drop_terracl_keys(d.height->metadata);
+    for (int k = 0; k < l; ++k) run_step(*chain[size_t(k)], d, have, need[size_t(k) + 1]);
+    return extract(*d.height, have, w, levels[size_t(l)].georef);
+  };
   // Cores per level (forward), then the windows each level needs (backward), for every tile; tiles
   // that no writer needs (outside a crop) are dropped, so that progress counts real work.
   struct TilePlan {
@@ -503,8 +573,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
           core[op.level + 1] = intersect({c.x0 - x0, c.y0 - y0, c.x1 - x0, c.y1 - y0}, {0, 0, out.w, out.h});
         } else if (op.tiling.kind == TileKind::Local) {
-          const int f = op.tiling.down;  // tile corners are multiples of f: blocks never straddle tiles
-          core[op.level + 1] = intersect({c.x0 / f, c.y0 / f, c.x1 / f, c.y1 / f}, {0, 0, out.w, out.h});
+          const int f = op.tiling.down, u = op.tiling.up;  // tile corners are multiples of f: blocks never straddle tiles
+          core[op.level + 1] = intersect({c.x0 / f * u, c.y0 / f * u, c.x1 / f * u, c.y1 / f * u}, {0, 0, out.w, out.h});
         }
       }
       for (int l = int(nl) - 1; l >= 0; --l) {
@@ -522,19 +592,19 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           const Op* op = nullptr;
           for (const Op& o : seg.ops)
             if (o.level == l && o.tiling.kind != TileKind::Sink) op = &o;
-          const Win& n = need[l + 1];
-          Win pre;
-          if (op->tiling.kind == TileKind::Window) {
-            const int x0 = op->st->options.at("x").get<int>(), y0 = op->st->options.at("y").get<int>();
-            pre = {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0};
-          } else {
-            const int f = op->tiling.down, h = op->tiling.halo + (op->tiling.halo > 0 ? extra_halo : 0);
-            pre = intersect({n.x0 * f - h, n.y0 * f - h, n.x1 * f + h, n.y1 * f + h}, {0, 0, levels[l].w, levels[l].h});
-          }
-          need[l] = unite(need[l], pre);
+          need[l] = unite(need[l], window_before(*op, need[l + 1]));
         }
       }
       if (!need[0].empty()) plans.push_back({std::move(core), std::move(need)});
+    }
+  // Prepasses (amplify's correlations): once, on the whole input level of their op, before any tile.
+  for (const Op& op : seg.ops)
+    if (op.tiling.prepass && !plans.empty()) {
+      const auto t0 = Clock::now();
+      const Level& L = levels[size_t(op.level)];
+      prepass[&op] = op.tiling.prepass([&](int x, int y, int w, int h) { return read_level(op.level, {x, y, x + w, y + h}); },
+                                       L.w, L.h);
+      add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }
   // --resume: tiles an interrupted run finished (segments feeding a global stage are recomputed).
   // Under mpirun rank 0 owns the journals and the partial files (it writes every output): it
@@ -618,33 +688,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       } else {
         const Win& n = need[l + 1];
         if (n.empty()) break;
-        if (op.tiling.kind == TileKind::Window) {
-          const int x0 = op.st->options.at("x").get<int>(), y0 = op.st->options.at("y").get<int>();
-          Heightfield part =
-              extract(*data.height, have, {n.x0 + x0, n.y0 + y0, n.x1 + x0, n.y1 + y0}, levels[l].georef);
-          part.georef = georef_at(levels[l + 1].georef, n.x0, n.y0);
-          data.height = std::move(part);
-          have = n;
-        } else {
-          const int f = op.tiling.down, h = op.tiling.halo + (op.tiling.halo > 0 ? extra_halo : 0);
-          const Win in =
-              intersect({n.x0 * f - h, n.y0 * f - h, n.x1 * f + h, n.y1 * f + h}, {0, 0, levels[l].w, levels[l].h});
-          data.height = extract(*data.height, have, in, levels[l].georef);
-          data.current = DataKind::Heightfield;
-          StageContext ctx{data, op.st->options, m_device, Progress{}, op.st->tag, no_provenance};
-          try {
-            op.st->info->run(ctx);
-          } catch (const Cancelled&) {
-            throw;
-          } catch (const Error& e) {
-            throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
-                                               std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
-                                               op.st->tag, in.x0, in.y0, in.w(), in.h()));
-          }
-          const Win out = {in.x0 / f, in.y0 / f, in.x0 / f + data.height->width, in.y0 / f + data.height->height};
-          data.height = extract(*data.height, out, n, levels[l + 1].georef);
-          have = n;
-        }
+        run_step(op, data, have, n);
       }
       add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }

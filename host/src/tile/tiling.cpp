@@ -13,13 +13,22 @@
 #include <terracl/tile.hpp>
 
 #include "pipeline/builtin.hpp"
+#include "tile/amplify_tiles.hpp"
 #include "tile/tile_sinks.hpp"
 
 namespace terracl {
 namespace {
 
-StageTiling refuse(std::string why) { return StageTiling{TileKind::Untileable, 0, 1, std::move(why), nullptr}; }
-StageTiling kind(TileKind k, int halo = 0, int down = 1) { return StageTiling{k, halo, down, "", nullptr}; }
+StageTiling refuse(std::string why) {
+  StageTiling t;
+  t.limit = std::move(why);
+  return t;
+}
+StageTiling kind(TileKind k, int halo = 0, int down = 1) {
+  StageTiling t;
+  t.kind = k, t.halo = halo, t.down = down;
+  return t;
+}
 
 std::string extension(const std::string& f) {
   const std::string e = std::filesystem::path(f).extension().string();
@@ -89,11 +98,7 @@ StageTiling tiling_of(const PipelineStage& st) {
         "a Poisson solve couples every cell: the whole raster must fit on one device (its largest "
         "allocation); run it untiled (a distributed solver is not available yet)");
   if (t == "fill_nodata") return refuse("harmonic interpolation of nodata is a global solve; run it untiled");
-  if (t == "amplify")
-    return refuse(
-        "two things depend on the whole output, so tiles would differ from the untiled run: the patch choice "
-        "is hashed on the output width, and the detail blend's correlation is measured over all of the "
-        "output's patches (a first pass); amplify untiled (its own --tile bounds its work memory)");
+  if (t == "amplify") return tile::amplify_tiling(o);
   if (t == "extract")
     return refuse(
         "it produces a gradient field, which terracl writes only as OpenEXR (two float channels, written whole); "
