@@ -45,10 +45,37 @@ __kernel void refine_residual(__global const double* U, __global const float* g,
   rows[y] = s;
 }
 
-// U += uc at free cells (the float correction, accumulated in double). Per row, for the host's stop
-// rule: stats[3y] = max |uc| over free cells, stats[3y+1] / [3y+2] = min / max of U.
+// Step length of the correction c = uc (the float multigrid's answer to the residual gc): per row
+// sums[2y] = sum c r, sums[2y + 1] = sum c (A c) over free cells, with A the level-0 5-point operator
+// (c = 0 at hard cells: the cycles never touch them). alpha = (c, r) / (c, A c) minimises the energy
+// norm of the error along c; on sparse-constraint problems the V-cycle under-corrects the smoothest
+// error mode, which alpha restores (docs/reconstruct.md).
+__kernel void refine_step_sums(__global const float* uc, __global const float* gc, const int W, const int H,
+                               const double wx, const double wy, __global double* sums) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  const size_t o = (size_t)y * W;
+  double cr = 0.0, cac = 0.0;
+  for (int x = 0; x < W; ++x) {
+    const float r = gc[o + x];
+    if (isnan(r)) continue;
+    const double c = (double)uc[o + x];
+    double ac = 0.0;
+    if (x > 0) ac += wx * (c - (double)uc[o + x - 1]);
+    if (x + 1 < W) ac += wx * (c - (double)uc[o + x + 1]);
+    if (y > 0) ac += wy * (c - (double)uc[o + x - W]);
+    if (y + 1 < H) ac += wy * (c - (double)uc[o + x + W]);
+    cr += c * (double)r;
+    cac += c * ac;
+  }
+  sums[2 * (size_t)y] = cr;
+  sums[2 * (size_t)y + 1] = cac;
+}
+
+// U += alpha uc at free cells (the float correction, accumulated in double). Per row, for the
+// host's stop rule: stats[3y] = max |alpha uc| over free cells, stats[3y+1] / [3y+2] = min / max of U.
 __kernel void refine_accumulate(__global double* U, __global const float* uc, __global const float* g, const int W,
-                                const int H, __global double* stats) {
+                                const int H, const double alpha, __global double* stats) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
@@ -56,7 +83,7 @@ __kernel void refine_accumulate(__global double* U, __global const float* uc, __
   for (int x = 0; x < W; ++x) {
     double v = U[o + x];
     if (!isnan(g[o + x])) {
-      const double c = (double)uc[o + x];
+      const double c = alpha * (double)uc[o + x];
       v += c;
       U[o + x] = v;
       cmax = fmax(cmax, fabs(c));

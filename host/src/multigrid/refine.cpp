@@ -38,9 +38,18 @@ struct Path {
   std::function<void()> finish;
 };
 
-// Stop rule: the last correction is at most o.refine_tolerance of the solution's range. With a
-// cycle's error reduction rho the error left is about rho / (1 - rho) of the last correction
-// (rho ~0.15 for V(2,2): ~0.2 of it), so the default 1e-7 leaves ~2e-8 of the range.
+// Step length alpha = (c, r) / (c, A c) from those two sums (1 where they say nothing: a zero or
+// constant correction). Bounded: past 4 the estimate is noise, not an under-correction.
+double step_length(double cr, double cac) {
+  if (!(cac > 0) || !std::isfinite(cr)) return 1.0;
+  const double a = cr / cac;
+  return a > 0 && a <= 4 ? a : 1.0;
+}
+
+// Stop rule: the error left, estimated from the last correction k_n and the contraction
+// q = k_n / k_{n-1} of the last two (error ~ k_n q / (1 - q)), is at most o.refine_tolerance of the
+// solution's range; after the first cycle (no q yet) only a correction that small itself stops.
+// The old rule (stop once k_n <= tolerance) needed one more cycle to see it (docs/reconstruct.md).
 void loop(const Path& path, const SolverOptions& o, SolveStats& st, const std::function<void()>& fine_cycle) {
   const double b = st.rhs_norm;
   auto rel = [&](double r) { return b > 0 ? r / b : 0.0; };
@@ -52,7 +61,12 @@ void loop(const Path& path, const SolverOptions& o, SolveStats& st, const std::f
     const Correction k = path.accumulate();
     st.refine_residuals.push_back(rel(path.residual()));
     st.refine_cycles = c + 1;
-    if (k.max_abs <= o.refine_tolerance * k.range) break;
+    const double bound = o.refine_tolerance * k.range;
+    if (k.max_abs <= bound) break;
+    if (c > 0 && last > 0) {
+      const double q = k.max_abs / last;
+      if (q < kSlowRatio && k.max_abs * q / (1 - q) <= bound) break;
+    }
     slow = c > 0 && k.max_abs > kSlowRatio * last ? slow + 1 : 0;
     last = k.max_abs;
     if (slow >= 2) break;
@@ -87,7 +101,8 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
     cl::Buffer rows = d.buffer(3 * size_t(H) * sizeof(double), CL_MEM_READ_WRITE, "refinement per-row figures");
     track();
     cl::Kernel widen = d.kernel("refine", "refine_widen"), res = d.kernel("refine", "refine_residual"),
-               acc = d.kernel("refine", "refine_accumulate"), narrow = d.kernel("refine", "refine_narrow");
+               acc = d.kernel("refine", "refine_accumulate"), narrow = d.kernel("refine", "refine_narrow"),
+               sums = d.kernel("refine", "refine_step_sums");
     set_args(widen, U, p.u, W, H);
     launch_rows(d, widen, size_t(H));
     std::vector<double> rows_host(3 * size_t(H));
@@ -100,7 +115,16 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
       return std::sqrt(s);
     };
     path.accumulate = [&] {
-      set_args(acc, U, p.u, g0, W, H, rows);
+      set_args(sums, p.u, p.g, W, H, wx, wy, rows);
+      launch_rows(d, sums, size_t(H));
+      q.enqueueReadBuffer(rows, CL_TRUE, 0, 2 * size_t(H) * sizeof(double), rows_host.data());
+      double cr = 0, cac = 0;
+      for (size_t y = 0; y < size_t(H); ++y) {
+        cr += rows_host[2 * y];
+        cac += rows_host[2 * y + 1];
+      }
+      const double alpha = step_length(cr, cac);
+      set_args(acc, U, p.u, g0, W, H, alpha, rows);
       launch_rows(d, acc, size_t(H));
       q.enqueueReadBuffer(rows, CL_TRUE, 0, rows_host.size() * sizeof(double), rows_host.data());
       Correction k;
@@ -153,12 +177,29 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
     };
     path.accumulate = [&] {
       q.enqueueReadBuffer(p.u, CL_TRUE, 0, N * sizeof(float), u.data());
+      // The same step length as refine_step_sums (gc is still the residual the cycle solved).
+      double cr = 0, cac = 0;
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          const size_t i = size_t(y) * W + x;
+          if (std::isnan(gc[i])) continue;
+          const double c = u[i];
+          double ac = 0;
+          if (x > 0) ac += wx * (c - double(u[i - 1]));
+          if (x + 1 < W) ac += wx * (c - double(u[i + 1]));
+          if (y > 0) ac += wy * (c - double(u[i - W]));
+          if (y + 1 < H) ac += wy * (c - double(u[i + W]));
+          cr += c * double(gc[i]);
+          cac += c * ac;
+        }
+      const double alpha = step_length(cr, cac);
       Correction k;
       double lo = U[0], hi = U[0];
       for (size_t i = 0; i < N; ++i) {
         if (!std::isnan(g[i])) {
-          U[i] += u[i];
-          k.max_abs = std::max(k.max_abs, std::fabs(double(u[i])));
+          const double c = alpha * double(u[i]);
+          U[i] += c;
+          k.max_abs = std::max(k.max_abs, std::fabs(c));
         }
         lo = std::min(lo, U[i]);
         hi = std::max(hi, U[i]);
