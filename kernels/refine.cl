@@ -45,32 +45,65 @@ __kernel void refine_residual(__global const double* U, __global const float* g,
   rows[y] = s;
 }
 
-// Step length of the correction c = uc (the float multigrid's answer to the residual gc): per row
-// sums[2y] = sum c r, sums[2y + 1] = sum c (A c) over free cells, with A the level-0 5-point operator
-// (c = 0 at hard cells: the cycles never touch them). alpha = (c, r) / (c, A c) minimises the energy
-// norm of the error along c; on sparse-constraint problems the V-cycle under-corrects the smoothest
-// error mode, which alpha restores (docs/reconstruct.md).
-__kernel void refine_step_sums(__global const float* uc, __global const float* gc, const int W, const int H,
+// Flexible CG on top of the refinement (issue 19 point 6; Notay's FCG(1)): the float V-cycle's
+// answer c to the residual r is the preconditioned residual, the search direction is
+// d = c - beta d_prev (A-orthogonal to the previous one) and U moves by alpha d with
+// alpha = (d, r) / (d, A d). On sparse-constraint problems the V-cycle alone contracts the
+// error only 0.45-0.65 per cycle (the smoothest mode is under-corrected); CG removes that mode.
+// A is the level-0 5-point operator on free cells (hard cells: no unknown, d = 0 there). Directions
+// are float (like c); the sums are double.
+
+// A-weighted 5-point stencil of `v` at free cell (x, y): sum_n w_n (v - v_n) (v_n = 0 at hard cells).
+#define AV(v, o, x, y)                                                                     \
+  (((x) > 0 ? wx * ((double)v[o] - (double)v[o - 1]) : 0.0) +                             \
+   ((x) + 1 < W ? wx * ((double)v[o] - (double)v[o + 1]) : 0.0) +                         \
+   ((y) > 0 ? wy * ((double)v[o] - (double)v[o - W]) : 0.0) +                             \
+   ((y) + 1 < H ? wy * ((double)v[o] - (double)v[o + W]) : 0.0))
+
+// sums[y] = sum over the row's free cells of c (A d_prev) (beta's numerator).
+__kernel void refine_fcg_beta(__global const float* c, __global const float* dp, __global const float* gc,
+                              const int W, const int H, const double wx, const double wy,
+                              __global double* sums) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  double s = 0.0;
+  for (int x = 0; x < W; ++x) {
+    const size_t o = (size_t)y * W + x;
+    if (isnan(gc[o])) continue;
+    s += (double)c[o] * AV(dp, o, x, y);
+  }
+  sums[y] = s;
+}
+
+// d = c - beta d_prev at free cells, 0 at hard cells (c and d_prev are 0 there).
+__kernel void refine_fcg_direction(__global const float* c, __global const float* dp, const double beta,
+                                   __global float* d, const int W, const int H) {
+  const int y = get_global_id(0);
+  if (y >= H) return;
+  for (int x = 0; x < W; ++x) {
+    const size_t o = (size_t)y * W + x;
+    d[o] = (float)((double)c[o] - beta * (double)dp[o]);
+  }
+}
+
+// sums[2y] = sum d r, sums[2y + 1] = sum d (A d) over the row's free cells (alpha; r = gc, the
+// residual the V-cycle was given).
+__kernel void refine_step_sums(__global const float* d, __global const float* gc, const int W, const int H,
                                const double wx, const double wy, __global double* sums) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const size_t o = (size_t)y * W;
-  double cr = 0.0, cac = 0.0;
+  double dr = 0.0, dad = 0.0;
   for (int x = 0; x < W; ++x) {
-    const float r = gc[o + x];
+    const size_t o = (size_t)y * W + x;
+    const float r = gc[o];
     if (isnan(r)) continue;
-    const double c = (double)uc[o + x];
-    double ac = 0.0;
-    if (x > 0) ac += wx * (c - (double)uc[o + x - 1]);
-    if (x + 1 < W) ac += wx * (c - (double)uc[o + x + 1]);
-    if (y > 0) ac += wy * (c - (double)uc[o + x - W]);
-    if (y + 1 < H) ac += wy * (c - (double)uc[o + x + W]);
-    cr += c * (double)r;
-    cac += c * ac;
+    dr += (double)d[o] * (double)r;
+    dad += (double)d[o] * AV(d, o, x, y);
   }
-  sums[2 * (size_t)y] = cr;
-  sums[2 * (size_t)y + 1] = cac;
+  sums[2 * (size_t)y] = dr;
+  sums[2 * (size_t)y + 1] = dad;
 }
+#undef AV
 
 // U += alpha uc at free cells (the float correction, accumulated in double). Per row, for the
 // host's stop rule: stats[3y] = max |alpha uc| over free cells, stats[3y+1] / [3y+2] = min / max of U.

@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 namespace terracl::mg {
 namespace {
@@ -38,12 +40,11 @@ struct Path {
   std::function<void()> finish;
 };
 
-// Step length alpha = (c, r) / (c, A c) from those two sums (1 where they say nothing: a zero or
-// constant correction). Bounded: past 4 the estimate is noise, not an under-correction.
-double step_length(double cr, double cac) {
-  if (!(cac > 0) || !std::isfinite(cr)) return 1.0;
-  const double a = cr / cac;
-  return a > 0 && a <= 4 ? a : 1.0;
+// Step length alpha = (d, r) / (d, A d) along direction d (kernels/refine.cl); 1 where the sums say
+// nothing (a zero or constant direction).
+double step_length(double dr, double dad) {
+  const double a = dad > 0 ? dr / dad : 0.0;
+  return a > 0 && std::isfinite(a) ? a : 1.0;
 }
 
 // Stop rule: the error left, estimated from the last correction k_n and the contraction
@@ -62,6 +63,8 @@ void loop(const Path& path, const SolverOptions& o, SolveStats& st, const std::f
     st.refine_residuals.push_back(rel(path.residual()));
     st.refine_cycles = c + 1;
     const double bound = o.refine_tolerance * k.range;
+    if (std::getenv("TERRACL_MG_PROFILE"))
+      std::fprintf(stderr, "refinement cycle %d: correction %.3e of the range\n", c + 1, k.max_abs / k.range);
     if (k.max_abs <= bound) break;
     if (c > 0 && last > 0) {
       const double q = k.max_abs / last;
@@ -102,10 +105,22 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
     track();
     cl::Kernel widen = d.kernel("refine", "refine_widen"), res = d.kernel("refine", "refine_residual"),
                acc = d.kernel("refine", "refine_accumulate"), narrow = d.kernel("refine", "refine_narrow"),
-               sums = d.kernel("refine", "refine_step_sums");
+               sums = d.kernel("refine", "refine_step_sums"), fbeta = d.kernel("refine", "refine_fcg_beta"),
+               fdir = d.kernel("refine", "refine_fcg_direction");
+    // Flexible CG (kernels/refine.cl): the previous and the current search direction.
+    cl::Buffer dprev = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
+    cl::Buffer dcur = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
+    d.fill(dprev, 0.0f, 0, N);
+    track();
+    double dad_prev = 0;  // (d_prev, A d_prev); 0: no previous direction
+    std::vector<double> rows_host(3 * size_t(H));
+    auto row_sum = [&](size_t stride, size_t k) {
+      double s = 0;
+      for (size_t y = 0; y < size_t(H); ++y) s += rows_host[stride * y + k];
+      return s;
+    };
     set_args(widen, U, p.u, W, H);
     launch_rows(d, widen, size_t(H));
-    std::vector<double> rows_host(3 * size_t(H));
     path.residual = [&] {
       set_args(res, U, g0, W, H, wx, wy, p.g, p.u, rows);
       launch_rows(d, res, size_t(H));
@@ -115,16 +130,24 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
       return std::sqrt(s);
     };
     path.accumulate = [&] {
-      set_args(sums, p.u, p.g, W, H, wx, wy, rows);
+      double beta = 0;
+      if (dad_prev > 0) {
+        set_args(fbeta, p.u, dprev, p.g, W, H, wx, wy, rows);
+        launch_rows(d, fbeta, size_t(H));
+        q.enqueueReadBuffer(rows, CL_TRUE, 0, size_t(H) * sizeof(double), rows_host.data());
+        beta = row_sum(1, 0) / dad_prev;
+        if (!std::isfinite(beta)) beta = 0;
+      }
+      set_args(fdir, p.u, dprev, beta, dcur, W, H);
+      launch_rows(d, fdir, size_t(H));
+      set_args(sums, dcur, p.g, W, H, wx, wy, rows);
       launch_rows(d, sums, size_t(H));
       q.enqueueReadBuffer(rows, CL_TRUE, 0, 2 * size_t(H) * sizeof(double), rows_host.data());
-      double cr = 0, cac = 0;
-      for (size_t y = 0; y < size_t(H); ++y) {
-        cr += rows_host[2 * y];
-        cac += rows_host[2 * y + 1];
-      }
-      const double alpha = step_length(cr, cac);
-      set_args(acc, U, p.u, g0, W, H, alpha, rows);
+      const double dr = row_sum(2, 0), dad = row_sum(2, 1);
+      const double alpha = step_length(dr, dad);
+      dad_prev = dad;
+      std::swap(dprev, dcur);
+      set_args(acc, U, dprev, g0, W, H, alpha, rows);
       launch_rows(d, acc, size_t(H));
       q.enqueueReadBuffer(rows, CL_TRUE, 0, rows_host.size() * sizeof(double), rows_host.data());
       Correction k;
