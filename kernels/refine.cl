@@ -15,11 +15,11 @@ __kernel void refine_widen(__global double* U, __global const float* u, const in
 
 // Residual of U in double, r = g + sum_n w_n (U_n - U) at free cells (the same 5-point operator as
 // res0 in multigrid.cl), written as the correction problem for the float multigrid: gc = (float) r
-// at free cells, NaN at hard cells, and a zero initial correction uc everywhere. rows[y] = sum of
-// r^2 over the row.
+// at free cells, NaN at hard cells, and a zero initial correction uc everywhere; R = r in double
+// (refine_accumulate carries it on). rows[y] = sum of r^2 over the row.
 __kernel void refine_residual(__global const double* U, __global const float* g, const int W, const int H,
                               const double wx, const double wy, __global float* gc, __global float* uc,
-                              __global double* rows) {
+                              __global double* rows, __global double* R) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o = (size_t)y * W;
@@ -40,6 +40,7 @@ __kernel void refine_residual(__global const double* U, __global const float* g,
     const double l = (x > 0) ? row[x - 1] : c, r = (x + 1 < W) ? row[x + 1] : c;
     const double res = (double)gi + wl * (l - c) + wr * (r - c) + wn * (up[x] - c) + ws * (dn[x] - c);
     gc[o + x] = (float)res;
+    R[o + x] = res;
     s += res * res;
   }
   rows[y] = s;
@@ -75,59 +76,67 @@ __kernel void refine_fcg_beta(__global const float* c, __global const float* dp,
   sums[y] = s;
 }
 
-// d = c - beta d_prev at free cells, 0 at hard cells (c and d_prev are 0 there).
+// The new direction d = c - beta d_prev (written to `d`; 0 at hard cells, where c and d_prev are 0)
+// and, per row, sums[2y] = sum d r, sums[2y + 1] = sum d (A d) over free cells (alpha; r = gc, the
+// residual the V-cycle was given). Neighbours' d are recomputed (the same expression, the same
+// float), so one pass does both.
 __kernel void refine_fcg_direction(__global const float* c, __global const float* dp, const double beta,
-                                   __global float* d, const int W, const int H) {
+                                   __global float* d, __global const float* gc, const int W, const int H,
+                                   const double wx, const double wy, __global double* sums) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  for (int x = 0; x < W; ++x) {
-    const size_t o = (size_t)y * W + x;
-    d[o] = (float)((double)c[o] - beta * (double)dp[o]);
-  }
-}
-
-// sums[2y] = sum d r, sums[2y + 1] = sum d (A d) over the row's free cells (alpha; r = gc, the
-// residual the V-cycle was given).
-__kernel void refine_step_sums(__global const float* d, __global const float* gc, const int W, const int H,
-                               const double wx, const double wy, __global double* sums) {
-  const int y = get_global_id(0);
-  if (y >= H) return;
+#define DV(o) ((double)(float)((double)c[o] - beta * (double)dp[o]))
   double dr = 0.0, dad = 0.0;
   for (int x = 0; x < W; ++x) {
     const size_t o = (size_t)y * W + x;
+    const double v = DV(o);
+    d[o] = (float)v;
     const float r = gc[o];
     if (isnan(r)) continue;
-    dr += (double)d[o] * (double)r;
-    dad += (double)d[o] * AV(d, o, x, y);
+    const double ad = (x > 0 ? wx * (v - DV(o - 1)) : 0.0) + (x + 1 < W ? wx * (v - DV(o + 1)) : 0.0) +
+                      (y > 0 ? wy * (v - DV(o - W)) : 0.0) + (y + 1 < H ? wy * (v - DV(o + W)) : 0.0);
+    dr += v * (double)r;
+    dad += v * ad;
   }
+#undef DV
   sums[2 * (size_t)y] = dr;
   sums[2 * (size_t)y + 1] = dad;
 }
-#undef AV
 
-// U += alpha uc at free cells (the float correction, accumulated in double). Per row, for the
-// host's stop rule: stats[3y] = max |alpha uc| over free cells, stats[3y+1] / [3y+2] = min / max of U.
-__kernel void refine_accumulate(__global double* U, __global const float* uc, __global const float* g, const int W,
-                                const int H, const double alpha, __global double* stats) {
+// U += alpha d at free cells (accumulated in double) and, in the same pass, the residual of the new
+// U by recurrence, R -= alpha A d (double; the next correction problem: gc = (float) R at free
+// cells, uc = 0). Per row: stats[4y] = max |alpha d| over free cells (the stop rule),
+// stats[4y+1] / [4y+2] = min / max of U, stats[4y+3] = sum of R^2 (the residual norm).
+__kernel void refine_accumulate(__global double* U, __global const float* d, __global const float* g, const int W,
+                                const int H, const double alpha, __global double* stats, __global double* R,
+                                __global float* gc, __global float* uc, const double wx, const double wy) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  const size_t o = (size_t)y * W;
-  double cmax = 0.0, lo = (double)INFINITY, hi = -(double)INFINITY;
+  const size_t o0 = (size_t)y * W;
+  double cmax = 0.0, lo = (double)INFINITY, hi = -(double)INFINITY, ss = 0.0;
   for (int x = 0; x < W; ++x) {
-    double v = U[o + x];
-    if (!isnan(g[o + x])) {
-      const double c = alpha * (double)uc[o + x];
+    const size_t o = o0 + x;
+    double v = U[o];
+    if (!isnan(g[o])) {
+      const double c = alpha * (double)d[o];
       v += c;
-      U[o + x] = v;
+      U[o] = v;
       cmax = fmax(cmax, fabs(c));
+      const double r = R[o] - alpha * AV(d, o, x, y);
+      R[o] = r;
+      gc[o] = (float)r;
+      ss += r * r;
     }
+    uc[o] = 0.0f;
     lo = fmin(lo, v);
     hi = fmax(hi, v);
   }
-  stats[3 * (size_t)y] = cmax;
-  stats[3 * (size_t)y + 1] = lo;
-  stats[3 * (size_t)y + 2] = hi;
+  stats[4 * (size_t)y] = cmax;
+  stats[4 * (size_t)y + 1] = lo;
+  stats[4 * (size_t)y + 2] = hi;
+  stats[4 * (size_t)y + 3] = ss;
 }
+#undef AV
 
 // u = (float) U: the refined solution back into the solver's float buffer.
 __kernel void refine_narrow(__global float* u, __global const double* U, const int W, const int H) {
