@@ -61,73 +61,64 @@ __kernel void refine_residual(__global const double* U, __global const float* g,
    ((y) > 0 ? wy * ((double)v[o] - (double)v[o - W]) : 0.0) +                             \
    ((y) + 1 < H ? wy * ((double)v[o] - (double)v[o + W]) : 0.0))
 
-// sums[y] = sum over the row's free cells of c (A d_prev) (beta's numerator).
-__kernel void refine_fcg_beta(__global const float* c, __global const float* dp, __global const float* gc,
+// One pass gives every scalar of the step (per row, over free cells, r = gc the residual the
+// V-cycle was given): sums[5y..5y+4] = (c, r), (d_prev, r), (c, A c), (c, A d_prev),
+// (d_prev, A d_prev). The host forms beta = (c, A d_prev) / (d_prev, A d_prev), and for
+// d = c - beta d_prev: (d, r) and (d, A d) = (c, A c) - 2 beta (c, A d_prev) + beta^2 (d_prev, A d_prev),
+// so that the direction is never stored before it is used.
+__kernel void refine_fcg_sums(__global const float* c, __global const float* dp, __global const float* gc,
                               const int W, const int H, const double wx, const double wy,
                               __global double* sums) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  double s = 0.0;
+  double cr = 0.0, dr = 0.0, cac = 0.0, cad = 0.0, dad = 0.0;
   for (int x = 0; x < W; ++x) {
     const size_t o = (size_t)y * W + x;
-    if (isnan(gc[o])) continue;
-    s += (double)c[o] * AV(dp, o, x, y);
-  }
-  sums[y] = s;
-}
-
-// The new direction d = c - beta d_prev (written to `d`; 0 at hard cells, where c and d_prev are 0)
-// and, per row, sums[2y] = sum d r, sums[2y + 1] = sum d (A d) over free cells (alpha; r = gc, the
-// residual the V-cycle was given). Neighbours' d are recomputed (the same expression, the same
-// float), so one pass does both.
-__kernel void refine_fcg_direction(__global const float* c, __global const float* dp, const double beta,
-                                   __global float* d, __global const float* gc, const int W, const int H,
-                                   const double wx, const double wy, __global double* sums) {
-  const int y = get_global_id(0);
-  if (y >= H) return;
-#define DV(o) ((double)(float)((double)c[o] - beta * (double)dp[o]))
-  double dr = 0.0, dad = 0.0;
-  for (int x = 0; x < W; ++x) {
-    const size_t o = (size_t)y * W + x;
-    const double v = DV(o);
-    d[o] = (float)v;
     const float r = gc[o];
     if (isnan(r)) continue;
-    const double ad = (x > 0 ? wx * (v - DV(o - 1)) : 0.0) + (x + 1 < W ? wx * (v - DV(o + 1)) : 0.0) +
-                      (y > 0 ? wy * (v - DV(o - W)) : 0.0) + (y + 1 < H ? wy * (v - DV(o + W)) : 0.0);
-    dr += v * (double)r;
-    dad += v * ad;
+    const double cv = (double)c[o], dv = (double)dp[o], ad = AV(dp, o, x, y);
+    cr += cv * (double)r;
+    dr += dv * (double)r;
+    cac += cv * AV(c, o, x, y);
+    cad += cv * ad;
+    dad += dv * ad;
   }
-#undef DV
-  sums[2 * (size_t)y] = dr;
-  sums[2 * (size_t)y + 1] = dad;
+  sums[5 * (size_t)y] = cr;
+  sums[5 * (size_t)y + 1] = dr;
+  sums[5 * (size_t)y + 2] = cac;
+  sums[5 * (size_t)y + 3] = cad;
+  sums[5 * (size_t)y + 4] = dad;
 }
 
+// d = c - beta d_prev, stored to `d` (the next d_prev; 0 at hard cells, where c and d_prev are 0),
 // U += alpha d at free cells (accumulated in double) and, in the same pass, the residual of the new
-// U by recurrence, R -= alpha A d (double; the next correction problem: gc = (float) R at free
-// cells, uc = 0). Per row: stats[4y] = max |alpha d| over free cells (the stop rule),
-// stats[4y+1] / [4y+2] = min / max of U, stats[4y+3] = sum of R^2 (the residual norm).
-__kernel void refine_accumulate(__global double* U, __global const float* d, __global const float* g, const int W,
+// U by recurrence, R -= alpha A d (double, A d from the neighbours' c and d_prev; the next
+// correction problem: gc = (float) R at free cells; the host zeroes c afterwards). Per row:
+// stats[4y] = max |alpha d| over free cells (the stop rule), stats[4y+1] / [4y+2] = min / max of U,
+// stats[4y+3] = sum of R^2 (the residual norm).
+__kernel void refine_accumulate(__global double* U, __global const float* c, __global const float* dp,
+                                const double beta, __global float* d, __global const float* g, const int W,
                                 const int H, const double alpha, __global double* stats, __global double* R,
-                                __global float* gc, __global float* uc, const double wx, const double wy) {
+                                __global float* gc, const double wx, const double wy) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o0 = (size_t)y * W;
   double cmax = 0.0, lo = (double)INFINITY, hi = -(double)INFINITY, ss = 0.0;
   for (int x = 0; x < W; ++x) {
     const size_t o = o0 + x;
+    const double dv = (double)c[o] - beta * (double)dp[o];
+    d[o] = (float)dv;
     double v = U[o];
     if (!isnan(g[o])) {
-      const double c = alpha * (double)d[o];
-      v += c;
+      const double step = alpha * dv;
+      v += step;
       U[o] = v;
-      cmax = fmax(cmax, fabs(c));
-      const double r = R[o] - alpha * AV(d, o, x, y);
+      cmax = fmax(cmax, fabs(step));
+      const double r = R[o] - alpha * (AV(c, o, x, y) - beta * AV(dp, o, x, y));
       R[o] = r;
       gc[o] = (float)r;
       ss += r * r;
     }
-    uc[o] = 0.0f;
     lo = fmin(lo, v);
     hi = fmax(hi, v);
   }

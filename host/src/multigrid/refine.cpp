@@ -105,7 +105,7 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
   if (on_device) {
     st.refinement = "device-fp64";
     cl::Buffer U = d.buffer(N * sizeof(double), CL_MEM_READ_WRITE, "refinement solution (double)");
-    cl::Buffer rows = d.buffer(4 * size_t(H) * sizeof(double), CL_MEM_READ_WRITE, "refinement per-row figures");
+    cl::Buffer rows = d.buffer(5 * size_t(H) * sizeof(double), CL_MEM_READ_WRITE, "refinement per-row figures");
     cl::Buffer R = d.buffer(N * sizeof(double), CL_MEM_READ_WRITE, "refinement residual (double)");
     // Flexible CG (kernels/refine.cl): the previous and the current search direction.
     cl::Buffer dprev = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
@@ -114,10 +114,9 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
     track();
     cl::Kernel widen = d.kernel("refine", "refine_widen"), res = d.kernel("refine", "refine_residual"),
                acc = d.kernel("refine", "refine_accumulate"), narrow = d.kernel("refine", "refine_narrow"),
-               fbeta = d.kernel("refine", "refine_fcg_beta"), fdir = d.kernel("refine", "refine_fcg_direction");
-    double dad_prev = 0;  // (d_prev, A d_prev); 0: no previous direction
+               fsums = d.kernel("refine", "refine_fcg_sums");
     double next_norm = -1;  // the residual norm refine_accumulate left (its recurrence), -1: none
-    std::vector<double> rows_host(4 * size_t(H));
+    std::vector<double> rows_host(5 * size_t(H));
     auto row_sum = [&](size_t stride, size_t k) {
       double s = 0;
       for (size_t y = 0; y < size_t(H); ++y) s += rows_host[stride * y + k];
@@ -133,23 +132,23 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
       return std::sqrt(row_sum(1, 0));
     };
     path.accumulate = [&] {
-      double beta = 0;
-      if (dad_prev > 0) {
-        set_args(fbeta, p.u, dprev, p.g, W, H, wx, wy, rows);
-        launch_rows(d, fbeta, size_t(H));
-        q.enqueueReadBuffer(rows, CL_TRUE, 0, size_t(H) * sizeof(double), rows_host.data());
-        beta = row_sum(1, 0) / dad_prev;
-        if (!std::isfinite(beta)) beta = 0;
+      set_args(fsums, p.u, dprev, p.g, W, H, wx, wy, rows);
+      launch_rows(d, fsums, size_t(H));
+      q.enqueueReadBuffer(rows, CL_TRUE, 0, 5 * size_t(H) * sizeof(double), rows_host.data());
+      const double cr = row_sum(5, 0), dr = row_sum(5, 1), cac = row_sum(5, 2), cad = row_sum(5, 3),
+                   dad = row_sum(5, 4);
+      double beta = dad > 0 ? cad / dad : 0.0;
+      if (!std::isfinite(beta)) beta = 0;
+      double alpha = step_length(cr - beta * dr, cac - 2 * beta * cad + beta * beta * dad);
+      if (beta != 0 && !(cac - 2 * beta * cad + beta * beta * dad > 0)) {  // lost to cancellation: restart
+        beta = 0;
+        alpha = step_length(cr, cac);
       }
-      set_args(fdir, p.u, dprev, beta, dcur, p.g, W, H, wx, wy, rows);
-      launch_rows(d, fdir, size_t(H));
-      q.enqueueReadBuffer(rows, CL_TRUE, 0, 2 * size_t(H) * sizeof(double), rows_host.data());
-      const double alpha = step_length(row_sum(2, 0), row_sum(2, 1));
-      dad_prev = row_sum(2, 1);
-      std::swap(dprev, dcur);
-      set_args(acc, U, dprev, g0, W, H, alpha, rows, R, p.g, p.u, wx, wy);
+      set_args(acc, U, p.u, dprev, beta, dcur, g0, W, H, alpha, rows, R, p.g, wx, wy);
       launch_rows(d, acc, size_t(H));
-      q.enqueueReadBuffer(rows, CL_TRUE, 0, rows_host.size() * sizeof(double), rows_host.data());
+      std::swap(dprev, dcur);
+      d.fill(p.u, 0.0f, 0, N);  // the next correction's zero guess (acc reads c's neighbours)
+      q.enqueueReadBuffer(rows, CL_TRUE, 0, 4 * size_t(H) * sizeof(double), rows_host.data());
       Correction k;
       double lo = rows_host[1], hi = rows_host[2];
       for (size_t y = 0; y < size_t(H); ++y) {
