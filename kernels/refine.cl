@@ -62,62 +62,71 @@ __kernel void refine_residual(__global const double* U, __global const float* g,
    ((y) + 1 < H ? wy * ((double)v[o] - (double)v[o + W]) : 0.0))
 
 // One pass gives every scalar of the step (per row, over free cells, r = gc the residual the
-// V-cycle was given): sums[5y..5y+4] = (c, r), (d_prev, r), (c, A c), (c, A d_prev),
-// (d_prev, A d_prev). The host forms beta = (c, A d_prev) / (d_prev, A d_prev), and for
-// d = c - beta d_prev: (d, r) and (d, A d) = (c, A c) - 2 beta (c, A d_prev) + beta^2 (d_prev, A d_prev),
-// so that the direction is never stored before it is used.
-__kernel void refine_fcg_sums(__global const float* c, __global const float* dp, __global const float* gc,
-                              const int W, const int H, const double wx, const double wy,
-                              __global double* sums) {
+// V-cycle was given, q = A d_prev kept from the last step): sums[5y..5y+4] = (c, r), (d_prev, r),
+// (c, A c), (c, q), (d_prev, q). The host forms beta = (c, q) / (d_prev, q) and, for
+// d = c - beta d_prev, (d, r) and (d, A d) = (c, A c) - 2 beta (c, q) + beta^2 (d_prev, q). A c goes
+// to `ac` (float) for refine_accumulate: one 5-point stencil per cell and step in all.
+__kernel void refine_fcg_sums(__global const float* c, __global const float* dp, __global const float* q,
+                              __global const float* gc, const int W, const int H, const double wx,
+                              const double wy, __global float* ac, __global double* sums) {
   const int y = get_global_id(0);
   if (y >= H) return;
-  double cr = 0.0, dr = 0.0, cac = 0.0, cad = 0.0, dad = 0.0;
+  double cr = 0.0, dr = 0.0, cac = 0.0, cq = 0.0, dq = 0.0;
   for (int x = 0; x < W; ++x) {
     const size_t o = (size_t)y * W + x;
     const float r = gc[o];
-    if (isnan(r)) continue;
-    const double cv = (double)c[o], dv = (double)dp[o], ad = AV(dp, o, x, y);
+    if (isnan(r)) {
+      ac[o] = 0.0f;
+      continue;
+    }
+    const double cv = (double)c[o], dv = (double)dp[o], qv = (double)q[o], acv = AV(c, o, x, y);
+    ac[o] = (float)acv;
     cr += cv * (double)r;
     dr += dv * (double)r;
-    cac += cv * AV(c, o, x, y);
-    cad += cv * ad;
-    dad += dv * ad;
+    cac += cv * acv;
+    cq += cv * qv;
+    dq += dv * qv;
   }
   sums[5 * (size_t)y] = cr;
   sums[5 * (size_t)y + 1] = dr;
   sums[5 * (size_t)y + 2] = cac;
-  sums[5 * (size_t)y + 3] = cad;
-  sums[5 * (size_t)y + 4] = dad;
+  sums[5 * (size_t)y + 3] = cq;
+  sums[5 * (size_t)y + 4] = dq;
 }
 
-// d = c - beta d_prev, stored to `d` (the next d_prev; 0 at hard cells, where c and d_prev are 0),
-// U += alpha d at free cells (accumulated in double) and, in the same pass, the residual of the new
-// U by recurrence, R -= alpha A d (double, A d from the neighbours' c and d_prev; the next
-// correction problem: gc = (float) R at free cells; the host zeroes c afterwards). Per row:
-// stats[4y] = max |alpha d| over free cells (the stop rule), stats[4y+1] / [4y+2] = min / max of U,
-// stats[4y+3] = sum of R^2 (the residual norm).
-__kernel void refine_accumulate(__global double* U, __global const float* c, __global const float* dp,
-                                const double beta, __global float* d, __global const float* g, const int W,
-                                const int H, const double alpha, __global double* stats, __global double* R,
-                                __global float* gc, const double wx, const double wy) {
+// d = c - beta d_prev and q = A d = A c - beta q_prev, each written in place over what it replaces
+// at the same cell (`dq_ac`: A c in, d out; `q`: q_prev in, q out; 0 at hard cells), U += alpha d
+// at free cells (accumulated in double) and the residual of the new U by recurrence, R -= alpha q
+// (double; the next correction problem: gc = (float) R at free cells; the host zeroes c
+// afterwards). Per row: stats[4y] = max |alpha d| over free cells (the stop rule),
+// stats[4y+1] / [4y+2] = min / max of U, stats[4y+3] = sum of R^2 (the residual norm).
+__kernel void refine_accumulate(__global double* U, __global const float* c, __global float* dp,
+                                const double beta, __global float* ac_d, __global float* q,
+                                __global const float* g, const int W, const int H, const double alpha,
+                                __global double* stats, __global double* R, __global float* gc) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t o0 = (size_t)y * W;
   double cmax = 0.0, lo = (double)INFINITY, hi = -(double)INFINITY, ss = 0.0;
   for (int x = 0; x < W; ++x) {
     const size_t o = o0 + x;
-    const double dv = (double)c[o] - beta * (double)dp[o];
-    d[o] = (float)dv;
     double v = U[o];
     if (!isnan(g[o])) {
+      const double dv = (double)c[o] - beta * (double)dp[o];
+      const double adv = (double)ac_d[o] - beta * (double)q[o];
+      ac_d[o] = (float)dv;
+      q[o] = (float)adv;
       const double step = alpha * dv;
       v += step;
       U[o] = v;
       cmax = fmax(cmax, fabs(step));
-      const double r = R[o] - alpha * (AV(c, o, x, y) - beta * AV(dp, o, x, y));
+      const double r = R[o] - alpha * adv;
       R[o] = r;
       gc[o] = (float)r;
       ss += r * r;
+    } else {
+      ac_d[o] = 0.0f;
+      q[o] = 0.0f;
     }
     lo = fmin(lo, v);
     hi = fmax(hi, v);

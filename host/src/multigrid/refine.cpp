@@ -110,7 +110,9 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
     // Flexible CG (kernels/refine.cl): the previous and the current search direction.
     cl::Buffer dprev = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
     cl::Buffer dcur = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
+    cl::Buffer qdir = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement A times direction");
     d.fill(dprev, 0.0f, 0, N);
+    d.fill(qdir, 0.0f, 0, N);
     track();
     cl::Kernel widen = d.kernel("refine", "refine_widen"), res = d.kernel("refine", "refine_residual"),
                acc = d.kernel("refine", "refine_accumulate"), narrow = d.kernel("refine", "refine_narrow"),
@@ -132,22 +134,22 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
       return std::sqrt(row_sum(1, 0));
     };
     path.accumulate = [&] {
-      set_args(fsums, p.u, dprev, p.g, W, H, wx, wy, rows);
+      set_args(fsums, p.u, dprev, qdir, p.g, W, H, wx, wy, dcur, rows);
       launch_rows(d, fsums, size_t(H));
       q.enqueueReadBuffer(rows, CL_TRUE, 0, 5 * size_t(H) * sizeof(double), rows_host.data());
-      const double cr = row_sum(5, 0), dr = row_sum(5, 1), cac = row_sum(5, 2), cad = row_sum(5, 3),
-                   dad = row_sum(5, 4);
-      double beta = dad > 0 ? cad / dad : 0.0;
+      const double cr = row_sum(5, 0), dr = row_sum(5, 1), cac = row_sum(5, 2), cq = row_sum(5, 3),
+                   dq = row_sum(5, 4);
+      double beta = dq > 0 ? cq / dq : 0.0;
       if (!std::isfinite(beta)) beta = 0;
-      double alpha = step_length(cr - beta * dr, cac - 2 * beta * cad + beta * beta * dad);
-      if (beta != 0 && !(cac - 2 * beta * cad + beta * beta * dad > 0)) {  // lost to cancellation: restart
+      double alpha = step_length(cr - beta * dr, cac - 2 * beta * cq + beta * beta * dq);
+      if (beta != 0 && !(cac - 2 * beta * cq + beta * beta * dq > 0)) {  // lost to cancellation: restart
         beta = 0;
         alpha = step_length(cr, cac);
       }
-      set_args(acc, U, p.u, dprev, beta, dcur, g0, W, H, alpha, rows, R, p.g, wx, wy);
+      set_args(acc, U, p.u, dprev, beta, dcur, qdir, g0, W, H, alpha, rows, R, p.g);
       launch_rows(d, acc, size_t(H));
-      std::swap(dprev, dcur);
-      d.fill(p.u, 0.0f, 0, N);  // the next correction's zero guess (acc reads c's neighbours)
+      std::swap(dprev, dcur);    // dcur held A c, now d
+      d.fill(p.u, 0.0f, 0, N);  // the next correction's zero guess
       q.enqueueReadBuffer(rows, CL_TRUE, 0, 4 * size_t(H) * sizeof(double), rows_host.data());
       Correction k;
       double lo = rows_host[1], hi = rows_host[2];
