@@ -19,6 +19,7 @@
 // the coarsest is level `last`.
 #pragma OPENCL FP_CONTRACT OFF
 
+// int indices throughout: the fused levels have at most kFusedMaxCells = 72^2 nodes (multigrid.cpp).
 #define GI(x, y, P) ((y) + 1) * (P) + (x) + 1
 // Deep enough for any grid: a level of 2^31 cells has fewer than 32 levels below it.
 #define MAX_LEVELS 32
@@ -38,7 +39,7 @@ inline float res9l(__local const float* e, __global const float* r, __global con
 // Zebra Gauss-Seidel: rows y % 2 == 0, then y % 2 == 1, each row swept left to right by one
 // work-item (rows of one parity only couple to the other parity).
 void smooth_l(__local float* e, __global const float* r, __global const float* st, int W, int H, int sweeps) {
-  const int P = W + 2, N = P * (H + 2);
+  const int P = W + 2, N = P * (H + 2);  // index-ok: fused levels have <= 72^2 nodes
   const int lid = get_local_id(0), lsz = get_local_size(0);
   for (int s = 0; s < sweeps; ++s)
     for (int py = 0; py < 2; ++py) {
@@ -56,7 +57,7 @@ void smooth_l(__local float* e, __global const float* r, __global const float* s
 // Full-weighting restriction of the residual of fine level (e, r; W x H) to rc, and ec = 0.
 void restrict_l(__local const float* e, __global const float* r, __global const float* st, int W, int H,
                 __global float* rc, __local float* ec, int Wc, int Hc) {
-  const int P = W + 2, Pc = Wc + 2, N = P * (H + 2);
+  const int P = W + 2, Pc = Wc + 2, N = P * (H + 2);  // index-ok: fused levels have <= 72^2 nodes
   for (int k = get_local_id(0); k < Wc * Hc; k += get_local_size(0)) {
     const int i = k % Wc, j = k / Wc;
     const float a0 = 2 * j - 1 >= 0 ? 0.5f : 0.0f, a1 = 2 * j < H ? 1.0f : 0.0f, a2 = 2 * j + 1 < H ? 0.5f : 0.0f;
@@ -90,7 +91,7 @@ void prolong_l(__local float* e, int W, int H, __local const float* ec, int Wc) 
 
 // e = pinv r on the coarsest level (n = W * H nodes).
 void coarse_l(__local float* e, __global const float* r, __global const float* pinv, int W, int H) {
-  const int P = W + 2, n = W * H;
+  const int P = W + 2, n = W * H;  // index-ok: fused levels have <= 72^2 nodes
   for (int i = get_local_id(0); i < n; i += get_local_size(0)) {
     float s = 0.0f;
     for (int j = 0; j < n; ++j) s += pinv[i * n + j] * r[GI(j % W, j / W, P)];
