@@ -25,7 +25,10 @@ constexpr int64_t kFourColourCells = 128 * 128;
 // work-group does it all, so on a CPU device the bound keeps big levels on both cores; 65^2 is the
 // 1025^2 / 4097^2 hierarchies' level (measured: docs/performance.md).
 constexpr int64_t kFusedMaxCells = 72 * 72;
-constexpr size_t kFusedGroup = 256;
+// Work-items of the fused launch: 128 on GPUs (4 warps: the zebra rows of a 65^2 level are 33);
+// 16 on CPU devices (rows shape), where the work-items of a group run one after the other on
+// one core and idle ones still cost their turn at every barrier (oclgrind: 4x the time at 256).
+constexpr size_t kFusedGroupWide = 128, kFusedGroupRows = 16;
 // FMG V-cycles on each coarse level before moving up. Two cost ~1/3 of a fine V-cycle more than
 // one and bring the finest level to ~1e-6 after FMG + one V-cycle at 1025^2-4097^2 (one saves no
 // fine cycle: 1.5e-6 after FMG + V, so a second fine V-cycle was needed).
@@ -212,7 +215,7 @@ class Solver {
     m_fmeta = m_d.buffer(meta.size() * sizeof(cl_int), CL_MEM_READ_ONLY, "fused coarse level table");
     m_q.enqueueWriteBuffer(m_fmeta, CL_TRUE, 0, meta.size() * sizeof(cl_int), meta.data());
     m_fused_lm = lm_floats;
-    m_fused_group = std::min<size_t>(kFusedGroup, std::max<size_t>(1, m_fk.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev)));
+    m_fused_group = std::min<size_t>(m_d.info().launch == "wide" ? kFusedGroupWide : kFusedGroupRows, std::max<size_t>(1, m_fk.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev)));
     m_fused_top = top;
     m_stats.fused_level = int(top);
     track();
