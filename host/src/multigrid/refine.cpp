@@ -202,7 +202,7 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
     };
     path.accumulate = [&] {
       q.enqueueReadBuffer(p.u, CL_TRUE, 0, N * sizeof(float), u.data());
-      // The same step length as refine_step_sums (gc is still the residual the cycle solved).
+      // The step length of refine_fcg_sums without a previous direction (gc: the residual solved).
       double cr = 0, cac = 0;
       for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
