@@ -51,6 +51,11 @@ run reconstruct_jacobi_w reconstruct --gradient "$OUT/g.exr" -o "$OUT/rj.tif" --
 run reconstruct_cascade reconstruct --gradient "$OUT/g.exr" -o "$OUT/rk.tif" --cycle cascade
 run reconstruct_dirichlet reconstruct --gradient "$OUT/g.exr" -o "$OUT/rd.tif" --border dirichlet --initial "$OUT/c65.tif" --cycle v
 run reconstruct_refine reconstruct --gradient "$OUT/g.exr" -o "$OUT/rr.tif" --refine auto
+# At 65^2 every coarse level of a cycle runs in the fused work-group kernel (multigrid_coarse.cl):
+# its W-cycle path, and the one-launch-per-stage path (smooth9 etc.) that it replaces.
+# (45 x 37: four levels, the W-cycle visits level 2 twice; ~4 s CPU each.)
+run reconstruct_w reconstruct --gradient "$OUT/gc.exr" -o "$OUT/rw.tif" --cycle w
+TERRACL_MG_FUSED=0 run reconstruct_multi_launch reconstruct --gradient "$OUT/gc.exr" -o "$OUT/rm.tif"
 # The authoring examples shrunk to 65 cells across over the same extent (metre coordinates stay,
 # cell coordinates are scaled), so that every operation lands on the small grid. volcanic_island
 # runs without its `fit` operation: with it, oclgrind 21.10 aborted in its own oclgrind::Program

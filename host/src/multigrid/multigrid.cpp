@@ -20,6 +20,15 @@ namespace terracl::mg {
 namespace {
 
 constexpr int64_t kFourColourCells = 128 * 128;
+// The fused coarse cycle (kernels/multigrid_coarse.cl) takes over at the first level of at most
+// this many cells whose e and r (all levels below included) fit the device's local memory. One
+// work-group does it all, so on a CPU device the bound keeps big levels on both cores; 65^2 is the
+// 1025^2 / 4097^2 hierarchies' level (measured: docs/performance.md).
+constexpr int64_t kFusedMaxCells = 72 * 72;
+// Work-items of the fused launch: 128 on GPUs (4 warps: the zebra rows of a 65^2 level are 33);
+// 16 on CPU devices (rows shape), where the work-items of a group run one after the other on
+// one core and idle ones still cost their turn at every barrier (oclgrind: 4x the time at 256).
+constexpr size_t kFusedGroupWide = 128, kFusedGroupRows = 16;
 // FMG V-cycles on each coarse level before moving up. Two cost ~1/3 of a fine V-cycle more than
 // one and bring the finest level to ~1e-6 after FMG + one V-cycle at 1025^2-4097^2 (one saves no
 // fine cycle: 1.5e-6 after FMG + V, so a second fine V-cycle was needed).
@@ -45,8 +54,18 @@ std::map<std::string, ProfileEntry>& profile() {
   return p;
 }
 void print_profile() {
-  for (auto& [k, v] : profile())
+  int launches = 0;
+  for (auto& [k, v] : profile()) {
     std::fprintf(stderr, "%-22s %9.2f ms %5d calls %8.2f ns/item\n", k.c_str(), v.ms, v.calls, 1e6 * v.ms / v.items);
+    launches += v.calls;
+  }
+  std::fprintf(stderr, "%-22s %9s    %5d launches\n", "total", "", launches);
+}
+
+/// TERRACL_MG_FUSED=0 turns the fused coarse cycle off (the multi-launch path, for comparison).
+bool fused_allowed() {
+  const char* v = std::getenv("TERRACL_MG_FUSED");
+  return !(v && std::string(v) == "0");
 }
 
 struct Level {
@@ -158,6 +177,60 @@ class Solver {
     m_q.enqueueWriteBuffer(m_pinv, CL_FALSE, 0, m_pinv_host.size() * sizeof(float), m_pinv_host.data());
     track();
     m_stats.levels = int(m_levels.size());
+    if (fused_allowed() && m_o.smoother == Smoother::Rbgs) build_fused();
+  }
+
+  // The fused coarse cycle: the first level l >= 1 that is small enough (kFusedMaxCells, zebra
+  // smoothing) and whose levels l.. fit local memory next to the kernel's own. Their stencil planes
+  // are packed into one buffer (a kernel takes a fixed number of buffers).
+  void build_fused() {
+    m_fk = m_d.kernel("multigrid_coarse", "coarse_cycle");
+    const cl::Device& dev = m_d.device();
+    const uint64_t kernel_local = m_fk.getWorkGroupInfo<CL_KERNEL_LOCAL_MEM_SIZE>(dev);
+    const uint64_t avail = m_d.info().local_mem > kernel_local ? m_d.info().local_mem - kernel_local : 0;
+    auto ghosted = [&](size_t l) { return int64_t(m_levels[l].W + 2) * (m_levels[l].H + 2); };
+    const size_t L = m_levels.size();
+    uint64_t below = 0;  // local bytes of levels l..L-1 (their e)
+    size_t top = L;
+    for (size_t l = L; l-- > 1;) {
+      below += sizeof(float) * uint64_t(ghosted(l));
+      if (int64_t(m_levels[l].W) * m_levels[l].H > std::min(kFusedMaxCells, kFourColourCells - 1) || below > avail) break;
+      top = l;
+    }
+    if (top >= L) return;
+    std::vector<cl_int> meta;
+    size_t st_floats = 0, lm_floats = 0;
+    for (size_t l = top; l < L; ++l) {
+      meta.insert(meta.end(), {m_levels[l].W, m_levels[l].H, cl_int(st_floats), cl_int(lm_floats)});
+      st_floats += 5 * size_t(ghosted(l));
+      lm_floats += size_t(ghosted(l));
+    }
+    m_fst = m_d.buffer(st_floats * sizeof(float), CL_MEM_READ_ONLY, "fused coarse operators");
+    for (size_t l = top; l < L; ++l)
+      m_q.enqueueCopyBuffer(m_levels[l].st, m_fst, 0, size_t(meta[4 * (l - top) + 2]) * sizeof(float),
+                            5 * size_t(ghosted(l)) * sizeof(float));
+    // The coarse right-hand sides (ghosts never read, zeroed all the same).
+    m_frs = m_d.buffer(lm_floats * sizeof(float), CL_MEM_READ_WRITE, "fused coarse right-hand sides");
+    m_d.fill(m_frs, 0.0f, 0, lm_floats);
+    m_fmeta = m_d.buffer(meta.size() * sizeof(cl_int), CL_MEM_READ_ONLY, "fused coarse level table");
+    m_q.enqueueWriteBuffer(m_fmeta, CL_TRUE, 0, meta.size() * sizeof(cl_int), meta.data());
+    m_fused_lm = lm_floats;
+    m_fused_group = std::min<size_t>(m_d.info().launch == "wide" ? kFusedGroupWide : kFusedGroupRows, std::max<size_t>(1, m_fk.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev)));
+    m_fused_top = top;
+    m_stats.fused_level = int(top);
+    track();
+  }
+
+  // Levels l >= m_fused_top: the whole cycle(l) in one work-group.
+  void fused_cycle(size_t l, int gamma) {
+    Level& T = m_levels[l];
+    const int first = int(l - m_fused_top), last = int(m_levels.size() - 1 - m_fused_top);
+    set_args(m_fk, T.e, T.r, m_fst, m_pinv, m_fmeta, first, last, m_o.pre_smooth, m_o.post_smooth, gamma,
+             cl::Local(m_fused_lm * sizeof(float)), int(m_fused_lm), m_frs);
+    const bool prof = profiling();
+    const double t = prof ? now_ms() : 0;
+    m_q.enqueueNDRangeKernel(m_fk, cl::NullRange, cl::NDRange(m_fused_group), cl::NDRange(m_fused_group));
+    if (prof) record(m_fk, t, double(m_levels[m_fused_top].W) * m_levels[m_fused_top].H, 1);
   }
 
   /// sqrt(sum of squared level-0 residuals); `cold` measures the trivial guess instead of u.
@@ -248,6 +321,7 @@ class Solver {
   }
 
   void cycle(size_t l, int gamma) {
+    if (l >= m_fused_top) return fused_cycle(l, gamma);
     if (l + 1 == m_levels.size()) return coarse_solve();
     smooth(l, m_o.pre_smooth);
     restrict_to(l);
@@ -394,15 +468,17 @@ class Solver {
       launch_grid(m_d, k, w, n);
     else
       launch_rows(m_d, k, n);
-    if (prof) {
-      m_q.finish();
-      std::string name = k.getInfo<CL_KERNEL_FUNCTION_NAME>();
-      name = name.c_str();
-      auto& e = profile()[std::getenv("TERRACL_MG_PROFILE")[0] == '2' ? fmt::format("{}@{}", name, n) : name];
-      e.ms += now_ms() - t;
-      e.calls++;
-      e.items += items > 0 ? items : double(n);
-    }
+    if (prof) record(k, t, items, n);
+  }
+
+  void record(cl::Kernel& k, double t, double items, size_t n) {
+    m_q.finish();
+    std::string name = k.getInfo<CL_KERNEL_FUNCTION_NAME>();
+    name = name.c_str();
+    auto& e = profile()[std::getenv("TERRACL_MG_PROFILE")[0] == '2' ? fmt::format("{}@{}", name, n) : name];
+    e.ms += now_ms() - t;
+    e.calls++;
+    e.items += items > 0 ? items : double(n);
   }
 
   Device& m_d;
@@ -414,6 +490,10 @@ class Solver {
   std::vector<Level> m_levels;
   cl::Kernel m_rb0, m_jac0, m_rr0, m_pc0, m_norm0, m_rhs0, m_z9, m_jac9, m_rr9, m_pc9, m_cs;
   cl::Buffer m_rows, m_pinv;
+  // Fused coarse cycle (build_fused): levels >= m_fused_top (none when past the last level).
+  cl::Kernel m_fk;
+  cl::Buffer m_fst, m_fmeta, m_frs;
+  size_t m_fused_top = SIZE_MAX, m_fused_lm = 0, m_fused_group = 1;
   std::vector<float> m_rows_host, m_pinv_host;
   SolveStats m_stats;
   double m_floor = 0;
@@ -437,7 +517,10 @@ SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baselin
   refine(d, p, o, st, baseline, [&] { s.fine_cycle(); });
   if (p.phases) d.queue().finish();
   st.refine_ms = now_ms() - t_cycled;
-  if (profiling()) print_profile();
+  if (profiling()) {
+    print_profile();
+    if (st.fused_level >= 0) std::fprintf(stderr, "fused coarse cycle from level %d of %d\n", st.fused_level, st.levels);
+  }
   return st;
 }
 

@@ -23,6 +23,7 @@ struct SolveStats {
   std::vector<double> residuals;
   bool converged = false, stagnated = false;
   int levels = 0;
+  int fused_level = -1;  ///< first level of the fused coarse cycle (multigrid_coarse.cl), -1: none
   double setup_ms = 0;
   double cycles_ms = 0, refine_ms = 0;  ///< wall time of the fine-level cycles and of the refinement
   uint64_t peak_bytes = 0;
