@@ -73,13 +73,15 @@ class PhaseClock {
 class SolveBuffers {
  public:
   SolveBuffers(Device& d, int W, int H)
-      : m_d(d), m_w(W), m_h(H), m_cache(workspace_enabled()), m_pin(use_pinned_staging(d)) {}
+      : m_d(d), m_w(W), m_h(H), m_cache(workspace_enabled()), m_pin(use_pinned_staging(d)) {
+    if (m_cache) m_ws = workspace_for(d);
+  }
   SolveBuffers(const SolveBuffers&) = delete;
   SolveBuffers& operator=(const SolveBuffers&) = delete;
   ~SolveBuffers() {
     put_back_all_but("");
     if (m_cache)
-      for (auto& [slot, s] : m_staging) m_d.workspace().put_pinned(m_w, m_h, slot, std::move(s));
+      for (auto& [slot, s] : m_staging) m_ws->put_pinned(m_w, m_h, slot, std::move(s));
   }
   /// Whether the large transfers go through pinned host staging (cl/workspace.hpp).
   bool pinned() const { return m_pin; }
@@ -87,7 +89,7 @@ class SolveBuffers {
   PinnedStaging& staging(const std::string& slot, size_t bytes) {
     for (auto& [name, s] : m_staging)
       if (name == slot && s->bytes() == bytes) return *s;
-    auto s = m_cache ? m_d.workspace().take_pinned(m_d, m_w, m_h, slot, bytes) : std::make_shared<PinnedStaging>(m_d, bytes);
+    auto s = m_cache ? m_ws->take_pinned(m_d, m_w, m_h, slot, bytes) : std::make_shared<PinnedStaging>(m_d, bytes);
     m_staging.emplace_back(slot, s);
     return *s;
   }
@@ -109,12 +111,12 @@ class SolveBuffers {
     std::vector<std::pair<std::string, cl::Buffer>> kept;
     for (auto& [slot, b] : m_taken)
       if (slot == keep1 || slot == keep2) kept.emplace_back(slot, std::move(b));
-      else m_d.workspace().put(m_w, m_h, slot, std::move(b));
+      else m_ws->put(m_w, m_h, slot, std::move(b));
     m_taken.swap(kept);
   }
   cl::Buffer take(const char* slot, size_t bytes, cl_mem_flags flags, const char* what) {
     if (!m_cache) return m_d.buffer(bytes, flags, what);
-    cl::Buffer b = m_d.workspace().take(m_d, m_w, m_h, slot, bytes, flags, what, &m_reused);
+    cl::Buffer b = m_ws->take(m_d, m_w, m_h, slot, bytes, flags, what, &m_reused);
     m_taken.emplace_back(slot, b);
     return b;
   }
@@ -126,6 +128,7 @@ class SolveBuffers {
   Device& m_d;
   int m_w, m_h;
   bool m_cache, m_pin;
+  std::shared_ptr<Workspace> m_ws;
   uint64_t m_reused = 0;
   std::vector<std::pair<std::string, std::shared_ptr<PinnedStaging>>> m_staging;
   std::vector<std::pair<std::string, cl::Buffer>> m_taken;

@@ -12,8 +12,6 @@
 
 namespace terracl {
 
-class Workspace;  // host/src/cl/workspace.hpp: the reconstruction's cached level-0 buffers
-
 /// One OpenCL device as `terracl devices` lists it.
 struct DeviceInfo {
   int index = 0;          ///< position in the flat list over all platforms
@@ -78,11 +76,6 @@ class Device {
   /// writes them, not clEnqueueFillBuffer: strict devices (oclgrind) do not count a fill as an
   /// initialisation, and then flag every later read of the buffer.
   void fill(const cl::Buffer& buf, float value, size_t offset, size_t count);
-  /// The buffers the reconstruction keeps between solves of one grid size (internal; bounded,
-  /// released by buffer() before it would refuse an allocation, or by release_workspace()).
-  Workspace& workspace();
-  /// Releases the idle cached buffers of workspace(); returns their bytes.
-  uint64_t release_workspace();
 
  private:
   Device() = default;
@@ -93,7 +86,6 @@ class Device {
   std::mutex m_mutex;
   std::map<std::string, cl::Program> m_programs;
   std::shared_ptr<std::atomic<int64_t>> m_allocated;  ///< shared by the Devices of one cl_device_id
-  std::shared_ptr<Workspace> m_workspace;
 };
 
 /// Source of an embedded kernel file by stem ("gradient" for kernels/gradient.cl); throws if unknown.

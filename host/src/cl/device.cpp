@@ -164,7 +164,6 @@ std::shared_ptr<Device> Device::open(const std::string& spec) {
   d->m_info = e.info;
   d->m_device = e.device;
   d->m_allocated = allocation_counter(e.device());
-  d->m_workspace = std::make_shared<Workspace>();
   try {
     d->m_context = cl::Context(e.device);
     d->m_queue = cl::CommandQueue(d->m_context, e.device);
@@ -188,7 +187,7 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   if (bytes > m_info.max_alloc)
     fail("device", "{} needs {:.1f} MiB, more than the largest allocation {} allows ({:.1f} MiB)", what,
          bytes / 1048576.0, m_info.name, m_info.max_alloc / 1048576.0);
-  if (uint64_t(m_allocated->load()) + bytes > m_info.global_mem && m_workspace->cached_bytes() > 0) {
+  if (uint64_t(m_allocated->load()) + bytes > m_info.global_mem && workspace_cached_bytes() > 0) {
     // The idle reconstruction cache gives way first (drivers may run the release callback only
     // once the queue is idle).
     release_workspace();
@@ -221,10 +220,6 @@ void Device::fill(const cl::Buffer& buf, float value, size_t offset, size_t coun
   const size_t ls = 64;
   m_queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(count, ls)), cl::NDRange(ls));
 }
-
-Workspace& Device::workspace() { return *m_workspace; }
-
-uint64_t Device::release_workspace() { return m_workspace->release(); }
 
 uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, m_allocated->load())); }
 

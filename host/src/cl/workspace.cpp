@@ -67,6 +67,35 @@ void Workspace::put_pinned(int width, int height, const std::string& slot, std::
   m_pinned[slot] = std::move(p);
 }
 
+namespace {
+std::mutex g_mutex;
+std::shared_ptr<Workspace> g_workspace;
+std::shared_ptr<Workspace> current() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  return g_workspace;
+}
+}  // namespace
+
+std::shared_ptr<Workspace> workspace_for(Device& d) {
+  std::shared_ptr<Workspace> old;  // released after the lock (its buffers' callbacks run then)
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (g_workspace && g_workspace->context() == d.context()()) return g_workspace;
+  old = std::move(g_workspace);
+  g_workspace = std::make_shared<Workspace>(d.context()());
+  if (old) old->release();
+  return g_workspace;
+}
+
+uint64_t release_workspace() {
+  auto w = current();
+  return w ? w->release() : 0;
+}
+
+uint64_t workspace_cached_bytes() {
+  auto w = current();
+  return w ? w->cached_bytes() : 0;
+}
+
 bool workspace_enabled() {
   const char* v = std::getenv("TERRACL_NO_WORKSPACE");
   return !(v && *v && std::string(v) != "0");

@@ -3,9 +3,12 @@
 // edit state and `terracl bench` solve the same grid again and again, and on a GPU the creation
 // and first touch of two or four fresh N-float buffers cost more than the whole V-cycle work.
 //
-// Bounded: one grid size per device. A solve of another size releases every cached buffer before
-// it allocates its own; Device::buffer() also drops the idle cache before it refuses an
-// allocation for lack of memory, so the cache never turns a solve that fitted into a failure.
+// Bounded: one workspace per process, bound to one device (context) and one grid size. A solve of
+// another size, or on another Device, releases every cached buffer before it allocates its own;
+// Device::buffer() also drops the idle cache before it refuses an allocation for lack of memory,
+// so the cache never turns a solve that fitted into a failure. (One per process rather than a
+// Device member: a Device destroyed while caching would otherwise keep its buffers and context
+// alive with nobody to release them; here the next solve anywhere, or release_workspace(), does.)
 // Buffers are taken out while in use (two solves at once on one Device get separate buffers) and
 // put back afterwards; their contents are never relied upon (every solve writes them first).
 #include <terracl/device.hpp>
@@ -47,6 +50,9 @@ bool use_pinned_staging(Device& d);
 
 class Workspace {
  public:
+  explicit Workspace(cl_context context) : m_context(context) {}
+  /// The context the cached buffers belong to (identity only; the buffers retain it).
+  cl_context context() const { return m_context; }
   /// A buffer of exactly `bytes` for `slot` of a `width` x `height` solve: the cached one when
   /// there is one, else a new one from d.buffer() (`what` names it in errors). A different grid
   /// size than the cached one releases the whole cache first. `reused` (optional) gets the bytes
@@ -70,11 +76,20 @@ class Workspace {
     size_t bytes = 0;
     cl_mem_flags flags = 0;
   };
+  cl_context m_context;
   mutable std::mutex m_mutex;
   int m_width = 0, m_height = 0;
   std::map<std::string, Slot> m_slots;
   std::map<std::string, std::shared_ptr<PinnedStaging>> m_pinned;
 };
+
+/// The process's workspace for `d`: the current one when it is bound to d's context, else a new
+/// one (the previous one is released once its last solve puts its buffers back).
+std::shared_ptr<Workspace> workspace_for(Device& d);
+/// Releases the idle cached buffers; returns their bytes.
+uint64_t release_workspace();
+/// Bytes of the idle cached buffers.
+uint64_t workspace_cached_bytes();
 
 /// TERRACL_NO_WORKSPACE=1 turns the cache off (every solve allocates afresh, as before).
 bool workspace_enabled();
