@@ -68,8 +68,11 @@ void Workspace::put_pinned(int width, int height, const std::string& slot, std::
 }
 
 namespace {
-std::mutex g_mutex;
-std::shared_ptr<Workspace> g_workspace;
+// Never destroyed: releasing cached OpenCL objects during static destruction, after the platform
+// library may have torn itself down, aborts (oclgrind: "corrupted double-linked list" at exit).
+// The process's exit frees them.
+std::mutex& g_mutex = *new std::mutex;
+std::shared_ptr<Workspace>& g_workspace = *new std::shared_ptr<Workspace>;
 std::shared_ptr<Workspace> current() {
   std::lock_guard<std::mutex> lock(g_mutex);
   return g_workspace;
