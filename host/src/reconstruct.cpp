@@ -1,11 +1,13 @@
 // Public reconstruction API: uploads the problem (divergence computed on the device, constraint
 // values scattered into the solution buffer), runs the multigrid launcher and reads the result.
+#include <terracl/amplify.hpp>  // parallel_for
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
 
 #include "row_launch.hpp"
 #include <terracl/reconstruct.hpp>
 
+#include "cl/workspace.hpp"
 #include "hypre/hypre_solve.hpp"
 #include "io/io_common.hpp"
 #include "multigrid/multigrid.hpp"
@@ -19,6 +21,19 @@
 
 namespace terracl {
 namespace {
+
+// Host passes over the grid run in parallel_for over chunks of this many cells; grids below a few
+// chunks stay on the calling thread (starting threads costs more than the pass).
+constexpr size_t kHostChunk = size_t(1) << 16;
+size_t host_chunks(size_t n) { return (n + kHostChunk - 1) / kHostChunk; }
+int host_threads(size_t n) { return n < 4 * kHostChunk ? 1 : 0; }
+
+void copy_floats(float* dst, const float* src, size_t n) {
+  parallel_for(host_chunks(n), host_threads(n), [&](size_t c0, size_t c1) {
+    const size_t b = c0 * kHostChunk, e = std::min(n, c1 * kHostChunk);
+    std::copy(src + b, src + e, dst + b);
+  });
+}
 
 double now_ms() {
   using namespace std::chrono;
@@ -55,7 +70,73 @@ class PhaseClock {
   std::vector<std::pair<std::string, double>>& m_out;
 };
 
-using RhsMaker = std::function<void(Device&, cl::Buffer& g, PhaseClock& clk)>;
+// The level-0 buffers of one solve: taken from the device's workspace (cached between solves of
+// one grid size, cl/workspace.hpp) and put back at the end, or plain buffers when the cache is off.
+class SolveBuffers {
+ public:
+  SolveBuffers(Device& d, int W, int H)
+      : m_d(d), m_w(W), m_h(H), m_cache(workspace_enabled()), m_pin(use_pinned_staging(d)) {
+    if (m_cache) m_ws = workspace_for(d);
+  }
+  SolveBuffers(const SolveBuffers&) = delete;
+  SolveBuffers& operator=(const SolveBuffers&) = delete;
+  ~SolveBuffers() {
+    put_back_all_but("");
+    if (m_cache)
+      for (auto& [slot, s] : m_staging) m_ws->put_pinned(m_w, m_h, slot, std::move(s));
+  }
+  /// Whether the large transfers go through pinned host staging (cl/workspace.hpp).
+  bool pinned() const { return m_pin; }
+  /// Pinned host staging of `bytes` for `slot`, kept for the whole solve.
+  PinnedStaging& staging(const std::string& slot, size_t bytes) {
+    for (auto& [name, s] : m_staging)
+      if (name == slot && s->bytes() == bytes) return *s;
+    auto s = m_cache ? m_ws->take_pinned(m_d, m_w, m_h, slot, bytes) : std::make_shared<PinnedStaging>(m_d, bytes);
+    m_staging.emplace_back(slot, s);
+    return *s;
+  }
+  /// Enqueues the upload of `bytes` from host `src` into `dst`: through the pinned staging `slot`
+  /// (copied there in threads) when pinned(), else straight from `src`. `blocking` where the
+  /// staging is reused before the queue drains.
+  void upload(const cl::Buffer& dst, const float* src, size_t bytes, const std::string& slot, bool blocking = false) {
+    if (!m_pin) {
+      m_d.queue().enqueueWriteBuffer(dst, blocking ? CL_TRUE : CL_FALSE, 0, bytes, src);
+      return;
+    }
+    PinnedStaging& st = staging(slot, bytes);
+    copy_floats(st.data(), src, bytes / sizeof(float));
+    m_d.queue().enqueueWriteBuffer(dst, blocking ? CL_TRUE : CL_FALSE, 0, bytes, st.data());
+  }
+  /// Returns every taken buffer except `keep` to the cache (idle there, the memory-pressure path
+  /// of Device::buffer can release them).
+  void put_back_all_but(const std::string& keep1, const std::string& keep2 = "") {
+    std::vector<std::pair<std::string, cl::Buffer>> kept;
+    for (auto& [slot, b] : m_taken)
+      if (slot == keep1 || slot == keep2) kept.emplace_back(slot, std::move(b));
+      else m_ws->put(m_w, m_h, slot, std::move(b));
+    m_taken.swap(kept);
+  }
+  cl::Buffer take(const char* slot, size_t bytes, cl_mem_flags flags, const char* what) {
+    if (!m_cache) return m_d.buffer(bytes, flags, what);
+    cl::Buffer b = m_ws->take(m_d, m_w, m_h, slot, bytes, flags, what, &m_reused);
+    m_taken.emplace_back(slot, b);
+    return b;
+  }
+  /// Bytes of cached buffers this solve reuses: counted in the device's allocation before the
+  /// solve started, so the peak figure adds them back.
+  uint64_t reused() const { return m_reused; }
+
+ private:
+  Device& m_d;
+  int m_w, m_h;
+  bool m_cache, m_pin;
+  std::shared_ptr<Workspace> m_ws;
+  uint64_t m_reused = 0;
+  std::vector<std::pair<std::string, std::shared_ptr<PinnedStaging>>> m_staging;
+  std::vector<std::pair<std::string, cl::Buffer>> m_taken;
+};
+
+using RhsMaker = std::function<void(Device&, cl::Buffer& g, PhaseClock& clk, SolveBuffers& bufs)>;
 
 ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
                                double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
@@ -134,14 +215,16 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   // The solution is read straight into the result (no second N-float array).
   std::vector<float>& out = res.height.z;
   out.resize(N);
+  SolveBuffers bufs(d, W, H);
+  const float* src = out.data();  // the solution as read back (out itself, or pinned staging)
   try {
     cl::CommandQueue& q = d.queue();
-    p.u = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction solution");
-    p.g = d.buffer(bytes, CL_MEM_READ_WRITE, "reconstruction right-hand side");
+    p.u = bufs.take("u", bytes, CL_MEM_READ_WRITE, "reconstruction solution");
+    p.g = bufs.take("g", bytes, CL_MEM_READ_WRITE, "reconstruction right-hand side");
     // u: the warm start (or 0) as deviation from m; g: -f; then the hard cells from the sparse
     // list (u = value - m, g = NaN).
     if (o.initial) {
-      q.enqueueWriteBuffer(p.u, CL_FALSE, 0, bytes, o.initial->z.data());
+      bufs.upload(p.u, o.initial->z.data(), bytes, "stage x", true);  // the staging is reused next
       clk.mark(d, "upload");
       cl::Kernel sh = d.kernel("multigrid", "shift_level0");
       set_args(sh, p.u, W, H, float(m));
@@ -150,12 +233,12 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       d.fill(p.u, 0.0f, 0, size_t(W) * H);
     }
     clk.mark(d, "device init");
-    make_rhs(d, p.g, clk);
+    make_rhs(d, p.g, clk, bufs);
     clk.mark(d, "device init");
     peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
     if (hard) {
-      cl::Buffer bi = d.buffer(hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
-      cl::Buffer bv = d.buffer(hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
+      cl::Buffer bi = bufs.take("hard index", hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
+      cl::Buffer bv = bufs.take("hard value", hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
       q.enqueueWriteBuffer(bi, CL_FALSE, 0, hard * sizeof(uint32_t), hard_index.data());
       q.enqueueWriteBuffer(bv, CL_FALSE, 0, hard * sizeof(float), hard_value.data());
       clk.mark(d, "upload");
@@ -165,7 +248,8 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       launch_rows(d, sc, (hard + chunk - 1) / chunk);
       peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
     }
-    q.finish();  // releases the gradient and hard-list buffers before the hierarchy is built
+    q.finish();  // the gradient and hard-list buffers go back to the (releasable) cache
+    bufs.put_back_all_but("u", "g");
     if (singular) {
       // Project onto the range of the pure-Neumann operator: the mean of f must vanish.
       cl::Buffer rows = d.buffer(size_t(H) * sizeof(float), CL_MEM_READ_WRITE, "row sums");
@@ -194,7 +278,14 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     clk.add("cycles", st.cycles_ms);
     clk.add("refinement", st.refine_ms);
     clk.add("solver other", t_solved - t0 - t_setup0 - st.setup_ms - st.cycles_ms - st.refine_ms);
-    q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, out.data());
+    // Pinned: the read lands in the staging and the finish pass below copies it into the result
+    // (the copy is the pass's own; no extra one).
+    if (bufs.pinned()) {
+      src = bufs.staging("stage x", bytes).data();
+      q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, const_cast<float*>(src));
+    } else {
+      q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, out.data());
+    }
     clk.mark(d, "read-back");
     res.cycles = st.cycles;
     res.residuals = st.residuals;
@@ -206,7 +297,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     res.refine_residuals = st.refine_residuals;
     res.setup_ms = t_setup0 + st.setup_ms;
     res.solve_ms = t_solved - t0 - res.setup_ms;
-    res.device_bytes = std::max(peak, st.peak_bytes);
+    res.device_bytes = std::max(peak, st.peak_bytes) + bufs.reused();
   } catch (const cl::Error& e) {
     fail("reconstruct", "{}", describe(e));
   }
@@ -221,15 +312,29 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   double shift = m;
   if (singular) {
     double s = 0;
-    for (float v : out) s += v;
+    for (size_t i = 0; i < N; ++i) s += src[i];
     shift = target - s / double(N);
   }
+  // Element-wise passes in threads: every cell's value is computed alone, so the result does not
+  // depend on the thread count (the singular mean above stays one sequential sum for that reason).
+  std::vector<char> chunk_finite(host_chunks(N), 1);
+  parallel_for(chunk_finite.size(), host_threads(N), [&](size_t c0, size_t c1) {
+    for (size_t c = c0; c < c1; ++c) {
+      bool f = true;
+      float* z = h.z.data();
+      for (size_t i = c * kHostChunk, e = std::min(N, i + kHostChunk); i < e; ++i) {
+        z[i] = float(double(src[i]) + shift);
+        f &= std::isfinite(z[i]);
+      }
+      chunk_finite[c] = f;
+    }
+  });
+  parallel_for(host_chunks(hard), host_threads(hard), [&](size_t c0, size_t c1) {
+    for (size_t k = c0 * kHostChunk, e = std::min(hard, c1 * kHostChunk); k < e; ++k)
+      h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact (the indices are distinct)
+  });
   bool finite = true;
-  for (float& v : h.z) {
-    v = float(double(v) + shift);
-    finite &= std::isfinite(v);
-  }
-  for (size_t k = 0; k < hard; ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
+  for (char f : chunk_finite) finite &= f != 0;
   for (size_t i = 0; !finite && i < N; ++i)
     if (!std::isfinite(h.z[i]))
       fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}): NaN/Inf in the input, or values too large for float32",
@@ -337,8 +442,18 @@ ReconstructResult reconstruct(Device& d, const GradientField& gin, const Constra
   const int W = gin.width, H = gin.height;
   if (gin.gx.size() != size_t(W) * H || gin.gy.size() != size_t(W) * H)
     fail("reconstruct", "gradient arrays do not match its {}x{} size", W, H);
-  for (size_t i = 0; i < gin.size(); ++i)
-    if (!std::isfinite(gin.gx[i]) || !std::isfinite(gin.gy[i]))
+  // The first non-finite cell in row-major order, found in threads (each chunk its own first).
+  std::vector<size_t> first_bad(host_chunks(gin.size()), SIZE_MAX);
+  parallel_for(first_bad.size(), host_threads(gin.size()), [&](size_t c0, size_t c1) {
+    for (size_t c = c0; c < c1; ++c)
+      for (size_t i = c * kHostChunk, e = std::min(gin.size(), i + kHostChunk); i < e; ++i)
+        if (!std::isfinite(gin.gx[i]) || !std::isfinite(gin.gy[i])) {
+          first_bad[c] = i;
+          break;
+        }
+  });
+  for (size_t i : first_bad)
+    if (i != SIZE_MAX)
       fail("reconstruct", "gradient has a NaN/Inf value at cell ({}, {})", i % size_t(W), i / size_t(W));
   GradientField converted;
   const GradientField* g = &gin;
@@ -346,12 +461,12 @@ ReconstructResult reconstruct(Device& d, const GradientField& gin, const Constra
     converted = to_staggered(d, gin);
     g = &converted;
   }
-  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock& clk) {
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock& clk, SolveBuffers& bufs) {
     const size_t bytes = g->size() * sizeof(float);
-    cl::Buffer gx = dev.buffer(bytes, CL_MEM_READ_ONLY, "gradient gx");
-    cl::Buffer gy = dev.buffer(bytes, CL_MEM_READ_ONLY, "gradient gy");
-    dev.queue().enqueueWriteBuffer(gx, CL_FALSE, 0, bytes, g->gx.data());
-    dev.queue().enqueueWriteBuffer(gy, CL_FALSE, 0, bytes, g->gy.data());
+    cl::Buffer gx = bufs.take("gx", bytes, CL_MEM_READ_ONLY, "gradient gx");
+    cl::Buffer gy = bufs.take("gy", bytes, CL_MEM_READ_ONLY, "gradient gy");
+    bufs.upload(gx, g->gx.data(), bytes, "stage x");
+    bufs.upload(gy, g->gy.data(), bytes, "stage y");
     clk.mark(dev, "upload");
     enqueue_divergence(dev, gx, gy, out, g->width, g->height, g->georef.cell_x, g->georef.cell_y, -1.0f);
   };
@@ -416,7 +531,7 @@ ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::
     }
     return reconstruct(d, g, c, o);
   }
-  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock&) {
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock&, SolveBuffers&) {
     enqueue_divergence(dev, gx, gy, out, like.width, like.height, like.georef.cell_x, like.georef.cell_y, -1.0f);
   };
   return solve_common(d, like.width, like.height, like.georef, like.metadata, like.mean_elevation, rhs, c, o);
@@ -425,10 +540,20 @@ ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::
 ReconstructResult reconstruct_divergence(Device& d, const Heightfield& f, const ConstraintSet& c,
                                          const SolverOptions& o) {
   require_finite(f, "reconstruct", "the divergence");
-  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock& clk) {
-    std::vector<float> neg(f.size());
-    for (size_t i = 0; i < neg.size(); ++i) neg[i] = -f.z[i];
-    dev.queue().enqueueWriteBuffer(out, CL_TRUE, 0, neg.size() * sizeof(float), neg.data());
+  RhsMaker rhs = [&](Device& dev, cl::Buffer& out, PhaseClock& clk, SolveBuffers& bufs) {
+    const size_t n = f.size();
+    std::vector<float> neg_host;
+    float* neg = nullptr;
+    if (bufs.pinned()) {
+      neg = bufs.staging("stage x", n * sizeof(float)).data();
+    } else {
+      neg_host.resize(n);
+      neg = neg_host.data();
+    }
+    parallel_for(host_chunks(n), host_threads(n), [&](size_t c0, size_t c1) {
+      for (size_t i = c0 * kHostChunk, e = std::min(n, c1 * kHostChunk); i < e; ++i) neg[i] = -f.z[i];
+    });
+    dev.queue().enqueueWriteBuffer(out, CL_TRUE, 0, n * sizeof(float), neg);
     clk.mark(dev, "upload");
   };
   hypre::RowDivergence row_div = [&f](int y, double* out) {

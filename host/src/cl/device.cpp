@@ -4,6 +4,8 @@
 #include <terracl/error.hpp>
 #include <terracl/stage_memory.hpp>
 
+#include "workspace.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <cctype>
@@ -185,6 +187,12 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   if (bytes > m_info.max_alloc)
     fail("device", "{} needs {:.1f} MiB, more than the largest allocation {} allows ({:.1f} MiB)", what,
          bytes / 1048576.0, m_info.name, m_info.max_alloc / 1048576.0);
+  if (uint64_t(m_allocated->load()) + bytes > m_info.global_mem && workspace_cached_bytes() > 0) {
+    // The idle reconstruction cache gives way first (drivers may run the release callback only
+    // once the queue is idle).
+    release_workspace();
+    m_queue.finish();
+  }
   if (uint64_t(m_allocated->load()) + bytes > m_info.global_mem)
     fail("device", "{} needs {:.1f} MiB, but {} has {:.1f} MiB of global memory and {:.1f} MiB are in use", what,
          bytes / 1048576.0, m_info.name, m_info.global_mem / 1048576.0, m_allocated->load() / 1048576.0);
