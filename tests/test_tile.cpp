@@ -14,6 +14,7 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -54,25 +55,6 @@ void expect_same_raster(const std::string& untiled, const std::string& tiled, bo
   }
 }
 
-// Runs `doc` (with OUT in file names replaced by the folder) untiled into dir/u and tiled into dir/t.
-void run_both(const test::TempDir& dir, const std::string& doc, const TileOptions& to) {
-  for (const char* which : {"u", "t"}) {
-    std::string text = doc;
-    const std::string out = dir.path(which);
-    for (size_t p; (p = text.find("OUT")) != std::string::npos;) text.replace(p, 3, out);
-    Pipeline p = Pipeline::parse(json::parse(text), "tiles", "tiles.json");
-    p.validate();
-    RunOptions ro;
-    ro.device = []() -> Device& { return test::device(); };
-    ro.write_resolved = false;
-    RunReport r;
-    if (which[0] == 'u')
-      p.run(ro, r);
-    else
-      run_tiled(p, to, ro, r);
-  }
-}
-
 // A crop of the bundled SRTM tile (geographic: the metric cell size depends on the window), with
 // nodata holes, written as a GeoTIFF.
 std::string dem_input(const test::TempDir& dir, int w, int h, bool holes) {
@@ -107,7 +89,7 @@ TEST(Tile, LocalStagesEqualUntiledBitForBit) {
   for (int tile : {64, 50, 1000}) {
     TileOptions to;
     to.tile = tile;
-    run_both(dir, doc, to);
+    test::run_untiled_and_tiled(dir, doc, to);
     for (const char* f : {"a.tif", "b.tif", "c.tif"})
       expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
   }
@@ -119,7 +101,7 @@ TEST(Tile, NodataCarriesThroughTiles) {
   const std::string doc = R"([")" + in + R"(", {"type": "crop", "x": 5, "y": 3}, "OUT/a.tif"])";
   TileOptions to;
   to.tile = 32;
-  run_both(dir, doc, to);
+  test::run_untiled_and_tiled(dir, doc, to);
   expect_same_raster(dir.path("u/a.tif"), dir.path("t/a.tif"));
   EXPECT_GT(read_heightfield(dir.path("t/a.tif")).count_nodata(), 3000u);
 }
@@ -137,14 +119,14 @@ TEST(Tile, FillDepressionsEqualsUntiledWithNodataAndOddSizes) {
   to.tile = 37;
   // fill_nodata is a global solve with no tiled form: refused before anything runs.
   try {
-    run_both(dir, doc, to);
+    test::run_untiled_and_tiled(dir, doc, to);
     FAIL() << "fill_nodata ran tiled";
   } catch (const UsageError& e) {
     EXPECT_NE(std::string(e.what()).find("/7: stage 'skip' (fill_nodata) cannot run tiled"), std::string::npos)
         << e.what();
   }
   const std::string doc2 = doc.substr(0, doc.rfind(", {\"type\": \"fill_nodata\"")) + "]";
-  run_both(dir, doc2, to);
+  test::run_untiled_and_tiled(dir, doc2, to);
   expect_same_raster(dir.path("u/f.tif"), dir.path("t/f.tif"));
   expect_same_raster(dir.path("u/g.tif"), dir.path("t/g.tif"));
   const Heightfield raw = read_heightfield(in), filled = read_heightfield(dir.path("t/f.tif"));
@@ -180,7 +162,7 @@ TEST(Tile, VrtMosaicInput) {
   const std::string doc = R"([")" + dir.path("mosaic.vrt") + R"(", "fill_depressions", "OUT/m.tif"])";
   TileOptions to;
   to.tile = 64;
-  run_both(dir, doc, to);
+  test::run_untiled_and_tiled(dir, doc, to);
   expect_same_raster(dir.path("u/m.tif"), dir.path("t/m.tif"));
   EXPECT_EQ(read_heightfield(dir.path("t/m.tif")).width, 300);
 }

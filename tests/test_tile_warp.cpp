@@ -15,6 +15,7 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -46,24 +47,6 @@ void expect_same_raster(const std::string& untiled, const std::string& tiled, bo
       GDALClose(ds);
     }
     EXPECT_EQ(va, vb) << k;
-  }
-}
-
-void run_both(const test::TempDir& dir, const std::string& doc, const TileOptions& to) {
-  for (const char* which : {"u", "t"}) {
-    std::string text = doc;
-    const std::string out = dir.path(which);
-    for (size_t p; (p = text.find("OUT")) != std::string::npos;) text.replace(p, 3, out);
-    Pipeline p = Pipeline::parse(json::parse(text), "tiles", "tiles.json");
-    p.validate();
-    RunOptions ro;
-    ro.device = []() -> Device& { return test::device(); };
-    ro.write_resolved = false;
-    RunReport r;
-    if (which[0] == 'u')
-      p.run(ro, r);
-    else
-      run_tiled(p, to, ro, r);
   }
 }
 
@@ -101,7 +84,7 @@ TEST(TileWarp, ReprojectionEqualsUntiledForEveryResampling) {
         "tr": [150, 150], "resampling": ")" + r + R"("}, "OUT/b.tif", {"type": "crop", "x": 1, "y": 2, "width": 40}, "OUT/c.tif"])";
     TileOptions to;
     to.tile = r == "near" ? 64 : 37;
-    run_both(dir, doc, to);
+    test::run_untiled_and_tiled(dir, doc, to);
     for (const char* f : {"a.tif", "b.tif", "c.tif"})
       expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
     const Heightfield a = read_heightfield(dir.path("t/a.tif"));
@@ -118,7 +101,7 @@ TEST(TileWarp, ResizeAndSizeEqualUntiled) {
       {"type": "resize", "preset": "unreal-505"}, "OUT/e.tif"])";
   TileOptions to;
   to.tile = 100;
-  run_both(dir, doc, to);
+  test::run_untiled_and_tiled(dir, doc, to);
   for (const char* f : {"r.tif", "s.tif", "e.tif"})
     expect_same_raster(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
   const Heightfield e = read_heightfield(dir.path("t/e.tif"));

@@ -508,7 +508,7 @@ ReconstructResult reconstruct_hypre_file(Device& d, const std::string& path, con
       }
     };
   };
-  RhsMaker none = [](Device&, cl::Buffer&, PhaseClock&) {};
+  RhsMaker none = [](Device&, cl::Buffer&, PhaseClock&, SolveBuffers&) {};
   return solve_common(d, W, H, head.georef, head.metadata, head.mean_elevation, none, c, o, {}, band_div);
 }
 

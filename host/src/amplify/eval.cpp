@@ -3,6 +3,8 @@
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 
+#include "row_spectra.hpp"
+
 #include <unsupported/Eigen/FFT>
 
 #include <algorithm>
@@ -17,10 +19,7 @@ inline int clampi(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
 
 }  // namespace
 
-// Spectrum outside the low-resolution passband |fx|, |fy| <= 1 / (2 f) (cycles per cell), after
-// removing the least-squares plane and applying a Hann window so that the tile's borders do not leak
-// energy into high frequencies. Every step is linear in h.
-std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f) {
+std::vector<std::complex<double>> windowed_row_spectra(const Heightfield& h) {
   const int w = h.width, ht = h.height;
   // Plane fit z ~ a + b x + c y (x, y centred, so the normal equations are diagonal).
   double sz = 0, sxz = 0, syz = 0, sxx = 0, syy = 0;
@@ -38,12 +37,22 @@ std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f) {
       grid[size_t(y) * w + x] = win * (h.at(x, y) - a - b * (x - cx) - c * (y - cy));
     }
   Eigen::FFT<double> fft;
-  std::vector<std::complex<double>> in, out, hf;
+  std::vector<std::complex<double>> in, out;
   for (int y = 0; y < ht; ++y) {
     in.assign(grid.begin() + size_t(y) * w, grid.begin() + size_t(y + 1) * w);
     fft.fwd(out, in);
     std::copy(out.begin(), out.end(), grid.begin() + size_t(y) * w);
   }
+  return grid;
+}
+
+// Spectrum outside the low-resolution passband |fx|, |fy| <= 1 / (2 f) (cycles per cell), of the
+// plane-removed, Hann-windowed tile (windowed_row_spectra). Every step is linear in h.
+std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f) {
+  const int w = h.width, ht = h.height;
+  const std::vector<std::complex<double>> grid = windowed_row_spectra(h);
+  Eigen::FFT<double> fft;
+  std::vector<std::complex<double>> in, out, hf;
   in.resize(size_t(ht));
   const double nyq = 0.5 / f;
   for (int x = 0; x < w; ++x) {

@@ -2,6 +2,8 @@
 // (issue 16: detail calibrated per input, not only on the exemplar's average).
 #include <terracl/amplify.hpp>
 
+#include "row_spectra.hpp"
+
 #include <unsupported/Eigen/FFT>
 
 #include <algorithm>
@@ -14,26 +16,9 @@ double predicted_energy_above(const Heightfield& low, int f) {
   const int w = low.width, h = low.height;
   if (f < 2 || w < 16 || h < 16) return -1;
   // The evaluation's windowing (spectrum_above): plane removed, 2-D Hann window.
-  double sz = 0, sxz = 0, syz = 0, sxx = 0, syy = 0;
-  const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const double z = low.at(x, y), dx = x - cx, dy = y - cy;
-      sz += z, sxz += dx * z, syz += dy * z, sxx += dx * dx, syy += dy * dy;
-    }
-  const double a = sz / (double(w) * h), b = sxx > 0 ? sxz / sxx : 0, c = syy > 0 ? syz / syy : 0;
-  std::vector<std::complex<double>> grid(size_t(w) * h), in, out;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const double win = (0.5 - 0.5 * std::cos(2 * M_PI * (x + 0.5) / w)) * (0.5 - 0.5 * std::cos(2 * M_PI * (y + 0.5) / h));
-      grid[size_t(y) * w + x] = win * (low.at(x, y) - a - b * (x - cx) - c * (y - cy));
-    }
+  const std::vector<std::complex<double>> grid = windowed_row_spectra(low);
   Eigen::FFT<double> fft;
-  for (int y = 0; y < h; ++y) {
-    in.assign(grid.begin() + size_t(y) * w, grid.begin() + size_t(y + 1) * w);
-    fft.fwd(out, in);
-    std::copy(out.begin(), out.end(), grid.begin() + size_t(y) * w);
-  }
+  std::vector<std::complex<double>> in, out;
   // The input is the block mean of the terrain: its spectrum at (fx, fy) (cycles per input cell) is
   // the terrain's times the f-cell box's response B(u) = sin(pi u) / (f sin(pi u / f)) per axis, plus
   // the aliases (fx + mx, fy + my) of the finer frequencies folded onto it (|fx + mx| < f / 2). The
