@@ -17,6 +17,7 @@
 // results do not depend on the compiler.
 #pragma OPENCL FP_CONTRACT OFF
 #include "launch.clh"
+#include "stencil9.clh"
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 typedef double acc_t;
@@ -349,14 +350,7 @@ __kernel void row_sums(__global const float* g, const int W, const int H, __glob
 // Residual r - A e at ghosted index o (pitch P, plane size N).
 inline float res9(__global const float* e, __global const float* r, __global const float* st, size_t o, int P,
                   size_t N) {
-  __global const float* wE = st + N;
-  __global const float* wS = st + 2 * N;
-  __global const float* wSE = st + 3 * N;
-  __global const float* wSW = st + 4 * N;
-  const float s = wE[o] * e[o + 1] + wS[o] * e[o + P] + wSE[o] * e[o + P + 1] + wSW[o] * e[o + P - 1] +
-                  wE[o - 1] * e[o - 1] + wS[o - P] * e[o - P] + wSE[o - P - 1] * e[o - P - 1] +
-                  wSW[o - P + 1] * e[o - P + 1];
-  return r[o] + s - st[o] * e[o];
+  STENCIL9_RESIDUAL(e, r, st, o, P, N)
 }
 
 // Gauss-Seidel on a 9-point level over rows y % 2 == py (rows of one parity only couple to the
@@ -379,9 +373,7 @@ __kernel void smooth9(__global float* e, __global const float* r, __global const
   for (int x = px; x < W; x += xstep) {
 #endif
     const size_t o = GI(x, y, P);
-    const float d = st[o];
-    const float v = e[o] + res9(e, r, st, o, P, N) / d;
-    e[o] = d > 0.0f ? v : 0.0f;
+    STENCIL9_SMOOTH_NODE(e, st, o, res9(e, r, st, o, P, N))
   }
 }
 

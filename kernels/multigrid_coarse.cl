@@ -18,22 +18,17 @@
 // of its r in `rs`. The cycle starts at level `first` (its e comes from and goes back to `eg`) and
 // the coarsest is level `last`.
 #pragma OPENCL FP_CONTRACT OFF
+#include "stencil9.clh"
 
 // int indices throughout: the fused levels have at most kFusedMaxCells = 72^2 nodes (multigrid.cpp).
 #define GI(x, y, P) ((y) + 1) * (P) + (x) + 1
 // Deep enough for any grid: a level of 2^31 cells has fewer than 32 levels below it.
 #define MAX_LEVELS 32
 
-// r - A e at ghosted index o, the same sum in the same order as res9 (multigrid.cl).
+// r - A e at ghosted index o, the same sum in the same order as res9 (multigrid.cl): both expand
+// kernels/stencil9.clh.
 inline float res9l(__local const float* e, __global const float* r, __global const float* st, int o, int P, int N) {
-  __global const float* wE = st + N;
-  __global const float* wS = st + 2 * N;
-  __global const float* wSE = st + 3 * N;
-  __global const float* wSW = st + 4 * N;
-  const float s = wE[o] * e[o + 1] + wS[o] * e[o + P] + wSE[o] * e[o + P + 1] + wSW[o] * e[o + P - 1] +
-                  wE[o - 1] * e[o - 1] + wS[o - P] * e[o - P] + wSE[o - P - 1] * e[o - P - 1] +
-                  wSW[o - P + 1] * e[o - P + 1];
-  return r[o] + s - st[o] * e[o];
+  STENCIL9_RESIDUAL(e, r, st, o, P, N)
 }
 
 // Zebra Gauss-Seidel: rows y % 2 == 0, then y % 2 == 1, each row swept left to right by one
@@ -46,9 +41,7 @@ void smooth_l(__local float* e, __global const float* r, __global const float* s
       for (int y = 2 * lid + py; y < H; y += 2 * lsz)
         for (int x = 0; x < W; ++x) {
           const int o = GI(x, y, P);
-          const float d = st[o];
-          const float v = e[o] + res9l(e, r, st, o, P, N) / d;
-          e[o] = d > 0.0f ? v : 0.0f;
+          STENCIL9_SMOOTH_NODE(e, st, o, res9l(e, r, st, o, P, N))
         }
       barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);
     }
