@@ -6,6 +6,8 @@
 #include <terracl/gradient.hpp>
 #include <terracl/reconstruct.hpp>
 
+#include <cstring>
+
 using namespace terracl;
 using nlohmann::json;
 
@@ -154,4 +156,37 @@ TEST(Constraints, ConflictingConstraintsInASolveFollowThePriorityRule) {
   EXPECT_EQ(r.height.at(20, 30), 950.f);
   EXPECT_EQ(r.height.at(25, 30), 1000.f);
   for (float z : r.height.z) ASSERT_TRUE(std::isfinite(z));
+}
+
+// hard_cells runs in threads over 64k-cell chunks above 256k cells: the list must be the
+// row-major scan's, values resolved as value(), for any layout (chunk edges, averaged cells,
+// a hard last cell, an empty chunk run).
+TEST(Constraints, HardCellListInThreadsIsTheRowMajorScan) {
+  const int W = 701, H = 503;  // 352k cells: 6 chunks, threaded
+  ConstraintSet c(W, H);
+  uint32_t s = 12345;
+  for (int k = 0; k < 9000; ++k) {
+    s = s * 1664525u + 1013904223u;
+    const int x = int(s % W), y = int((s >> 12) % (H / 2));  // the lower half stays free
+    c.add_cell(x, y, double(k) * 0.37, ConstraintKind::Raster, "t");
+    if (k % 7 == 0) c.add_cell(x, y, 1.0 + k, ConstraintKind::Raster, "t");  // averaged
+  }
+  c.add_cell(65535 % W, 65535 / W, 5.0, ConstraintKind::Point, "t");  // last cell of chunk 0
+  c.add_cell(65536 % W, 65536 / W, 6.0, ConstraintKind::Point, "t");  // first of chunk 1
+  c.add_cell(W - 1, H - 1, 7.0, ConstraintKind::Point, "t");
+  std::vector<uint32_t> idx;
+  std::vector<float> val;
+  c.hard_cells(idx, val);
+  std::vector<uint32_t> want_idx;
+  std::vector<float> want_val;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (c.is_hard(x, y)) want_idx.push_back(uint32_t(size_t(y) * W + x)), want_val.push_back(c.value(x, y));
+  ASSERT_EQ(idx.size(), c.count());
+  EXPECT_EQ(idx, want_idx);
+  ASSERT_EQ(val.size(), want_val.size());
+  EXPECT_EQ(0, std::memcmp(val.data(), want_val.data(), val.size() * sizeof(float)));
+  ConstraintSet empty(W, H);
+  empty.hard_cells(idx, val);
+  EXPECT_TRUE(idx.empty() && val.empty());
 }

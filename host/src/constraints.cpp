@@ -1,5 +1,6 @@
 // Hard-constraint rasterisation and the constraint JSON format (priority rule in constraints.hpp).
 #include <terracl/constraints.hpp>
+#include <terracl/amplify.hpp>  // parallel_for
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
 
@@ -34,26 +35,50 @@ std::vector<float> ConstraintSet::values() const {
   return v;
 }
 
+namespace {
+// hard_cells works in chunks of this many cells, one thread per range of chunks; grids below a
+// few chunks stay on the calling thread (as reconstruct.cpp's host passes).
+constexpr size_t kHardChunk = size_t(1) << 16;
+}  // namespace
+
 void ConstraintSet::hard_cells(std::vector<uint32_t>& index, std::vector<float>& value) const {
-  index.clear();
-  value.clear();
-  // Scan the kind bytes eight at a time: most cells are free.
+  // Two passes over chunks (count, then write at the chunk's prefix offset): the list is in
+  // row-major order whatever the thread count, and each value is resolved as before.
   const size_t n = m_kind.size();
-  size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    uint64_t w;
-    std::memcpy(&w, m_kind.data() + i, 8);
-    if (!w) continue;
-    for (size_t k = i; k < i + 8; ++k)
-      if (m_kind[k]) index.push_back(uint32_t(k));
-  }
-  for (; i < n; ++i)
-    if (m_kind[i]) index.push_back(uint32_t(i));
-  value.resize(index.size());
-  for (size_t k = 0; k < index.size(); ++k) {
-    const size_t c = index[k];
-    value[k] = m_count[c] == 1 ? m_sum[c] : float(double(m_sum[c]) / m_count[c]);
-  }
+  const size_t chunks = (n + kHardChunk - 1) / kHardChunk;
+  const int threads = n < 4 * kHardChunk ? 1 : 0;
+  auto scan = [&](size_t b, size_t e, auto&& emit) {
+    size_t i = b;
+    for (; i + 8 <= e; i += 8) {  // eight kind bytes at a time: most cells are free
+      uint64_t w;
+      std::memcpy(&w, m_kind.data() + i, 8);
+      if (!w) continue;
+      for (size_t k = i; k < i + 8; ++k)
+        if (m_kind[k]) emit(k);
+    }
+    for (; i < e; ++i)
+      if (m_kind[i]) emit(i);
+  };
+  std::vector<size_t> offset(chunks + 1, 0);
+  parallel_for(chunks, threads, [&](size_t c0, size_t c1) {
+    for (size_t c = c0; c < c1; ++c) {
+      size_t count = 0;
+      scan(c * kHardChunk, std::min(n, (c + 1) * kHardChunk), [&](size_t) { ++count; });
+      offset[c + 1] = count;
+    }
+  });
+  for (size_t c = 0; c < chunks; ++c) offset[c + 1] += offset[c];
+  index.resize(offset[chunks]);
+  value.resize(offset[chunks]);
+  parallel_for(chunks, threads, [&](size_t c0, size_t c1) {
+    for (size_t c = c0; c < c1; ++c) {
+      size_t o = offset[c];
+      scan(c * kHardChunk, std::min(n, (c + 1) * kHardChunk), [&](size_t k) {
+        index[o] = uint32_t(k);
+        value[o++] = m_count[k] == 1 ? m_sum[k] : float(double(m_sum[k]) / m_count[k]);
+      });
+    }
+  });
 }
 
 void ConstraintSet::add_cell(int x, int y, double z, ConstraintKind kind, const std::string& where) {
