@@ -173,3 +173,40 @@ TEST(Workspace, ThreadedInputCheckNamesTheFirstBadCell) {
     EXPECT_NE(std::string(e.what()).find("cell (650, 300)"), std::string::npos) << e.what();
   }
 }
+
+// Issue 19 (branch gpuedit): the multigrid hierarchy and the refinement's vectors come from the
+// workspace as well: a second solve of the same size allocates nothing, the bits are those of
+// fresh buffers, and the peak figure counts the reused buffers.
+TEST(Workspace, HierarchyAndRefinementBuffersAreCachedToo) {
+  Device& d = test::device();
+  release_workspace();
+  const uint64_t before = settled_bytes(d, d.allocated_bytes());
+  Problem p = problem(129, 97, 5);
+  SolverOptions o;
+  o.refine = Refinement::Auto;
+  o.refine_tolerance = 1e-9;  // at least one refinement cycle
+  ReconstructResult fresh;
+  {
+    ScopedEnv off("TERRACL_NO_WORKSPACE", "1");
+    fresh = reconstruct(d, p.g, p.c, o);
+    EXPECT_EQ(settled_bytes(d, before), before);
+  }
+  ASSERT_NE(fresh.refinement, "off");
+  ReconstructResult first = reconstruct(d, p.g, p.c, o);
+  const uint64_t cached = d.allocated_bytes() - before;
+  const size_t N = p.g.size(), N1 = size_t(129 / 2 + 1) * (97 / 2 + 1);
+  // Level 0 (u, g, gx, gy), level 1 (e, r and six stencil planes) and, on the device path, the
+  // refinement's g, U, R and three directions.
+  uint64_t want = 4 * N * sizeof(float) + 8 * N1 * sizeof(float);
+  if (fresh.refinement == "device-fp64") want += 4 * N * sizeof(float) + 2 * N * sizeof(double) + 3 * N * sizeof(float);
+  EXPECT_GE(cached, want);
+  ReconstructResult second = reconstruct(d, p.g, p.c, o);
+  EXPECT_EQ(d.allocated_bytes() - before, cached) << "the second solve reuses, it does not add";
+  EXPECT_EQ(0u, test::bit_differences(fresh.height, first.height));
+  EXPECT_EQ(0u, test::bit_differences(fresh.height, second.height));
+  EXPECT_EQ(fresh.refine_cycles, second.refine_cycles);
+  EXPECT_EQ(first.device_bytes, second.device_bytes);
+  EXPECT_GE(second.device_bytes, fresh.device_bytes);
+  EXPECT_EQ(release_workspace(), cached);
+  EXPECT_EQ(settled_bytes(d, before), before);
+}

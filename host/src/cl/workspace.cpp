@@ -171,4 +171,20 @@ uint64_t Workspace::cached_bytes() const {
   return n;
 }
 
+WorkspaceBuffers::WorkspaceBuffers(Device& d, int width, int height) : m_d(d), m_w(width), m_h(height) {
+  if (workspace_enabled()) m_ws = workspace_for(d);
+}
+
+WorkspaceBuffers::~WorkspaceBuffers() {
+  if (m_ws)
+    for (auto& [slot, b] : m_taken) m_ws->put(m_w, m_h, slot, std::move(b));
+}
+
+cl::Buffer WorkspaceBuffers::take(const std::string& slot, size_t bytes, cl_mem_flags flags, const std::string& what) {
+  if (!m_ws) return m_d.buffer(bytes, flags, what);
+  cl::Buffer b = m_ws->take(m_d, m_w, m_h, slot, bytes, flags, what, &m_reused);
+  m_taken.emplace_back(slot, b);
+  return b;
+}
+
 }  // namespace terracl

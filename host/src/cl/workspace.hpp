@@ -18,6 +18,8 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace terracl {
 
@@ -81,6 +83,29 @@ class Workspace {
   int m_width = 0, m_height = 0;
   std::map<std::string, Slot> m_slots;
   std::map<std::string, std::shared_ptr<PinnedStaging>> m_pinned;
+};
+
+/// The buffers of one solve stage (the multigrid hierarchy, the refinement's vectors) taken from
+/// the workspace of `d` for a `width` x `height` solve and put back when this goes out of scope;
+/// plain buffers from d.buffer() when the cache is off (TERRACL_NO_WORKSPACE=1). Their contents
+/// are never relied upon: the caller writes (or fills) every buffer it takes before reading it.
+class WorkspaceBuffers {
+ public:
+  WorkspaceBuffers(Device& d, int width, int height);
+  ~WorkspaceBuffers();
+  WorkspaceBuffers(const WorkspaceBuffers&) = delete;
+  WorkspaceBuffers& operator=(const WorkspaceBuffers&) = delete;
+  cl::Buffer take(const std::string& slot, size_t bytes, cl_mem_flags flags, const std::string& what);
+  /// Bytes taken from the cache: already counted in d.allocated_bytes() before the solve, so a
+  /// peak-memory figure adds them back.
+  uint64_t reused() const { return m_reused; }
+
+ private:
+  Device& m_d;
+  int m_w, m_h;
+  std::shared_ptr<Workspace> m_ws;  // null: cache off
+  uint64_t m_reused = 0;
+  std::vector<std::pair<std::string, cl::Buffer>> m_taken;
 };
 
 /// The process's workspace for `d`: the current one when it is bound to d's context, else a new

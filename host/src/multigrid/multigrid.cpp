@@ -4,6 +4,7 @@
 #include "multigrid/refine.hpp"
 #include <terracl/launch.hpp>
 #include "row_launch.hpp"
+#include "cl/workspace.hpp"
 
 #include <terracl/error.hpp>
 
@@ -81,7 +82,7 @@ double now_ms() {
 class Solver {
  public:
   Solver(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline)
-      : m_d(d), m_q(d.queue()), m_p(p), m_o(o), m_baseline(baseline) {
+      : m_d(d), m_q(d.queue()), m_p(p), m_o(o), m_baseline(baseline), m_ws(d, p.width, p.height) {
     profile().clear();
     m_wx = float(1.0 / (p.cell_x * p.cell_x));
     m_wy = float(1.0 / (p.cell_y * p.cell_y));
@@ -97,11 +98,17 @@ class Solver {
     m_rr9 = k("residual_restrict9");
     m_pc9 = k("prolong_correct9");
     m_cs = k("coarse_solve");
-    m_rows = d.buffer(2 * sizeof(float) * size_t(p.height), CL_MEM_READ_WRITE, "residual rows");
+    m_rows = m_ws.take("mg rows", 2 * sizeof(float) * size_t(p.height), CL_MEM_READ_WRITE, "residual rows");
     m_rows_host.resize(2 * size_t(p.height));
   }
 
-  void track() { m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_d.allocated_bytes() - m_baseline); }
+  // Buffers reused from the workspace were allocated before the solve: added back.
+  void track() {
+    m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_d.allocated_bytes() - m_baseline + m_ws.reused());
+  }
+  /// The hierarchy's buffers (cached between solves of one grid size, cl/workspace.hpp); the
+  /// refinement takes its vectors from the same.
+  WorkspaceBuffers& buffers() { return m_ws; }
 
   void build() {
     const auto dims = multigrid_levels(m_p.width, m_p.height);
@@ -112,13 +119,14 @@ class Solver {
       L.W = dims[l].first;
       L.H = dims[l].second;
       if (l == 0) {
-        if (jac) L.tmp = m_d.buffer(size_t(L.W) * L.H * sizeof(float), CL_MEM_READ_WRITE, "multigrid level 0 Jacobi buffer");
+        if (jac) L.tmp = m_ws.take("mg tmp 0", size_t(L.W) * L.H * sizeof(float), CL_MEM_READ_WRITE, "multigrid level 0 Jacobi buffer");
         continue;
       }
       // Coarse levels carry a ghost frame of zeros (see kernels/multigrid.cl).
       const size_t n = size_t(L.W + 2) * (L.H + 2) * sizeof(float);
+      // Zeroed whether fresh or reused: the ghost frames must be zero.
       auto zeroed = [&](size_t bytes, const char* what) {
-        cl::Buffer b = m_d.buffer(bytes, CL_MEM_READ_WRITE, what);
+        cl::Buffer b = m_ws.take(fmt::format("mg {} {}", what, l), bytes, CL_MEM_READ_WRITE, what);
         m_d.fill(b, 0.0f, 0, bytes / sizeof(float));
         return b;
       };
@@ -173,7 +181,7 @@ class Solver {
     m_pinv_host.resize(size_t(n) * n);
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) m_pinv_host[size_t(i) * n + j] = float(P(i, j));
-    m_pinv = m_d.buffer(m_pinv_host.size() * sizeof(float), CL_MEM_READ_ONLY, "coarsest pseudo-inverse");
+    m_pinv = m_ws.take("mg pinv", m_pinv_host.size() * sizeof(float), CL_MEM_READ_ONLY, "coarsest pseudo-inverse");
     m_q.enqueueWriteBuffer(m_pinv, CL_FALSE, 0, m_pinv_host.size() * sizeof(float), m_pinv_host.data());
     track();
     m_stats.levels = int(m_levels.size());
@@ -205,14 +213,14 @@ class Solver {
       st_floats += 5 * size_t(ghosted(l));
       lm_floats += size_t(ghosted(l));
     }
-    m_fst = m_d.buffer(st_floats * sizeof(float), CL_MEM_READ_ONLY, "fused coarse operators");
+    m_fst = m_ws.take("mg fused st", st_floats * sizeof(float), CL_MEM_READ_ONLY, "fused coarse operators");
     for (size_t l = top; l < L; ++l)
       m_q.enqueueCopyBuffer(m_levels[l].st, m_fst, 0, size_t(meta[4 * (l - top) + 2]) * sizeof(float),
                             5 * size_t(ghosted(l)) * sizeof(float));
     // The coarse right-hand sides (ghosts never read, zeroed all the same).
-    m_frs = m_d.buffer(lm_floats * sizeof(float), CL_MEM_READ_WRITE, "fused coarse right-hand sides");
+    m_frs = m_ws.take("mg fused rs", lm_floats * sizeof(float), CL_MEM_READ_WRITE, "fused coarse right-hand sides");
     m_d.fill(m_frs, 0.0f, 0, lm_floats);
-    m_fmeta = m_d.buffer(meta.size() * sizeof(cl_int), CL_MEM_READ_ONLY, "fused coarse level table");
+    m_fmeta = m_ws.take("mg fused meta", meta.size() * sizeof(cl_int), CL_MEM_READ_ONLY, "fused coarse level table");
     m_q.enqueueWriteBuffer(m_fmeta, CL_TRUE, 0, meta.size() * sizeof(cl_int), meta.data());
     m_fused_lm = lm_floats;
     m_fused_group = std::min<size_t>(m_d.info().launch == "wide" ? kFusedGroupWide : kFusedGroupRows, std::max<size_t>(1, m_fk.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev)));
@@ -486,6 +494,7 @@ class Solver {
   Problem& m_p;
   const SolverOptions& m_o;
   uint64_t m_baseline;
+  WorkspaceBuffers m_ws;
   float m_wx = 1, m_wy = 1;
   std::vector<Level> m_levels;
   cl::Kernel m_rb0, m_jac0, m_rr0, m_pc0, m_norm0, m_rhs0, m_z9, m_jac9, m_rr9, m_pc9, m_cs;
@@ -514,7 +523,7 @@ SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baselin
   if (p.phases) d.queue().finish();
   const double t_cycled = now_ms();
   st.cycles_ms = t_cycled - t_built;
-  refine(d, p, o, st, baseline, [&] { s.fine_cycle(); });
+  refine(d, p, o, st, baseline, s.buffers(), [&] { s.fine_cycle(); });
   if (p.phases) d.queue().finish();
   st.refine_ms = now_ms() - t_cycled;
   if (profiling()) {

@@ -6,6 +6,7 @@
 // whose own rounding error is a float's share of a small number.
 #include "multigrid/refine.hpp"
 #include "row_launch.hpp"
+#include "cl/workspace.hpp"
 
 #include <terracl/error.hpp>
 
@@ -83,7 +84,7 @@ void loop(const Path& path, const SolverOptions& o, SolveStats& st, const std::f
 
 }  // namespace
 
-void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint64_t baseline,
+void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint64_t baseline, WorkspaceBuffers& ws,
             const std::function<void()>& fine_cycle) {
   if (o.refine == Refinement::Off) return;
   const bool fp64 = has_fp64(d);
@@ -96,21 +97,24 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
   const size_t N = size_t(W) * H;
   const double wx = 1.0 / (p.cell_x * p.cell_x), wy = 1.0 / (p.cell_y * p.cell_y);
   cl::CommandQueue& q = d.queue();
-  auto track = [&] { st.peak_bytes = std::max<uint64_t>(st.peak_bytes, d.allocated_bytes() - baseline); };
+  // The vectors come from the workspace (cached between solves of one grid size: on a GPU the
+  // creation and first touch of ~32 bytes per cell cost more than the refinement's kernels);
+  // the reused ones were allocated before the solve and are added back.
+  auto track = [&] { st.peak_bytes = std::max<uint64_t>(st.peak_bytes, d.allocated_bytes() - baseline + ws.reused()); };
   // The correction problem gets its own right-hand side buffer (same NaN pattern, so the coarse
   // operators already built stay valid); the original g comes back at the end.
   cl::Buffer g0 = p.g;
-  p.g = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement right-hand side");
+  p.g = ws.take("refine g", N * sizeof(float), CL_MEM_READ_WRITE, "refinement right-hand side");
   Path path;
   if (on_device) {
     st.refinement = "device-fp64";
-    cl::Buffer U = d.buffer(N * sizeof(double), CL_MEM_READ_WRITE, "refinement solution (double)");
-    cl::Buffer rows = d.buffer(5 * size_t(H) * sizeof(double), CL_MEM_READ_WRITE, "refinement per-row figures");
-    cl::Buffer R = d.buffer(N * sizeof(double), CL_MEM_READ_WRITE, "refinement residual (double)");
+    cl::Buffer U = ws.take("refine U", N * sizeof(double), CL_MEM_READ_WRITE, "refinement solution (double)");
+    cl::Buffer rows = ws.take("refine rows", 5 * size_t(H) * sizeof(double), CL_MEM_READ_WRITE, "refinement per-row figures");
+    cl::Buffer R = ws.take("refine R", N * sizeof(double), CL_MEM_READ_WRITE, "refinement residual (double)");
     // Flexible CG (kernels/refine.cl): the previous and the current search direction.
-    cl::Buffer dprev = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
-    cl::Buffer dcur = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
-    cl::Buffer qdir = d.buffer(N * sizeof(float), CL_MEM_READ_WRITE, "refinement A times direction");
+    cl::Buffer dprev = ws.take("refine d0", N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
+    cl::Buffer dcur = ws.take("refine d1", N * sizeof(float), CL_MEM_READ_WRITE, "refinement search direction");
+    cl::Buffer qdir = ws.take("refine q", N * sizeof(float), CL_MEM_READ_WRITE, "refinement A times direction");
     d.fill(dprev, 0.0f, 0, N);
     d.fill(qdir, 0.0f, 0, N);
     track();
