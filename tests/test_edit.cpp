@@ -8,6 +8,8 @@
 #include <terracl/stage.hpp>
 
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <random>
 
 using namespace terracl;
@@ -181,6 +183,42 @@ TEST(Edit, WarmStartedResolveNeedsNoMoreCyclesThanCold) {
   const int cold = s.solve(false).cycles;
   EXPECT_LE(warm, cold);
   EXPECT_GE(cold, 1);
+}
+
+// Issue 19 point 1: the operations are queued without a wait between them, their parameters
+// written (non-blocking) into one buffer that grows mid-script (more than 64 primitives, more than
+// 1024 vertices). Waiting after every operation (TERRACL_PHASES=1) must give the same bits.
+TEST(Edit, QueuedOperationsGiveTheBitsOfWaitedOnes) {
+  json many = json::array();
+  for (int i = 0; i < 80; ++i)
+    many.push_back({{"shape", "point"}, {"center", {10 + (i * 37) % 110, 10 + (i * 53) % 110}}, {"radius", 6}, {"angle", i * 9}});
+  json wiggle = json::array();
+  for (int i = 0; i < 1500; ++i) wiggle.push_back({4 + 120.0 * i / 1499, 64 + 20 * std::sin(i * 0.05)});
+  json ops = json::array();
+  ops.push_back({{"op", "mountain_range"}, {"points", {{20, 40}, {100, 60}}}, {"radius", 25}, {"height", 300}});
+  ops.push_back({{"op", "tensor"}, {"primitives", many}});
+  ops.push_back({{"op", "crest"}, {"points", {{30, 90}, {90, 100}}}, {"elevation", 200}, {"radius", 12}, {"height", 80}});
+  json line = {{"shape", "polyline"}, {"radius", 8}, {"tensor", "tangent"}};
+  line["points"] = wiggle;
+  ops.push_back({{"op", "tensor"}, {"primitives", json::array({line})}});
+  ops.push_back({{"op", "noise"}, {"center", {64, 64}}, {"radius", 40}, {"amplitude", 10}, {"wavelength", 20}});
+  ops.push_back({{"op", "fault"}, {"points", {{10, 10}, {120, 70}}}, {"throw", 30}, {"radius", 8}});
+  ops.push_back({{"op", "scale_slopes"}, {"center", {50, 50}}, {"radius", 30}, {"falloff", 10}, {"factor", 1.4}});
+  const json script = {{"units", "cells"}, {"seed", 3}, {"operations", ops}};
+  auto field = [&](bool wait) {
+    if (wait) setenv("TERRACL_PHASES", "1", 1);
+    EditSession s(test::device(), flat(129, 129, 10));
+    s.apply(script);
+    unsetenv("TERRACL_PHASES");
+    return s.gradient();
+  };
+  const GradientField queued = field(false), waited = field(true);
+  ASSERT_EQ(queued.gx.size(), waited.gx.size());
+  EXPECT_EQ(0, std::memcmp(queued.gx.data(), waited.gx.data(), queued.gx.size() * sizeof(float)));
+  EXPECT_EQ(0, std::memcmp(queued.gy.data(), waited.gy.data(), queued.gy.size() * sizeof(float)));
+  double moved = 0;  // the operations did something
+  for (size_t i = 0; i < queued.gx.size(); ++i) moved += std::abs(queued.gx[i]);
+  EXPECT_GT(moved, 1.0);
 }
 
 TEST(Edit, FreezeKeepsTheCurrentElevation) {

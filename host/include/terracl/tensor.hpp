@@ -11,6 +11,7 @@
 #include <terracl/heightfield.hpp>
 
 #include <array>
+#include <memory>
 #include <vector>
 
 namespace terracl {
@@ -91,6 +92,8 @@ Box primitives_box(const std::vector<Primitive>& prims, int width, int height, d
 Box full_box(int width, int height);
 
 /// A gradient field resident on the device, with scratch buffers for the authoring kernels.
+struct SkeletonParams;  // tensor.cpp
+
 struct GradientBuffers {
   int width = 0, height = 0;
   double cell_x = 1, cell_y = 1;
@@ -98,6 +101,8 @@ struct GradientBuffers {
   cl::Buffer tx, ty;      ///< scratch of the same size (zero outside what an operation uses)
   cl::Buffer mask;        ///< scratch weight field (cells)
   cl::Buffer nv, nx, ny;  ///< noise values and derivatives at the cells (allocated by noise_gradient)
+  /// The tensor kernels' parameter buffer, kept between operations (tensor.cpp; shared by copies).
+  std::shared_ptr<SkeletonParams> skeleton;
   size_t cells() const { return size_t(width) * size_t(height); }
 
   static GradientBuffers upload(Device& d, const GradientField& g);

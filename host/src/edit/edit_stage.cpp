@@ -94,6 +94,10 @@ void bench_edit(const BenchArgs& a) {
     if (v != "local" && v != "global") throw UsageError("bench", "--set solve= expects local or global");
     locality = v == "local";
   }
+  // --set only=ops: the 20 operations alone, no solve (for counting their OpenCL calls with
+  // scripts/cl-count.sh: the difference of --repeats 2 and 1 is one script).
+  const bool ops_only = a.extra.value("only", std::string()) == "ops";
+  if (a.extra.contains("only") && !ops_only) throw UsageError("bench", "--set only= expects ops");
   const json script = bench_script(n);
   json crest = {{"op", "crest"}, {"elevation", 500}, {"radius", n * 0.04}};
   crest["points"] = json::array({json::array({0.2 * n, 0.1 * n}), json::array({0.3 * n, 0.15 * n})});
@@ -111,6 +115,15 @@ void bench_edit(const BenchArgs& a) {
     auto t0 = std::chrono::steady_clock::now();
     s.apply(script);
     const double t_ops = ms_since(t0);
+    if (ops_only) {
+      if (rep > 0) ops_ms.push_back(t_ops);
+      if (rep == a.repeats) {
+        fmt::print("edit {}x{} on {} (median of {}): 20 operations {:.1f} ms (no solve)\n", n, n, d.info().name,
+                   a.repeats, median(ops_ms));
+        return;
+      }
+      continue;
+    }
     auto t1 = std::chrono::steady_clock::now();
     const ReconstructResult& first = s.solve(false);  // the 20-operation script solved from scratch
     cycles = first.cycles;

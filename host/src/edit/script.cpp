@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -222,15 +223,21 @@ void EditSession::apply(const nlohmann::json& script) {
     m_state->note_support(sp);
   }
   const size_t first = m_state->log().size();
+  // The operations' launches are queued without a wait between them (on a GPU a clFinish per
+  // operation cost more than its kernels); one finish after the last. An operation's "ms" is then
+  // the host time it took to queue its work (plus any read-back it does itself); TERRACL_PHASES=1
+  // waits after each one so that its "ms" includes its device time.
+  const bool per_op_wait = std::getenv("TERRACL_PHASES") || std::getenv("TERRACL_MG_PROFILE");
   for (size_t i = 0; i < parsed.ops.size(); ++i) {
     report_progress(m_options.progress, "edit", double(i) / double(parsed.ops.size() + 1), parsed.ops[i].first);
     m_state->log().push_back({{"index", first + i}, {"op", parsed.ops[i].first}, {"support", parsed.supports[i]}});
     if (!parsed.traces[i].warnings.empty()) m_state->log().back()["warnings"] = parsed.traces[i].warnings;
     const auto t0 = std::chrono::steady_clock::now();
     parsed.ops[i].second(*m_state);
-    m_state->device().queue().finish();
+    if (per_op_wait) m_state->device().queue().finish();
     m_state->log().back()["ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
+  m_state->device().queue().finish();  // errors of queued work surface here, inside apply()
   report_progress(m_options.progress, "edit", double(parsed.ops.size()) / double(parsed.ops.size() + 1), "reconstruct");
 }
 
