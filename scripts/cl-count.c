@@ -2,7 +2,8 @@
 // on a CPU device the figures that cost ~10-20 us each on a GPU (launches, small transfers,
 // clFinish, buffer creation) are invisible in wall time, so they are counted instead.
 // Build and use: scripts/cl-count.sh CMD ARGS... (prints the counts to stderr at exit).
-// Counts every call made through the ICD loader by the process, kernels by name.
+// Counts every call made through the ICD loader by the process; CL_COUNT_VERBOSE=1 also prints
+// every buffer creation.
 #define _GNU_SOURCE
 #define CL_TARGET_OPENCL_VERSION 120
 #include <CL/cl.h>
@@ -94,6 +95,7 @@ cl_mem clCreateBuffer(cl_context c, cl_mem_flags fl, size_t sz, void* p, cl_int*
   if (!f) f = NEXT(clCreateBuffer);
   atomic_fetch_add(&n_create, 1);
   atomic_fetch_add(&create_bytes, (long)sz);
+  if (getenv("CL_COUNT_VERBOSE")) fprintf(stderr, "cl-count: clCreateBuffer %zu bytes, flags 0x%lx\n", sz, (unsigned long)fl);
   return f(c, fl, sz, p, err);
 }
 cl_mem clCreateSubBuffer(cl_mem b, cl_mem_flags fl, cl_buffer_create_type t, const void* info, cl_int* err) {

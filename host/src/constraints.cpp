@@ -42,43 +42,48 @@ constexpr size_t kHardChunk = size_t(1) << 16;
 }  // namespace
 
 void ConstraintSet::hard_cells(std::vector<uint32_t>& index, std::vector<float>& value) const {
-  // Two passes over chunks (count, then write at the chunk's prefix offset): the list is in
-  // row-major order whatever the thread count, and each value is resolved as before.
+  // Each thread scans its own range of chunks into its own lists, which are then joined in chunk
+  // order: the list is in row-major order whatever the thread count, each value resolved as before.
   const size_t n = m_kind.size();
-  const size_t chunks = (n + kHardChunk - 1) / kHardChunk;
+  const size_t chunks = std::max<size_t>(1, (n + kHardChunk - 1) / kHardChunk);
   const int threads = n < 4 * kHardChunk ? 1 : 0;
-  auto scan = [&](size_t b, size_t e, auto&& emit) {
-    size_t i = b;
+  std::vector<std::vector<uint32_t>> part_index(chunks);
+  std::vector<std::vector<float>> part_value(chunks);
+  parallel_for(chunks, threads, [&](size_t c0, size_t c1) {
+    std::vector<uint32_t>& pi = part_index[c0];
+    const size_t e = std::min(n, c1 * kHardChunk);
+    size_t i = c0 * kHardChunk;
     for (; i + 8 <= e; i += 8) {  // eight kind bytes at a time: most cells are free
       uint64_t w;
       std::memcpy(&w, m_kind.data() + i, 8);
       if (!w) continue;
       for (size_t k = i; k < i + 8; ++k)
-        if (m_kind[k]) emit(k);
+        if (m_kind[k]) pi.push_back(uint32_t(k));
     }
     for (; i < e; ++i)
-      if (m_kind[i]) emit(i);
-  };
-  std::vector<size_t> offset(chunks + 1, 0);
-  parallel_for(chunks, threads, [&](size_t c0, size_t c1) {
-    for (size_t c = c0; c < c1; ++c) {
-      size_t count = 0;
-      scan(c * kHardChunk, std::min(n, (c + 1) * kHardChunk), [&](size_t) { ++count; });
-      offset[c + 1] = count;
+      if (m_kind[i]) pi.push_back(uint32_t(i));
+    std::vector<float>& pv = part_value[c0];
+    pv.resize(pi.size());
+    for (size_t k = 0; k < pi.size(); ++k) {
+      const size_t c = pi[k];
+      pv[k] = m_count[c] == 1 ? m_sum[c] : float(double(m_sum[c]) / m_count[c]);
     }
   });
-  for (size_t c = 0; c < chunks; ++c) offset[c + 1] += offset[c];
-  index.resize(offset[chunks]);
-  value.resize(offset[chunks]);
-  parallel_for(chunks, threads, [&](size_t c0, size_t c1) {
-    for (size_t c = c0; c < c1; ++c) {
-      size_t o = offset[c];
-      scan(c * kHardChunk, std::min(n, (c + 1) * kHardChunk), [&](size_t k) {
-        index[o] = uint32_t(k);
-        value[o++] = m_count[k] == 1 ? m_sum[k] : float(double(m_sum[k]) / m_count[k]);
-      });
-    }
-  });
+  size_t total = 0;
+  for (const auto& p : part_index) total += p.size();
+  if (part_index[0].size() == total) {  // one part (one thread, or the others found nothing)
+    index = std::move(part_index[0]);
+    value = std::move(part_value[0]);
+    return;
+  }
+  index.clear();
+  value.clear();
+  index.reserve(total);
+  value.reserve(total);
+  for (size_t c = 0; c < chunks; ++c) {
+    index.insert(index.end(), part_index[c].begin(), part_index[c].end());
+    value.insert(value.end(), part_value[c].begin(), part_value[c].end());
+  }
 }
 
 void ConstraintSet::add_cell(int x, int y, double z, ConstraintKind kind, const std::string& where) {
