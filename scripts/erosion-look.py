@@ -9,8 +9,8 @@ Measures: mean elevation change (0 when the material is kept), mean |change|, sh
 flatter than 1 deg (flat ribbons), the ratio of the RMS Laplacian (crinkle: > 1 means rougher), the
 share of one-cell curvature flips (one-cell incised crinkles), the channel floor widths (share of
 carved channel cross-sections whose floor is a one-cell V notch), the valley ribbon (the settled
-load raising the valley floors flat: see ribbon()) and the slope histogram.
-Needs build/bin/terracl, gdal-bin, python3-numpy, python3-matplotlib.
+load raising the valley floors flat: see ribbon() and wide_floor()) and the slope histogram.
+Needs build/bin/terracl, gdal-bin, python3-numpy, python3-scipy, python3-matplotlib.
 """
 import os
 import re
@@ -121,6 +121,20 @@ def ribbon(z0, z1, cx, cy, min_area=0.5e6):
             float(np.percentile(d, 95)), int(valley.sum()))
 
 
+def wide_floor(z0, z1, cx, cy, min_area=0.5e6, reach=300.0, above=10.0):
+    """The valley ribbon over the whole valley floor, not only its one-cell D8 thread: cells within
+    `reach` m of a thread cell (D8 area >= min_area on the input) and at most `above` m higher than
+    it on the input. A fill beside the carved thread escapes ribbon(); here it counts. Returns the
+    share (%) raised more than 1 m, the 95th percentile of the raise (m) and the cell count."""
+    from scipy import ndimage
+
+    thread = d8_area(z0, cx, cy) >= min_area
+    dist, idx = ndimage.distance_transform_edt(~thread, sampling=(cy, cx), return_indices=True)
+    floor = (dist <= reach) & (z0 - z0[idx[0], idx[1]] <= above)
+    d = (z1 - z0)[floor]
+    return 100.0 * float(np.mean(d > 1.0)), float(np.percentile(d, 95)), int(floor.sum())
+
+
 def main():
     dem, out = sys.argv[1], sys.argv[2]
     extra = sys.argv[3:]
@@ -147,6 +161,9 @@ def main():
         raised, flattened, p95, n = ribbon(z0, z1, cx, cy)
         print(f"  valley ribbon ({n} valley-floor cells, area >= 0.5 km2): {raised:.1f} % raised > 1 m, "
               f"{flattened:.1f} % newly flatter than 1 deg, 95th pct raise {p95:+.1f} m")
+        raised, p95, n = wide_floor(z0, z1, cx, cy)
+        print(f"  valley floors, whole width ({n} cells within 300 m of those and <= 10 m above them): {raised:.1f} % "
+              f"raised > 1 m, 95th pct raise {p95:+.1f} m")
         hist0, edges = np.histogram(s0, bins=np.arange(0, 91, 5))
         hist1, _ = np.histogram(s1, bins=edges)
         print("  slope histogram (% of cells per 5 deg, before -> after): " + ", ".join(

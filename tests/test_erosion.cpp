@@ -513,7 +513,10 @@ TEST(Erosion, TinyAndOddGridsWork) {
     const ErosionState s = sim.state();
     expect_state_sane(s, fmt::format("{}x{}", w, h));
     const ErosionTotals b = sim.totals();
-    EXPECT_NEAR(b.water, a.water, 1e-6 * a.water) << w << "x" << h;
+    // Undamped pipes (the default since issue 15's ribbon fix) keep a tiny closed box sloshing, and
+    // every step rounds the moving water: 2x2 cells drift 1.9e-6 of their water in 100 steps (float32
+    // round-off of 0.7 m per update; 0 with the old 0.5 /s damping, which stilled the box at once).
+    EXPECT_NEAR(b.water, a.water, 1e-5 * a.water) << w << "x" << h;
     EXPECT_NEAR(b.solid, a.solid, 1e-6 * std::max(1.0, a.solid)) << w << "x" << h;
   }
 }

@@ -57,10 +57,15 @@ ErosionParams ErosionParams::defaults() {
   // fine sediment stays suspended in lakes instead of filling every valley flat.
   ErosionParams p;
   p.rain = 0.003;
-  p.evaporation = 0.02;
-  p.damping = 0.5;
+  // Issue 15, the valley ribbon: undamped pipes (the published model has no damping) let the water
+  // and its load run on through the trunk valleys and out of a crop within the run, little
+  // evaporation keeps the load afloat until then, and a slower pick-up keeps the carving as it was.
+  // With the old 0.5 / 0.02 / 0.015 the load of 400 s of gullying stopped in the trunk valleys and
+  // settled there as raised flat ribbons (docs/erosion.md, "The valley ribbon: fixed").
+  p.evaporation = 0.002;
+  p.damping = 0.0;
   p.capacity = 20.0;
-  p.dissolve = 0.015;
+  p.dissolve = 0.008;
   p.deposit = 0.001;
   p.min_sin_slope = 0.05;
   p.depth_ramp = 5.0;
