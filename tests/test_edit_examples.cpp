@@ -89,7 +89,7 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
   for (const auto& op : script.at("operations")) {
     const std::string kind = op.at("op");
     if (kind == "ravine" && (name == "volcanic_island" || name == "mountain_range")) {
-      // Across the middle of the ravine: depth below the lower bank at r, and the width of the
+      // Across the middle of the ravine: depth below its banks at r, and the width of the
       // part below half that depth in cells of the 513^2 run, i.e. pixels of the README's 512-px
       // picture: >= 10 on the island (the former 400 m V ravines: 6, read as scratches), >= 6 on
       // the 15 km mountain range.
@@ -101,6 +101,10 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
                                             : 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
       std::vector<double> t, z;
       for (double s = -r; s <= r + 1e-9; s += 0.5 * cell) t.push_back(s), z.push_back(at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny));
+      // Across a flank that also falls sideways (a range's ravine beside a summit) the valley is
+      // measured below the straight line between its banks.
+      const double z0 = z.front(), z1 = z.back();
+      for (size_t i = 0; i < t.size(); ++i) z[i] -= z0 + (z1 - z0) * (t[i] + r) / (2 * r) - std::min(z0, z1);
       double floor = 1e30;
       for (size_t i = 0; i < t.size(); ++i)
         if (std::abs(t[i]) <= 0.25 * r) floor = std::min(floor, z[i]);
@@ -213,10 +217,13 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])}), zc.push_back(double(q[2]));
       const auto line = catmull_rom(ctrl, 10.0, zc, &zs);
       int checked = 0;
-      double since = 1e30;
+      double since = 1e30, total = 0, arc = 0;
+      for (size_t i = 1; i < line.size(); ++i) total += std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
       for (size_t i = 1; i + 1 < line.size(); ++i) {
-        since += std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
-        if (since < 400 || zs[i] < 900) continue;
+        const double step = std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
+        since += step, arc += step;
+        // (Not within the stroke's taper, r of arc from either end, which lowers the crest.)
+        if (since < 400 || zs[i] < 900 || arc < r || total - arc < r) continue;
         since = 0;
         const double tx = line[i + 1].x - line[i - 1].x, ty = line[i + 1].y - line[i - 1].y, l = std::hypot(tx, ty);
         const double nx = -ty / l, ny = tx / l;
