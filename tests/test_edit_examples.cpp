@@ -187,23 +187,42 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
     }
     if (kind == "cliff" && name == "cliff") {
-      // Down the column through the middle of the map: a face steeper than 45 degrees dropping at
-      // least a third of the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map.
-      const int x = h.width / 2;
+      // Down the fall line from the brink midway between the two gullies nearest to the map's middle
+      // (their cones break the apron): a face steeper than 45 degrees dropping at least a third of
+      // the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map. The gullies start
+      // on the rim: the chord between their heads gives the rim's direction there.
+      std::vector<Vec2> heads;
+      for (const auto& o : script.at("operations"))
+        if (o.at("op") == "ravine") heads.push_back({double(o.at("points")[0][0]), double(o.at("points")[0][1])});
+      std::sort(heads.begin(), heads.end(), [](const Vec2& a, const Vec2& b) { return a.x < b.x; });
+      ASSERT_GE(heads.size(), 2u) << "the cliff example has gullies";
+      size_t g = 0;
+      while (g + 2 < heads.size() && heads[g + 1].x < 0.5 * extent) ++g;
+      const Vec2 ga = heads[g], gb = heads[g + 1];
+      const double len = std::hypot(gb.x - ga.x, gb.y - ga.y);
+      double nx = -(gb.y - ga.y) / len, ny = (gb.x - ga.x) / len;
+      const double ox = 0.5 * (ga.x + gb.x), oy = 0.5 * (ga.y + gb.y);
+      if (at_m(h, cell, ox + 50 * nx, oy + 50 * ny) > at_m(h, cell, ox - 50 * nx, oy - 50 * ny)) nx = -nx, ny = -ny;
+      // Samples every cell down the fall line, from 40 m back on the plateau.
+      std::vector<double> z;
+      for (double t = -40; t < 0.5 * extent; t += cell) z.push_back(at_m(h, cell, ox + t * nx, oy + t * ny));
+      const int n = int(z.size());
       const double top = op.at("elevation"), height = op.at("height");
       int y = 0;
-      while (y + 1 < h.height && h.at(x, y) > top - 5) ++y;
-      auto slope = [&](int i) { return (h.at(x, i) - h.at(x, i + 1)) / cell; };
+      while (y + 1 < n && z[y] > top - 5) ++y;
+      auto slope = [&](int i) { return (z[i] - z[i + 1]) / cell; };
       int steep = y;
-      for (int i = y; i < std::min(h.height - 1, y + int(0.15 * extent / cell)); ++i)
+      for (int i = y; i < std::min(n - 1, y + int(0.15 * extent / cell)); ++i)
         if (slope(i) > slope(steep)) steep = i;
       EXPECT_GT(slope(steep), 1.0) << "no steep face";
       int foot = steep;
-      while (foot + 1 < h.height && slope(foot) > 0.8) ++foot;
-      EXPECT_GT(h.at(x, y) - h.at(x, foot), height / 3) << "the face drops too little";
+      while (foot + 1 < n && slope(foot) > 0.8) ++foot;
+      EXPECT_GT(z[y] - z[foot], height / 3) << "the face drops too little";
+      // (The apron's slope over 16 m: the ridged gullies oriented down it ripple a one-cell slope.)
+      auto apron = [&](int i) { return (z[i] - z[std::min(n - 1, i + 4)]) / (4 * cell); };
       int toe = foot;
-      while (toe + 1 < h.height && slope(toe) >= 0.25 && slope(toe) <= 0.85) ++toe;
-      EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read";
+      while (toe + 4 < n && apron(toe) >= 0.25 && apron(toe) <= 0.85) ++toe;
+      EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read (from " << ox << ", " << oy << ")";
     }
     if (kind == "mountain_range" && name == "mountain_range") {
       // At stations every 400 m along the smoothed stroke, wherever it is above 900 m (summits,
