@@ -30,7 +30,7 @@
 #define PROFILE_DROP 3
 #define PROFILE_V 4
 #define PROFILE_U 5
-#define SHARP_ROUND 0.04f  // tensor.cpp's kSharpRound
+#define SHARP_ROUND 0.08f  // tensor.cpp's kSharpRound
 
 #define PRIM_STRIDE 24
 

@@ -222,7 +222,7 @@ TEST(Tensor, ProfileGradientIsCurlFreeWithTheRightRelief) {
   // slopes at inner vertices and the chord's slope at the ends. The two distances are within the
   // blend band b = r/4: the profile values blend, P = (1 - w1) P(d0, a0) + w1 P(d1, a1) with
   // w1 = (1 - smootherstep(g / b)) / 2, g = sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2), and
-  // P(d, a) = 20 a (1 - (sqrt(d^2 + rho^2) - rho) / 35)^3, rho = 0.04 r (the sharp crest, rounded).
+  // P(d, a) = 20 a (1 - (sqrt(d^2 + rho^2) - rho) / 35)^3, rho = 0.08 r (the sharp crest, rounded).
   const double d0 = 1.2, d1 = std::hypot(60 + 70 * 40.0 / 5300 - 60, 90 - 20 * 40.0 / 5300 - 88);
   const double bw = 35 / 4.0, u = (std::sqrt(d1 * d1 + bw * bw) - std::sqrt(d0 * d0 + bw * bw)) / bw;
   const double w1 = 0.5 * (1 - u * u * u * (u * (u * 6 - 15) + 10));
@@ -234,7 +234,7 @@ TEST(Tensor, ProfileGradientIsCurlFreeWithTheRightRelief) {
   const double a0 = hermite(1, 2, 1, l0 * 0.5 / (l0 + l1), 5505.0 / 5625);
   const double a1 = hermite(2, 1.5, l1 * 0.5 / (l0 + l1), -0.5, 40.0 / 5300);
   auto sharp = [](double d) {
-    const double rho = 0.04 * 35, v = 1 - (std::sqrt(d * d + rho * rho) - rho) / 35;
+    const double rho = 0.08 * 35, v = 1 - (std::sqrt(d * d + rho * rho) - rho) / 35;
     return v * v * v;
   };
   const double want = (1 - w1) * 20 * a0 * sharp(d0) + w1 * 20 * a1 * sharp(d1);

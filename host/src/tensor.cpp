@@ -18,7 +18,7 @@ namespace terracl {
 
 namespace {
 constexpr size_t kStride = 24;
-constexpr double kSharpRound = 0.04;  // tensor.cl's SHARP_ROUND
+constexpr double kSharpRound = 0.08;  // tensor.cl's SHARP_ROUND
 double smoother(double t) {
   t = std::clamp(t, 0.0, 1.0);
   return t * t * t * (t * (t * 6 - 15) + 10);
@@ -31,7 +31,7 @@ double profile_value(Profile p, double d, double s, double r, double a, double f
   const double u = std::clamp((d - f) / (r - f), 0.0, 1.0), w = 1 - u;
   switch (p) {
     case Profile::Round: return a * alpha(u);
-    // (1 - u)^3 with u from the distance rounded over 0.04 r on the crest line (sqrt(d^2 + rho^2) -
+    // (1 - u)^3 with u from the distance rounded over 0.08 r on the crest line (sqrt(d^2 + rho^2) -
     // rho): a crest a few cells wide on a wide stroke instead of a slope kink (a knife line).
     case Profile::Sharp: {
       const double rho = kSharpRound * r, ds = std::sqrt(d * d + rho * rho) - rho;
