@@ -68,6 +68,17 @@ NoiseV perlin(vf px, vf py, uint seed) {
   return o;
 }
 
+// Octave k samples the lattice through its own rotation (golden-angle steps, the first octave
+// already off the axes) and offset: Perlin noise's spectrum leaks along its lattice axes, and with
+// one shared, axis-aligned lattice every octave's leak (and, for ridged noise, every zero of v at a
+// lattice point) stacked on the map's rows and columns - east-west and north-south lines in
+// hillshade. Rotated octaves spread that leak over many directions (tests/test_noise.cpp measures it).
+#define OCTAVE_ANGLE0 0.5f
+#define OCTAVE_ANGLE_STEP 2.39996323f
+// Ridged noise folds v with a smooth |v| = sqrt(v^2 + e^2) - e: a crest rounded over a few percent
+// of a wavelength instead of a kink (whose slope jumps drew knife lines in hillshade).
+#define RIDGE_ROUND 0.06f
+
 // Sum of octaves at p (metres); value and derivatives in value units per metre.
 NoiseV noise_sum(vf px, vf py, float wavelength, int octaves, float lacunarity, float gain, int type, uint seed) {
   NoiseV acc;
@@ -75,26 +86,30 @@ NoiseV noise_sum(vf px, vf py, float wavelength, int octaves, float lacunarity, 
   float freq = 1.0f / wavelength, amp = 1.0f;
   const int n = type == NOISE_PERLIN ? 1 : octaves;
   for (int k = 0; k < n; ++k) {
-    const NoiseV o = perlin(px * freq, py * freq, seed + 1013u * (uint)k);
+    const float th = OCTAVE_ANGLE0 + OCTAVE_ANGLE_STEP * (float)k;
+    const float c = cos(th), s = sin(th);
+    const float ox = 0.371f + 17.317f * (float)k, oy = 0.613f - 11.731f * (float)k;
+    // q = freq R p + o; dn/dp = freq R^T dn/dq.
+    const NoiseV o = perlin(freq * (c * px - s * py) + ox, freq * (s * px + c * py) + oy, seed + 1013u * (uint)k);
+    const vf dpx = freq * (c * o.dx + s * o.dy), dpy = freq * (c * o.dy - s * o.dx);
     if (type == NOISE_RIDGED) {
-      // (1 - |v|)^2: sharp crests where v crosses zero; d = -2 (1 - |v|) sign(v) dv.
-      const vf r = 1.0f - fabs(o.v);
-      const vf s = select((vf)(-1.0f), (vf)(1.0f), o.v >= 0.0f);
+      // (1 - |v|_e)^2: crests where v crosses zero; d = -2 (1 - |v|_e) v / sqrt(v^2 + e^2) dv.
+      const vf q = sqrt(o.v * o.v + RIDGE_ROUND * RIDGE_ROUND);
+      const vf r = 1.0f + RIDGE_ROUND - q;
       acc.v += amp * (r * r - 0.5f);
-      const vf f = amp * (-2.0f * r * s);
-      acc.dx += f * o.dx * freq;
-      acc.dy += f * o.dy * freq;
+      const vf f = amp * (-2.0f * r * o.v / q);
+      acc.dx += f * dpx;
+      acc.dy += f * dpy;
     } else {
       acc.v += amp * o.v;
-      acc.dx += amp * o.dx * freq;
-      acc.dy += amp * o.dy * freq;
+      acc.dx += amp * dpx;
+      acc.dy += amp * dpy;
     }
     freq *= lacunarity;
     amp *= gain;
   }
   return acc;
 }
-
 
 float mask_at(__global const float* mask, int use_mask, size_t o) { return use_mask ? mask[o] : 1.0f; }
 // The mask is only written on the face box [x0, x0 + mw) x [y0, y0 + mh) (the buffer is shared

@@ -30,6 +30,7 @@
 #define PROFILE_DROP 3
 #define PROFILE_V 4
 #define PROFILE_U 5
+#define SHARP_ROUND 0.08f  // tensor.cpp's kSharpRound
 
 #define PRIM_STRIDE 24
 
@@ -93,11 +94,11 @@ typedef struct {
   vf d2, t, side;  // squared distance, parameter on the piece, side (+1 right)
   vf cx, cy;       // the foot point
   vf tx, ty;       // the curve's unit tangent there
-  vf amp, arc;     // amplitude and arc length at the foot (linear in t, as on the chords)
+  vf amp, arc;     // amplitude (cubic Hermite in arc length, as on the chords) and arc length at the foot
 } CurveFoot;
 
 CurveFoot hermite_foot(__global const float4* verts, int v0, int nv, vi seg, vf px, vf py) {
-  float ax[VW], ay[VW], ex[VW], ey[VW], m0x[VW], m0y[VW], m1x[VW], m1y[VW], aa[VW], ab[VW], ca[VW], cb[VW];
+  float ax[VW], ay[VW], ex[VW], ey[VW], m0x[VW], m0y[VW], m1x[VW], m1y[VW], aa[VW], ab[VW], ca[VW], cb[VW], za[VW], zb[VW];
   int sg[VW];
   vstore8(seg, 0, sg);
   for (int k = 0; k < VW; ++k) {
@@ -114,6 +115,10 @@ CurveFoot hermite_foot(__global const float4* verts, int v0, int nv, vi seg, vf 
     ax[k] = a4.x, ay[k] = a4.y, ex[k] = e.x, ey[k] = e.y;
     m0x[k] = ma.x, m0y[k] = ma.y, m1x[k] = mb.x, m1y[k] = mb.y;
     aa[k] = a4.z, ab[k] = b4.z, ca[k] = a4.w, cb[k] = b4.w;
+    const float la = b4.w - p4.w, lb = n4.w - a4.w, L = b4.w - a4.w;
+    const int herm = L > 0.0f && la > 0.0f && lb > 0.0f;
+    za[k] = herm ? L * (b4.z - p4.z) / la : b4.z - a4.z;
+    zb[k] = herm ? L * (n4.z - a4.z) / lb : b4.z - a4.z;
   }
   const vf Ax = VLOAD(0, ax), Ay = VLOAD(0, ay), Ex = VLOAD(0, ex), Ey = VLOAD(0, ey);
   const vf M0x = VLOAD(0, m0x), M0y = VLOAD(0, m0y), M1x = VLOAD(0, m1x), M1y = VLOAD(0, m1y);
@@ -147,7 +152,11 @@ CurveFoot hermite_foot(__global const float4* verts, int v0, int nv, vi seg, vf 
   o.tx = select(select((vf)(1.0f), Ex / sqrt(l2), l2 > 0.0f), dx / dl, dpos);
   o.ty = select(select((vf)(0.0f), Ey / sqrt(l2), l2 > 0.0f), dy / dl, dpos);
   o.side = select((vf)(-1.0f), (vf)(1.0f), o.tx * qy - o.ty * qx >= 0.0f);
-  o.amp = VLOAD(0, aa) + t * (VLOAD(0, ab) - VLOAD(0, aa));
+  {
+    const vf t2 = t * t, t3 = t2 * t;
+    o.amp = (2.0f * t3 - 3.0f * t2 + 1.0f) * VLOAD(0, aa) + (t3 - 2.0f * t2 + t) * VLOAD(0, za) +
+            (3.0f * t2 - 2.0f * t3) * VLOAD(0, ab) + (t3 - t2) * VLOAD(0, zb);
+  }
   o.arc = VLOAD(0, ca) + t * (VLOAD(0, cb) - VLOAD(0, ca));
   return o;
 }
@@ -289,7 +298,17 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
     const float2 tua = tal > 0.0f ? ta / tal : tu, tub = tbl > 0.0f ? tb / tbl : tu;
     const vf tix = tua.x + t * (tub.x - tua.x), tiy = tua.y + t * (tub.y - tua.y);
     const vi m2 = (~m) & (d2 < second);  // new runner-up (not a new best)
-    const vf amp = a4.z + t * (b4.z - a4.z);
+    // Amplitude: the cubic Hermite interpolant in arc length with the neighbours' central-difference
+    // slopes (C1 along the stroke). Linear pieces made the slope of a(s) jump at every vertex of a
+    // smoothed stroke (every r/8): the profile's along-stroke gradient drew a streak along the
+    // normal at each vertex, fans of them across the mountain_range flanks.
+    const float la = b4.w - p4.w, lb = n4.w - a4.w, L = b4.w - a4.w;
+    // (Closed rings and degenerate pieces: both slopes b - a, which is the linear piece.)
+    const int herm = !closed && L > 0.0f && la > 0.0f && lb > 0.0f;
+    const float ma = herm ? L * (b4.z - p4.z) / la : b4.z - a4.z, mb = herm ? L * (n4.z - a4.z) / lb : b4.z - a4.z;
+    const vf t2 = t * t, t3 = t2 * t;
+    const vf amp = (2.0f * t3 - 3.0f * t2 + 1.0f) * a4.z + (t3 - 2.0f * t2 + t) * ma +
+                   (3.0f * t2 - 2.0f * t3) * b4.z + (t3 - t2) * mb;
     const vf arc = a4.w + t * (b4.w - a4.w);
     const vf sg = select(-one, one, abx * (Py - Ay) - aby * (Px - Ax) >= 0.0f);
     second = select(select(second, d2, m2), best, m);
@@ -602,7 +621,11 @@ vf profile_shape_v(__global const float* pr, vf d, vf s, vf a) {
   const vf u = clamp((d - f) / (r - f), 0.0f, 1.0f);
   if (kind == PROFILE_ROUND) return a * alpha_v(u);
   const vf w = 1.0f - u;
-  if (kind == PROFILE_SHARP) return a * w * w * w;
+  if (kind == PROFILE_SHARP) {  // the distance rounded over SHARP_ROUND r on the crest: no slope kink
+    const float rho = SHARP_ROUND * r;
+    const vf us = clamp((sqrt(d * d + rho * rho) - rho - f) / (r - f), 0.0f, 1.0f), ws = 1.0f - us;
+    return a * ws * ws * ws;
+  }
   if (kind == PROFILE_V) return a * w * w * w * (1.0f + 3.0f * u);  // Wendland: a rounded thalweg
   const vf u2 = u * u, q = 1.0f - u2 * u2;
   return a * q * q;

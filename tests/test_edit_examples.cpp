@@ -89,7 +89,7 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
   for (const auto& op : script.at("operations")) {
     const std::string kind = op.at("op");
     if (kind == "ravine" && (name == "volcanic_island" || name == "mountain_range")) {
-      // Across the middle of the ravine: depth below the lower bank at r, and the width of the
+      // Across the middle of the ravine: depth below its banks at r, and the width of the
       // part below half that depth in cells of the 513^2 run, i.e. pixels of the README's 512-px
       // picture: >= 10 on the island (the former 400 m V ravines: 6, read as scratches), >= 6 on
       // the 15 km mountain range.
@@ -101,6 +101,10 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
                                             : 0.5 * (double(op.at("depth")) + double(op.at("depth_start")));
       std::vector<double> t, z;
       for (double s = -r; s <= r + 1e-9; s += 0.5 * cell) t.push_back(s), z.push_back(at_m(h, cell, m.mx + s * m.nx, m.my + s * m.ny));
+      // Across a flank that also falls sideways (a range's ravine beside a summit) the valley is
+      // measured below the straight line between its banks.
+      const double z0 = z.front(), z1 = z.back();
+      for (size_t i = 0; i < t.size(); ++i) z[i] -= z0 + (z1 - z0) * (t[i] + r) / (2 * r) - std::min(z0, z1);
       double floor = 1e30;
       for (size_t i = 0; i < t.size(); ++i)
         if (std::abs(t[i]) <= 0.25 * r) floor = std::min(floor, z[i]);
@@ -183,23 +187,42 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
     }
     if (kind == "cliff" && name == "cliff") {
-      // Down the column through the middle of the map: a face steeper than 45 degrees dropping at
-      // least a third of the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map.
-      const int x = h.width / 2;
+      // Down the fall line from the brink midway between the two gullies nearest to the map's middle
+      // (their cones break the apron): a face steeper than 45 degrees dropping at least a third of
+      // the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map. The gullies start
+      // on the rim: the chord between their heads gives the rim's direction there.
+      std::vector<Vec2> heads;
+      for (const auto& o : script.at("operations"))
+        if (o.at("op") == "ravine") heads.push_back({double(o.at("points")[0][0]), double(o.at("points")[0][1])});
+      std::sort(heads.begin(), heads.end(), [](const Vec2& a, const Vec2& b) { return a.x < b.x; });
+      ASSERT_GE(heads.size(), 2u) << "the cliff example has gullies";
+      size_t g = 0;
+      while (g + 2 < heads.size() && heads[g + 1].x < 0.5 * extent) ++g;
+      const Vec2 ga = heads[g], gb = heads[g + 1];
+      const double len = std::hypot(gb.x - ga.x, gb.y - ga.y);
+      double nx = -(gb.y - ga.y) / len, ny = (gb.x - ga.x) / len;
+      const double ox = 0.5 * (ga.x + gb.x), oy = 0.5 * (ga.y + gb.y);
+      if (at_m(h, cell, ox + 50 * nx, oy + 50 * ny) > at_m(h, cell, ox - 50 * nx, oy - 50 * ny)) nx = -nx, ny = -ny;
+      // Samples every cell down the fall line, from 40 m back on the plateau.
+      std::vector<double> z;
+      for (double t = -40; t < 0.5 * extent; t += cell) z.push_back(at_m(h, cell, ox + t * nx, oy + t * ny));
+      const int n = int(z.size());
       const double top = op.at("elevation"), height = op.at("height");
       int y = 0;
-      while (y + 1 < h.height && h.at(x, y) > top - 5) ++y;
-      auto slope = [&](int i) { return (h.at(x, i) - h.at(x, i + 1)) / cell; };
+      while (y + 1 < n && z[y] > top - 5) ++y;
+      auto slope = [&](int i) { return (z[i] - z[i + 1]) / cell; };
       int steep = y;
-      for (int i = y; i < std::min(h.height - 1, y + int(0.15 * extent / cell)); ++i)
+      for (int i = y; i < std::min(n - 1, y + int(0.15 * extent / cell)); ++i)
         if (slope(i) > slope(steep)) steep = i;
       EXPECT_GT(slope(steep), 1.0) << "no steep face";
       int foot = steep;
-      while (foot + 1 < h.height && slope(foot) > 0.8) ++foot;
-      EXPECT_GT(h.at(x, y) - h.at(x, foot), height / 3) << "the face drops too little";
+      while (foot + 1 < n && slope(foot) > 0.8) ++foot;
+      EXPECT_GT(z[y] - z[foot], height / 3) << "the face drops too little";
+      // (The apron's slope over 16 m: the ridged gullies oriented down it ripple a one-cell slope.)
+      auto apron = [&](int i) { return (z[i] - z[std::min(n - 1, i + 4)]) / (4 * cell); };
       int toe = foot;
-      while (toe + 1 < h.height && slope(toe) >= 0.25 && slope(toe) <= 0.85) ++toe;
-      EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read";
+      while (toe + 4 < n && apron(toe) >= 0.25 && apron(toe) <= 0.85) ++toe;
+      EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read (from " << ox << ", " << oy << ")";
     }
     if (kind == "mountain_range" && name == "mountain_range") {
       // At stations every 400 m along the smoothed stroke, wherever it is above 900 m (summits,
@@ -213,10 +236,13 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])}), zc.push_back(double(q[2]));
       const auto line = catmull_rom(ctrl, 10.0, zc, &zs);
       int checked = 0;
-      double since = 1e30;
+      double since = 1e30, total = 0, arc = 0;
+      for (size_t i = 1; i < line.size(); ++i) total += std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
       for (size_t i = 1; i + 1 < line.size(); ++i) {
-        since += std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
-        if (since < 400 || zs[i] < 900) continue;
+        const double step = std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
+        since += step, arc += step;
+        // (Not within the stroke's taper, r of arc from either end, which lowers the crest.)
+        if (since < 400 || zs[i] < 900 || arc < r || total - arc < r) continue;
         since = 0;
         const double tx = line[i + 1].x - line[i - 1].x, ty = line[i + 1].y - line[i - 1].y, l = std::hypot(tx, ty);
         const double nx = -ty / l, ny = tx / l;

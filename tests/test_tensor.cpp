@@ -217,15 +217,27 @@ TEST(Tensor, ProfileGradientIsCurlFreeWithTheRightRelief) {
   EXPECT_GT(steep, 0.5);
   EXPECT_LT(curl, 1e-5 * steep);
   // Integrating gx from the west edge (P = 0 there) to cell (20, 22) at (60 m, 88 m): 1.2 m off the
-  // first segment at t = 5505/5625 along it (amplitude a0 = 1 + t) and 1.923 m off the second at
-  // t = 40/5300 (a1 = 2 - t/2). The two distances are within the blend band b = r/4: the profile
-  // values blend, P = (1 - w1) P(d0, a0) + w1 P(d1, a1) with w1 = (1 - smootherstep(g / b)) / 2,
-  // g = sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2), and P(d, a) = 20 a (1 - d/35)^3.
+  // first segment at t = 5505/5625 along it and 1.923 m off the second at t = 40/5300. The amplitude
+  // is the cubic Hermite interpolant in arc length (segments 75 m and 72.8 m) with central-difference
+  // slopes at inner vertices and the chord's slope at the ends. The two distances are within the
+  // blend band b = r/4: the profile values blend, P = (1 - w1) P(d0, a0) + w1 P(d1, a1) with
+  // w1 = (1 - smootherstep(g / b)) / 2, g = sqrt(d1^2 + b^2) - sqrt(d0^2 + b^2), and
+  // P(d, a) = 20 a (1 - (sqrt(d^2 + rho^2) - rho) / 35)^3, rho = 0.08 r (the sharp crest, rounded).
   const double d0 = 1.2, d1 = std::hypot(60 + 70 * 40.0 / 5300 - 60, 90 - 20 * 40.0 / 5300 - 88);
   const double bw = 35 / 4.0, u = (std::sqrt(d1 * d1 + bw * bw) - std::sqrt(d0 * d0 + bw * bw)) / bw;
   const double w1 = 0.5 * (1 - u * u * u * (u * (u * 6 - 15) + 10));
-  const double a0 = 1 + 5505.0 / 5625, a1 = 2 - 0.5 * 40.0 / 5300;
-  const double want = (1 - w1) * 20 * a0 * std::pow(1 - d0 / 35, 3) + w1 * 20 * a1 * std::pow(1 - d1 / 35, 3);
+  auto hermite = [](double a, double b, double ma, double mb, double t) {
+    return (2 * t * t * t - 3 * t * t + 1) * a + (t * t * t - 2 * t * t + t) * ma + (3 * t * t - 2 * t * t * t) * b +
+           (t * t * t - t * t) * mb;
+  };
+  const double l0 = 75, l1 = std::hypot(70.0, 20.0);
+  const double a0 = hermite(1, 2, 1, l0 * 0.5 / (l0 + l1), 5505.0 / 5625);
+  const double a1 = hermite(2, 1.5, l1 * 0.5 / (l0 + l1), -0.5, 40.0 / 5300);
+  auto sharp = [](double d) {
+    const double rho = 0.08 * 35, v = 1 - (std::sqrt(d * d + rho * rho) - rho) / 35;
+    return v * v * v;
+  };
+  const double want = (1 - w1) * 20 * a0 * sharp(d0) + w1 * 20 * a1 * sharp(d1);
   double sum = 0;
   for (int x = 0; x < 20; ++x) sum += out.gx[size_t(22) * 50 + x] * 3;
   EXPECT_NEAR(sum, want, 0.01);

@@ -19,6 +19,7 @@ namespace terracl {
 
 namespace {
 constexpr size_t kStride = 24;
+constexpr double kSharpRound = 0.08;  // tensor.cl's SHARP_ROUND
 double smoother(double t) {
   t = std::clamp(t, 0.0, 1.0);
   return t * t * t * (t * (t * 6 - 15) + 10);
@@ -31,7 +32,13 @@ double profile_value(Profile p, double d, double s, double r, double a, double f
   const double u = std::clamp((d - f) / (r - f), 0.0, 1.0), w = 1 - u;
   switch (p) {
     case Profile::Round: return a * alpha(u);
-    case Profile::Sharp: return a * w * w * w;
+    // (1 - u)^3 with u from the distance rounded over 0.08 r on the crest line (sqrt(d^2 + rho^2) -
+    // rho): a crest a few cells wide on a wide stroke instead of a slope kink (a knife line).
+    case Profile::Sharp: {
+      const double rho = kSharpRound * r, ds = std::sqrt(d * d + rho * rho) - rho;
+      const double v = 1 - std::clamp((ds - f) / (r - f), 0.0, 1.0);
+      return a * v * v * v;
+    }
     // (1 - u)^3 (1 + 3 u): steepest a third of the way up (slope 16/9 a/r), a rounded thalweg and
     // a C2 rim. The former (1 - u)^2 was steepest on the axis: a crease that read as a 1-pixel scratch.
     case Profile::V: return a * w * w * w * (1 + 3 * u);
