@@ -131,9 +131,10 @@ struct Dictionary {
   /// (version 1 and 2 files, or an exemplar too small). Stored from version 3 on.
   BlockRegression regression;
   std::string description;
-  /// In memory only (not in the .tdic; -1 for loaded files): the calibration's HF-matching and
-  /// RMSE-budget gains, its HF target and spectral scale (GainCalibration), which let `amplify`
-  /// recalibrate the gain on each input's own spectrum (docs/amplify.md, "per-input HF").
+  /// The calibration's HF-matching and RMSE-budget gains, its HF target and spectral scale
+  /// (GainCalibration), which let `amplify` recalibrate the gain on each input's own spectrum
+  /// (docs/amplify.md, "per-input HF"). Stored from .tdic version 4 on (flag bit 5); -1 when unknown
+  /// (files of versions 1-3, exemplars too small to calibrate): the per-input gain is then off.
   double hf_gain = -1, rmse_gain = -1, hf_target = -1, spectral_scale = -1;
   bool has_regression() const { return !regression.weights.empty(); }
   int atoms() const { return int(high.cols()); }

@@ -573,6 +573,10 @@ Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Diction
           "step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this input's own spectrum",
           k + 1, input_gain, d.detail_gain);
   }
+  if (detail && r.detail_gain < 0 && r.hf_from_input && r.bias_correction && !(d.spectral_scale > 0))
+    cur.metadata["amplify_hf_calibration"] = fmt::format(
+        "off: the dictionary carries no calibration for a per-input gain (a .tdic before format version 4, or an "
+        "exemplar too small to calibrate); the dictionary's gain {:.3f}", d.detail_gain);
   cur.metadata["amplify_mode"] = "detail";
   cur.metadata["amplify_blend"] = r.blend;
   cur.metadata["amplify_base"] = r.base;
