@@ -268,6 +268,9 @@ struct AmplifyOptions {
   /// the gain on each step's input spectrum when the dictionary was calibrated in this process
   /// (Dictionary::spectral_scale; `amplify --exemplar`, `dictionary evaluate`). docs/amplify.md.
   bool hf_from_input = true;
+  /// amplify_from_exemplars at x16 (two x4 steps), the dictionary's gain: the first step's gain chosen
+  /// end to end on the exemplar's held-out folds (both steps simulated; docs/amplify.md, "per-scale calibration").
+  bool cascade_calibration = true;
   /// Patch blend. "detail": the bicubic of the input plus the patches' details (patch minus the smooth part of
   /// its block means, smooth_part_operator) blended by sum w d / sqrt(sum w^2), variance-preserving,
   /// so the patch grid leaves no trace; "average": the patches themselves blended by sum w p / sum w
