@@ -330,8 +330,9 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
     std::ifstream f(tmp.path("d.tdic"), std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(f), {});
   }
-  ASSERT_EQ(bytes[4], 3);
+  ASSERT_EQ(bytes[4], 4);
   ASSERT_FALSE(d.has_regression());  // 12 x 12 input cells: too few 7 x 7 neighbourhoods
+  ASSERT_LT(d.spectral_scale, 0);    // too small to calibrate: no calibration block (flag bit 5)
   bytes[4] = 1;
   bytes.erase(48, 8);
   uint64_t h = 1469598103934665603ull;  // FNV-1a 64 of everything before the hash
@@ -343,9 +344,9 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
   EXPECT_TRUE(e.low_norm.empty());
   EXPECT_EQ(e.neighbours, 1);  // its gain was calibrated for the nearest atom alone
   EXPECT_EQ(e.magnitude_weight, 0.f);
-  bytes[4] = 4;
-  std::ofstream(tmp.path("v4.tdic"), std::ios::binary) << bytes;
-  EXPECT_THROW(load_dictionary(tmp.path("v4.tdic")), Error);
+  bytes[4] = 5;
+  std::ofstream(tmp.path("v5.tdic"), std::ios::binary) << bytes;
+  EXPECT_THROW(load_dictionary(tmp.path("v5.tdic")), Error);
 }
 
 namespace {
@@ -430,15 +431,17 @@ TEST(AmplifyDictionary, FaithfulRegressionRoundTripsBitForBit) {
 }
 
 TEST(AmplifyDictionary, VersionTwoFilesStillLoadWithoutRegression) {
-  // A version 2 file is version 3 without the regression (flag bit 3 clear), with version = 2.
+  // A version 2 file is version 3 (here 4 without calibration) without the regression (flag bit 3
+  // clear), with version = 2.
   test::TempDir tmp;
   LearnOptions l = small_learn();
   l.faithful_radius = 0;
   const Dictionary d = learn_dictionary({rough_terrain(96, 96, 5.0, 3)}, l);
   ASSERT_FALSE(d.has_regression());
+  ASSERT_LT(d.spectral_scale, 0);
   save_dictionary(d, tmp.path("d.tdic"));
   std::string bytes = file_bytes(tmp.path("d.tdic"));
-  ASSERT_EQ(bytes[4], 3);
+  ASSERT_EQ(bytes[4], 4);
   bytes[4] = 2;
   rehash(bytes);
   std::ofstream(tmp.path("v2.tdic"), std::ios::binary) << bytes;

@@ -3,12 +3,16 @@
 #include "test_helpers.hpp"
 
 #include <terracl/amplify.hpp>
+#include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
 #include <fmt/format.h>
 #include <unsupported/Eigen/FFT>
 
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <complex>
 #include <random>
 
@@ -111,14 +115,106 @@ TEST(AmplifySpectral, FirstStepGainMatchesTheCombinedHfEstimate) {
   double worst = 0;
   for (size_t i = 0; i < out.z.size(); ++i) worst = std::max(worst, double(std::fabs(out.z[i] - same.z[i])));
   EXPECT_LT(worst, 0.05);
-  // Off: the option, an explicit gain, or a dictionary read from a file (no in-memory calibration).
+  // Off: the option, or an explicit gain.
   AmplifyOptions off = o;
   off.hf_from_input = false;
   EXPECT_EQ(amplify(low, d, off).metadata.at("amplify_detail_gain"), fmt::format("{:.3f}", d.detail_gain));
+  // A dictionary read from a version 4 file carries the calibration: the same output, bit for bit.
   const test::TempDir tmp;
   const std::string path = tmp.path("d.tdic");
   save_dictionary(d, path);
-  const Heightfield loaded = amplify(low, load_dictionary(path), o);
-  EXPECT_EQ(loaded.metadata.count("amplify_hf_calibration"), 0u);
-  EXPECT_EQ(loaded.metadata.at("amplify_detail_gain"), fmt::format("{:.3f}", d.detail_gain));
+  const Dictionary e = load_dictionary(path);
+  EXPECT_EQ(e.hf_gain, d.hf_gain);
+  EXPECT_EQ(e.rmse_gain, d.rmse_gain);
+  EXPECT_EQ(e.hf_target, d.hf_target);
+  EXPECT_EQ(e.spectral_scale, d.spectral_scale);
+  const Heightfield loaded = amplify(low, e, o);
+  ASSERT_EQ(loaded.size(), out.size());
+  EXPECT_EQ(std::memcmp(loaded.z.data(), out.z.data(), sizeof(float) * out.size()), 0);
+  EXPECT_EQ(loaded.metadata.at("amplify_hf_calibration"), out.metadata.at("amplify_hf_calibration"));
+  EXPECT_EQ(loaded.metadata.at("amplify_detail_gain"), out.metadata.at("amplify_detail_gain"));
+  // A version 3 file (the same bytes without the calibration, flag bit 5 clear): still read, the
+  // per-input gain off and said so in the metadata.
+  std::string bytes;
+  {
+    std::ifstream f(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), {});
+  }
+  ASSERT_EQ(bytes[4], 4);
+  int32_t flags = 0;
+  std::memcpy(&flags, bytes.data() + 24, 4);
+  ASSERT_NE(flags & 32, 0);
+  flags &= ~32;
+  std::memcpy(&bytes[24], &flags, 4);
+  bytes[4] = 3;
+  const size_t cal_at = 60 + d.description.size() +
+                        4 * (size_t(d.patch) * d.patch + size_t(d.low_patch()) * d.low_patch()) * size_t(d.atoms()) +
+                        4 * d.low_norm.size();
+  ASSERT_EQ(std::memcmp(bytes.data() + cal_at, &d.hf_gain, 8), 0);  // where version 4 keeps it
+  bytes.erase(cal_at, 32);
+  uint64_t h = 1469598103934665603ull;  // FNV-1a 64 of everything before the hash
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) h = (h ^ (unsigned char)bytes[i]) * 1099511628211ull;
+  for (int i = 0; i < 8; ++i) bytes[bytes.size() - 8 + i] = char((h >> (8 * i)) & 0xff);
+  std::ofstream(tmp.path("v3.tdic"), std::ios::binary) << bytes;
+  const Dictionary v3 = load_dictionary(tmp.path("v3.tdic"));
+  EXPECT_TRUE(v3.high == d.high);
+  EXPECT_EQ(v3.regression.weights.size(), d.regression.weights.size());
+  EXPECT_EQ(v3.spectral_scale, -1.0);
+  const Heightfield old = amplify(low, v3, o);
+  EXPECT_EQ(old.metadata.at("amplify_detail_gain"), fmt::format("{:.3f}", d.detail_gain));
+  EXPECT_EQ(old.metadata.at("amplify_hf_calibration").rfind("off:", 0), 0u) << old.metadata.at("amplify_hf_calibration");
+  // A corrupt calibration value: a clear error.
+  bytes = std::string();
+  {
+    std::ifstream f(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), {});
+  }
+  const double bad = -2;
+  std::memcpy(&bytes[cal_at + 24], &bad, 8);
+  h = 1469598103934665603ull;
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) h = (h ^ (unsigned char)bytes[i]) * 1099511628211ull;
+  for (int i = 0; i < 8; ++i) bytes[bytes.size() - 8 + i] = char((h >> (8 * i)) & 0xff);
+  std::ofstream(tmp.path("bad.tdic"), std::ios::binary) << bytes;
+  try {
+    load_dictionary(tmp.path("bad.tdic"));
+    ADD_FAILURE() << "no error";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("corrupt calibration"), std::string::npos) << err.what();
+  }
+}
+
+TEST(AmplifySpectral, CascadeCalibrationChoosesTheFirstStepGainThroughBothSteps) {
+  // x16 of a 23 x 23 input (too small for the per-input gain), exemplar a 256 x 512 crop of the same
+  // Front Range DEM: the first step's gain chosen on the folds through both steps (docs/amplify.md,
+  // "per-scale calibration") restores more of the truth's HF energy than the first step's own
+  // RMSE-capped gain, within the x16 RMSE target, block means exact.
+  const Heightfield dem = read_heightfield(test::data_path("dem/frontrange_srtm3_758.asc"));
+  const Heightfield ex = crop_of(dem, 0, 0, 256, 512);
+  const Heightfield truth = crop_of(dem, 758 - 368, 100, 368, 368);
+  const Heightfield low = block_mean(truth, 16);
+  LearnOptions l;
+  l.max_patches = 3000;
+  AmplifyOptions o;
+  o.factor = 16;
+  const Heightfield out = amplify_from_exemplars(low, {ex}, l, o);
+  AmplifyOptions off = o;
+  off.cascade_calibration = false;
+  const Heightfield old = amplify_from_exemplars(low, {ex}, l, off);
+  ASSERT_EQ(out.metadata.count("amplify_hf_calibration"), 1u);
+  EXPECT_NE(out.metadata.at("amplify_hf_calibration").find("both steps"), std::string::npos);
+  EXPECT_EQ(old.metadata.count("amplify_hf_calibration"), 0u);
+  const AmplifyMetrics m = evaluate_amplification(out, truth, low, 16, o.spacing);
+  const AmplifyMetrics m0 = evaluate_amplification(old, truth, low, 16, o.spacing);
+  const AmplifyMetrics b = evaluate_amplification(bicubic_upsample(low, 16), truth, low, 16, o.spacing);
+  std::printf("cascade: HF %.3f RMSE %.3f x bicubic slope %.3f; step gains: HF %.3f RMSE %.3f slope %.3f (%s | %s)\n",
+              m.hf_ratio, m.rmse / b.rmse, m.slope_ratio, m0.hf_ratio, m0.rmse / b.rmse, m0.slope_ratio,
+              out.metadata.at("amplify_detail_gain").c_str(), old.metadata.at("amplify_detail_gain").c_str());
+  // Measured: HF 0.881 against 0.749, RMSE 1.305 against 1.257 x bicubic, slope 0.929 / 0.885. The folds'
+  // budget (1.2) transfers to this small crop with a 0.1 margin; on the eval's whole east half 1.278.
+  EXPECT_GT(m.hf_ratio, m0.hf_ratio * 1.1);
+  EXPECT_LT(m.rmse / b.rmse, 1.35);
+  EXPECT_LT(m.lr_consistency, 1e-2);
+  // The second step is the same dictionary's (learned once, ahead of the first step).
+  EXPECT_EQ(out.metadata.at("amplify_detail_gain").substr(out.metadata.at("amplify_detail_gain").find(',')),
+            old.metadata.at("amplify_detail_gain").substr(old.metadata.at("amplify_detail_gain").find(',')));
 }

@@ -131,9 +131,10 @@ struct Dictionary {
   /// (version 1 and 2 files, or an exemplar too small). Stored from version 3 on.
   BlockRegression regression;
   std::string description;
-  /// In memory only (not in the .tdic; -1 for loaded files): the calibration's HF-matching and
-  /// RMSE-budget gains, its HF target and spectral scale (GainCalibration), which let `amplify`
-  /// recalibrate the gain on each input's own spectrum (docs/amplify.md, "per-input HF").
+  /// The calibration's HF-matching and RMSE-budget gains, its HF target and spectral scale
+  /// (GainCalibration), which let `amplify` recalibrate the gain on each input's own spectrum
+  /// (docs/amplify.md, "per-input HF"). Stored from .tdic version 4 on (flag bit 5); -1 when unknown
+  /// (files of versions 1-3, exemplars too small to calibrate): the per-input gain is then off.
   double hf_gain = -1, rmse_gain = -1, hf_target = -1, spectral_scale = -1;
   bool has_regression() const { return !regression.weights.empty(); }
   int atoms() const { return int(high.cols()); }
@@ -267,6 +268,9 @@ struct AmplifyOptions {
   /// the gain on each step's input spectrum when the dictionary was calibrated in this process
   /// (Dictionary::spectral_scale; `amplify --exemplar`, `dictionary evaluate`). docs/amplify.md.
   bool hf_from_input = true;
+  /// amplify_from_exemplars at x16 (two x4 steps), the dictionary's gain: the first step's gain chosen
+  /// end to end on the exemplar's held-out folds (both steps simulated; docs/amplify.md, "per-scale calibration").
+  bool cascade_calibration = true;
   /// Patch blend. "detail": the bicubic of the input plus the patches' details (patch minus the smooth part of
   /// its block means, smooth_part_operator) blended by sum w d / sqrt(sum w^2), variance-preserving,
   /// so the patch grid leaves no trace; "average": the patches themselves blended by sum w p / sum w

@@ -573,6 +573,10 @@ Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Diction
           "step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this input's own spectrum",
           k + 1, input_gain, d.detail_gain);
   }
+  if (detail && r.detail_gain < 0 && r.hf_from_input && r.bias_correction && !(d.spectral_scale > 0))
+    cur.metadata["amplify_hf_calibration"] = fmt::format(
+        "off: the dictionary carries no calibration for a per-input gain (a .tdic before format version 4, or an "
+        "exemplar too small to calibrate); the dictionary's gain {:.3f}", d.detail_gain);
   cur.metadata["amplify_mode"] = "detail";
   cur.metadata["amplify_blend"] = r.blend;
   cur.metadata["amplify_base"] = r.base;
@@ -606,6 +610,73 @@ static std::string warp_command(const std::string& file, const Georef& g, double
                      file == "<input>" ? "input" : "exemplar", cx, cx * sx, cy * sy);
 }
 
+// x16 as two x4 steps (docs/amplify.md, "per-scale calibration"): the first step's gain chosen end to
+// end on the exemplar's held-out folds. Each fold's 16 x 16 block means are amplified by both steps
+// (dictionaries learned on the other folds, at each step's cell size; the second step at gain `g2`)
+// for a grid of first-step gains; the largest gain whose pooled final HF energy ratio stays at most
+// `hf_target` and whose RMSE stays within kCascadeRmseBudget x bicubic's (x16) is taken, interpolated
+// between grid points. `ex`: the exemplar at the cascade's output cell size. -1 when too small.
+// The x16 target (1.3) less a margin for the transfer from the folds to other terrain: at 1.24 on the
+// folds the Front Range's east half came out at 1.324 (docs/amplify.md).
+constexpr double kCascadeRmseBudget = 1.2;
+double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, const AmplifyOptions& o1,
+                          const AmplifyOptions& o2, float g2, double hf_target) {
+  const int f = learn.factor, F = f * f, P = learn.patch;
+  const bool wide = ex.width >= ex.height;
+  const int len = wide ? ex.width : ex.height, other = wide ? ex.height : ex.width;
+  const int k = 2, fold = len / k;
+  if (fold / f < 4 * P || other / f < 4 * P) return -1;
+  auto crop = [&](int a0, int a1, int o0, int o1) {
+    const int w = wide ? a1 - a0 : o1 - o0, h = wide ? o1 - o0 : a1 - a0;
+    const int x0 = wide ? a0 : o0, y0 = wide ? o0 : a0;
+    Heightfield c(w, h);
+    c.georef = ex.georef;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) c.at(x, y) = ex.at(x0 + x, y0 + y);
+    return c;
+  };
+  LearnOptions lo = learn;
+  lo.calibrate = false;
+  lo.faithful_radius = 0;
+  lo.max_patches = learn.max_patches / 2;
+  const std::vector<double> grid = {1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75};
+  std::vector<double> hf(grid.size(), 0), e2(grid.size(), 0);
+  double ht = 0, eb2 = 0;
+  for (int i = 0; i < k; ++i) {
+    const int a0 = i * fold, a1 = i == k - 1 ? len : a0 + fold;
+    std::vector<Heightfield> train2, train1;
+    if (a0 >= P * f) train2.push_back(crop(0, a0, 0, other));
+    if (len - a1 >= P * f) train2.push_back(crop(a1, len, 0, other));
+    for (const auto& t : train2) train1.push_back(block_mean(t, f));
+    const Heightfield b = crop(a0, a0 + (a1 - a0) / F * F, 0, other / F * F);
+    const Heightfield low = block_mean(b, F);
+    const Dictionary d1 = learn_dictionary(train1, lo), d2 = learn_dictionary(train2, lo);
+    const std::vector<float> bic = bicubic_upsample(low, F).z;
+    for (size_t j = 0; j < bic.size(); ++j) eb2 += double(bic[j] - b.z[j]) * (bic[j] - b.z[j]);
+    ht += energy_above(b, F);
+    AmplifyOptions a = o1, c = o2;
+    a.factor = c.factor = f;
+    c.detail_gain = g2;
+    for (size_t q = 0; q < grid.size(); ++q) {
+      a.detail_gain = float(grid[q]);
+      const Heightfield out = amplify(amplify(low, d1, a), d2, c);
+      hf[q] += energy_above(out, F);
+      for (size_t j = 0; j < out.z.size(); ++j) e2[q] += double(out.z[j] - b.z[j]) * (out.z[j] - b.z[j]);
+    }
+  }
+  if (!(ht > 0) || !(eb2 > 0)) return -1;
+  // The excess over each bound per grid gain (<= 0: within); the gain where the first one reaches 0.
+  auto excess = [&](size_t q) {
+    return std::max(hf[q] / ht - hf_target, std::sqrt(e2[q] / eb2) - kCascadeRmseBudget);
+  };
+  if (excess(0) > 0) return grid[0];
+  for (size_t q = 1; q < grid.size(); ++q) {
+    const double x0 = excess(q - 1), x1 = excess(q);
+    if (x1 > 0) return grid[q - 1] + (grid[q] - grid[q - 1]) * (-x0) / std::max(1e-12, x1 - x0);
+  }
+  return grid.back();
+}
+
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
                                    const LearnOptions& learn, const AmplifyOptions& o, const Progress& progress) {
   require_finite(low, "amplify", "input");
@@ -614,9 +685,10 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   const int steps = steps_for(o.factor, learn.factor);
   const Georef& e = exemplars[0].georef;
   Heightfield cur = low;
-  std::unique_ptr<Dictionary> dict;
+  std::unique_ptr<Dictionary> dict, next_dict;
   std::unique_ptr<BlockRegression> reg;
   std::vector<std::string> gains, notes, hf_notes;
+  double cascade_gain = -1;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
   if (o.neighbours > 0) lo.calibration_neighbours = o.neighbours;
   lo.calibration_candidates = o.candidates;
@@ -647,9 +719,28 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
         reg = std::make_unique<BlockRegression>(learn_block_regression(ex, learn.factor, o.faithful_radius));
         notes.push_back(fmt::format("step {}: regression radius {} from {} exemplar blocks", k + 1, reg->radius,
                                     reg->samples));
+      } else if (next_dict) {
+        dict = std::move(next_dict);
+        notes.push_back(fmt::format("step {}: {}", k + 1, dict->description));
       } else {
         dict = std::make_unique<Dictionary>(learn_dictionary(ex, lo, scaled_progress(pk, 0, 0.5)));
         notes.push_back(fmt::format("step {}: {}", k + 1, dict->description));
+        // x16: the first step's gain from the whole cascade on the exemplar's folds (cascade_first_gain),
+        // with the second step's dictionary learned now (and used at the second step).
+        const double r2x = rx / learn.factor, r2y = ry / learn.factor;
+        const int r2 = int(std::lround(r2x));
+        // Only where the per-input gain cannot apply (an input under kMinSpectralInput cells: the
+        // spectral fit needs more); on larger inputs the first step keeps it (not measured at x16).
+        const bool small = cur.width < kMinSpectralInput || cur.height < kMinSpectralInput;
+        if (k == 0 && steps == 2 && small && o.detail_gain < 0 && o.cascade_calibration && r2 >= 1 &&
+            std::fabs(r2x - r2) <= 0.05 * r2x && std::fabs(r2y - r2) <= 0.05 * r2y) {
+          std::vector<Heightfield> ex2;
+          for (const auto& h : exemplars) ex2.push_back(r2 > 1 ? block_mean(h, r2) : h);
+          next_dict = std::make_unique<Dictionary>(learn_dictionary(ex2, lo, scaled_progress(pk, 0.25, 0.5)));
+          check_options(o, *next_dict);
+          cascade_gain = cascade_first_gain(ex2[0], lo, resolved(o, *dict), resolved(o, *next_dict),
+                                            next_dict->detail_gain, lo.calibration_hf_target);
+        }
       }
     }
     if (reg) {
@@ -669,11 +760,17 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
       c.georef = in.georef;
       return c;
     };
-    const auto rho = step_correlations(read, cur.width, cur.height, 1, *dict, r, index.get(), k == 0);
+    AmplifyOptions rk = r;
+    if (k == 0 && cascade_gain > 0) rk.detail_gain = float(cascade_gain);
+    const auto rho = step_correlations(read, cur.width, cur.height, 1, *dict, rk, index.get(), k == 0);
     const float input_gain = rho.size() == 2 ? rho[1] : -1.f;
-    cur = amplify_step(cur, 0, 0, k, rho.empty() ? 0.f : rho[0], *dict, r, index.get(), scaled_progress(pk, 0.5, 1),
+    cur = amplify_step(cur, 0, 0, k, rho.empty() ? 0.f : rho[0], *dict, rk, index.get(), scaled_progress(pk, 0.5, 1),
                        input_gain);
     gains.push_back(cur.metadata["amplify_detail_gain"]);
+    if (k == 0 && cascade_gain > 0)
+      hf_notes.push_back(fmt::format("step 1: gain {:.3f} (dictionary's {:.3f}) from both steps on the exemplar's held-out "
+                                     "folds (x16 HF target {:.2f}, RMSE budget {:.2f} x bicubic)", cascade_gain,
+                                     dict->detail_gain, lo.calibration_hf_target, kCascadeRmseBudget));
     if (input_gain > 0 && r.detail_gain < 0)
       hf_notes.push_back(fmt::format("step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this "
                                      "input's own spectrum", k + 1, input_gain, dict->detail_gain));

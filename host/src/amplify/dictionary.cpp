@@ -20,10 +20,17 @@ namespace {
 
 constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
 // Version 2 added the atoms' low-resolution norms (flag bit 1), version 3 faithful mode's regression
-// (flag bit 3); version 1 and 2 files still load.
-constexpr uint32_t kVersion = 3;
+// (flag bit 3), version 4 the gain calibration amplify needs for the per-input HF gain (flag bit 5);
+// version 1 to 3 files still load (without it: the per-input HF gain is off).
+constexpr uint32_t kVersion = 4;
 constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4, kFlagRegression = 8,
-                  kFlagBandlimitedBase = 16;
+                  kFlagBandlimitedBase = 16, kFlagCalibration = 32;
+constexpr size_t kCalibrationBytes = 4 * 8;
+
+// The four values of GainCalibration that Dictionary keeps (all > 0, or the dictionary has none).
+bool has_calibration(const Dictionary& d) {
+  return d.hf_gain > 0 && d.rmse_gain > 0 && d.hf_target > 0 && d.spectral_scale > 0;
+}
 
 uint64_t fnv1a(const std::string& bytes) {
   uint64_t h = 1469598103934665603ull;
@@ -105,7 +112,8 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   }
   put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0) |
                          (d.blend == "detail" ? kFlagDetailBlend : 0) | (reg ? kFlagRegression : 0) |
-                         (d.base == "bandlimited" ? kFlagBandlimitedBase : 0));
+                         (d.base == "bandlimited" ? kFlagBandlimitedBase : 0) |
+                         (has_calibration(d) ? kFlagCalibration : 0));
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
@@ -116,6 +124,8 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   for (Eigen::Index i = 0; i < d.high.size(); ++i) put<float>(out, d.high.data()[i]);
   for (Eigen::Index i = 0; i < d.low.size(); ++i) put<float>(out, d.low.data()[i]);
   for (float v : d.low_norm) put<float>(out, v);
+  if (has_calibration(d))  // float64: a loaded dictionary amplifies bit for bit as the one learned in memory
+    for (double v : {d.hf_gain, d.rmse_gain, d.hf_target, d.spectral_scale}) put<double>(out, v);
   if (reg) {
     put<int32_t>(out, d.regression.radius);
     put<int32_t>(out, d.regression.classes);
@@ -153,6 +163,7 @@ Dictionary load_dictionary(const std::string& path) {
   d.blend = (flags & kFlagDetailBlend) != 0 ? "detail" : "average";
   const bool norms = version >= 2 && (flags & kFlagNorms) != 0;
   const bool reg = version >= 3 && (flags & kFlagRegression) != 0;
+  const bool cal = version >= 4 && (flags & kFlagCalibration) != 0;
   d.base = version >= 3 && (flags & kFlagBandlimitedBase) != 0 ? "bandlimited" : "bicubic";
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
@@ -174,7 +185,7 @@ Dictionary load_dictionary(const std::string& path) {
   d.description = data.substr(r.pos, dlen);
   r.pos += dlen;
   const size_t K = size_t(d.patch) * d.patch, k = size_t(d.low_patch()) * d.low_patch();
-  const size_t need = (K + k + (norms ? 1 : 0)) * size_t(atoms) * 4 + 8;
+  const size_t need = (K + k + (norms ? 1 : 0)) * size_t(atoms) * 4 + (cal ? kCalibrationBytes : 0) + 8;
   // The regression's size follows from its own header (read below); here only a lower bound.
   if (reg ? data.size() - r.pos < need + 16 : data.size() - r.pos != need)
     fail("dictionary", "{}: size {} bytes does not match its header ({} atoms of {}x{} need {} more bytes after byte {}); "
@@ -196,6 +207,16 @@ Dictionary load_dictionary(const std::string& path) {
     }
   }
   if (!d.high.allFinite() || !d.low.allFinite()) fail("dictionary", "{}: atoms contain NaN or Inf (corrupt file)", path);
+  if (cal) {
+    d.hf_gain = r.get<double>("calibration");
+    d.rmse_gain = r.get<double>("calibration");
+    d.hf_target = r.get<double>("calibration");
+    d.spectral_scale = r.get<double>("calibration");
+    for (double v : {d.hf_gain, d.rmse_gain, d.hf_target, d.spectral_scale})
+      if (!(v > 0 && v < 1e6))
+        fail("dictionary", "{}: corrupt calibration (HF-matching gain {}, RMSE-budget gain {}, HF target {}, spectral "
+             "scale {}; each must be > 0)", path, d.hf_gain, d.rmse_gain, d.hf_target, d.spectral_scale);
+  }
   if (reg) {
     BlockRegression& g = d.regression;
     g.factor = d.factor;
