@@ -304,3 +304,30 @@ TEST(Hypre, BandReadsOfEveryInputEqualTheWholeReads) {
     if (k.border) EXPECT_EQ(band.z[1], fstart.z[1]);  // (0, 0) also has a mask cell: averaged
   }
 }
+
+// A pipeline that reads a gradient file straight into a hypre reconstruct leaves the reading to
+// the stage (by bands): the same bytes as the library's whole-field solve, and the report names
+// the band reader.
+TEST(Hypre, PipelineReadIntoHypreReconstructReadsByBands) {
+  test::TempDir t;
+  const Heightfield h = test::smooth_terrain(59, 45, 10.0, 300.0, 6);
+  GradientField g = staggered_of(h);
+  g.mean_elevation = 123.0;
+  write_gradient(g, t.path("g.exr"));
+  std::ofstream(t.path("p.json")) << nlohmann::json::array(
+      {t.path("g.exr"),
+       {{"type", "reconstruct"}, {"solver", "hypre"}, {"tolerance", 1e-9}, {"max_cycles", 300}, {"report", t.path("r.json")}},
+       t.path("out.tif")});
+  const auto r = test::run_cli("run " + t.path("p.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(t.path("r.json")));
+  EXPECT_NE(j["device"].get<std::string>().find("input read by bands of rows"), std::string::npos) << j["device"];
+  SolverOptions o = hypre_options(1e-9);
+  o.max_cycles = 300;
+  const ReconstructResult ref = reconstruct(test::device(), read_gradient(t.path("g.exr")), ConstraintSet(), o);
+  const Heightfield out = read_heightfield(t.path("out.tif"));
+  ASSERT_EQ(out.z.size(), ref.height.z.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < out.z.size(); ++i) differ += out.z[i] != ref.height.z[i];
+  EXPECT_EQ(differ, 0u);
+}
