@@ -208,6 +208,11 @@ ReconstructResult reconstruct_hypre_files(const HypreBandFiles& f, const SolverO
       if (o.dirichlet_border) c.add_border(start);
       c.hard_cells(b.hard_index, b.hard_value);
     }
+    // The readers go before the solve (a non-GDAL raster is held whole until here).
+    div_src.reset();
+    init_src.reset();
+    mask_src.reset();
+    elev_src.reset();
     return b;
   };
   const double target = o.mean ? *o.mean : source_mean;
