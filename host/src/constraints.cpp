@@ -16,6 +16,21 @@ ConstraintSet::ConstraintSet(int width, int height)
     : m_width(width), m_height(height), m_kind(size_t(width) * height, 0), m_sum(size_t(width) * height, 0.f),
       m_count(size_t(width) * height, 0) {
   if (width < 0 || height < 0) fail("constraints", "negative grid size {}x{}", width, height);
+  m_rows = height;
+}
+
+ConstraintSet ConstraintSet::band(int width, int height, int row0, int rows) {
+  if (row0 < 0 || rows < 0 || row0 + rows > height)
+    fail("constraints", "band of rows [{}, {}) outside the {}x{} grid", row0, row0 + rows, width, height);
+  ConstraintSet c(width, rows);
+  c.m_height = height;
+  c.m_row0 = row0;
+  return c;
+}
+
+void ConstraintSet::check_band_field(const Heightfield& h, const char* what, const std::string& where) const {
+  if (h.width != m_width || h.height != m_rows)
+    fail("constraints", "{}: {} is {}x{}, the grid {}x{}", where, what, h.width, h.height, m_width, m_rows);
 }
 
 size_t ConstraintSet::count() const {
@@ -84,12 +99,16 @@ void ConstraintSet::hard_cells(std::vector<uint32_t>& index, std::vector<float>&
     index.insert(index.end(), part_index[c].begin(), part_index[c].end());
     value.insert(value.end(), part_value[c].begin(), part_value[c].end());
   }
+  const uint32_t offset = uint32_t(size_t(m_row0) * size_t(m_width));  // band -> whole-grid index
+  if (offset)
+    for (uint32_t& i : index) i += offset;
 }
 
 void ConstraintSet::add_cell(int x, int y, double z, ConstraintKind kind, const std::string& where) {
   if (!std::isfinite(z)) fail("constraints", "{}: elevation must be finite, got {}", where, z);
   if (x < 0 || y < 0 || x >= m_width || y >= m_height)
     fail("constraints", "{}: cell ({}, {}) is outside the {}x{} grid", where, x, y, m_width, m_height);
+  if (!in_band(y)) return;  // another band's row
   const size_t i = index(x, y);
   const uint8_t k = uint8_t(kind);
   if (k > m_kind[i]) {  // a more specific kind replaces
@@ -130,7 +149,7 @@ void ConstraintSet::add_polyline(const std::vector<std::array<double, 3>>& pts, 
   std::vector<Hit> hits;
   std::unordered_map<size_t, size_t> slot;
   auto consider = [&](int x, int y, double d2, double z) {
-    if (x < 0 || y < 0 || x >= m_width || y >= m_height) return;
+    if (x < 0 || y < 0 || x >= m_width || y >= m_height || !in_band(y)) return;
     const size_t i = index(x, y);
     auto [it, fresh] = slot.emplace(i, cells.size());
     if (fresh) {
@@ -164,7 +183,7 @@ void ConstraintSet::add_polyline(const std::vector<std::array<double, 3>>& pts, 
     }
   }
   for (size_t k = 0; k < cells.size(); ++k)
-    add_cell(int(cells[k] % m_width), int(cells[k] / m_width), hits[k].z, ConstraintKind::Polyline, where);
+    add_cell(int(cells[k] % m_width), m_row0 + int(cells[k] / m_width), hits[k].z, ConstraintKind::Polyline, where);
 }
 
 std::vector<size_t> ConstraintSet::polygon_cells(const std::vector<std::array<double, 2>>& pts,
@@ -181,7 +200,7 @@ std::vector<size_t> ConstraintSet::polygon_cells(const std::vector<std::array<do
     ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
   }
   std::vector<size_t> out;
-  for (int y = std::max(0, int(std::floor(ymin))); y <= std::min(m_height - 1, int(std::ceil(ymax))); ++y)
+  for (int y = std::max(m_row0, int(std::floor(ymin))); y <= std::min(m_row0 + m_rows - 1, int(std::ceil(ymax))); ++y)
     for (int x = std::max(0, int(std::floor(xmin))); x <= std::min(m_width - 1, int(std::ceil(xmax))); ++x) {
       bool in = false;
       for (size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++) {
@@ -196,34 +215,29 @@ std::vector<size_t> ConstraintSet::polygon_cells(const std::vector<std::array<do
 void ConstraintSet::add_polygon(const std::vector<std::array<double, 2>>& pts, double z, const std::string& where) {
   if (!std::isfinite(z)) fail("constraints", "{}/z: elevation must be finite", where);
   for (size_t i : polygon_cells(pts, where))
-    add_cell(int(i % m_width), int(i / m_width), z, ConstraintKind::Polygon, where);
+    add_cell(int(i % m_width), m_row0 + int(i / m_width), z, ConstraintKind::Polygon, where);
 }
 
 void ConstraintSet::add_polygon_freeze(const std::vector<std::array<double, 2>>& pts, const Heightfield& current,
                                        const std::string& where) {
-  if (current.width != m_width || current.height != m_height)
-    fail("constraints", "{}: the current heightfield is {}x{}, the grid {}x{}", where, current.width, current.height,
-         m_width, m_height);
-  for (size_t i : polygon_cells(pts, where)) {
+  check_band_field(current, "the current heightfield", where);
+  for (size_t i : polygon_cells(pts, where)) {  // band indices: rows of `current`
     const float z = current.z[i];
     if (!std::isfinite(z))
       fail("constraints", "{}: cannot freeze cell ({}, {}): the current elevation is nodata", where, i % m_width,
-           i / m_width);
-    add_cell(int(i % m_width), int(i / m_width), z, ConstraintKind::Polygon, where);
+           m_row0 + i / m_width);
+    add_cell(int(i % m_width), m_row0 + int(i / m_width), z, ConstraintKind::Polygon, where);
   }
 }
 
 void ConstraintSet::add_rasters(const Heightfield& mask, const Heightfield& elevation, const std::string& where) {
-  if (mask.width != m_width || mask.height != m_height)
-    fail("constraints", "{}: mask is {}x{}, the grid {}x{}", where, mask.width, mask.height, m_width, m_height);
-  if (elevation.width != m_width || elevation.height != m_height)
-    fail("constraints", "{}: elevation raster is {}x{}, the grid {}x{}", where, elevation.width, elevation.height,
-         m_width, m_height);
-  for (int y = 0; y < m_height; ++y)
+  check_band_field(mask, "mask", where);
+  check_band_field(elevation, "elevation raster", where);
+  for (int y = m_row0; y < m_row0 + m_rows; ++y)
     for (int x = 0; x < m_width; ++x) {
-      const float mv = mask.at(x, y);
+      const float mv = mask.at(x, y - m_row0);
       if (!std::isfinite(mv) || mv == 0.0f) continue;
-      const float z = elevation.at(x, y);
+      const float z = elevation.at(x, y - m_row0);
       if (!std::isfinite(z))
         fail("constraints", "{}: cell ({}, {}) is fixed by the mask but its elevation is NaN/nodata", where, x, y);
       add_cell(x, y, z, ConstraintKind::Raster, where);
@@ -231,11 +245,11 @@ void ConstraintSet::add_rasters(const Heightfield& mask, const Heightfield& elev
 }
 
 void ConstraintSet::add_border(const Heightfield& h, const std::string& where) {
-  if (h.width != m_width || h.height != m_height)
-    fail("constraints", "{}: heightfield is {}x{}, the grid {}x{}", where, h.width, h.height, m_width, m_height);
-  for (int y = 0; y < m_height; ++y)
+  check_band_field(h, "heightfield", where);
+  for (int y = m_row0; y < m_row0 + m_rows; ++y)
     for (int x = 0; x < m_width; ++x)
-      if (x == 0 || y == 0 || x == m_width - 1 || y == m_height - 1) add_cell(x, y, h.at(x, y), ConstraintKind::Raster, where);
+      if (x == 0 || y == 0 || x == m_width - 1 || y == m_height - 1)
+        add_cell(x, y, h.at(x, y - m_row0), ConstraintKind::Raster, where);
 }
 
 namespace {
@@ -290,9 +304,15 @@ void add_constraints_json(ConstraintSet& c, const nlohmann::json& doc, const Geo
       fail("constraints", "{}: missing z (a number; it may be omitted only where the current elevations are known, "
                           "e.g. with --initial)", path);
     const int x = int(std::lround(px[0])), y = int(std::lround(px[1]));
-    if (x < 0 || y < 0 || x >= current->width || y >= current->height)
-      fail("constraints", "{}: point ({}, {}) is outside the {}x{} grid", path, px[0], px[1], current->width, current->height);
-    return double(current->at(x, y));
+    const bool band = c.rows() != c.height();  // `current` holds the band's rows only
+    const int ch = band ? c.height() : current->height;
+    if (x < 0 || y < 0 || x >= current->width || y >= ch)
+      fail("constraints", "{}: point ({}, {}) is outside the {}x{} grid", path, px[0], px[1], current->width, ch);
+    if (!band) return double(current->at(x, y));
+    if (c.in_band(y)) return double(current->at(x, y - c.row0()));
+    if (!c.outside_current)
+      fail("constraints", "{}: the current elevation of cell ({}, {}) is outside this band of rows", path, x, y);
+    return c.outside_current(x, y);
   };
   if (doc.contains("points")) {
     const auto& a = array(doc.at("points"), source + "/points");

@@ -140,8 +140,7 @@ using RhsMaker = std::function<void(Device&, cl::Buffer& g, PhaseClock& clk, Sol
 
 ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
                                double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
-                               const SolverOptions& o, const hypre::RowDivergence& row_div = {},
-                               const hypre::BandDivergence& band_div = {}) {
+                               const SolverOptions& o, const hypre::RowDivergence& row_div = {}) {
   const double t0 = now_ms();
   if (W < 1 || H < 1) fail("reconstruct", "empty input grid");
   const double cx = georef.cell_x, cy = georef.cell_y;
@@ -190,10 +189,10 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     target = s / double(o.initial->size());
   }
   if (o.solver == Solver::Hypre) {
-    // A band reader (reconstruct_hypre_file): each rank reads its own rows, rank 0 keeps the result.
-    if (band_div) return hypre::solve(W, H, georef, meta, band_div, hard_index, hard_value, target, o, false);
+    // The whole problem is in memory here; reconstruct_hypre_files reads it by bands instead.
     if (!row_div) fail("reconstruct", "the hypre solver needs the problem on the host");
-    return hypre::solve(W, H, georef, meta, [&](int, int) { return row_div; }, hard_index, hard_value, target, o);
+    return hypre::solve(W, H, georef, meta, hypre::whole_problem(W, row_div, hard_index, hard_value, o.initial),
+                        target, o);
   }
   // Work with the deviation from a reference level: float32 keeps more digits for the solve.
   const double m = singular ? target : hard_sum / double(hard);
@@ -482,34 +481,6 @@ ReconstructResult reconstruct(Device& d, const GradientField& gin, const Constra
     }
   };
   return solve_common(d, W, H, g->georef, g->metadata, g->mean_elevation, rhs, c, o, row_div);
-}
-
-ReconstructResult reconstruct_hypre_file(Device& d, const std::string& path, const ConstraintSet& c,
-                                         const SolverOptions& o) {
-  if (o.solver != Solver::Hypre || o.initial || o.dirichlet_border)
-    fail("reconstruct", "reading the gradient by bands needs --solver hypre without --initial or a Dirichlet border");
-  int H = 0;
-  const GradientField head = io::read_gradient_rows(path, 0, 0, &H);
-  if (gradient_format(head) == GradientFormat::Central)
-    fail("reconstruct", "{}: central gradients are converted on the device; read the whole file", path);
-  const int W = head.width;
-  const double icx = 1.0 / head.georef.cell_x, icy = 1.0 / head.georef.cell_y;
-  // Rows [y0, y1) need gy of the row above (the backward difference): the band plus that halo row.
-  hypre::BandDivergence band_div = [path, W, H, icx, icy](int y0, int y1) -> hypre::RowDivergence {
-    const int r0 = std::max(0, y0 - 1);
-    auto g = std::make_shared<const GradientField>(io::read_gradient_rows(path, r0, y1));
-    // The same backward differences as reconstruct()'s row function, on the band's rows.
-    return [g, r0, W, H, icx, icy](int y, double* f) {
-      const size_t o = size_t(y - r0) * W;
-      for (int x = 0; x < W; ++x) {
-        const double ex = x + 1 < W ? g->gx[o + x] : 0.0, wx = x > 0 ? g->gx[o + x - 1] : 0.0;
-        const double sy = y + 1 < H ? g->gy[o + x] : 0.0, ny = y > 0 ? g->gy[o - W + x] : 0.0;
-        f[x] = (ex - wx) * icx + (sy - ny) * icy;
-      }
-    };
-  };
-  RhsMaker none = [](Device&, cl::Buffer&, PhaseClock&, SolveBuffers&) {};
-  return solve_common(d, W, H, head.georef, head.metadata, head.mean_elevation, none, c, o, {}, band_div);
 }
 
 ReconstructResult reconstruct_device(Device& d, const cl::Buffer& gx, const cl::Buffer& gy, const GradientField& like,

@@ -29,9 +29,67 @@ void run_extract(StageContext& c) {
   c.data.current = DataKind::Gradient;
 }
 
+// The options of the solver from the stage's flags (the start heightfield and border aside).
+SolverOptions solver_options(StageContext& c, Solver solver) {
+  SolverOptions o;
+  o.cycle = parse_cycle(c.get<std::string>("cycle"));
+  o.smoother = parse_smoother(c.get<std::string>("smoother"));
+  o.tolerance = c.get<double>("tolerance");
+  o.max_cycles = int(c.get<int64_t>("max_cycles"));
+  o.refine = parse_refinement(c.get<std::string>("refine"));
+  o.refine_tolerance = c.get<double>("refine_tolerance");
+  if (c.has("mean")) o.mean = c.get<double>("mean");
+  o.dirichlet_border = c.get<std::string>("border") == "dirichlet";
+  o.progress = c.progress;
+  o.solver = solver;
+  return o;
+}
+
+void finish_reconstruct(StageContext& c, ReconstructResult& r, const SolverOptions& o) {
+  if (!r.converged && !r.stagnated && (o.cycle != Cycle::Cascade || o.solver == Solver::Hypre))
+    fail("reconstruct", "did not converge in {} {} (relative residual {:.3g}, tolerance {:.3g})", r.cycles,
+         o.solver == Solver::Hypre ? "CG iterations" : "cycles", r.residuals.back(), o.tolerance);
+  if (o.refine != Refinement::Off && o.solver == Solver::Multigrid) r.height.metadata["terracl:refinement"] = r.refinement;
+  c.data.height = std::move(r.height);
+  c.data.current = DataKind::Heightfield;
+}
+
+// hypre from files: each MPI rank reads only its band of rows of every input and rasterises only
+// its rows of the constraints (reconstruct_hypre_files); rank 0 keeps the result.
+void run_hypre_by_bands(StageContext& c) {
+  HypreBandFiles f;
+  auto path = [&](const char* k) { return c.has(k) ? c.get<std::string>(k) : std::string(); };
+  f.gradient = path("gradient");
+  f.divergence = path("divergence");
+  f.initial = path("initial");
+  f.fixed_mask = path("fixed_mask");
+  f.fixed_elevation = path("fixed_elevation");
+  f.constraints = path("constraints");
+  if (f.fixed_mask.empty() != f.fixed_elevation.empty())
+    throw UsageError("reconstruct", "--fixed-mask and --fixed-elevation go together");
+  SolverOptions o = solver_options(c, Solver::Hypre);
+  if (o.dirichlet_border && f.initial.empty())
+    throw UsageError("reconstruct", "--border dirichlet takes the border values from --initial, which is missing");
+  int W = 0, H = 0;
+  if (!f.gradient.empty()) W = io::read_gradient_rows(f.gradient, 0, 0, &H).width;  // the header
+  else (void)read_heightfield_rows(f.divergence, 0, 0, &W, &H);
+  // A rank needs its share of hypre's bytes and rank 0 the float result besides.
+  require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid with hypre", W, H),
+                 double(W) * H * (kHypreHostBytesPerCell / distributed::size() + 4), 0, 0, nullptr,
+                 "reconstruct a smaller grid (crop it)");
+  ReconstructResult r = reconstruct_hypre_files(f, o);
+  if (c.has("report") && hypre_is_root_rank()) write_text_file_atomic(c.get<std::string>("report"), r.to_json().dump(2) + "\n");
+  finish_reconstruct(c, r, o);
+}
+
 void run_reconstruct(StageContext& c) {
   const bool has_g = c.has("gradient"), has_f = c.has("divergence");
   if (has_g && has_f) throw UsageError("reconstruct", "give either --gradient or --divergence, not both");
+  const Solver solver = parse_solver(c.get<std::string>("solver"));
+  // hypre from files is read by bands unless the pipeline's terrain (whole in memory anyway) is
+  // the start heightfield.
+  if (solver == Solver::Hypre && hypre_available() && (has_g || has_f) && (c.has("initial") || !c.data.height))
+    return run_hypre_by_bands(c);
   std::optional<Heightfield> initial;
   if (c.has("initial")) initial = read_heightfield(c.get<std::string>("initial"));
   else if (c.data.height) initial = *c.data.height;  // the pipeline's current terrain
@@ -39,18 +97,7 @@ void run_reconstruct(StageContext& c) {
   GradientField g;
   Heightfield f;
   bool use_div = false;
-  const Solver solver = parse_solver(c.get<std::string>("solver"));
-  // hypre from a gradient file: each MPI rank reads only its band of rows (reconstruct_hypre_file),
-  // unless something needs the whole field here (a start or border heightfield, central gradients).
-  bool banded = has_g && solver == Solver::Hypre && hypre_available() && !initial &&
-                c.get<std::string>("border") != "dirichlet";
-  if (banded) {
-    int rows = 0;
-    g = io::read_gradient_rows(c.get<std::string>("gradient"), 0, 0, &rows);  // the header
-    g.height = rows;
-    banded = gradient_format(g) != GradientFormat::Central;
-    if (!banded) g = read_gradient(c.get<std::string>("gradient"));
-  } else if (has_g) {
+  if (has_g) {
     g = read_gradient(c.get<std::string>("gradient"));
   } else if (has_f) {
     f = read_heightfield(c.get<std::string>("divergence"));
@@ -71,20 +118,16 @@ void run_reconstruct(StageContext& c) {
   // fields of the finest level) on the device, the constraints and the result here; hypre's
   // matrix, vectors and PFMG hierarchy in double on the host (this rank's band; every rank holds
   // the inputs and the result).
-  // Read by bands, a rank needs its share of hypre's bytes and rank 0 the float result besides.
   if (solver == Solver::Hypre)
     require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid with hypre", W, H),
-                   banded ? double(W) * H * (kHypreHostBytesPerCell / distributed::size() + 4)
-                          : double(W) * H * kHypreHostBytesPerCell,
-                   0, 0, nullptr, "reconstruct a smaller grid (crop it)");
+                   double(W) * H * kHypreHostBytesPerCell, 0, 0, nullptr, "reconstruct a smaller grid (crop it)");
   else
     require_memory("reconstruct", fmt::format("reconstructing a {} x {} grid", W, H), double(W) * H * 24,
                    double(W) * H * 40, double(W) * H * 4, &c.device(), "reconstruct a smaller grid (crop it)");
   if (initial && (initial->width != W || initial->height != H))
     fail("reconstruct", "the initial heightfield is {}x{}, the gradient {}x{}", initial->width, initial->height, W, H);
 
-  // Without constraints the banded path keeps no dense W x H set (7 bytes a cell) on each rank.
-  ConstraintSet cs = banded && !c.has("fixed_mask") && !c.has("constraints") ? ConstraintSet() : ConstraintSet(W, H);
+  ConstraintSet cs(W, H);
   if (c.has("fixed_mask") != c.has("fixed_elevation"))
     throw UsageError("reconstruct", "--fixed-mask and --fixed-elevation go together");
   if (c.has("fixed_mask")) {
@@ -99,23 +142,11 @@ void run_reconstruct(StageContext& c) {
   if (c.has("constraints"))
     add_constraints_file(cs, c.get<std::string>("constraints"), geo, initial ? &*initial : nullptr);
 
-  SolverOptions o;
-  o.cycle = parse_cycle(c.get<std::string>("cycle"));
-  o.smoother = parse_smoother(c.get<std::string>("smoother"));
-  o.tolerance = c.get<double>("tolerance");
-  o.max_cycles = int(c.get<int64_t>("max_cycles"));
-  o.refine = parse_refinement(c.get<std::string>("refine"));
-  o.refine_tolerance = c.get<double>("refine_tolerance");
-  if (c.has("mean")) o.mean = c.get<double>("mean");
-  o.dirichlet_border = c.get<std::string>("border") == "dirichlet";
+  SolverOptions o = solver_options(c, solver);
   if (o.dirichlet_border && !initial)
     throw UsageError("reconstruct", "--border dirichlet takes the border values from --initial, which is missing");
   if (initial && (c.has("initial") || o.dirichlet_border)) o.initial = &*initial;
-  o.progress = c.progress;
-  o.solver = solver;
-  ReconstructResult r = banded    ? reconstruct_hypre_file(c.device(), c.get<std::string>("gradient"), cs, o)
-                        : use_div ? reconstruct_divergence(c.device(), f, cs, o)
-                                  : reconstruct(c.device(), g, cs, o);
+  ReconstructResult r = use_div ? reconstruct_divergence(c.device(), f, cs, o) : reconstruct(c.device(), g, cs, o);
   if (c.has("report") && hypre_is_root_rank()) {
     nlohmann::json j = r.to_json();
     if (o.cycle == Cycle::Cascade && solver == Solver::Multigrid) {
@@ -140,12 +171,7 @@ void run_reconstruct(StageContext& c) {
     }
     write_text_file_atomic(c.get<std::string>("report"), j.dump(2) + "\n");
   }
-  if (!r.converged && !r.stagnated && (o.cycle != Cycle::Cascade || solver == Solver::Hypre))
-    fail("reconstruct", "did not converge in {} {} (relative residual {:.3g}, tolerance {:.3g})", r.cycles,
-         solver == Solver::Hypre ? "CG iterations" : "cycles", r.residuals.back(), o.tolerance);
-  if (o.refine != Refinement::Off && solver == Solver::Multigrid) r.height.metadata["terracl:refinement"] = r.refinement;
-  c.data.height = std::move(r.height);
-  c.data.current = DataKind::Heightfield;
+  finish_reconstruct(c, r, o);
 }
 
 // ---- benchmark ----

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -26,9 +27,20 @@ class ConstraintSet {
  public:
   ConstraintSet() = default;
   ConstraintSet(int width, int height);
+  /// A band of a width x height grid: only rows [row0, row0 + rows) are stored (7 bytes per cell
+  /// of the band), coordinates stay the whole grid's, constraints on other rows are checked and
+  /// dropped (hypre's band reader: every MPI rank rasterises only its rows). Heightfields given
+  /// to add_rasters / add_border / add_polygon_freeze / add_constraints_json then hold these rows.
+  static ConstraintSet band(int width, int height, int row0, int rows);
 
   int width() const { return m_width; }
   int height() const { return m_height; }
+  int row0() const { return m_row0; }
+  int rows() const { return m_rows; }
+  bool in_band(int y) const { return y >= m_row0 && y < m_row0 + m_rows; }
+  /// Elevations of cells outside the band where a constraint file omits z (the band's rows come
+  /// from `current`); unset: such a file is refused on a band.
+  std::function<double(int x, int y)> outside_current;
   /// Number of hard cells.
   size_t count() const;
   bool empty() const { return count() == 0; }
@@ -37,7 +49,7 @@ class ConstraintSet {
   float value(int x, int y) const;
   /// All resolved values, row-major, NaN for free cells (what the solver uploads).
   std::vector<float> values() const;
-  /// The hard cells only, in row-major order: flat indices and resolved values (the solver
+  /// The hard cells only, in row-major order: flat indices (of the whole grid) and resolved values (the solver
   /// uploads these instead of the dense NaN raster: ~1 % of the bytes for sparse constraints).
   void hard_cells(std::vector<uint32_t>& index, std::vector<float>& value) const;
 
@@ -60,9 +72,10 @@ class ConstraintSet {
   void add_border(const Heightfield& h, const std::string& where = "border");
 
  private:
-  size_t index(int x, int y) const { return size_t(y) * size_t(m_width) + size_t(x); }
+  size_t index(int x, int y) const { return size_t(y - m_row0) * size_t(m_width) + size_t(x); }
+  void check_band_field(const Heightfield& h, const char* what, const std::string& where) const;
   std::vector<std::size_t> polygon_cells(const std::vector<std::array<double, 2>>& pts, const std::string& where) const;
-  int m_width = 0, m_height = 0;
+  int m_width = 0, m_height = 0, m_row0 = 0, m_rows = 0;
   std::vector<uint8_t> m_kind;
   std::vector<float> m_sum;
   std::vector<uint16_t> m_count;

@@ -24,14 +24,29 @@
 
 namespace terracl {
 
+hypre::BandReader hypre::whole_problem(int W, const RowDivergence& div, const std::vector<uint32_t>& hard_index,
+                                       const std::vector<float>& hard_value, const Heightfield* initial) {
+  return [=, &hard_index, &hard_value](int y0, int y1, int h0, int h1) {
+    Band b;
+    b.div = div;
+    const auto lo = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h0) * W));
+    const auto hi = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(h1) * W));
+    b.hard_index.assign(lo, hi);
+    b.hard_value.assign(hard_value.begin() + (lo - hard_index.begin()), hard_value.begin() + (hi - hard_index.begin()));
+    if (initial)
+      b.initial.assign(initial->z.begin() + ptrdiff_t(size_t(y0) * W), initial->z.begin() + ptrdiff_t(size_t(y1) * W));
+    return b;
+  };
+}
+
 #ifndef TERRACL_HAVE_HYPRE
 
 bool hypre_available() { return false; }
 bool hypre_is_root_rank() { return true; }
 
 namespace hypre {
-ReconstructResult solve(int, int, const Georef&, const Metadata&, const BandDivergence&, const std::vector<uint32_t>&,
-                        const std::vector<float>&, double, const SolverOptions&, bool) {
+ReconstructResult solve(int, int, const Georef&, const Metadata&, const BandReader&, double, const SolverOptions&,
+                        bool) {
   fail("reconstruct", "--solver hypre: this build has no hypre (configure with -DTERRACL_MPI=ON and Debian's "
                       "libhypre-dev and libopenmpi-dev); use --solver multigrid");
 }
@@ -122,9 +137,8 @@ struct Objects {
 
 }  // namespace
 
-ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta, const BandDivergence& band_div,
-                        const std::vector<uint32_t>& hard_index, const std::vector<float>& hard_value, double target,
-                        const SolverOptions& o, bool gather_to_all) {
+ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta, const BandReader& read_band,
+                        double target, const SolverOptions& o, bool gather_to_all) {
   const size_t N = size_t(W) * size_t(H);
   if (N > size_t(INT_MAX)) fail("reconstruct", "hypre: grid {}x{} has more than 2^31 cells (MPI counts are int)", W, H);
   ensure_started();  // not timed: MPI's start-up happens once per process
@@ -140,13 +154,29 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   const int rows = y1 - y0;
   const int h0 = std::max(0, y0 - 1), h1 = std::min(H, y1 + 1);
   const size_t band = size_t(rows) * W;
+  Band in = read_band(y0, y1, h0, h1);
+  const std::vector<uint32_t>& hard_index = in.hard_index;
+  const std::vector<float>& hard_value = in.hard_value;
+  if (!in.initial.empty() && in.initial.size() != band)
+    fail("reconstruct", "hypre: the start heightfield's band holds {} cells, not {}", in.initial.size(), band);
 
-  const bool singular = hard_index.empty();
-  double hard_sum = 0;
-  for (float v : hard_value) hard_sum += v;
+  // Hard cells on this rank's own rows, counted once over the ranks; the sums run in row order
+  // (with one rank the same sums as a whole-grid solve).
+  const auto own0 = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(y0) * W));
+  const auto own1 = std::lower_bound(hard_index.begin(), hard_index.end(), uint32_t(size_t(y1) * W));
+  double sums[3] = {0, double(own1 - own0), 0};  // hard sum, hard count, start-field sum
+  for (auto it = own0; it != own1; ++it) sums[0] += hard_value[it - hard_index.begin()];
+  const bool start_mean = !std::isfinite(target) && !in.initial.empty();
+  if (start_mean)
+    for (float v : in.initial) sums[2] += v;
+  double totals[3] = {sums[0], sums[1], sums[2]};
+  if (ranks > 1) MPI_Allreduce(sums, totals, 3, MPI_DOUBLE, MPI_SUM, comm);
+  if (!std::isfinite(target)) target = start_mean ? totals[2] / double(N) : 0.0;
+
+  const bool singular = totals[1] == 0;
   // The unknown is the deviation from m, as on the device (here for symmetry of the two paths;
   // double would not need it).
-  const double m = singular ? target : hard_sum / double(hard_value.size());
+  const double m = singular ? target : totals[0] / totals[1];
 
   // Hard deviations u0 = value - m on rows [h0, h1): one flag byte per cell (a dense double array
   // would cost 8 bytes a cell), the values from this band's slice of the sorted hard list. Without
@@ -159,20 +189,23 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   const bool pinned = singular && h0 == 0;
   if (pinned) hard_flag[0] = 1;
   auto is_hard = [&](int x, int y) { return hard_flag[size_t(y - h0) * W + x] != 0; };
-  auto hard_u = [&](int x, int y) -> double {
+  // The resolved value of a hard cell (NaN for the pinned cell, which has none).
+  auto hard_v = [&](int x, int y) -> float {
     const uint32_t i = uint32_t(size_t(y) * W + x);
-    if (pinned && i == 0) return 0.0;
-    return double(hard_value[std::lower_bound(lo, hi, i) - hard_index.begin()]) - m;
+    if (pinned && i == 0) return std::numeric_limits<float>::quiet_NaN();
+    return hard_value[std::lower_bound(lo, hi, i) - hard_index.begin()];
+  };
+  auto hard_u = [&](int x, int y) -> double {
+    const float v = hard_v(x, y);
+    return std::isnan(v) ? 0.0 : double(v) - m;
   };
 
   // The divergence of this band, scaled by cx*cy so that the weights are cy/cx and cx/cy (the
   // relative residual is invariant under the scale).
   const double cx = georef.cell_x, cy = georef.cell_y, s = cx * cy, wx = cy / cx, wy = cx / cy;
   std::vector<double> f(band);
-  {
-    const RowDivergence div = band_div(y0, y1);  // holds the band's input until the rows are done
-    for (int y = y0; y < y1; ++y) div(y, f.data() + size_t(y - y0) * W);
-  }
+  for (int y = y0; y < y1; ++y) in.div(y, f.data() + size_t(y - y0) * W);
+  in.div = nullptr;  // drops the band's input (a gradient band is 8 bytes a cell)
   if (singular) {
     double local = 0, total = 0;
     for (double v : f) local += v;
@@ -233,7 +266,7 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
         nb(y + 1 < H, x, y + 1, wy, nullptr);
         a[0] = diag;
         bv[k] = rhs;
-        if (o.initial) xv[k] = double(o.initial->z[size_t(y) * W + x]) - m;
+        if (!in.initial.empty()) xv[k] = double(in.initial[size_t(y - y0) * W + x]) - m;
       }
     HYPRE_Int lo[2] = {0, c0}, up[2] = {W - 1, c1 - 1};
     check(HYPRE_StructMatrixSetBoxValues(ob.A, lo, up, 3, entries, av.data()), "StructMatrixSetBoxValues");
@@ -242,6 +275,7 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
   }
   std::vector<double>().swap(av);
   std::vector<double>().swap(f);
+  std::vector<float>().swap(in.initial);
   check(HYPRE_StructMatrixAssemble(ob.A), "StructMatrixAssemble");
   check(HYPRE_StructVectorAssemble(ob.b), "StructVectorAssemble");
   check(HYPRE_StructVectorAssemble(ob.x), "StructVectorAssemble");
@@ -282,13 +316,17 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
     check(HYPRE_StructVectorGetBoxValues(ob.x, lo, up, xv.data()), "StructVectorGetBoxValues");
     for (int y = c0; y < c1; ++y)
       for (int x = 0; x < W; ++x) {
-        const double u = is_hard(x, y) ? hard_u(x, y) : xv[size_t(y - c0) * W + x];
-        mine[size_t(y - y0) * W + x] = float(m + u);
+        // Hard cells keep their values bit-exactly (the pinned cell of a singular problem is m).
+        const float hv = is_hard(x, y) ? hard_v(x, y) : 0.0f;
+        mine[size_t(y - y0) * W + x] =
+            !is_hard(x, y) ? float(m + xv[size_t(y - c0) * W + x]) : std::isnan(hv) ? float(m) : hv;
       }
   }
   ob.release();  // hypre's matrix, vectors and hierarchy go before the whole field is gathered
   std::vector<double>().swap(xv);
   std::vector<uint8_t>().swap(hard_flag);
+  std::vector<uint32_t>().swap(in.hard_index);
+  std::vector<float>().swap(in.hard_value);
 
   ReconstructResult res;
   Heightfield& h = res.height;
@@ -323,7 +361,6 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
       const double shift = target - sum / double(N);
       for (float& v : h.z) v = float(double(v) + shift);
     }
-    for (size_t k = 0; k < hard_index.size(); ++k) h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact
     for (size_t i = 0; i < N && bad < 0; ++i)
       if (!std::isfinite(h.z[i])) bad = int(i);
   }
@@ -338,7 +375,7 @@ ReconstructResult solve(int W, int H, const Georef& georef, const Metadata& meta
                            gather_to_all ? "" : ", input read by bands of rows");
   res.cycle = o.cycle;
   res.smoother = o.smoother;
-  res.hard_cells = hard_index.size();
+  res.hard_cells = size_t(totals[1]);
   res.cycles = int(iters);
   res.residuals = {1.0, double(rel)};
   res.converged = double(rel) <= o.tolerance;

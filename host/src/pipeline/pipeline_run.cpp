@@ -8,6 +8,7 @@
 #include <memory>
 #include <terracl/cl.hpp>
 #include <terracl/error.hpp>
+#include <terracl/hypre.hpp>
 #include <terracl/io.hpp>
 #include <terracl/pipeline.hpp>
 #include <terracl/stage_memory.hpp>
@@ -71,8 +72,40 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
 
   StageData data;
   json chain = json::array();  // the stages behind the current data, for provenance
+  // A gradient file read straight into hypre's reconstruct (and needed by no later stage) is not
+  // loaded here: the reconstruct stage reads it by bands itself (docs/scale.md).
+  auto hypre_reads = [&](size_t i) {
+    const PipelineStage& st = m_stages[i];
+    if (st.type != "read" || i + 1 >= m_stages.size() || !hypre_available()) return false;
+    const PipelineStage& next = m_stages[i + 1];
+    auto unset = [&](const char* k) { return !next.options.contains(k) || next.options.at(k).is_null(); };
+    if (next.type != "reconstruct" || next.options.value("solver", std::string()) != "hypre" || !unset("gradient") ||
+        !unset("divergence") || st.options.value("fill_nodata", false))
+      return false;
+    for (size_t k = i + 2; k < m_stages.size(); ++k)
+      if (m_stages[k].info->input == DataKind::Gradient) return false;
+    return is_gradient_file(st.options.at("filename").get<std::string>());
+  };
+  std::string deferred_gradient;
+  json with_gradient;
   for (size_t i = 0; i < m_stages.size(); ++i) {
     const PipelineStage& st = m_stages[i];
+    if (hypre_reads(i)) {
+      deferred_gradient = st.options.at("filename").get<std::string>();
+      report.stages.push_back(StageRun{st.type, st.tag, 0.0, st.outputs});
+      json set = json::object();
+      for (auto& [k, v] : st.options.items())
+        if (!v.is_null()) set[k] = v;
+      chain = json::array({json{{"type", st.type}, {"tag", st.tag}, {"options", set}}});
+      continue;
+    }
+    const json* stage_options = &st.options;
+    if (!deferred_gradient.empty()) {
+      with_gradient = st.options;
+      with_gradient["gradient"] = deferred_gradient;
+      stage_options = &with_gradient;
+      deferred_gradient.clear();
+    }
     report.running = st.tag;
     const Progress progress = options.progress ? options.progress(st.tag, i, m_stages.size()) : Progress{};
     report_progress(progress, st.tag, 0.0, "starting");
@@ -83,7 +116,7 @@ void Pipeline::run(const RunOptions& options, RunReport& report) const {
                         {"terracl:pipeline", m_name},
                         {"terracl:pipeline_hash", hash_value},
                         {"terracl:stages", chain.dump()}};
-    StageContext ctx{data, st.options, device, progress, st.tag, provenance};
+    StageContext ctx{data, *stage_options, device, progress, st.tag, provenance};
     data.current = st.input;
     const auto t0 = Clock::now();
     // Sizes only known now (after a warp by cell size, a RAW16 reader, ...): checked again before
