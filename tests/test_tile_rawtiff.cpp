@@ -43,7 +43,7 @@ TEST(TileRawTiff, BlocksAreGdalsBytesAndCellsItsCells) {
   for (int y = 100; y < 140; ++y)
     for (int x = 250; x < 300; ++x) src.at(x, y) = NAN;
   const std::string in = dir.path("in.tif");
-  write_geotiff(in, src);
+  write_heightfield(src, in);
 
   // GDAL's writer, one process: the reference bytes (the options of the tiled writer).
   const std::string ref = dir.path("ref.tif");
