@@ -11,6 +11,8 @@ set -euo pipefail
 filled=$(realpath "${1:?usage: bench-mpi-ranks.sh FILLED.tif REPEATS TERRACL...}")
 repeats=${2:?repeats}
 shift 2
+bins=()
+for b in "$@"; do bins+=("$(realpath "$b")"); done
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -18,8 +20,8 @@ cd "$work"
 echo "[\"$filled\", \"drainage\", \"$work/dr.tif\"]" > dr.json
 echo "| binary | job | ranks | wall s | CPU s per rank | load avg (1 min) |"
 echo "|---|---|---|---|---|---|"
-for bin in "$@"; do
-  T=$(realpath "$bin")
+for T in "${bins[@]}"; do
+  bin=$T
   for job in drainage render; do
     if [ $job = drainage ]; then cmd=("$T" -q run dr.json --tile 1024); out=dr.tif
     else cmd=("$T" -q render "$filled" -o s.tif --mode slope --tile 1024); out=s.tif; fi
@@ -29,9 +31,9 @@ for bin in "$@"; do
         load=$(cut -d' ' -f1 /proc/loadavg)
         t0=$(date +%s.%N)
         if [ $n = 1 ]; then
-          /usr/bin/time -f "%U %S" -o cpu.0 "${cmd[@]}"
+          /usr/bin/time -f "%U %S" -o cpu.0 "${cmd[@]}" > /dev/null
         else
-          mpirun --oversubscribe -n $n bash -c '/usr/bin/time -f "%U %S" -o cpu.$OMPI_COMM_WORLD_RANK "$@"' _ "${cmd[@]}"
+          mpirun --oversubscribe -n $n bash -c '/usr/bin/time -f "%U %S" -o cpu.$OMPI_COMM_WORLD_RANK "$@"' _ "${cmd[@]}" > /dev/null
         fi
         t1=$(date +%s.%N)
         cpus=$(for f in cpu.*; do awk '{printf "%.1f", $1 + $2}' "$f"; echo -n " / "; done)
