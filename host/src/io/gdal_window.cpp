@@ -314,11 +314,14 @@ uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e) {
   if (hd.has_cells ? e.size() - at != cell_bytes : e.size() != at)
     fail("io", "internal: encoded window of {} bytes, {} expected", e.size(), at + (hd.has_cells ? cell_bytes : 0));
   if (!hd.has_cells) return hd.checksum;
-  const float* cells = reinterpret_cast<const float*>(&e[at]);  // vector storage: aligned for float
+  // Copied out: after blocks of any size the cells need not be aligned for float.
+  m_buffer.resize(size_t(hd.w) * size_t(hd.h));
+  std::memcpy(m_buffer.data(), &e[at], cell_bytes);
+  const float* cells = m_buffer.data();
   if (!m_tif) {  // resumable: GDAL writes (and reads back the blocks these cells share)
     CPLErrorReset();
-    if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, const_cast<float*>(cells), hd.w, hd.h,
-                                         GDT_Float32, 0, 0) != CE_None)
+    if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, m_buffer.data(), hd.w, hd.h, GDT_Float32, 0,
+                                         0) != CE_None)
       fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y, last_gdal_error());
     return hd.checksum;
   }
