@@ -8,6 +8,7 @@ PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo oclgrind
   libopenimageio-dev openimageio-tools libopenexr-dev
   libgdal-dev gdal-bin
+  libtiff-dev  # raw tile writes of tiled GeoTIFFs (docs/scale.md, "MPI speed-up")
   libopenmpi-dev openmpi-bin
   libflann-dev liblz4-dev
   libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev

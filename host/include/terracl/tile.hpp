@@ -85,6 +85,13 @@ using WindowReader = std::function<Heightfield(int x, int y, int w, int h)>;
 /// and the writer is called on rank 0 only, in tile order (with cores from other ranks carrying
 /// their cells only, no georef or metadata).
 using WindowWriter = std::function<void(int x, int y, const Heightfield& core)>;
+/// A writer in two halves, for outputs that compress: `encode` runs on the rank that computed the
+/// core (so that compression divides over the ranks), `put` on rank 0, in tile order, with the
+/// bytes `encode` returned (run_tiled's GeoTIFF writer; docs/scale.md, "MPI speed-up").
+struct EncodingWindowWriter {
+  std::function<std::vector<uint8_t>(int x, int y, const Heightfield& core)> encode;
+  std::function<void(int x, int y, const std::vector<uint8_t>& encoded)> put;
+};
 
 struct TiledFillStats {
   int tiles = 0;
@@ -99,6 +106,8 @@ struct TiledFillStats {
 /// priority_flood_fill(h, false). Holds one tile (plus a one-cell halo) and the perimeter graph.
 TiledFillStats priority_flood_fill_tiled(int width, int height, int tile, const WindowReader& read,
                                          const WindowWriter& write, const Progress& progress = {});
+TiledFillStats priority_flood_fill_tiled(int width, int height, int tile, const WindowReader& read,
+                                         const EncodingWindowWriter& write, const Progress& progress = {});
 
 struct TiledFlowStats {
   int tiles = 0;
@@ -119,6 +128,9 @@ struct TiledFlowStats {
 TiledFlowStats d8_accumulation_tiled(int width, int height, int tile, double cell_x, double cell_y, double scale,
                                      const WindowReader& read, const WindowWriter& write, const Progress& progress = {},
                                      bool global_phase = true);
+TiledFlowStats d8_accumulation_tiled(int width, int height, int tile, double cell_x, double cell_y, double scale,
+                                     const WindowReader& read, const EncodingWindowWriter& write,
+                                     const Progress& progress = {}, bool global_phase = true);
 
 }  // namespace analysis
 }  // namespace terracl

@@ -130,6 +130,11 @@ Heightfield read_with_halo(const WindowReader& read, const Tile& t, int W, int H
 
 TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader& read, const WindowWriter& write,
                                          const Progress& progress) {
+  return priority_flood_fill_tiled(W, H, T, read, tile::cells_writer(write), progress);
+}
+
+TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader& read,
+                                         const EncodingWindowWriter& write, const Progress& progress) {
   if (W < 1 || H < 1) fail("fill", "empty raster ({} x {})", W, H);
   if (T < 2) fail("fill", "tile size must be >= 2 cells (got {})", T);
   if (size_t(T + 2) * size_t(T + 2) >= (size_t(1) << 32)) fail("fill", "tile size {} is too large (limit 65534)", T);
@@ -263,11 +268,14 @@ TiledFillStats priority_flood_fill_tiled(int W, int H, int T, const WindowReader
       }
     return core;
   };
-  tile::ordered_cores(comm, tiles.size(), filled, [&](size_t ti, const Heightfield& core) {
-    write(tiles[ti].x0, tiles[ti].y0, core);
-    report_progress(progress, "fill", (tiles.size() + 1 + ti + 1) / n_steps,
-                    fmt::format("tile {}/{}: filled", ti + 1, tiles.size()));
-  });
+  // The tile's rank encodes (compresses) its core; rank 0 puts the bytes, in tile order.
+  tile::ordered_tiles(
+      comm, tiles.size(), [&](size_t ti) { return write.encode(tiles[ti].x0, tiles[ti].y0, filled(ti)); },
+      [&](size_t ti, const tile::Bytes& encoded) {
+        write.put(tiles[ti].x0, tiles[ti].y0, encoded);
+        report_progress(progress, "fill", (tiles.size() + 1 + ti + 1) / n_steps,
+                        fmt::format("tile {}/{}: filled", ti + 1, tiles.size()));
+      });
   return st;
 }
 

@@ -135,6 +135,12 @@ void for_perimeter(const Tile& t, F&& f) {
 TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double cell_y, double scale,
                                      const WindowReader& read, const WindowWriter& write, const Progress& progress,
                                      bool global_phase) {
+  return d8_accumulation_tiled(W, H, T, cell_x, cell_y, scale, read, tile::cells_writer(write), progress, global_phase);
+}
+
+TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double cell_y, double scale,
+                                     const WindowReader& read, const EncodingWindowWriter& write,
+                                     const Progress& progress, bool global_phase) {
   const char* stage = "drainage";
   if (W < 1 || H < 1) fail(stage, "empty raster ({} x {})", W, H);
   if (T < 2) fail(stage, "tile size must be >= 2 cells (got {})", T);
@@ -295,11 +301,14 @@ TiledFlowStats d8_accumulation_tiled(int W, int H, int T, double cell_x, double 
     }
     return core;
   };
-  tile::ordered_cores(comm, tiles.size(), accumulated, [&](size_t ti, const Heightfield& core) {
-    write(tiles[ti].x0, tiles[ti].y0, core);
-    report_progress(progress, stage, (tiles.size() + 1 + ti + 1) / n_steps,
-                    fmt::format("tile {}/{}: accumulated", ti + 1, tiles.size()));
-  });
+  // The tile's rank encodes (compresses) its core; rank 0 puts the bytes, in tile order.
+  tile::ordered_tiles(
+      comm, tiles.size(), [&](size_t ti) { return write.encode(tiles[ti].x0, tiles[ti].y0, accumulated(ti)); },
+      [&](size_t ti, const tile::Bytes& encoded) {
+        write.put(tiles[ti].x0, tiles[ti].y0, encoded);
+        report_progress(progress, stage, (tiles.size() + 1 + ti + 1) / n_steps,
+                        fmt::format("tile {}/{}: accumulated", ti + 1, tiles.size()));
+      });
   if (comm.size() > 1) {  // the counts of every rank's tiles, summed at rank 0
     tile::ByteWriter w;
     w.put(uint64_t(st.valid_cells)).put(st.outflow_cells);

@@ -2,12 +2,12 @@
 // read by the same code as a whole-raster read, so a tile carries exactly what the untiled run
 // would see; only the geotransform moves to the window.
 #include "io/gdal_window.hpp"
-#include "io/gdal_common.hpp"
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
 #include <fmt/format.h>
 #include <gdal_priv.h>
+#include <tiffio.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -15,9 +15,13 @@
 #include <terracl/error.hpp>
 #include <utility>
 
+#include "io/gdal_common.hpp"
 #include "io/io_common.hpp"
 
 namespace terracl::io {
+namespace {
+constexpr int kBlock = 256;  // the writer's BLOCKXSIZE / BLOCKYSIZE
+}  // namespace
 
 GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   init_gdal();
@@ -89,6 +93,10 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
       m_tmp(partial.empty() ? temporary_path_for(path) : partial),
       m_resumable(!partial.empty()),
       m_nodata(g.nodata) {
+  m_width = width;
+  m_height = height;
+  m_blocks_x = (width + kBlock - 1) / kBlock;
+  m_blocks_y = (height + kBlock - 1) / kBlock;
   init_gdal();
   CPLErrorReset();
   if (m_resumable) {
@@ -123,7 +131,8 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   opts = CSLSetNameValue(opts, "BIGTIFF", double(width) * height * 4 > 3.5e9 ? "YES" : "IF_SAFER");
   // A resumable output is closed after every tile (flush()): without SPARSE_OK each close would
   // first write every block not yet written.
-  if (m_resumable) opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
+  // The raw writer's file is created empty (GDAL then writes no block) and libtiff adds the blocks.
+  opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
   m_ds = drv->Create(m_tmp.c_str(), width, height, 1, GDT_Float32, opts);
   CSLDestroy(opts);
   if (!m_ds) {
@@ -151,9 +160,29 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
       ("terracl " + std::string(metadata.count("terracl:version") ? metadata.at("terracl:version") : "")).c_str());
   m_ds->SetMetadataItem("terracl_cell_x", fmt::format("{:.17g}", g.cell_x).c_str());
   m_ds->SetMetadataItem("terracl_cell_y", fmt::format("{:.17g}", g.cell_y).c_str());
+  if (m_resumable) return;
+  // GDAL writes the header and directory; libtiff reopens the file to append raw blocks, and at
+  // close rewrites only the block offsets and sizes in place (the directory stays GDAL's).
+  GDALDataset* raw = m_ds;
+  m_ds = nullptr;
+  GDALClose(raw);
+  if (CPLGetLastErrorType() >= CE_Failure) {
+    discard_temporary(m_tmp);
+    fail("io", "cannot create GeoTIFF {} ({})", path, last_gdal_error());
+  }
+  m_tif = TIFFOpen(m_tmp.c_str(), "r+");
+  if (!m_tif) {
+    discard_temporary(m_tmp);
+    fail("io", "cannot reopen {} to write its blocks ({})", m_tmp, last_gdal_error());
+  }
+  m_block_written.assign(size_t(m_blocks_x) * size_t(m_blocks_y), 0);
 }
 
 GeoTiffWindowWriter::~GeoTiffWindowWriter() {
+  if (m_tif) {
+    TIFFClose(m_tif);
+    discard_temporary(m_tmp);
+  }
   if (m_ds) {
     GDALClose(m_ds);
     if (!m_resumable) discard_temporary(m_tmp);  // a partial output stays for --resume
@@ -161,30 +190,170 @@ GeoTiffWindowWriter::~GeoTiffWindowWriter() {
 }
 
 uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h) {
-  if (!m_ds) fail("io", "{}: written after commit", m_path);
+  if (!m_ds && !m_tif) fail("io", "{}: written after commit", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
-  m_buffer.resize(size_t(w) * h);
-  const float nd = m_nodata ? float(*m_nodata) : NAN;
+  return put(encode(m_width, m_height, m_nodata, x, y, src, sx, sy, w, h, compresses()));
+}
+
+namespace {
+// An encoded window: its header, then each whole block (index, size, bytes), then its cells when
+// some block is only partly inside it (or nothing is compressed).
+struct EncodedHeader {
+  uint32_t magic;
+  int32_t x, y, w, h;
+  uint8_t compressed, any_nan, has_cells, pad;
+  uint64_t checksum;
+  uint32_t blocks;
+};
+constexpr uint32_t kEncodedMagic = 0x4b4c4254;  // "TBLK"
+
+template <class T>
+void append(std::vector<uint8_t>& b, const T& v) {
+  const auto* p = reinterpret_cast<const uint8_t*>(&v);
+  b.insert(b.end(), p, p + sizeof(T));
+}
+}  // namespace
+
+std::vector<uint8_t> GeoTiffWindowWriter::encode(int width, int height, std::optional<double> nodata, int x, int y,
+                                                 const Heightfield& src, int sx, int sy, int w, int h, bool compress) {
+  if (x < 0 || y < 0 || w < 1 || h < 1 || x + w > width || y + h > height)
+    fail("io", "internal: window {},{} {} x {} outside the {} x {} raster", x, y, w, h, width, height);
+  std::vector<float> cells(size_t(w) * h);
+  const float nd = nodata ? float(*nodata) : NAN;
+  bool any_nan = false;
   for (int r = 0; r < h; ++r) {
     const float* in = &src.z[size_t(sy + r) * src.width + sx];
-    float* out = &m_buffer[size_t(r) * w];
+    float* out = &cells[size_t(r) * w];
     for (int c = 0; c < w; ++c) {
       float v = in[c];
       if (!std::isfinite(v)) {
-        m_any_nan = true;
+        any_nan = true;
         v = nd;
       }
       out[c] = v;
     }
   }
+  EncodedHeader hd{kEncodedMagic,
+                   x,
+                   y,
+                   w,
+                   h,
+                   uint8_t(compress),
+                   uint8_t(any_nan),
+                   0,
+                   0,
+                   window_checksum(cells.data(), cells.size()),
+                   0};
+  std::vector<uint8_t> out(sizeof(EncodedHeader));
+  std::vector<float> block(size_t(kBlock) * kBlock);
+  const int bx_n = (width + kBlock - 1) / kBlock;
+  bool partial = !compress;
+  for (int by = y / kBlock; by * kBlock < y + h; ++by)
+    for (int bx = x / kBlock; bx * kBlock < x + w; ++bx) {
+      const int x0 = bx * kBlock, y0 = by * kBlock;
+      const int x1 = std::min(x0 + kBlock, width), y1 = std::min(y0 + kBlock, height);
+      if (x0 < x || y0 < y || x1 > x + w || y1 > y + h) {
+        partial = true;
+        continue;
+      }
+      if (!compress) continue;
+      std::fill(block.begin(), block.end(), 0.0f);  // GDAL pads edge blocks with 0
+      for (int r = y0; r < y1; ++r)
+        std::memcpy(&block[size_t(r - y0) * kBlock], &cells[size_t(r - y) * w + size_t(x0 - x)],
+                    size_t(x1 - x0) * sizeof(float));
+      const std::vector<uint8_t> bytes = encode_float_block(block.data());
+      append(out, uint32_t(by * bx_n + bx));
+      append(out, uint32_t(bytes.size()));
+      out.insert(out.end(), bytes.begin(), bytes.end());
+      ++hd.blocks;
+    }
+  if (partial) {
+    hd.has_cells = 1;
+    const auto* p = reinterpret_cast<const uint8_t*>(cells.data());
+    out.insert(out.end(), p, p + cells.size() * sizeof(float));
+  }
+  std::memcpy(out.data(), &hd, sizeof hd);
+  return out;
+}
+
+size_t GeoTiffWindowWriter::block_cells(uint32_t index) const {
+  const int bx = int(index % uint32_t(m_blocks_x)), by = int(index / uint32_t(m_blocks_x));
+  return size_t(std::min(kBlock, m_width - bx * kBlock)) * size_t(std::min(kBlock, m_height - by * kBlock));
+}
+
+void GeoTiffWindowWriter::write_block(uint32_t index, const uint8_t* bytes, size_t n) {
   CPLErrorReset();
-  if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
-    fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, x, y, last_gdal_error());
-  return window_checksum(m_buffer.data(), m_buffer.size());
+  if (TIFFWriteRawTile(m_tif, index, const_cast<uint8_t*>(bytes), tmsize_t(n)) != tmsize_t(n))
+    fail("io", "writing GeoTIFF {} failed at block {} ({})", m_path, index, last_gdal_error());
+  m_block_written[index] = 1;
+}
+
+uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e) {
+  if (!m_ds && !m_tif) fail("io", "{}: written after commit", m_path);
+  EncodedHeader hd{};
+  if (e.size() < sizeof hd) fail("io", "internal: encoded window of {} bytes", e.size());
+  std::memcpy(&hd, e.data(), sizeof hd);
+  if (hd.magic != kEncodedMagic || hd.x < 0 || hd.y < 0 || hd.w < 1 || hd.h < 1 || hd.x + hd.w > m_width ||
+      hd.y + hd.h > m_height || (hd.compressed && !m_tif) || (!hd.compressed && !hd.has_cells))
+    fail("io", "internal: encoded window {},{} {} x {} does not fit {} ({} x {})", hd.x, hd.y, hd.w, hd.h, m_path,
+         m_width, m_height);
+  m_any_nan |= hd.any_nan != 0;
+  size_t at = sizeof hd;
+  for (uint32_t k = 0; k < hd.blocks; ++k) {
+    uint32_t index = 0, n = 0;
+    if (e.size() - at < 8) fail("io", "internal: encoded window read past its end");
+    std::memcpy(&index, &e[at], 4);
+    std::memcpy(&n, &e[at + 4], 4);
+    at += 8;
+    if (index >= m_block_written.size() || e.size() - at < n) fail("io", "internal: encoded block {} damaged", index);
+    write_block(index, &e[at], n);
+    m_pending.erase(index);
+    at += n;
+  }
+  const size_t cell_bytes = size_t(hd.w) * size_t(hd.h) * sizeof(float);
+  if (hd.has_cells ? e.size() - at != cell_bytes : e.size() != at)
+    fail("io", "internal: encoded window of {} bytes, {} expected", e.size(), at + (hd.has_cells ? cell_bytes : 0));
+  if (!hd.has_cells) return hd.checksum;
+  // Copied out: after blocks of any size the cells need not be aligned for float.
+  m_buffer.resize(size_t(hd.w) * size_t(hd.h));
+  std::memcpy(m_buffer.data(), &e[at], cell_bytes);
+  const float* cells = m_buffer.data();
+  if (!m_tif) {  // resumable: GDAL writes (and reads back the blocks these cells share)
+    CPLErrorReset();
+    if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, m_buffer.data(), hd.w, hd.h, GDT_Float32, 0,
+                                         0) != CE_None)
+      fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y, last_gdal_error());
+    return hd.checksum;
+  }
+  // The blocks the window covers in part: its cells join the others' there; a block is compressed
+  // as soon as all its cells have come (rank 0 compresses only these).
+  for (int by = hd.y / kBlock; by * kBlock < hd.y + hd.h; ++by)
+    for (int bx = hd.x / kBlock; bx * kBlock < hd.x + hd.w; ++bx) {
+      const auto index = uint32_t(by * m_blocks_x + bx);
+      const bool inside = bx * kBlock >= hd.x && by * kBlock >= hd.y &&
+                          std::min((bx + 1) * kBlock, m_width) <= hd.x + hd.w &&
+                          std::min((by + 1) * kBlock, m_height) <= hd.y + hd.h;
+      if (inside && hd.compressed) continue;  // came compressed above
+      const int x0 = std::max(bx * kBlock, hd.x), x1 = std::min({(bx + 1) * kBlock, hd.x + hd.w, m_width});
+      const int y0 = std::max(by * kBlock, hd.y), y1 = std::min({(by + 1) * kBlock, hd.y + hd.h, m_height});
+      Pending& p = m_pending[index];
+      // As GDAL starts a block that a write covers in part: nodata everywhere (padding included).
+      if (p.cells.empty()) p.cells.assign(size_t(kBlock) * kBlock, m_nodata ? float(*m_nodata) : 0.0f);
+      for (int r = y0; r < y1; ++r)
+        std::memcpy(&p.cells[size_t(r - by * kBlock) * kBlock + size_t(x0 - bx * kBlock)],
+                    &cells[size_t(r - hd.y) * hd.w + size_t(x0 - hd.x)], size_t(x1 - x0) * sizeof(float));
+      p.filled += size_t(x1 - x0) * size_t(y1 - y0);
+      if (p.filled >= block_cells(index)) {
+        const std::vector<uint8_t> bytes = encode_float_block(p.cells.data());
+        m_pending.erase(index);
+        write_block(index, bytes.data(), bytes.size());
+      }
+    }
+  return hd.checksum;
 }
 
 uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h) {
-  if (!m_ds) fail("io", "{}: read after commit", m_path);
+  if (!m_ds) fail("io", "{}: read back after commit or from a writer that is not resumable", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
   m_buffer.resize(size_t(w) * h);
   CPLErrorReset();
@@ -198,11 +367,14 @@ uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h) {
 }
 
 void GeoTiffWindowWriter::set_metadata_item(const std::string& key, const std::string& value) {
-  if (!m_ds) fail("io", "{}: metadata after commit", m_path);
+  if (!m_ds && !m_tif) fail("io", "{}: metadata after commit", m_path);
   std::string k = key;
   for (char& c : k)
     if (c == ':') c = '_';
-  m_ds->SetMetadataItem(k.c_str(), value.c_str());
+  if (m_ds)
+    m_ds->SetMetadataItem(k.c_str(), value.c_str());
+  else
+    m_late_metadata.emplace_back(k, value);
 }
 
 void GeoTiffWindowWriter::flush() {
@@ -219,6 +391,10 @@ void GeoTiffWindowWriter::flush() {
 }
 
 void GeoTiffWindowWriter::commit() {
+  if (m_tif) {
+    commit_raw();
+    return;
+  }
   if (!m_ds) fail("io", "{}: committed twice", m_path);
   // As write_geotiff: NaN cells without a nodata value of the source get NaN as nodata.
   if (!m_nodata && m_any_nan) m_ds->GetRasterBand(1)->SetNoDataValue(double(NAN));
@@ -229,6 +405,48 @@ void GeoTiffWindowWriter::commit() {
   if (CPLGetLastErrorType() >= CE_Failure) {
     discard_temporary(m_tmp);
     fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
+  }
+  commit_temporary(m_tmp, m_path);
+}
+
+void GeoTiffWindowWriter::commit_raw() {
+  // Blocks still waiting for cells, then blocks no window reached, as GDAL would fill them at
+  // close (nodata, or 0 without one).
+  for (auto& [index, p] : m_pending) {
+    const std::vector<uint8_t> bytes = encode_float_block(p.cells.data());
+    write_block(index, bytes.data(), bytes.size());
+  }
+  m_pending.clear();
+  std::vector<float> block(size_t(kBlock) * kBlock);
+  for (uint32_t index = 0; index < m_block_written.size(); ++index) {
+    if (m_block_written[index]) continue;
+    std::fill(block.begin(), block.end(), m_nodata ? float(*m_nodata) : 0.0f);
+    const std::vector<uint8_t> bytes = encode_float_block(block.data());
+    write_block(index, bytes.data(), bytes.size());
+  }
+  CPLErrorReset();
+  TIFF* t = m_tif;
+  m_tif = nullptr;
+  const bool flushed = TIFFFlush(t) == 1;
+  TIFFClose(t);
+  if (!flushed || CPLGetLastErrorType() >= CE_Failure) {
+    discard_temporary(m_tmp);
+    fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
+  }
+  // What is known only now goes through GDAL: as write_geotiff, NaN cells without a nodata value
+  // of the source get NaN as nodata; metadata items added after the first window.
+  if ((!m_nodata && m_any_nan) || !m_late_metadata.empty()) {
+    auto* ds = static_cast<GDALDataset*>(
+        GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
+    if (ds) {
+      if (!m_nodata && m_any_nan) ds->GetRasterBand(1)->SetNoDataValue(double(NAN));
+      for (const auto& [k, v] : m_late_metadata) ds->SetMetadataItem(k.c_str(), v.c_str());
+      GDALClose(ds);
+    }
+    if (!ds || CPLGetLastErrorType() >= CE_Failure) {
+      discard_temporary(m_tmp);
+      fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
+    }
   }
   commit_temporary(m_tmp, m_path);
 }

@@ -3,6 +3,7 @@
 // window of a GDAL raster (a VRT mosaic included) and a writer that fills a tiled GeoTIFF window by
 // window. Neither holds more than the window it is given (plus GDAL's block cache).
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -10,6 +11,7 @@
 #include <vector>
 
 class GDALDataset;
+struct tiff;
 
 namespace terracl::io {
 /// FNV-1a 64 of `n` float32 cells' bytes: the checksum of a window in a resume journal.
@@ -42,8 +44,18 @@ class GdalWindowReader {
   Heightfield m_header;
 };
 
+/// One 256^2 block of float32 cells (row-major, padding included) compressed as GDAL's GTiff
+/// driver compresses it through libtiff (floating-point predictor + DEFLATE, libtiff's default
+/// level): the bytes TIFFReadRawTile returns from GDAL's file (test: GeoTiffRaw*).
+std::vector<uint8_t> encode_float_block(const float* cells);
+
 /// A float32 GeoTIFF (tiled, DEFLATE + floating-point predictor, BigTIFF when it may pass 4 GB)
 /// written window by window under a temporary name; finish() closes it, commit() renames it.
+/// GDAL creates the file (georef, nodata, metadata), libtiff appends the blocks compressed by
+/// encode() (TIFFWriteRawTile): encode() needs no file, so under MPI the rank that computed a
+/// window compresses it and rank 0 only appends (put()); the file does not depend on who encoded.
+/// Blocks that a window covers only in part wait in memory for their other cells (rank 0
+/// compresses those). A resumable writer (`partial`) writes through GDAL as before.
 class GeoTiffWindowWriter {
  public:
   /// `georef` and `metadata` are the whole raster's (as write_geotiff would store them).
@@ -58,6 +70,15 @@ class GeoTiffWindowWriter {
   /// Writes cells [sx, sx + w) x [sy, sy + h) of `src` at (x, y) of the output; returns the
   /// checksum (window_checksum) of the float32 cells as stored (nodata substituted).
   uint64_t write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h);
+  /// write() in two halves. encode(): the window's cells with nodata substituted, its blocks that
+  /// lie wholly inside it compressed (compress = false: cells only, for a resumable writer), for a
+  /// width x height raster whose nodata is `nodata`; any process may call it.
+  static std::vector<uint8_t> encode(int width, int height, std::optional<double> nodata, int x, int y,
+                                     const Heightfield& src, int sx, int sy, int w, int h, bool compress = true);
+  /// put(): stores what encode() made for this writer's raster; returns write()'s checksum.
+  uint64_t put(const std::vector<uint8_t>& encoded);
+  /// Whether this writer takes compressed blocks (encode(..., compress)): not when resumable.
+  bool compresses() const { return !m_resumable; }
   /// The checksum of the stored cells [x, x + w) x [y, y + h), read back from the file.
   uint64_t checksum(int x, int y, int w, int h);
   /// Writes GDAL's dirty blocks and the TIFF directory to the file, so that a process killed
@@ -72,8 +93,20 @@ class GeoTiffWindowWriter {
   const std::string& path() const { return m_path; }
 
  private:
+  struct Pending {  // a block that windows have filled in part
+    std::vector<float> cells;
+    size_t filled = 0;
+  };
+  void write_block(uint32_t index, const uint8_t* bytes, size_t n);
+  void commit_raw();
+  size_t block_cells(uint32_t index) const;  // its cells inside the raster
   std::string m_path, m_tmp;
-  GDALDataset* m_ds = nullptr;
+  int m_width = 0, m_height = 0, m_blocks_x = 0, m_blocks_y = 0;
+  GDALDataset* m_ds = nullptr;  // resumable: GDAL writes
+  tiff* m_tif = nullptr;        // otherwise: libtiff appends encoded blocks
+  std::map<uint32_t, Pending> m_pending;
+  std::vector<char> m_block_written;
+  std::vector<std::pair<std::string, std::string>> m_late_metadata;  // set_metadata_item, applied by commit()
   bool m_resumable = false, m_reopened = false;
   std::optional<double> m_nodata;
   bool m_any_nan = false;

@@ -33,7 +33,11 @@ class RenderValuesSink : public TileSink {
  public:
   RenderValuesSink(const PipelineStage& st, int w, int h, const Georef& level, const Metadata& md,
                    std::function<Device&()> device, bool open)
-      : m_opt(options_of(st)), m_host(st.options.at("backend").get<std::string>() == "host"), m_device(device) {
+      : m_opt(options_of(st)),
+        m_host(st.options.at("backend").get<std::string>() == "host"),
+        m_device(device),
+        m_w(w),
+        m_h(h) {
     Georef g = level;
     g.nodata = -9999.0;  // as render::values
     if (open)
@@ -41,24 +45,17 @@ class RenderValuesSink : public TileSink {
   }
   std::vector<uint8_t> draw(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
     const Heightfield v = m_host ? render::values(win, m_opt) : render::values(win, m_opt, m_device());
-    std::vector<uint8_t> out(size_t(cw) * ch * sizeof(float));
-    for (int y = 0; y < ch; ++y)
-      std::memcpy(&out[size_t(y) * cw * sizeof(float)], &v.z[size_t(cy - wy + y) * v.width + size_t(cx - wx)],
-                  size_t(cw) * sizeof(float));
-    return out;
+    // Compressed by the rank that drew it: rank 0 only appends the blocks.
+    return io::GeoTiffWindowWriter::encode(m_w, m_h, -9999.0, cx, cy, v, cx - wx, cy - wy, cw, ch);
   }
-  void put(const std::vector<uint8_t>& drawn, int cx, int cy, int cw, int ch) override {
-    Heightfield core(cw, ch);
-    if (drawn.size() != core.z.size() * sizeof(float)) fail("render", "internal: drawn tile of {} bytes", drawn.size());
-    std::memcpy(core.z.data(), drawn.data(), drawn.size());
-    m_writer->write(cx, cy, core, 0, 0, cw, ch);
-  }
+  void put(const std::vector<uint8_t>& drawn, int, int, int, int) override { m_writer->put(drawn); }
   void commit() override { m_writer->commit(); }
 
  private:
   render::Options m_opt;
   bool m_host;
   std::function<Device&()> m_device;
+  int m_w, m_h;
   std::unique_ptr<io::GeoTiffWindowWriter> m_writer;
 };
 

@@ -58,6 +58,23 @@ void ordered_cores(const Comm& c, size_t n, const std::function<Heightfield(size
       });
 }
 
+analysis::EncodingWindowWriter cells_writer(const analysis::WindowWriter& write) {
+  return {[](int, int, const Heightfield& h) {
+            ByteWriter w;
+            w.put(int32_t(h.width)).put(int32_t(h.height)).put_vector(h.z);
+            return std::move(w.bytes());
+          },
+          [write](int x, int y, const Bytes& b) {
+            ByteReader r(b);
+            const int w = r.get<int32_t>(), h = r.get<int32_t>();
+            Heightfield core(w, h);
+            core.z = r.get_vector<float>();
+            if (core.z.size() != size_t(w) * size_t(h))
+              fail("tile", "internal: a {} x {} core of {} cells", w, h, core.z.size());
+            write(x, y, core);
+          }};
+}
+
 void ByteReader::take(void* dst, size_t n) {
   if (n > m_b.size() - m_at) fail("tile", "internal: message of {} bytes read past its end", m_b.size());
   if (n) std::memcpy(dst, m_b.data() + m_at, n);

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 #include <terracl/heightfield.hpp>
+#include <terracl/tile.hpp>
 #include <type_traits>
 #include <vector>
 
@@ -48,6 +49,9 @@ void ordered_tiles(const Comm& c, size_t n, const std::function<Bytes(size_t)>& 
 /// cells only: no georef or metadata when it came from another rank).
 void ordered_cores(const Comm& c, size_t n, const std::function<Heightfield(size_t)>& compute,
                    const std::function<void(size_t, const Heightfield&)>& apply);
+
+/// A WindowWriter as an EncodingWindowWriter whose bytes are the core's cells (rank 0 writes).
+analysis::EncodingWindowWriter cells_writer(const analysis::WindowWriter& write);
 
 /// Appends / reads plain values and arrays (same machine architecture on every rank).
 class ByteWriter {

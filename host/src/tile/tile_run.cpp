@@ -64,7 +64,7 @@ struct SinkCall {
   int op;  // index in the segment's ops; -1: the global stage's temporary input
   Win core;
   Metadata md;          // the tile's metadata (a writer is created at the first tile that reaches it)
-  tile::Bytes payload;  // `write` and the temporary: the core's floats; other sinks: what they drew
+  tile::Bytes payload;  // `write`, the temporary: GeoTiffWindowWriter::encode(core); other sinks: what they drew
 };
 
 tile::Bytes pack_calls(const std::vector<SinkCall>& calls) {
@@ -92,14 +92,6 @@ std::vector<SinkCall> unpack_calls(const tile::Bytes& b) {
     c.payload = r.get_vector<uint8_t>();
   }
   return calls;
-}
-
-Heightfield floats_to_core(const tile::Bytes& b, int w, int h) {
-  Heightfield core(w, h);
-  if (b.size() != core.z.size() * sizeof(float))
-    throw Error("tile", fmt::format("internal: a {} x {} core arrived as {} bytes", w, h, b.size()));
-  std::memcpy(core.z.data(), b.data(), b.size());
-  return core;
 }
 
 void drop_terracl_keys(Metadata& md) {
@@ -642,13 +634,6 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     }
     return *sink;
   };
-  auto core_floats = [](const Heightfield& h, const Win& have, const Win& c) {
-    tile::Bytes b(size_t(c.w()) * c.h() * sizeof(float));
-    for (int y = 0; y < c.h(); ++y)
-      std::memcpy(&b[size_t(y) * c.w() * sizeof(float)], &h.z[size_t(c.y0 - have.y0 + y) * h.width + (c.x0 - have.x0)],
-                  size_t(c.w()) * sizeof(float));
-    return b;
-  };
   auto compute = [&](size_t ti) {
     std::vector<SinkCall> calls;
     const std::vector<Win>& core = plans[ti].core;
@@ -683,7 +668,11 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
                                                op.st->tag, in.x0, in.y0, in.w(), in.h()));
           }
         } else {
-          calls.push_back({int(oi), c, data.height->metadata, core_floats(*data.height, have, c)});
+          // Compressed here, by the tile's rank: rank 0 only appends the blocks (docs/scale.md).
+          const Level& L = levels[l];
+          calls.push_back({int(oi), c, data.height->metadata,
+                           io::GeoTiffWindowWriter::encode(L.w, L.h, L.georef.nodata, c.x0, c.y0, *data.height,
+                                                           c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h(), !resumable)});
         }
       } else {
         const Win& n = need[l + 1];
@@ -692,8 +681,13 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       }
       add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }
-    if (to_temp && !core[nl - 1].empty())
-      calls.push_back({-1, core[nl - 1], {}, core_floats(*data.height, have, core[nl - 1])});
+    if (to_temp && !core[nl - 1].empty()) {
+      const Win& c = core[nl - 1];
+      const Level& L = levels[nl - 1];
+      calls.push_back({-1, c, {},
+                       io::GeoTiffWindowWriter::encode(L.w, L.h, L.georef.nodata, c.x0, c.y0, *data.height,
+                                                       c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h())});
+    }
     return calls;
   };
   auto apply = [&](size_t ti, const std::vector<SinkCall>& calls) {
@@ -706,7 +700,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           const Level& L = levels[nl - 1];
           temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
         }
-        temp_writer->write(c.x0, c.y0, floats_to_core(call.payload, c.w(), c.h()), 0, 0, c.w(), c.h());
+        temp_writer->put(call.payload);
         continue;
       }
       const Op& op = seg.ops[size_t(call.op)];
@@ -723,7 +717,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, L.georef, md,
                                                          resumable ? tile::partial_path_for(f) : std::string());
         }
-        written.emplace_back(op.st, wr->write(c.x0, c.y0, floats_to_core(call.payload, c.w(), c.h()), 0, 0, c.w(), c.h()));
+        written.emplace_back(op.st, wr->put(call.payload));
       }
       add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }
@@ -810,7 +804,12 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   std::unique_ptr<io::GeoTiffWindowWriter> out;
   if (comm.rank() == 0) out = std::make_unique<io::GeoTiffWindowWriter>(out_path, L.w, L.h, out_georef, md);
   auto read = [&](int x, int y, int w, int h) { return in->read(x, y, w, h); };
-  auto write = [&](int x, int y, const Heightfield& core) { out->write(x, y, core, 0, 0, core.width, core.height); };
+  // Each tile's rank compresses its core's blocks; rank 0 appends them (docs/scale.md, "MPI speed-up").
+  const analysis::EncodingWindowWriter write{
+      [&](int x, int y, const Heightfield& core) {
+        return io::GeoTiffWindowWriter::encode(L.w, L.h, out_georef.nodata, x, y, core, 0, 0, core.width, core.height);
+      },
+      [&](int, int, const std::vector<uint8_t>& encoded) { out->put(encoded); }};
   if (drainage) {
     const double cx = L.georef.cell_x, cy = L.georef.cell_y;
     const double scale = out_georef.vertical_units == "cells" ? 1.0 : cx * cy;
