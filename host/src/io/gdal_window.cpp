@@ -56,14 +56,15 @@ GdalWindowReader::~GdalWindowReader() {
   if (m_ds) GDALClose(m_ds);
 }
 
-Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
+Heightfield GdalWindowReader::read(int x, int y, int w, int h, int band) const {
+  if (band < 1 || band > m_ds->GetRasterCount()) fail("io", "{}: has no band {}", m_path, band);
   if (x < 0 || y < 0 || w < 1 || h < 1 || x + w > width() || y + h > height())
     fail("io", "{}: window {},{} {} x {} outside the {} x {} raster", m_path, x, y, w, h, width(), height());
   Heightfield out(w, h);
   out.georef = m_header.georef;
   out.metadata = m_header.metadata;
   CPLErrorReset();
-  if (m_ds->GetRasterBand(1)->RasterIO(GF_Read, x, y, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+  if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "{}: reading window {},{} {} x {} failed ({})", m_path, x, y, w, h, last_gdal_error());
   convert_nodata(out);
   auto& gt = out.georef.geotransform;
@@ -72,6 +73,14 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
     gt[3] += x * gt[4] + y * gt[5];
   }
   return out;
+}
+
+int GdalWindowReader::bands() const { return m_ds->GetRasterCount(); }
+
+std::string GdalWindowReader::band_description(int band) const {
+  if (band < 1 || band > bands()) return {};
+  const char* d = m_ds->GetRasterBand(band)->GetDescription();
+  return d ? d : "";
 }
 
 void GdalWindowReader::release_cache() const { m_ds->FlushCache(); }
@@ -84,11 +93,12 @@ uint64_t window_checksum(const float* cells, size_t n) {
 }
 
 GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& g,
-                                         const Metadata& metadata, const std::string& partial)
+                                         const Metadata& metadata, const std::string& partial, int bands)
     : m_path(path),
       m_tmp(partial.empty() ? temporary_path_for(path) : partial),
       m_resumable(!partial.empty()),
       m_nodata(g.nodata) {
+  m_bands = bands;
   init_gdal();
   CPLErrorReset();
   if (m_resumable) {
@@ -98,7 +108,7 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
     if (std::filesystem::exists(m_tmp, ec)) {
       m_ds = static_cast<GDALDataset*>(
           GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
-      if (m_ds && (m_ds->GetRasterXSize() != width || m_ds->GetRasterYSize() != height || m_ds->GetRasterCount() != 1 ||
+      if (m_ds && (m_ds->GetRasterXSize() != width || m_ds->GetRasterYSize() != height || m_ds->GetRasterCount() != m_bands ||
                    m_ds->GetRasterBand(1)->GetRasterDataType() != GDT_Float32)) {
         GDALClose(m_ds);
         m_ds = nullptr;
@@ -124,7 +134,9 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   // A resumable output is closed after every tile (flush()): without SPARSE_OK each close would
   // first write every block not yet written.
   if (m_resumable) opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
-  m_ds = drv->Create(m_tmp.c_str(), width, height, 1, GDT_Float32, opts);
+  // A gradient's two bands are written one after the other per window: each in blocks of its own.
+  if (m_bands > 1) opts = CSLSetNameValue(opts, "INTERLEAVE", "BAND");
+  m_ds = drv->Create(m_tmp.c_str(), width, height, m_bands, GDT_Float32, opts);
   CSLDestroy(opts);
   if (!m_ds) {
     if (!m_resumable) discard_temporary(m_tmp);
@@ -136,9 +148,12 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
     m_ds->SetGeoTransform(gt);
   }
   if (!g.crs_wkt.empty()) m_ds->SetProjection(g.crs_wkt.c_str());
-  GDALRasterBand* band = m_ds->GetRasterBand(1);
-  if (m_nodata) band->SetNoDataValue(*m_nodata);
-  band->SetUnitType(g.vertical_units.c_str());
+  for (int b = 1; b <= m_bands; ++b) {
+    GDALRasterBand* band = m_ds->GetRasterBand(b);
+    if (m_nodata) band->SetNoDataValue(*m_nodata);
+    band->SetUnitType(g.vertical_units.c_str());
+    if (m_bands == 2) band->SetDescription(b == 1 ? "gx" : "gy");  // what read_gradient looks for
+  }
   // The same items as write_geotiff, so a tiled output reads back like an untiled one.
   for (const auto& [k, v] : metadata) {
     std::string key = k;
@@ -160,7 +175,7 @@ GeoTiffWindowWriter::~GeoTiffWindowWriter() {
   }
 }
 
-uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h) {
+uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h, int band) {
   if (!m_ds) fail("io", "{}: written after commit", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
   m_buffer.resize(size_t(w) * h);
@@ -178,17 +193,17 @@ uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx
     }
   }
   CPLErrorReset();
-  if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+  if (m_ds->GetRasterBand(band)->RasterIO(GF_Write, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, x, y, last_gdal_error());
   return window_checksum(m_buffer.data(), m_buffer.size());
 }
 
-uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h) {
+uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h, int band) {
   if (!m_ds) fail("io", "{}: read after commit", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
   m_buffer.resize(size_t(w) * h);
   CPLErrorReset();
-  if (m_ds->GetRasterBand(1)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+  if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_tmp, x, y, w, h, last_gdal_error());
   // As write(): a NaN stored without a nodata value makes commit() declare NaN as nodata.
   if (!m_nodata)
@@ -221,7 +236,8 @@ void GeoTiffWindowWriter::flush() {
 void GeoTiffWindowWriter::commit() {
   if (!m_ds) fail("io", "{}: committed twice", m_path);
   // As write_geotiff: NaN cells without a nodata value of the source get NaN as nodata.
-  if (!m_nodata && m_any_nan) m_ds->GetRasterBand(1)->SetNoDataValue(double(NAN));
+  if (!m_nodata && m_any_nan)
+    for (int b = 1; b <= m_bands; ++b) m_ds->GetRasterBand(b)->SetNoDataValue(double(NAN));
   GDALDataset* raw = m_ds;
   m_ds = nullptr;
   CPLErrorReset();

@@ -31,7 +31,10 @@ class GdalWindowReader {
   /// Cells [x, x + w) x [y, y + h), nodata as NaN; the georef is the whole raster's (same metric
   /// cell size, so that stages compute what they would untiled) with the geotransform moved to
   /// the window's corner.
-  Heightfield read(int x, int y, int w, int h) const;
+  Heightfield read(int x, int y, int w, int h, int band = 1) const;
+  int bands() const;
+  /// The description GDAL holds for a band (a gradient's "gx" / "gy").
+  std::string band_description(int band) const;
   /// Drops the blocks GDAL has cached for this raster (a reader that moves on for good, such as
   /// the streamed render, keeps its memory to the window it holds instead of GDAL's cache size).
   void release_cache() const;
@@ -50,16 +53,18 @@ class GeoTiffWindowWriter {
   /// `partial` (resumable runs, --resume): a fixed temporary name instead of a unique one; it is
   /// kept when the writer is destroyed uncommitted, and an existing float32 GeoTIFF of this size
   /// there is reopened for update (reopened()) rather than recreated.
+  /// `bands` = 2: a gradient field (band 1 gx, band 2 gy, described so; gradient_tiff.cpp).
   GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& georef, const Metadata& metadata,
-                      const std::string& partial = {});
+                      const std::string& partial = {}, int bands = 1);
   ~GeoTiffWindowWriter();  ///< discards the temporary file unless committed (or resumable)
   GeoTiffWindowWriter(const GeoTiffWindowWriter&) = delete;
   GeoTiffWindowWriter& operator=(const GeoTiffWindowWriter&) = delete;
   /// Writes cells [sx, sx + w) x [sy, sy + h) of `src` at (x, y) of the output; returns the
   /// checksum (window_checksum) of the float32 cells as stored (nodata substituted).
-  uint64_t write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h);
+  uint64_t write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h, int band = 1);
   /// The checksum of the stored cells [x, x + w) x [y, y + h), read back from the file.
-  uint64_t checksum(int x, int y, int w, int h);
+  uint64_t checksum(int x, int y, int w, int h, int band = 1);
+  int bands() const { return m_bands; }
   /// Writes GDAL's dirty blocks and the TIFF directory to the file, so that a process killed
   /// afterwards leaves a readable file holding every window written so far.
   void flush();
@@ -74,6 +79,7 @@ class GeoTiffWindowWriter {
  private:
   std::string m_path, m_tmp;
   GDALDataset* m_ds = nullptr;
+  int m_bands = 1;
   bool m_resumable = false, m_reopened = false;
   std::optional<double> m_nodata;
   bool m_any_nan = false;
