@@ -9,22 +9,13 @@
 #include <terracl/io.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
 
 std::string input(const test::TempDir& dir) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(157, 111);
-  t.georef = dem.georef;
-  t.georef.geotransform[0] += 400 * t.georef.geotransform[1];
-  t.georef.geotransform[3] += 500 * t.georef.geotransform[5];
-  t.georef.update_metric_cell_size(t.width, t.height);
-  for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x) t.at(x, y) = dem.at(400 + x, 500 + y);
-  const std::string f = dir.path("in.tif");
-  write_heightfield(t, f);
-  return f;
+  return test::srtm_window(dir, "in.tif", 157, 111, 400, 500);
 }
 
 size_t differing_cells(const std::string& a, const std::string& b) {
