@@ -133,12 +133,11 @@ TEST(TileExtract, SubcommandTiledAndResumedAfterAKill) {
   test::TempDir dir;
   const std::string in = test::srtm_window(dir, "in.tif", 150, 121, 800, 300);
   const std::string u = dir.path("u.tif"), t = dir.path("t.tif"), r = dir.path("r.tif");
-  auto r1 = test::run_cli("-q extract " + in + " -o " + u);
-  ASSERT_EQ(r1.exit_code, 0) << r1.out;
+  test::run_pipeline(R"([")" + in + R"(", "extract", ")" + u + R"("])", nullptr);  // the untiled cells
   auto r2 = test::run_cli("-q extract " + in + " -o " + t + " --tile 30 --resume");  // 5 x 5 tiles
   ASSERT_EQ(r2.exit_code, 0) << r2.out;
   test::SameRaster cells = gradient_items();
-  cells.provenance = false;  // a tiled subcommand records the pipeline it ran
+  cells.provenance = false;  // a tiled subcommand records the one-stage pipeline it ran
   test::expect_same_raster(u, t, cells);
   setenv("TERRACL_TEST_KILL_AFTER_TILES", "7", 1);
   auto killed = test::run_cli("-q extract " + in + " -o " + r + " --tile 30 --resume");

@@ -295,7 +295,7 @@ void register_reconstruct_stages(StageRegistry& r) {
          DataKind::None,
          DataKind::Heightfield,
          {
-             {"gradient", OptionType::Path, nullptr, "", "gradient field .exr (default: the previous stage's gradient)"},
+             {"gradient", OptionType::Path, nullptr, "", "gradient field .exr or 2-band .tif (default: the previous stage's gradient)"},
              {"divergence", OptionType::Path, nullptr, "", "divergence raster (1/m) instead of a gradient"},
              {"fixed_mask", OptionType::Path, nullptr, "", "raster; non-zero cells are hard constraints"},
              {"fixed_elevation", OptionType::Path, nullptr, "", "raster of elevations for --fixed-mask cells"},
