@@ -40,7 +40,8 @@ TEST(TileExtract, EqualsUntiledBitForBitOnOddSizesAndManyTiles) {
   // 203 x 157 (geographic): tiles of 37 (6 x 5 = 30) and 64; a crop behind which a central extract runs.
   const std::string in = test::srtm_window(dir, "in.tif", 203, 157);
   const std::string doc = R"([")" + in + R"(", "extract", "OUT/g.tif",
-      {"type": "read", "filename": ")" + in + R"("}, {"type": "crop", "x": 5, "y": 3, "width": 180}, "OUT/c.tif",
+      {"type": "read", "filename": ")" +
+                          in + R"("}, {"type": "crop", "x": 5, "y": 3, "width": 180}, "OUT/c.tif",
       {"type": "extract", "central": true}, "OUT/gc.tif"])";
   for (int tile : {37, 64}) {
     SCOPED_TRACE(tile);
@@ -103,7 +104,8 @@ TEST(TileExtract, NodataCropLeftOutRunsAndNodataInsideIsRefusedAsUntiled) {
   }
   EXPECT_NE(untiled_error.find("3500 nodata/NaN cells"), std::string::npos) << untiled_error;
   EXPECT_NE(tiled_error.find(untiled_error.substr(0, untiled_error.find(';'))), std::string::npos)
-      << tiled_error << "\nvs\n" << untiled_error;
+      << tiled_error << "\nvs\n"
+      << untiled_error;
   EXPECT_TRUE(fs::is_empty(dir.path("x")));  // no output, no temporary
 }
 
@@ -115,9 +117,8 @@ TEST(TileExtract, ReconstructOfTheTiledGradientEqualsReconstructOfTheExr) {
   test::run_pipeline(R"([")" + in + R"(", "extract", ")" + dir.path("g.tif") + R"("])", &to);
   test::run_pipeline(R"([")" + in + R"(", "extract", ")" + dir.path("g.exr") + R"("])", nullptr);
   for (const char* g : {"g.tif", "g.exr"})
-    test::run_pipeline(R"([{"type": "reconstruct", "gradient": ")" + dir.path(g) + R"("}, ")" + dir.path(g) +
-                           R"(.r.tif"])",
-                       nullptr);
+    test::run_pipeline(
+        R"([{"type": "reconstruct", "gradient": ")" + dir.path(g) + R"("}, ")" + dir.path(g) + R"(.r.tif"])", nullptr);
   const Heightfield a = read_heightfield(dir.path("g.exr.r.tif")), b = read_heightfield(dir.path("g.tif.r.tif"));
   ASSERT_EQ(a.size(), b.size());
   EXPECT_EQ(test::bit_differences(a, b), 0u);
@@ -133,7 +134,7 @@ TEST(TileExtract, SubcommandTiledAndResumedAfterAKill) {
   test::TempDir dir;
   const std::string in = test::srtm_window(dir, "in.tif", 150, 121, 800, 300);
   const std::string u = dir.path("u.tif"), t = dir.path("t.tif"), r = dir.path("r.tif");
-  test::run_pipeline(R"([")" + in + R"(", "extract", ")" + u + R"("])", nullptr);  // the untiled cells
+  test::run_pipeline(R"([")" + in + R"(", "extract", ")" + u + R"("])", nullptr);    // the untiled cells
   auto r2 = test::run_cli("-q extract " + in + " -o " + t + " --tile 30 --resume");  // 5 x 5 tiles
   ASSERT_EQ(r2.exit_code, 0) << r2.out;
   test::SameRaster cells = gradient_items();

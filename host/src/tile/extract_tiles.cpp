@@ -29,8 +29,10 @@ StageTiling extract_tiling(const json&) {
     }
     const size_t n = size_t(w) * size_t(h);
     if (bad)  // the untiled stage's message (require_finite), counted over the whole level
-      fail("extract", "the input heightfield has {} nodata/NaN cell{} of {}; this stage needs a complete grid (use "
-           "--fill-nodata)", bad, bad == 1 ? "" : "s", n);
+      fail("extract",
+           "the input heightfield has {} nodata/NaN cell{} of {}; this stage needs a complete grid (use "
+           "--fill-nodata)",
+           bad, bad == 1 ? "" : "s", n);
     return fmt::format("{:.17g}", sum / double(n));
   };
   return t;
