@@ -123,6 +123,13 @@ TEST(TileExtract, ReconstructOfTheTiledGradientEqualsReconstructOfTheExr) {
   ASSERT_EQ(a.size(), b.size());
   EXPECT_EQ(test::bit_differences(a, b), 0u);
   EXPECT_EQ(a.georef.geotransform, b.georef.geotransform);
+  // A central gradient keeps its convention through a pipeline's read and write (reconstruct reads it).
+  test::run_pipeline(R"([")" + in + R"(", {"type": "extract", "central": true}, ")" + dir.path("gc.tif") + R"("])", &to);
+  test::run_pipeline(R"([")" + dir.path("gc.tif") + R"(", "reconstruct", ")" + dir.path("gc.r.tif") + R"("])", nullptr);
+  test::run_pipeline(R"([{"type": "reconstruct", "gradient": ")" + dir.path("gc.tif") + R"("}, ")" +
+                         dir.path("gc.r2.tif") + R"("])",
+                     nullptr);
+  EXPECT_EQ(test::bit_differences(read_heightfield(dir.path("gc.r.tif")), read_heightfield(dir.path("gc.r2.tif"))), 0u);
   // And the reconstruction is the terrain (the gradient is the terrain's, the mean kept).
   const Heightfield h = read_heightfield(in);
   double worst = 0;

@@ -39,7 +39,12 @@ void run_read(StageContext& c) {
   c.data = StageData{};
   if (is_gradient_file(f)) {
     c.data.gradient = read_gradient(f);
-    drop_terracl_keys(c.data.gradient->metadata);
+    // The convention (staggered / central) is part of the data: reconstruct reads it.
+    Metadata& md = c.data.gradient->metadata;
+    const auto conv = md.find("terracl:gradient");
+    const std::string convention = conv == md.end() ? std::string() : conv->second;
+    drop_terracl_keys(md);
+    if (!convention.empty()) md["terracl:gradient"] = convention;
     c.data.current = DataKind::Gradient;
     return;
   }

@@ -505,7 +505,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   // extracted input, the stage's output) and the writers' buffers.
   // A level that amplify made finer holds up^2 cells per cell of the source.
   double per_cell = 4.0 * 2;
-  for (const Level& l : levels) per_cell += 12.0 * std::max(1.0, double(l.w) * l.h / (double(levels[0].w) * levels[0].h));
+  for (size_t i = 0; i < levels.size(); ++i)  // a gradient level (after extract) holds two bands
+    per_cell += (gradient_level(seg, int(i)) ? 24.0 : 12.0) *
+                std::max(1.0, double(levels[i].w) * levels[i].h / (double(levels[0].w) * levels[0].h));
   double fixed = 0;
   if (has_global) {
     per_cell = std::max(per_cell, 4.0 + 4 + 1 + 4 + 4 + 8);  // fill: z, labels, closed, window, core, heap share
