@@ -33,7 +33,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("--preview", a->preview, "Also write a shaded-relief preview PNG (render module), one pixel per cell");
   sub->add_option("--ramp", a->ramp, "Preview colour ramp: hypsometric (default), relative, grey or a gdaldem colour file");
   sub->add_option("--report", a->report, "Write per-operation timings and solver figures (JSON)");
-  sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr)");
+  sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr, or .tif: two float32 bands gx, gy)");
   sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
   sub->add_flag("--keep-filled", a->keep_filled,
                 "Write the harmonically filled elevations where the base has nodata (default: those cells stay nodata)");

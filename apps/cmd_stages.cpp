@@ -31,7 +31,7 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   auto a = std::make_shared<StageArgs>();
   auto* sub = app.add_subcommand(s.name, s.description);
   auto* in = sub->add_option("input", a->input,
-                             s.input == DataKind::Gradient ? "Input gradient field (.exr)" : "Input raster");
+                             s.input == DataKind::Gradient ? "Input gradient field (.exr, or a 2-band gx/gy .tif)" : "Input raster");
   if (s.input != DataKind::None) in->required();
   // A stage that passes its input on (it reports, or writes files of its own) needs no -o.
   const bool passes = s.output == DataKind::None || s.output == DataKind::Any;
@@ -43,7 +43,8 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
   a->flags.add(sub, s);
   if (s.input == DataKind::Heightfield || s.input == DataKind::Any) a->in.add(sub);
   if (s.output == DataKind::Heightfield) a->out.add(sub);
-  bool tileable = s.input == DataKind::Heightfield && s.output == DataKind::Heightfield;
+  // extract: its 2-band gradient GeoTIFF is written tile by tile too.
+  bool tileable = s.input == DataKind::Heightfield && (s.output == DataKind::Heightfield || s.name == "extract");
   for (const auto& o : s.options)
     tileable &= (o.name != "tile" || s.name == "amplify") && o.name != "halo" && o.name != "memory_budget";
   if (tileable) a->tile.add(sub);
@@ -63,11 +64,11 @@ void add_stage_command(CLI::App& app, const StageInfo& s) {
       if (!a->output.empty()) {
         const FileFormat f = format_from_extension(a->output);
         const bool gradient_out = s.output == DataKind::Gradient;
-        if (gradient_out ? f != FileFormat::EXR
+        if (gradient_out ? (f != FileFormat::EXR && f != FileFormat::GeoTIFF)
                          : (f != FileFormat::GeoTIFF && f != FileFormat::EXR && f != FileFormat::PNG && f != FileFormat::RAW16 &&
                             f != FileFormat::NPY))
           fail(s.name, "-o {}: cannot write a {} with this extension; use {}", a->output, gradient_out ? "gradient" : "heightfield",
-               gradient_out ? ".exr" : ".tif, .exr, .png, .r16 or .npy");
+               gradient_out ? ".exr or .tif (two float32 bands)" : ".tif, .exr, .png, .r16 or .npy");
       }
       // The same check as a pipeline's: no output may replace an input, another output or a device.
       check_stage_files(s, resolved, {{"input", a->input}}, {{"-o", a->output}});

@@ -78,6 +78,12 @@ void TileFlags::run_stage(const std::string& command, const std::string& input, 
   TileCounts tiles;
   try {
     run_tiled(p, to, ro, report, &tiles);
+  } catch (const UsageError& e) {
+    // The tile engine speaks for `terracl run` (--memory-budget, --tile, refusals): name the
+    // subcommand the user typed instead.
+    if (e.stage() != "run") throw;
+    finish_progress();
+    throw UsageError(command, std::string(e.what()).substr(e.stage().size() + 2));
   } catch (const Cancelled&) {
     finish_progress();
     throw Cancelled(command, to.resume ? "cancelled by Ctrl-C; the partial output and its journal stay: rerun with "

@@ -2,7 +2,8 @@
 # Tiled runs over MPI ranks (ctest label `mpi`, docs/scale.md): `mpirun -n 2` and `-n 3`
 # (--oversubscribe: CI has 2 cores) give files byte-identical (cmp) to the single-process tiled run,
 # for a pipeline with a render sink, the exact tiled fill (depressions across tile borders, a nodata
-# lake), the exact tiled D8 accumulation, a crop and a value render, and for tiled subcommands; an
+# lake), the exact tiled D8 accumulation, a crop and a value render, for tiled subcommands, tiled
+# amplify, warp, resize, metrics and extract; an
 # error on one rank stops every rank with its message and a non-zero exit; `--resume` after runs
 # killed under mpirun gives the uninterrupted run's files; an untiled command under mpirun is refused. Usage: scripts/mpi-check.sh BUILD_DIR
 set -euo pipefail
@@ -34,6 +35,15 @@ def write(name, z):
 write("raw.tif", a)
 b = a.copy(); b[5, 42] = np.inf
 write("bad.tif", b)
+# Without nodata (amplify and extract refuse it): a 90 x 75 window below the lake, and an exemplar
+# for a small dictionary.
+def window(name, x0, y0, w, h):
+    z = ds.ReadAsArray(x0, y0, w, h).astype(np.float32)
+    g = list(ds.GetGeoTransform()); g[0] += x0 * g[1]; g[3] += y0 * g[5]
+    d = gdal.GetDriverByName("GTiff").Create(name, w, h, 1, gdal.GDT_Float32)
+    d.SetGeoTransform(g); d.SetProjection(ds.GetProjection()); d.GetRasterBand(1).WriteArray(z)
+window("amp.tif", 300, 275, 90, 75)
+window("ex.tif", 700, 650, 160, 160)
 PY
 "$T" -q fill_depressions raw.tif -o eps.tif --epsilon  # a surface that drains, for the tiled D8
 cat > p.json <<'J'
@@ -71,6 +81,33 @@ done
 cmp hs1.tif hs.tif || fail "render --tile 40 under 3 ranks differs"
 cmp d1.tif d.tif || fail "drainage --tile 29 under 2 ranks differs"
 echo "mpi-check: subcommands render (3 ranks) and drainage (2 ranks) identical to one process"
+
+# Tiled amplify (x4, a 48-atom dictionary, tiles of 37 input cells: borders at 148 output cells cut
+# the patch grid) under 2 and 3 ranks; then warp, resize and metrics (global stages between segments,
+# metrics' sums merged on rank 0) and extract (the 2-band gradient GeoTIFF) under 2 ranks.
+"$T" -q dictionary learn ex.tif -o d.tdic --atoms 48 --sparsity 1 --patch 16 --iterations 2 --constrained
+cat > a.json <<'J'
+["amp.tif", {"type": "amplify", "dictionary": "d.tdic", "factor": 4, "candidates": 6}, "out/amp4.tif"]
+J
+cat > w.json <<'J'
+["raw.tif", {"type": "metrics", "json": "out/m1.json"},
+ {"type": "warp", "t_srs": "EPSG:32619", "tr": [70, 70], "resampling": "cubic"}, "out/w.tif",
+ {"type": "resize", "width": 300, "height": 251}, {"type": "metrics", "json": "out/m2.json"}, "out/r.tif",
+ {"type": "read", "filename": "amp.tif"}, "extract", "out/g.tif",
+ {"type": "read", "filename": "amp.tif"}, {"type": "amplify", "dictionary": "d.tdic", "factor": 4, "candidates": 6},
+ "out/amp4.tif"]
+J
+for job in a w; do "$T" -q run $job.json --tile 37 >/dev/null && mv out ${job}one; done
+"${MPIRUN[@]}" -n 3 "$T" -q run a.json --tile 37 >/dev/null
+cmp aone/amp4.tif out/amp4.tif || fail "3 ranks: amplify --tile 37 differs from one process"
+rm -rf out
+"${MPIRUN[@]}" -n 2 "$T" -q run w.json --tile 37 >/dev/null
+for f in amp4.tif w.tif r.tif g.tif m1.json m2.json; do
+  cmp wone/$f out/$f || fail "2 ranks: amplify/warp/resize/metrics/extract: out/$f differs from the single-process run"
+done
+grep -q '"tiled"' out/m2.json || fail "metrics: no tiled note in out/m2.json"
+rm -rf out
+echo "mpi-check: amplify x4 (9 tiles) under 3 ranks; amplify, warp, resize, metrics and extract under 2 ranks: identical to one process"
 
 # --resume under mpirun (rank 0 owns the journals and decides the finished tiles): killed (SIGKILL
 # on rank 0, the test-only hook) after 12 tiles with 2 ranks, resumed with 3 ranks and killed after

@@ -84,7 +84,8 @@ TEST(RunCli, InvalidPipelinesFailAtValidateWithTheJsonPath) {
       {json::array({dir.path("g.exr"), "fill_nodata", out}),
        "/1: stage 'fill_nodata' (fill_nodata) needs a heightfield as input, but the stage before it ('read') produces "
        "a gradient"},
-      {json::array({dir.path("g.exr"), out}), "/1/filename: " + out + ": a gradient is written as .exr"},
+      {json::array({dir.path("g.exr"), dir.path("o.png")}),
+       "/1/filename: " + dir.path("o.png") + ": a gradient is written as .exr (two float channels) or .tif"},
       {json::array({json{{"type", "write"}, {"filename", out}}}),
        "/0: stage 'write' (write) needs a heightfield or gradient as input"},
   };

@@ -21,62 +21,18 @@ namespace {
 
 using test::bit_differences;
 
+// Cells, georeferencing, stored cell size and (unless told) provenance of the untiled file.
 void expect_same_raster(const std::string& untiled, const std::string& tiled, bool provenance = true) {
-  SCOPED_TRACE(tiled);
-  const Heightfield a = read_heightfield(untiled), b = read_heightfield(tiled);
-  ASSERT_EQ(a.width, b.width);
-  ASSERT_EQ(a.height, b.height);
-  EXPECT_EQ(bit_differences(a, b), 0u);
-  EXPECT_EQ(a.georef.geotransform, b.georef.geotransform);
-  EXPECT_EQ(a.georef.crs_wkt, b.georef.crs_wkt);
-  EXPECT_EQ(a.georef.nodata.has_value(), b.georef.nodata.has_value());
-  // The metric cell size the writer stored (the reader consumes these items).
-  for (const char* k : {"terracl_cell_x", "terracl_cell_y"}) {
-    std::string va, vb;
-    for (auto [f, v] : {std::pair{&untiled, &va}, std::pair{&tiled, &vb}}) {
-      GDALDatasetH ds = GDALOpen(f->c_str(), GA_ReadOnly);
-      ASSERT_TRUE(ds);
-      const char* item = GDALGetMetadataItem(ds, k, nullptr);
-      *v = item ? item : "(missing)";
-      GDALClose(ds);
-    }
-    EXPECT_EQ(va, vb) << k;
-    EXPECT_NE(va, "(missing)");
-  }
-  // The two runs write to different folders, so their pipeline hashes differ; what was done does not.
-  for (const char* k : {"terracl:stages", "terracl:pipeline_hash"}) {
-    if (!provenance) break;
-    ASSERT_TRUE(a.metadata.count(k)) << k;
-    if (std::string(k) == "terracl:pipeline_hash") {
-      EXPECT_TRUE(b.metadata.count(k));
-      continue;
-    }
-    EXPECT_EQ(a.metadata.at(k), b.metadata.count(k) ? b.metadata.at(k) : "(missing)") << k;
-  }
+  test::SameRaster what;
+  what.provenance = provenance;
+  test::expect_same_raster(untiled, tiled, what);
 }
 
 // A crop of the bundled SRTM tile (geographic: the metric cell size depends on the window), with
-// nodata holes, written as a GeoTIFF.
+// nodata holes across tile borders, written as a GeoTIFF.
 std::string dem_input(const test::TempDir& dir, int w, int h, bool holes) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(w, h);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += 300 * gt[1];
-  gt[3] += 200 * gt[5];
-  t.georef.update_metric_cell_size(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(300 + x, 200 + y);
-  if (holes) {
-    t.georef.nodata = -32768;
-    for (int y = 40; y < 90; ++y)
-      for (int x = 100; x < 170; ++x) t.at(x, y) = NAN;  // across tile borders
-    std::mt19937 rng(3);
-    for (int k = 0; k < 200; ++k) t.at(int(rng() % w), int(rng() % h)) = NAN;
-  }
-  const std::string f = dir.path(holes ? "in_holes.tif" : "in.tif");
-  write_heightfield(t, f);
-  return f;
+  return test::srtm_window(dir, holes ? "in_holes.tif" : "in.tif", w, h, 300, 200,
+                           holes ? std::optional<test::Holes>(test::Holes{100, 40, 170, 90, 200, 3}) : std::nullopt);
 }
 
 TEST(Tile, LocalStagesEqualUntiledBitForBit) {
@@ -175,14 +131,14 @@ TEST(Tile, UntileableStagesAreRefusedNamingStageAndLimit) {
   };
   for (const Case& c :
        {Case{R"({"type": "erode", "delta": "d.tif"})", "/1: stage 'erode' (erode) cannot run tiled"},
-        Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"}, Case{R"("extract")", "gradient field"},
+        Case{R"({"type": "fill_depressions", "epsilon": true})", "epsilon"}, Case{R"("extract")", ".exr needs the whole raster"},
         Case{R"({"type": "amplify", "exemplar": ")" + in + R"("})", "learns its dictionaries in the run"},
         // Stages whose result depends on the whole raster say what (docs/scale.md).
         Case{R"({"type": "sketch", "file": ")" + dir.path("s.png") + R"("})",
              "fractions of the whole raster's cells"}}) {
     Pipeline p =
         Pipeline::parse(json::parse("[\"" + in + "\", " + c.stage + ", \"" + dir.path("o.tif") + "\"]"), "x", "x.json");
-    if (c.expect == "gradient field")
+    if (c.stage == R"("extract")")  // extract tiles (to a gradient GeoTIFF); its EXR is written whole
       p = Pipeline::parse(json::parse("[\"" + in + "\", \"extract\", \"" + dir.path("o.exr") + "\"]"), "x", "x.json");
     p.validate();
     RunReport r;

@@ -15,29 +15,15 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
 
 // A w x h window of the bundled SRTM tile (geographic), optionally with a nodata hole.
 std::string srtm(const test::TempDir& dir, const std::string& name, int w, int h, int x0, int y0, bool hole = false) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(w, h);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += x0 * gt[1];
-  gt[3] += y0 * gt[5];
-  t.georef.update_metric_cell_size(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(x0 + x, y0 + y);
-  if (hole) {
-    t.georef.nodata = -32768;
-    for (int y = 20; y < 26; ++y)
-      for (int x = 30; x < 41; ++x) t.at(x, y) = NAN;
-  }
-  const std::string f = dir.path(name);
-  write_heightfield(t, f);
-  return f;
+  return test::srtm_window(dir, name, w, h, x0, y0,
+                           hole ? std::optional<test::Holes>(test::Holes{30, 20, 41, 26, 0, 0}) : std::nullopt);
 }
 
 // One dictionary for every test (learned once: ~2 s): band-limited base, calibrated gain.
@@ -54,42 +40,15 @@ const std::string& dictionary() {
   return d;
 }
 
-void run_pipeline(const std::string& doc, const TileOptions* tiled) {
-  Pipeline p = Pipeline::parse(json::parse(doc), "tileamp", "tileamp.json");
-  p.validate();
-  RunOptions ro;
-  ro.device = []() -> Device& { return test::device(); };
-  ro.write_resolved = false;
-  RunReport r;
-  if (tiled)
-    run_tiled(p, *tiled, ro, r);
-  else
-    p.run(ro, r);
-}
+void run_pipeline(const std::string& doc, const TileOptions* tiled) { test::run_pipeline(doc, tiled, "tileamp"); }
 
-// A metadata item as GDAL stores it (read_heightfield keeps only terracl keys).
-std::string metadata_item(const std::string& file, const char* key) {
-  GDALAllRegister();
-  GDALDatasetH ds = GDALOpen(file.c_str(), GA_ReadOnly);
-  if (!ds) return "(unreadable)";
-  const char* v = GDALGetMetadataItem(ds, key, nullptr);
-  std::string s = v ? v : "(missing)";
-  GDALClose(ds);
-  return s;
-}
-
+// Cells, georeferencing and the detail blend's measured correlation, gain and base.
 void expect_same_cells(const std::string& untiled, const std::string& tiled) {
-  SCOPED_TRACE(tiled);
-  const Heightfield a = read_heightfield(untiled), b = read_heightfield(tiled);
-  ASSERT_EQ(a.width, b.width);
-  ASSERT_EQ(a.height, b.height);
-  EXPECT_EQ(test::bit_differences(a, b), 0u);
-  for (int i = 0; i < 6; ++i) EXPECT_EQ(a.georef.geotransform[i], b.georef.geotransform[i]) << i;
-  EXPECT_EQ(a.georef.cell_x, b.georef.cell_x);
-  for (const char* k : {"amplify_detail_correlation", "amplify_detail_gain", "amplify_base"}) {
-    EXPECT_NE(metadata_item(untiled, k), "(missing)") << k;
-    EXPECT_EQ(metadata_item(untiled, k), metadata_item(tiled, k)) << k;
-  }
+  test::SameRaster what;
+  what.provenance = false;
+  what.items = {"terracl_cell_x", "terracl_cell_y", "amplify_detail_correlation", "amplify_detail_gain",
+                "amplify_base"};
+  test::expect_same_raster(untiled, tiled, what);
 }
 
 std::string amplify_stage(int factor) {
@@ -114,7 +73,7 @@ TEST(TileAmplify, X4EqualsUntiledBitForBit) {
   const Heightfield u = read_heightfield(dir.path("u/b.tif"));
   EXPECT_EQ(u.width, 191 * 4);
   // The correlation was measured (neither bound), so the prepass is what the tiles agree on.
-  const double rho = std::stod(metadata_item(dir.path("u/b.tif"), "amplify_detail_correlation"));
+  const double rho = std::stod(test::metadata_item(dir.path("u/b.tif"), "amplify_detail_correlation"));
   EXPECT_GT(rho, 0.0);
   EXPECT_LT(rho, 1.0);
   // 37: tile borders at 148 output cells, not a multiple of the spacing 8; 64: one aligned.

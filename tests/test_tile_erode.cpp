@@ -12,34 +12,17 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
 
-Heightfield dem_crop(int x0, int y0, int w, int h) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(w, h);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += x0 * gt[1];
-  gt[3] += y0 * gt[5];
-  t.georef.update_metric_cell_size(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(x0 + x, y0 + y);
-  return t;
-}
+Heightfield dem_crop(int x0, int y0, int w, int h) { return test::srtm_crop(w, h, x0, y0); }
 
 void run(const std::string& doc, int tile) {
-  Pipeline p = Pipeline::parse(json::parse(doc), "erode", "erode.json");
-  p.validate();
-  RunOptions ro;
-  ro.device = []() -> Device& { return test::device(); };
-  ro.write_resolved = false;
-  RunReport r;
-  if (tile == 0) return p.run(ro, r);
   TileOptions to;
   to.tile = tile;
-  run_tiled(p, to, ro, r);
+  test::run_pipeline(doc, tile == 0 ? nullptr : &to, "erode");
 }
 
 TEST(TileErode, NoSeamsAndCloseToUntiled) {

@@ -11,6 +11,7 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -92,11 +93,7 @@ TEST(TileFill, DepressionSpanningTilesFillsToItsSpillLevel) {
 }
 
 TEST(TileFill, RealDemEqualsUntiled) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(401, 301);
-  t.georef = dem.georef;
-  for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x) t.at(x, y) = dem.at(500 + x, 600 + y);
+  const Heightfield t = test::srtm_crop(401, 301, 500, 600);
   const Heightfield ref = analysis::priority_flood_fill(t).filled;
   EXPECT_EQ(bit_differences(ref, fill_tiled(t, 64)), 0u);
 }

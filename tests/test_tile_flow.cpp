@@ -15,6 +15,7 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -116,12 +117,7 @@ TEST(TileFlow, RiverAcrossManyTilesNeedsTheGlobalPhase) {
 }
 
 TEST(TileFlow, RealDemEqualsUntiled) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(401, 301);
-  t.georef = dem.georef;
-  t.georef.update_metric_cell_size(t.width, t.height);
-  for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x) t.at(x, y) = dem.at(500 + x, 600 + y);
+  const Heightfield t = test::srtm_crop(401, 301, 500, 600);
   const Heightfield ref = untiled_area(t);
   for (int tile : {64, 37}) EXPECT_EQ(bit_differences(ref, tiled_area(drained(t), tile)), 0u) << tile;
 }
@@ -144,18 +140,7 @@ TEST(TileFlow, PitsAndFlatsAreRefusedNamingTheCell) {
 // file), in cells.
 TEST(TileFlow, PipelineDrainageEqualsUntiled) {
   test::TempDir dir;
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(203, 157);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += 300 * gt[1];
-  gt[3] += 200 * gt[5];
-  t.georef.update_metric_cell_size(t.width, t.height);
-  t.georef.nodata = -32768;
-  for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x) t.at(x, y) = dem.at(300 + x, 200 + y);
-  for (int y = 40; y < 70; ++y)
-    for (int x = 60; x < 90; ++x) t.at(x, y) = NAN;
+  const Heightfield t = test::srtm_crop(203, 157, 300, 200, test::Holes{60, 40, 90, 70, 0, 0});
   const std::string raw = dir.path("raw.tif"), in = dir.path("in.tif");
   write_heightfield(t, raw);
   write_heightfield(drained(t), in);

@@ -15,6 +15,7 @@
 
 #include "../host/src/analysis/exact_sum.hpp"
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
@@ -54,19 +55,9 @@ TEST(TileMetrics, ExactSumIsExactAndOrderIndependent) {
 TEST(TileMetrics, LocalStatisticsEqualUntiledBitForBit) {
   test::TempDir dir;
   // An odd-sized SRTM crop with a nodata hole and voids across tiles, and a flat block (ties at 0).
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
   const int w = 213, h = 161;
-  Heightfield t(w, h);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += 500 * gt[1];
-  gt[3] += 300 * gt[5];
-  t.georef.update_metric_cell_size(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(500 + x, 300 + y);
-  t.georef.nodata = -32768;
-  for (int y = 30; y < 80; ++y)
-    for (int x = 60; x < 120; ++x) t.at(x, y) = NAN;
+  // The hole, then the flat block, then the voids (which may fall into either).
+  Heightfield t = test::srtm_crop(w, h, 500, 300, test::Holes{60, 30, 120, 80, 0, 5});
   for (int y = 100; y < 150; ++y)
     for (int x = 20; x < 90; ++x) t.at(x, y) = 400.0f;
   std::mt19937 rng(5);

@@ -13,104 +13,32 @@
 #include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
 
-// Every band's bytes, the band count and type, geotransform and CRS of a raster read through GDAL.
-struct Raster {
-  int w = 0, h = 0, bands = 0;
-  GDALDataType type = GDT_Unknown;
-  std::vector<std::vector<uint8_t>> data;
-  std::array<double, 6> gt{};
-  std::string crs;
-  bool has_nodata = false;
-  double nodata = 0;
-};
-
-Raster load(const std::string& f) {
-  Raster r;
-  GDALAllRegister();
-  GDALDatasetH ds = GDALOpen(f.c_str(), GA_ReadOnly);
-  if (!ds) {
-    ADD_FAILURE() << "cannot open " << f;
-    return r;
-  }
-  r.w = GDALGetRasterXSize(ds);
-  r.h = GDALGetRasterYSize(ds);
-  r.bands = GDALGetRasterCount(ds);
-  GDALGetGeoTransform(ds, r.gt.data());
-  r.crs = GDALGetProjectionRef(ds);
-  for (int b = 1; b <= r.bands; ++b) {
-    GDALRasterBandH band = GDALGetRasterBand(ds, b);
-    r.type = GDALGetRasterDataType(band);
-    int has = 0;
-    const double nd = GDALGetRasterNoDataValue(band, &has);
-    r.has_nodata = has != 0;
-    r.nodata = nd;
-    const int bytes = GDALGetDataTypeSizeBytes(r.type);
-    std::vector<uint8_t> buf(size_t(r.w) * r.h * bytes);
-    EXPECT_EQ(GDALRasterIO(band, GF_Read, 0, 0, r.w, r.h, buf.data(), r.w, r.h, r.type, 0, 0), CE_None);
-    r.data.push_back(std::move(buf));
-  }
-  GDALClose(ds);
-  return r;
-}
-
+// Every band byte for byte, band count and type, geotransform, CRS and nodata (pictures store no
+// cell size or provenance).
 void expect_same(const std::string& untiled, const std::string& tiled) {
-  SCOPED_TRACE(tiled);
-  const Raster a = load(untiled), b = load(tiled);
-  ASSERT_EQ(a.w, b.w);
-  ASSERT_EQ(a.h, b.h);
-  ASSERT_EQ(a.bands, b.bands);
-  EXPECT_EQ(a.type, b.type);
-  EXPECT_EQ(a.gt, b.gt);
-  EXPECT_EQ(a.crs, b.crs);
-  EXPECT_EQ(a.has_nodata, b.has_nodata);
-  if (a.has_nodata && b.has_nodata) EXPECT_EQ(a.nodata, b.nodata);
-  for (int k = 0; k < a.bands; ++k) {
-    size_t diff = 0;
-    for (size_t i = 0; i < a.data[k].size(); ++i) diff += a.data[k][i] != b.data[k][i];
-    EXPECT_EQ(diff, 0u) << "band " << k + 1;
-  }
+  test::SameRaster what;
+  what.provenance = false;
+  what.items = {};
+  test::expect_same_raster(untiled, tiled, what);
 }
 
 void run(const std::string& doc, const std::string& out, int tile) {
   std::string text = doc;
   for (size_t p; (p = text.find("OUT")) != std::string::npos;) text.replace(p, 3, out);
-  Pipeline p = Pipeline::parse(json::parse(text), "tiles", "tiles.json");
-  p.validate();
-  RunOptions ro;
-  ro.device = []() -> Device& { return test::device(); };
-  ro.write_resolved = false;
-  RunReport r;
-  if (tile == 0) return p.run(ro, r);
   TileOptions to;
   to.tile = tile;
-  run_tiled(p, to, ro, r);
+  test::run_pipeline(text, tile == 0 ? nullptr : &to);
 }
 
 // A crop of the bundled SRTM tile (geographic), optionally with nodata holes across tile borders.
 std::string dem_input(const test::TempDir& dir, int w, int h, bool holes) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(w, h);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += 300 * gt[1];
-  gt[3] += 200 * gt[5];
-  t.georef.update_metric_cell_size(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(300 + x, 200 + y);
-  if (holes) {
-    t.georef.nodata = -32768;
-    for (int y = 20; y < 45; ++y)
-      for (int x = 30; x < 80; ++x) t.at(x, y) = NAN;
-    std::mt19937 rng(5);
-    for (int k = 0; k < 100; ++k) t.at(int(rng() % w), int(rng() % h)) = NAN;
-  }
-  const std::string f = dir.path(holes ? "in_holes.tif" : "in.tif");
-  write_heightfield(t, f);
-  return f;
+  return test::srtm_window(dir, holes ? "in_holes.tif" : "in.tif", w, h, 300, 200,
+                           holes ? std::optional<test::Holes>(test::Holes{30, 20, 80, 45, 100, 5}) : std::nullopt);
 }
 
 const char* kRenders = R"(
@@ -135,9 +63,9 @@ TEST(TileRender, PicturesAndValuesEqualUntiledWithAndWithoutNodata) {
       for (const char* f : kFiles) expect_same(dir.path(std::string("u/") + f), dir.path(std::string("t/") + f));
     }
     // The alpha band follows the whole raster: present with nodata (or gdaldem's border), else not.
-    EXPECT_EQ(load(dir.path("t/hs_edges.tif")).bands, holes ? 2 : 1);
-    EXPECT_EQ(load(dir.path("t/sr.tif")).bands, holes ? 4 : 3);
-    EXPECT_EQ(load(dir.path("t/hs.tif")).bands, 2);
+    EXPECT_EQ(test::load_stored(dir.path("t/hs_edges.tif")).bands.size(), holes ? 2u : 1u);
+    EXPECT_EQ(test::load_stored(dir.path("t/sr.tif")).bands.size(), holes ? 4u : 3u);
+    EXPECT_EQ(test::load_stored(dir.path("t/hs.tif")).bands.size(), 2u);
   }
 }
 
@@ -170,7 +98,7 @@ TEST(TileRender, OpensTheDeviceWhenTheCallerGaveNone) {
   TileOptions to;
   to.tile = 16;
   run_tiled(p, to, ro, r);
-  EXPECT_EQ(load(dir.path("a.tif")).bands, 2);
+  EXPECT_EQ(test::load_stored(dir.path("a.tif")).bands.size(), 2u);
 }
 
 TEST(TileRender, RefusesPngAndRampsInPercent) {

@@ -14,7 +14,11 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <terracl/error.hpp>
+#include <terracl/interrupt.hpp>
 #include <terracl/io.hpp>
+#include <terracl/pipeline.hpp>
+#include <terracl/tile.hpp>
 
 #include "test_helpers.hpp"
 
@@ -142,6 +146,56 @@ TEST(TileResume, ChecksumMismatchReRunsTheTileAndAnotherRunStartsAfresh) {
   auto other = job.run("--tile 50 --resume");
   ASSERT_EQ(other.exit_code, 0) << other.out;
   EXPECT_NE(other.out.find("tiles: 20 run, 0 finished before"), std::string::npos) << other.out;
+}
+
+// A stop request (Ctrl-C: the CLI's stop check) is honoured inside a tile - between its stages and
+// between its outputs' windows - and the stopped tile is not journaled: at every stop point of a
+// tile, the resumed run reports no mismatch and writes the uninterrupted run's bytes.
+TEST(TileResume, StopInsideATileJournalsOnlyWholeTiles) {
+  Job job;
+  ASSERT_EQ(job.run(kTiled).exit_code, 0);
+  const std::string full_a = slurp(job.a), full_b = slurp(job.b);
+  auto run = [&](TileCounts* counts) {
+    Pipeline p = Pipeline::parse(json::parse(slurp(job.pipeline)), "p", job.pipeline);
+    p.validate();
+    RunOptions ro;
+    ro.device = []() -> Device& { return test::device(); };
+    ro.write_resolved = false;
+    RunReport r;
+    TileOptions to;
+    to.tile = 32;
+    to.resume = true;
+    run_tiled(p, to, ro, r, counts);
+  };
+  // A tile makes about 7 stop checks (4 stages, 2 outputs, the journal): 8 consecutive stop points
+  // cover each place inside one.
+  for (int stop_at = 60; stop_at < 68; ++stop_at) {
+    SCOPED_TRACE(stop_at);
+    fs::remove(job.a);
+    fs::remove(job.b);
+    int calls = 0;
+    set_stop_check([&] { return ++calls >= stop_at; });
+    bool cancelled = false;
+    try {
+      run(nullptr);
+    } catch (const Cancelled&) {
+      cancelled = true;
+    }
+    set_stop_check({});
+    EXPECT_TRUE(cancelled) << "the stop request was not honoured (" << calls << " checks)";
+    EXPECT_EQ(calls, stop_at);
+    EXPECT_FALSE(fs::exists(job.a));
+    const size_t journaled = job.journal_tiles(job.a);
+    EXPECT_GT(journaled, 5u);
+    EXPECT_LT(journaled, 12u);
+    TileCounts counts;
+    run(&counts);
+    EXPECT_EQ(counts.mismatched, 0u);
+    EXPECT_EQ(counts.skipped, journaled);
+    EXPECT_EQ(counts.run + counts.skipped, 35u);
+    EXPECT_TRUE(slurp(job.a) == full_a);
+    EXPECT_TRUE(slurp(job.b) == full_b);
+  }
 }
 
 TEST(TileResume, UsageErrors) {

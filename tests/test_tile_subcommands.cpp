@@ -9,22 +9,13 @@
 #include <terracl/io.hpp>
 
 #include "test_helpers.hpp"
+#include "tile_test_helpers.hpp"
 
 namespace terracl {
 namespace {
 
 std::string input(const test::TempDir& dir) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(157, 111);
-  t.georef = dem.georef;
-  t.georef.geotransform[0] += 400 * t.georef.geotransform[1];
-  t.georef.geotransform[3] += 500 * t.georef.geotransform[5];
-  t.georef.update_metric_cell_size(t.width, t.height);
-  for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x) t.at(x, y) = dem.at(400 + x, 500 + y);
-  const std::string f = dir.path("in.tif");
-  write_heightfield(t, f);
-  return f;
+  return test::srtm_window(dir, "in.tif", 157, 111, 400, 500);
 }
 
 size_t differing_cells(const std::string& a, const std::string& b) {
@@ -91,13 +82,18 @@ TEST(TileSubcommands, RefuseWhatATiledRunCannotDo) {
        {Case{"render " + in + " -o " + dir.path("a.png") + " --tile 32", "use a .tif name"},
         Case{"downsample " + in + " -o " + dir.path("a.tif") + " --factor 2 --tile 32 --cog", "--cog"},
         Case{"erode " + in + " -o " + dir.path("a.tif") + " --halo 3", "--halo needs --tile"},
-        Case{"convert " + in + " " + dir.path("a.tif") + " --tile 32 --zmin 3", "--zmin"}}) {
+        Case{"convert " + in + " " + dir.path("a.tif") + " --tile 32 --zmin 3", "--zmin"},
+        // The tile engine's refusals name the command the user ran, not `run`.
+        Case{"erode " + in + " -o " + dir.path("a.tif") + " --tile 4096 --memory-budget 1M",
+             "terracl ERROR: erode: --memory-budget 1.0 MiB: a 4096 x 4096 tile needs"},
+        Case{"extract " + in + " -o " + dir.path("a.exr") + " --tile 32", "terracl ERROR: extract: terracl extract: /2"}}) {
     const auto r = test::run_cli(c.args);
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out;
     EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << "\n" << r.out;
   }
   EXPECT_FALSE(std::filesystem::exists(dir.path("a.tif")));
   EXPECT_FALSE(std::filesystem::exists(dir.path("a.png")));
+  EXPECT_FALSE(std::filesystem::exists(dir.path("a.exr")));
 }
 
 }  // namespace

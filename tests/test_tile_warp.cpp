@@ -22,54 +22,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Cells, georeferencing, provenance, and the items read_heightfield does not give back: the
+// metric cell size and resize's engine scale.
 void expect_same_raster(const std::string& untiled, const std::string& tiled, bool provenance = true) {
-  SCOPED_TRACE(tiled);
-  const Heightfield a = read_heightfield(untiled), b = read_heightfield(tiled);
-  ASSERT_EQ(a.width, b.width);
-  ASSERT_EQ(a.height, b.height);
-  EXPECT_EQ(test::bit_differences(a, b), 0u);
-  EXPECT_EQ(a.georef.geotransform, b.georef.geotransform);
-  EXPECT_EQ(a.georef.crs_wkt, b.georef.crs_wkt);
-  EXPECT_EQ(a.georef.nodata.has_value(), b.georef.nodata.has_value());
-  EXPECT_EQ(a.georef.cell_x, b.georef.cell_x);
-  EXPECT_EQ(a.georef.cell_y, b.georef.cell_y);
-  EXPECT_EQ(a.count_nodata(), b.count_nodata());
-  if (provenance)
-    EXPECT_EQ(a.metadata.at("terracl:stages"), b.metadata.count("terracl:stages") ? b.metadata.at("terracl:stages") : "");
-  // Items read_heightfield does not give back: the metric cell size and resize's engine scale.
-  for (const char* k : {"terracl_cell_x", "terracl_cell_y", "engine_unreal_z_scale", "engine_unity_terrain_height_m"}) {
-    std::string va, vb;
-    for (auto [f, v] : {std::pair{&untiled, &va}, std::pair{&tiled, &vb}}) {
-      GDALDatasetH ds = GDALOpen(f->c_str(), GA_ReadOnly);
-      ASSERT_TRUE(ds);
-      const char* item = GDALGetMetadataItem(ds, k, nullptr);
-      *v = item ? item : "(missing)";
-      GDALClose(ds);
-    }
-    EXPECT_EQ(va, vb) << k;
-  }
+  test::SameRaster what;
+  what.provenance = provenance;
+  what.optional_items = {"engine_unreal_z_scale", "engine_unity_terrain_height_m"};
+  test::expect_same_raster(untiled, tiled, what);
 }
 
 // An odd-sized crop of the SRTM tile (EPSG:4326), with a nodata hole across tile borders and
 // scattered voids.
 std::string dem_input(const test::TempDir& dir, int w, int h) {
-  const Heightfield dem = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  Heightfield t(w, h);
-  t.georef = dem.georef;
-  auto& gt = t.georef.geotransform;
-  gt[0] += 300 * gt[1];
-  gt[3] += 200 * gt[5];
-  t.georef.update_metric_cell_size(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) t.at(x, y) = dem.at(300 + x, 200 + y);
-  t.georef.nodata = -32768;
-  for (int y = 40; y < std::min(h, 90); ++y)
-    for (int x = 100; x < std::min(w, 170); ++x) t.at(x, y) = NAN;
-  std::mt19937 rng(3);
-  for (int k = 0; k < 200; ++k) t.at(int(rng() % w), int(rng() % h)) = NAN;
-  const std::string f = dir.path("in.tif");
-  write_heightfield(t, f);
-  return f;
+  return test::srtm_window(dir, "in.tif", w, h, 300, 200, test::Holes{100, 40, 170, 90, 200, 3});
 }
 
 }  // namespace

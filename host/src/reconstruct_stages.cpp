@@ -2,6 +2,7 @@
 #include "pipeline/builtin.hpp"
 #include "hypre/hypre_solve.hpp"
 #include "io/io_common.hpp"
+#include "tile/extract_tiles.hpp"
 
 #include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
@@ -27,6 +28,13 @@ void run_extract(StageContext& c) {
   c.data.gradient = extract_gradient(c.device(), c.height(),
                                      central ? GradientFormat::Central : GradientFormat::Staggered);
   c.data.current = DataKind::Gradient;
+  // A tile of a tiled run: the mean is the whole raster's, from the tile engine's prepass.
+  Metadata& md = c.data.gradient->metadata;
+  if (auto it = md.find("terracl:tile_prepass"); it != md.end()) {
+    c.data.gradient->mean_elevation = tile::extract_prepass_mean(it->second);
+    md.erase(it);
+    md.erase("terracl:tile_window");
+  }
 }
 
 // The options of the solver from the stage's flags (the start heightfield and border aside).
@@ -313,7 +321,7 @@ void register_reconstruct_stages(StageRegistry& r) {
          DataKind::None,
          DataKind::Heightfield,
          {
-             {"gradient", OptionType::Path, nullptr, "", "gradient field .exr (default: the previous stage's gradient)"},
+             {"gradient", OptionType::Path, nullptr, "", "gradient field .exr or 2-band .tif (default: the previous stage's gradient)"},
              {"divergence", OptionType::Path, nullptr, "", "divergence raster (1/m) instead of a gradient"},
              {"fixed_mask", OptionType::Path, nullptr, "", "raster; non-zero cells are hard constraints"},
              {"fixed_elevation", OptionType::Path, nullptr, "", "raster of elevations for --fixed-mask cells"},

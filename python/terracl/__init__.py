@@ -118,12 +118,12 @@ flow = _make_stage_function("drainage", "flow")
 
 def read(path, *, device=None, progress=None, **options):
     """Reads a heightfield (any raster terracl reads; nodata cells become NaN) or a gradient field
-    (two-channel .exr). Options of the `read` stage: fill_nodata, zmin, zmax, width, height, cell_size."""
+    (two-channel .exr, or a 2-band gx/gy .tif). Options of the `read` stage: fill_nodata, zmin, zmax, width, height, cell_size."""
     return _terracl._run_stage("read", None, dict(options, filename=_os.fspath(path)), device, progress)
 
 
 def write(data, path, **options):
-    """Writes a Heightfield (.tif .exr .png .r16) or a GradientField (.exr), atomically (a temporary
+    """Writes a Heightfield (.tif .exr .png .r16) or a GradientField (.exr, .tif), atomically (a temporary
     name, then a rename). Options of the `write` stage: zmin, zmax (PNG16/RAW16 range)."""
     _terracl._run_stage("write", data, dict(options, filename=_os.fspath(path)))
 

@@ -164,6 +164,11 @@ Heightfield read_gdal(const std::string& path) {
   if (ds->GetRasterXSize() > 0 && ds->GetRasterYSize() > 0)
     require_raster_size("io", path, ds->GetRasterXSize(), ds->GetRasterYSize(), 8);  // before counting its blocks
   check_tiff_blocks(*ds, path);
+  // A gradient GeoTIFF (gradient_tiff.cpp) is not a heightfield, as a two-channel EXR is not.
+  if (ds->GetRasterCount() == 2 && std::string(ds->GetRasterBand(1)->GetDescription()) == "gx" &&
+      std::string(ds->GetRasterBand(2)->GetDescription()) == "gy")
+    fail("io", "{}: is a gradient field (2 bands, gx and gy), not a heightfield; reconstruct it first "
+         "(terracl reconstruct --gradient {} -o height.tif)", path, path);
   return from_dataset(*ds, path);
 }
 

@@ -60,14 +60,15 @@ GdalWindowReader::~GdalWindowReader() {
   if (m_ds) GDALClose(m_ds);
 }
 
-Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
+Heightfield GdalWindowReader::read(int x, int y, int w, int h, int band) const {
+  if (band < 1 || band > m_ds->GetRasterCount()) fail("io", "{}: has no band {}", m_path, band);
   if (x < 0 || y < 0 || w < 1 || h < 1 || x + w > width() || y + h > height())
     fail("io", "{}: window {},{} {} x {} outside the {} x {} raster", m_path, x, y, w, h, width(), height());
   Heightfield out(w, h);
   out.georef = m_header.georef;
   out.metadata = m_header.metadata;
   CPLErrorReset();
-  if (m_ds->GetRasterBand(1)->RasterIO(GF_Read, x, y, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+  if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "{}: reading window {},{} {} x {} failed ({})", m_path, x, y, w, h, last_gdal_error());
   convert_nodata(out);
   auto& gt = out.georef.geotransform;
@@ -76,6 +77,14 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h) const {
     gt[3] += x * gt[4] + y * gt[5];
   }
   return out;
+}
+
+int GdalWindowReader::bands() const { return m_ds->GetRasterCount(); }
+
+std::string GdalWindowReader::band_description(int band) const {
+  if (band < 1 || band > bands()) return {};
+  const char* d = m_ds->GetRasterBand(band)->GetDescription();
+  return d ? d : "";
 }
 
 void GdalWindowReader::release_cache() const { m_ds->FlushCache(); }
@@ -88,13 +97,14 @@ uint64_t window_checksum(const float* cells, size_t n) {
 }
 
 GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& g,
-                                         const Metadata& metadata, const std::string& partial)
+                                         const Metadata& metadata, const std::string& partial, int bands)
     : m_path(path),
       m_tmp(partial.empty() ? temporary_path_for(path) : partial),
       m_resumable(!partial.empty()),
       m_nodata(g.nodata) {
   m_width = width;
   m_height = height;
+  m_bands = bands;
   m_blocks_x = (width + kBlock - 1) / kBlock;
   m_blocks_y = (height + kBlock - 1) / kBlock;
   init_gdal();
@@ -106,7 +116,7 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
     if (std::filesystem::exists(m_tmp, ec)) {
       m_ds = static_cast<GDALDataset*>(
           GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
-      if (m_ds && (m_ds->GetRasterXSize() != width || m_ds->GetRasterYSize() != height || m_ds->GetRasterCount() != 1 ||
+      if (m_ds && (m_ds->GetRasterXSize() != width || m_ds->GetRasterYSize() != height || m_ds->GetRasterCount() != m_bands ||
                    m_ds->GetRasterBand(1)->GetRasterDataType() != GDT_Float32)) {
         GDALClose(m_ds);
         m_ds = nullptr;
@@ -132,8 +142,10 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   // A resumable output is closed after every tile (flush()): without SPARSE_OK each close would
   // first write every block not yet written.
   // The raw writer's file is created empty (GDAL then writes no block) and libtiff adds the blocks.
-  opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
-  m_ds = drv->Create(m_tmp.c_str(), width, height, 1, GDT_Float32, opts);
+  if (m_resumable || m_bands == 1) opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
+  // A gradient's two bands are written one after the other per window: each in blocks of its own.
+  if (m_bands > 1) opts = CSLSetNameValue(opts, "INTERLEAVE", "BAND");
+  m_ds = drv->Create(m_tmp.c_str(), width, height, m_bands, GDT_Float32, opts);
   CSLDestroy(opts);
   if (!m_ds) {
     if (!m_resumable) discard_temporary(m_tmp);
@@ -145,9 +157,12 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
     m_ds->SetGeoTransform(gt);
   }
   if (!g.crs_wkt.empty()) m_ds->SetProjection(g.crs_wkt.c_str());
-  GDALRasterBand* band = m_ds->GetRasterBand(1);
-  if (m_nodata) band->SetNoDataValue(*m_nodata);
-  band->SetUnitType(g.vertical_units.c_str());
+  for (int b = 1; b <= m_bands; ++b) {
+    GDALRasterBand* band = m_ds->GetRasterBand(b);
+    if (m_nodata) band->SetNoDataValue(*m_nodata);
+    band->SetUnitType(g.vertical_units.c_str());
+    if (m_bands == 2) band->SetDescription(b == 1 ? "gx" : "gy");  // what read_gradient looks for
+  }
   // The same items as write_geotiff, so a tiled output reads back like an untiled one.
   for (const auto& [k, v] : metadata) {
     std::string key = k;
@@ -160,7 +175,8 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
       ("terracl " + std::string(metadata.count("terracl:version") ? metadata.at("terracl:version") : "")).c_str());
   m_ds->SetMetadataItem("terracl_cell_x", fmt::format("{:.17g}", g.cell_x).c_str());
   m_ds->SetMetadataItem("terracl_cell_y", fmt::format("{:.17g}", g.cell_y).c_str());
-  if (m_resumable) return;
+  // A gradient (two bands) is written through GDAL like a resumable output: rank 0 compresses it.
+  if (!compresses()) return;
   // GDAL writes the header and directory; libtiff reopens the file to append raw blocks, and at
   // close rewrites only the block offsets and sizes in place (the directory stays GDAL's).
   GDALDataset* raw = m_ds;
@@ -189,10 +205,10 @@ GeoTiffWindowWriter::~GeoTiffWindowWriter() {
   }
 }
 
-uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h) {
+uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h, int band) {
   if (!m_ds && !m_tif) fail("io", "{}: written after commit", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
-  return put(encode(m_width, m_height, m_nodata, x, y, src, sx, sy, w, h, compresses()));
+  return put(encode(m_width, m_height, m_nodata, x, y, src, sx, sy, w, h, compresses()), band);
 }
 
 namespace {
@@ -288,7 +304,8 @@ void GeoTiffWindowWriter::write_block(uint32_t index, const uint8_t* bytes, size
   m_block_written[index] = 1;
 }
 
-uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e) {
+uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e, int band) {
+  if (band < 1 || band > m_bands || (band != 1 && m_tif)) fail("io", "internal: {} has no band {}", m_path, band);
   if (!m_ds && !m_tif) fail("io", "{}: written after commit", m_path);
   EncodedHeader hd{};
   if (e.size() < sizeof hd) fail("io", "internal: encoded window of {} bytes", e.size());
@@ -318,10 +335,10 @@ uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e) {
   m_buffer.resize(size_t(hd.w) * size_t(hd.h));
   std::memcpy(m_buffer.data(), &e[at], cell_bytes);
   const float* cells = m_buffer.data();
-  if (!m_tif) {  // resumable: GDAL writes (and reads back the blocks these cells share)
+  if (!m_tif) {  // resumable or two bands: GDAL writes (and reads back the blocks these cells share)
     CPLErrorReset();
-    if (m_ds->GetRasterBand(1)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, m_buffer.data(), hd.w, hd.h, GDT_Float32, 0,
-                                         0) != CE_None)
+    if (m_ds->GetRasterBand(band)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, m_buffer.data(), hd.w, hd.h, GDT_Float32,
+                                            0, 0) != CE_None)
       fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y, last_gdal_error());
     return hd.checksum;
   }
@@ -352,12 +369,12 @@ uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e) {
   return hd.checksum;
 }
 
-uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h) {
+uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h, int band) {
   if (!m_ds) fail("io", "{}: read back after commit or from a writer that is not resumable", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
   m_buffer.resize(size_t(w) * h);
   CPLErrorReset();
-  if (m_ds->GetRasterBand(1)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+  if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_tmp, x, y, w, h, last_gdal_error());
   // As write(): a NaN stored without a nodata value makes commit() declare NaN as nodata.
   if (!m_nodata)
@@ -397,7 +414,8 @@ void GeoTiffWindowWriter::commit() {
   }
   if (!m_ds) fail("io", "{}: committed twice", m_path);
   // As write_geotiff: NaN cells without a nodata value of the source get NaN as nodata.
-  if (!m_nodata && m_any_nan) m_ds->GetRasterBand(1)->SetNoDataValue(double(NAN));
+  if (!m_nodata && m_any_nan)
+    for (int b = 1; b <= m_bands; ++b) m_ds->GetRasterBand(b)->SetNoDataValue(double(NAN));
   GDALDataset* raw = m_ds;
   m_ds = nullptr;
   CPLErrorReset();

@@ -33,7 +33,10 @@ class GdalWindowReader {
   /// Cells [x, x + w) x [y, y + h), nodata as NaN; the georef is the whole raster's (same metric
   /// cell size, so that stages compute what they would untiled) with the geotransform moved to
   /// the window's corner.
-  Heightfield read(int x, int y, int w, int h) const;
+  Heightfield read(int x, int y, int w, int h, int band = 1) const;
+  int bands() const;
+  /// The description GDAL holds for a band (a gradient's "gx" / "gy").
+  std::string band_description(int band) const;
   /// Drops the blocks GDAL has cached for this raster (a reader that moves on for good, such as
   /// the streamed render, keeps its memory to the window it holds instead of GDAL's cache size).
   void release_cache() const;
@@ -62,25 +65,28 @@ class GeoTiffWindowWriter {
   /// `partial` (resumable runs, --resume): a fixed temporary name instead of a unique one; it is
   /// kept when the writer is destroyed uncommitted, and an existing float32 GeoTIFF of this size
   /// there is reopened for update (reopened()) rather than recreated.
+  /// `bands` = 2: a gradient field (band 1 gx, band 2 gy, described so; gradient_tiff.cpp).
   GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& georef, const Metadata& metadata,
-                      const std::string& partial = {});
+                      const std::string& partial = {}, int bands = 1);
   ~GeoTiffWindowWriter();  ///< discards the temporary file unless committed (or resumable)
   GeoTiffWindowWriter(const GeoTiffWindowWriter&) = delete;
   GeoTiffWindowWriter& operator=(const GeoTiffWindowWriter&) = delete;
   /// Writes cells [sx, sx + w) x [sy, sy + h) of `src` at (x, y) of the output; returns the
   /// checksum (window_checksum) of the float32 cells as stored (nodata substituted).
-  uint64_t write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h);
+  uint64_t write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h, int band = 1);
   /// write() in two halves. encode(): the window's cells with nodata substituted, its blocks that
   /// lie wholly inside it compressed (compress = false: cells only, for a resumable writer), for a
   /// width x height raster whose nodata is `nodata`; any process may call it.
   static std::vector<uint8_t> encode(int width, int height, std::optional<double> nodata, int x, int y,
                                      const Heightfield& src, int sx, int sy, int w, int h, bool compress = true);
   /// put(): stores what encode() made for this writer's raster; returns write()'s checksum.
-  uint64_t put(const std::vector<uint8_t>& encoded);
-  /// Whether this writer takes compressed blocks (encode(..., compress)): not when resumable.
-  bool compresses() const { return !m_resumable; }
+  uint64_t put(const std::vector<uint8_t>& encoded, int band = 1);
+  /// Whether this writer takes compressed blocks (encode(..., compress)): not when resumable, nor
+  /// for two bands (GDAL interleaves them by band; the raw path knows one).
+  bool compresses() const { return !m_resumable && m_bands == 1; }
   /// The checksum of the stored cells [x, x + w) x [y, y + h), read back from the file.
-  uint64_t checksum(int x, int y, int w, int h);
+  uint64_t checksum(int x, int y, int w, int h, int band = 1);
+  int bands() const { return m_bands; }
   /// Writes GDAL's dirty blocks and the TIFF directory to the file, so that a process killed
   /// afterwards leaves a readable file holding every window written so far.
   void flush();
@@ -101,7 +107,7 @@ class GeoTiffWindowWriter {
   void commit_raw();
   size_t block_cells(uint32_t index) const;  // its cells inside the raster
   std::string m_path, m_tmp;
-  int m_width = 0, m_height = 0, m_blocks_x = 0, m_blocks_y = 0;
+  int m_width = 0, m_height = 0, m_blocks_x = 0, m_blocks_y = 0, m_bands = 1;
   GDALDataset* m_ds = nullptr;  // resumable: GDAL writes
   tiff* m_tif = nullptr;        // otherwise: libtiff appends encoded blocks
   std::map<uint32_t, Pending> m_pending;

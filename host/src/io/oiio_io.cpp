@@ -1,6 +1,7 @@
 // OpenImageIO backend: PNG (8/16-bit codes mapped to a vertical range) and float EXR with
 // terracl attributes. PNG16 output is linear: integer codes written as-is, so no gamma or dither.
 #include "io/io_common.hpp"
+#include "io/gradient_tiff.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/memory.hpp>
@@ -135,7 +136,9 @@ void write_exr(const Heightfield& h, const std::string& tmp_path) {
 // of the band (the hypre solve's per-rank read). The georef is the whole raster's.
 GradientField read_gradient_rows(const std::string& path, int y0, int y1, int* full_height) {
   require_readable(path);
-  if (sniff_magic(path) != "EXR") fail("io", "{}: a gradient field must be a two-channel float EXR", path);
+  if (sniff_magic(path) == "TIFF") return read_gradient_geotiff_rows(path, y0, y1, full_height);
+  if (sniff_magic(path) != "EXR")
+    fail("io", "{}: a gradient field must be a two-channel float EXR or a two-band (gx, gy) GeoTIFF", path);
   check_exr_header(path);
   auto in = OIIO::ImageInput::open(path);
   if (!in) fail("io", "{}: cannot open EXR ({})", path, OIIO::geterror());
@@ -175,6 +178,7 @@ GradientField read_gradient_rows(const std::string& path, int y0, int y1, int* f
 namespace terracl {
 
 bool is_gradient_file(const std::string& path) {
+  if (io::sniff_magic(path) == "TIFF") return io::is_gradient_geotiff(path);
   if (io::sniff_magic(path) != "EXR") return false;
   io::check_exr_header(path);
   auto in = OIIO::ImageInput::open(path);
@@ -189,8 +193,9 @@ GradientField read_gradient(const std::string& path) {
 }
 
 void write_gradient(const GradientField& g, const std::string& path) {
+  if (format_from_extension(path) == FileFormat::GeoTIFF) return io::write_gradient_geotiff(g, path);
   if (format_from_extension(path) != FileFormat::EXR)
-    fail("io", "{}: gradient fields are written as .exr (two float channels)", path);
+    fail("io", "{}: gradient fields are written as .exr (two float channels) or .tif (two float32 bands)", path);
   io::require_writable_folder(path);
   std::vector<float> px(g.size() * 2);
   for (size_t i = 0; i < g.size(); ++i) {

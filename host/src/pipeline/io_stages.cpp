@@ -39,7 +39,12 @@ void run_read(StageContext& c) {
   c.data = StageData{};
   if (is_gradient_file(f)) {
     c.data.gradient = read_gradient(f);
-    drop_terracl_keys(c.data.gradient->metadata);
+    // The convention (staggered / central) is part of the data: reconstruct reads it.
+    Metadata& md = c.data.gradient->metadata;
+    const auto conv = md.find("terracl:gradient");
+    const std::string convention = conv == md.end() ? std::string() : conv->second;
+    drop_terracl_keys(md);
+    if (!convention.empty()) md["terracl:gradient"] = convention;
     c.data.current = DataKind::Gradient;
     return;
   }
@@ -58,8 +63,9 @@ void run_read(StageContext& c) {
 DataKind check_write(const json& o, DataKind input, const std::string& where) {
   const std::string f = o.at("filename").get<std::string>();
   const FileFormat fmt = format_from_extension(f);
-  if (input == DataKind::Gradient && fmt != FileFormat::EXR)
-    fail("pipeline", "{}/filename: {}: a gradient is written as .exr (two float channels)", where, f);
+  if (input == DataKind::Gradient && fmt != FileFormat::EXR && fmt != FileFormat::GeoTIFF)
+    fail("pipeline", "{}/filename: {}: a gradient is written as .exr (two float channels) or .tif (two float32 bands)",
+         where, f);
   if (input == DataKind::Heightfield && fmt != FileFormat::GeoTIFF && fmt != FileFormat::EXR &&
       fmt != FileFormat::PNG && fmt != FileFormat::RAW16 && fmt != FileFormat::NPY)
     fail("pipeline", "{}/filename: {}: cannot write a heightfield with this extension; terracl writes {}", where, f,
@@ -96,7 +102,13 @@ void run_write(StageContext& c) {
   };
   if (c.data.current == DataKind::Gradient) {
     GradientField& g = c.gradient();
-    with_provenance(g.metadata, [&] { write_gradient(g, f); });
+    // The convention (staggered / central) is part of the data, not provenance: it stays.
+    const auto conv = g.metadata.find("terracl:gradient");
+    const std::string convention = conv == g.metadata.end() ? std::string() : conv->second;
+    with_provenance(g.metadata, [&] {
+      if (!convention.empty()) g.metadata["terracl:gradient"] = convention;
+      write_gradient(g, f);
+    });
     return;
   }
   Heightfield& h = c.height();
@@ -125,7 +137,7 @@ void register_warp_stages(StageRegistry& r);  // warp_stage.cpp
 void register_io_stages(StageRegistry& r) {
   StageInfo read{
       "read",
-      "Read a heightfield (any raster terracl reads) or a gradient field (two-channel .exr); format from the "
+      "Read a heightfield (any raster terracl reads) or a gradient field (two-channel .exr, or a gx/gy two-band .tif); format from the "
       "extension.",
       DataKind::None,
       DataKind::Any,  // what the file holds; check_read tells which
@@ -144,7 +156,7 @@ void register_io_stages(StageRegistry& r) {
 
   StageInfo write{
       "write",
-      "Write the current heightfield (.tif .exr .png .r16 .raw) or gradient field (.exr) with provenance; format from "
+      "Write the current heightfield (.tif .exr .png .r16 .raw) or gradient field (.exr, .tif) with provenance; format from "
       "the extension.",
       DataKind::Any,
       DataKind::Any,

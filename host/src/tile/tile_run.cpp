@@ -26,12 +26,14 @@
 #include <memory>
 #include <optional>
 #include <terracl/error.hpp>
+#include <terracl/interrupt.hpp>
 #include <terracl/io.hpp>
 #include <terracl/memory.hpp>
 #include <terracl/tile.hpp>
 #include <terracl/version.hpp>
 
 #include "io/gdal_window.hpp"
+#include "io/gradient_tiff.hpp"
 #include "tile/journal.hpp"
 #include "tile/tile_comm.hpp"
 #include "tile/tile_sinks.hpp"
@@ -62,16 +64,19 @@ Win unite(const Win& a, const Win& b) {
 // One sink's share of one tile: computed by the tile's rank, written by rank 0 (tile_comm.hpp).
 struct SinkCall {
   int op;  // index in the segment's ops; -1: the global stage's temporary input
+  int32_t bands = 1;  // 2: a gradient (gx then gy in the payload), written as a 2-band GeoTIFF
   Win core;
   Metadata md;          // the tile's metadata (a writer is created at the first tile that reaches it)
-  tile::Bytes payload;  // `write`, the temporary: GeoTiffWindowWriter::encode(core); other sinks: what they drew
+  // `write`, the temporary: GeoTiffWindowWriter::encode(core) (a gradient: gx's then gy's floats);
+  // other sinks: what they drew.
+  tile::Bytes payload;
 };
 
 tile::Bytes pack_calls(const std::vector<SinkCall>& calls) {
   tile::ByteWriter w;
   w.put(uint64_t(calls.size()));
   for (const SinkCall& c : calls) {
-    w.put(int32_t(c.op)).put(c.core);
+    w.put(int32_t(c.op)).put(c.bands).put(c.core);
     w.put(uint64_t(c.md.size()));
     for (const auto& [k, v] : c.md) w.put_string(k).put_string(v);
     w.put_vector(c.payload);
@@ -84,6 +89,7 @@ std::vector<SinkCall> unpack_calls(const tile::Bytes& b) {
   std::vector<SinkCall> calls(size_t(r.get<uint64_t>()));
   for (SinkCall& c : calls) {
     c.op = r.get<int32_t>();
+    c.bands = r.get<int32_t>();
     c.core = r.get<Win>();
     for (uint64_t n = r.get<uint64_t>(); n > 0; --n) {
       std::string k = r.get_string();
@@ -92,6 +98,35 @@ std::vector<SinkCall> unpack_calls(const tile::Bytes& b) {
     c.payload = r.get_vector<uint8_t>();
   }
   return calls;
+}
+
+// Band `band` (0-based) of a payload of `bands` w x h float cores.
+Heightfield floats_to_core(const tile::Bytes& b, int w, int h, int bands = 1, int band = 0) {
+  Heightfield core(w, h);
+  const size_t n = core.z.size() * sizeof(float);
+  if (b.size() != n * size_t(bands))
+    throw Error("tile", fmt::format("internal: a {} x {} x {} core arrived as {} bytes", w, h, bands, b.size()));
+  std::memcpy(core.z.data(), b.data() + n * size_t(band), n);
+  return core;
+}
+
+// One journal checksum of a gradient window from its two bands' checksums.
+uint64_t combine_checksums(uint64_t gx, uint64_t gy) { return (gx ^ 0x9e3779b97f4a7c15ull) * 1099511628211ull ^ gy; }
+
+// Gradients cropped like heightfields (extract's output in a tile).
+GradientField extract_gradient_window(const GradientField& g, const Win& have, const Win& want) {
+  if (want.x0 < have.x0 || want.y0 < have.y0 || want.x1 > have.x1 || want.y1 > have.y1)
+    throw Error("tile", "internal: gradient window outside the computed one");
+  GradientField out(want.w(), want.h());
+  for (int y = 0; y < out.height; ++y) {
+    const size_t from = size_t(want.y0 - have.y0 + y) * g.width + size_t(want.x0 - have.x0);
+    std::copy_n(&g.gx[from], out.width, &out.gx[size_t(y) * out.width]);
+    std::copy_n(&g.gy[from], out.width, &out.gy[size_t(y) * out.width]);
+  }
+  out.georef = g.georef;
+  out.metadata = g.metadata;
+  out.mean_elevation = g.mean_elevation;
+  return out;
 }
 
 void drop_terracl_keys(Metadata& md) {
@@ -149,6 +184,13 @@ struct Segment {
   std::vector<Op> ops;
   Metadata metadata;  // items a global stage made that its file's header does not give back (resize's engine scale)
 };
+
+// Whether level l of the segment holds a gradient (the output of an extract; only writers follow).
+bool gradient_level(const Segment& seg, int l) {
+  for (const Op& op : seg.ops)
+    if (op.st->type == "extract" && op.level + 1 == l) return true;
+  return false;
+}
 
 // Runs tile by tile and writes what the run needs: shared state of one run_tiled call.
 class TiledRun {
@@ -208,6 +250,13 @@ class TiledRun {
   TileCounts m_counts;
 };
 
+// Ctrl-C (the process-wide stop request, interrupt.hpp) is honoured inside a tile, between its
+// stages and between its outputs, not only at the progress report after it; a stopped tile is not
+// journaled, so --resume runs it again.
+void stop_point(const std::string& tag) {
+  if (stop_requested()) throw Cancelled(tag, "cancelled");
+}
+
 // A warp's options are checked before any tile runs (as the untiled stage checks them first).
 void io_check_warp(const PipelineStage& st) { io::check_warp_options(tile::warp_options_of(st), st.tag); }
 
@@ -238,12 +287,13 @@ std::vector<char> TiledRun::prepare_resume(const Segment& seg, const std::vector
     if (op.tiling.kind != TileKind::Sink || op.st->type != "write") continue;
     const std::string f = op.st->options.at("filename").get<std::string>();
     const Level& L = levels[op.level];
+    const int bands = gradient_level(seg, op.level) ? 2 : 1;
     auto& j = journals[op.st];
     j = std::make_unique<tile::TileJournal>(tile::journal_path_for(f), fmt::format("{} level {} x {}", key, L.w, L.h));
     const std::string partial = tile::partial_path_for(f);
     if (!j->entries().empty()) {
       // Reopened as it is (its metadata were written when it was created).
-      auto wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, L.georef, Metadata{}, partial);
+      auto wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, L.georef, Metadata{}, partial, bands);
       if (wr->reopened()) {
         writers[op.st] = std::move(wr);
       } else {
@@ -262,7 +312,9 @@ std::vector<char> TiledRun::prepare_resume(const Segment& seg, const std::vector
       const auto it = j->entries().find(ti);
       if (it == j->entries().end() || !wr) {
         done[ti] = 0;
-      } else if (wr->checksum(c.x0, c.y0, c.w(), c.h()) != it->second) {
+      } else if ((bands == 2 ? combine_checksums(wr->checksum(c.x0, c.y0, c.w(), c.h(), 1),
+                                                 wr->checksum(c.x0, c.y0, c.w(), c.h(), 2))
+                             : wr->checksum(c.x0, c.y0, c.w(), c.h())) != it->second) {
         done[ti] = 0;
         ++m_counts.mismatched;
       }
@@ -455,7 +507,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   // extracted input, the stage's output) and the writers' buffers.
   // A level that amplify made finer holds up^2 cells per cell of the source.
   double per_cell = 4.0 * 2;
-  for (const Level& l : levels) per_cell += 12.0 * std::max(1.0, double(l.w) * l.h / (double(levels[0].w) * levels[0].h));
+  for (size_t i = 0; i < levels.size(); ++i)  // a gradient level (after extract) holds two bands
+    per_cell += (gradient_level(seg, int(i)) ? 24.0 : 12.0) *
+                std::max(1.0, double(levels[i].w) * levels[i].h / (double(levels[0].w) * levels[0].h));
   double fixed = 0;
   if (has_global) {
     per_cell = std::max(per_cell, 4.0 + 4 + 1 + 4 + 4 + 8);  // fill: z, labels, closed, window, core, heap share
@@ -527,6 +581,13 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
                                          std::string(e.what()).substr(e.stage().size() + 2), op.st->where, op.st->tag,
                                          in.x0, in.y0, in.w(), in.h()));
+    }
+    if (d.current == DataKind::Gradient) {  // extract: same grid, a gradient from here on
+      d.gradient = extract_gradient_window(*d.gradient, in, n);
+      d.gradient->georef = georef_at(levels[l + 1].georef, n.x0, n.y0);
+      d.height.reset();
+      have = n;
+      return;
     }
     const Win out = {in.x0 / f * u, in.y0 / f * u, in.x0 / f * u + d.height->width, in.y0 / f * u + d.height->height};
     d.height = extract(*d.height, out, n, levels[l + 1].georef);
@@ -634,6 +695,13 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     }
     return *sink;
   };
+  auto core_floats = [](const Heightfield& h, const Win& have, const Win& c) {
+    tile::Bytes b(size_t(c.w()) * c.h() * sizeof(float));
+    for (int y = 0; y < c.h(); ++y)
+      std::memcpy(&b[size_t(y) * c.w() * sizeof(float)], &h.z[size_t(c.y0 - have.y0 + y) * h.width + (c.x0 - have.x0)],
+                  size_t(c.w()) * sizeof(float));
+    return b;
+  };
   auto compute = [&](size_t ti) {
     std::vector<SinkCall> calls;
     const std::vector<Win>& core = plans[ti].core;
@@ -650,6 +718,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       const Op& op = seg.ops[oi];
       const int l = op.level;
       m_report.running = op.st->tag;
+      stop_point(op.st->tag);
       t0 = Clock::now();
       if (op.tiling.kind == TileKind::Sink) {
         const Win& c = core[l];
@@ -660,17 +729,29 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
           try {
             tile::TileSink& sink = sink_for(op, data.height->metadata);
             calls.push_back(
-                {int(oi), c, data.height->metadata,
+                {int(oi), 1, c, data.height->metadata,
                  sink.draw(extract(*data.height, have, in, levels[l].georef), in.x0, in.y0, c.x0, c.y0, c.w(), c.h())});
           } catch (const Error& e) {
             throw Error(e.stage(), fmt::format("{} (pipeline stage {}, tag '{}', tile {},{} {} x {})",
                                                std::string(e.what()).substr(e.stage().size() + 2), op.st->where,
                                                op.st->tag, in.x0, in.y0, in.w(), in.h()));
           }
+        } else if (data.current == DataKind::Gradient) {
+          // gx then gy; the mean elevation (the whole raster's, from the prepass) as the EXR stores it.
+          const GradientField& g = *data.gradient;
+          Heightfield band(g.width, g.height);
+          band.z = g.gx;
+          tile::Bytes payload = core_floats(band, have, c);
+          band.z = g.gy;
+          const tile::Bytes gy = core_floats(band, have, c);
+          payload.insert(payload.end(), gy.begin(), gy.end());
+          Metadata md = g.metadata;
+          md["terracl:mean_elevation"] = fmt::format("{:.17g}", g.mean_elevation);
+          calls.push_back({int(oi), 2, c, std::move(md), std::move(payload)});
         } else {
           // Compressed here, by the tile's rank: rank 0 only appends the blocks (docs/scale.md).
           const Level& L = levels[l];
-          calls.push_back({int(oi), c, data.height->metadata,
+          calls.push_back({int(oi), 1, c, data.height->metadata,
                            io::GeoTiffWindowWriter::encode(L.w, L.h, L.georef.nodata, c.x0, c.y0, *data.height,
                                                            c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h(), !resumable)});
         }
@@ -684,7 +765,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     if (to_temp && !core[nl - 1].empty()) {
       const Win& c = core[nl - 1];
       const Level& L = levels[nl - 1];
-      calls.push_back({-1, c, {},
+      calls.push_back({-1, 1, c, {},
                        io::GeoTiffWindowWriter::encode(L.w, L.h, L.georef.nodata, c.x0, c.y0, *data.height,
                                                        c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h())});
     }
@@ -694,6 +775,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     written.clear();
     for (const SinkCall& call : calls) {
       const Win& c = call.core;
+      // A stop between two outputs' windows: nothing of this tile is journaled (a rerun redoes it).
+      stop_point(call.op < 0 ? std::string("tiles") : seg.ops[size_t(call.op)].st->tag);
       auto t0 = Clock::now();
       if (call.op < 0) {
         if (!temp_writer) {
@@ -708,20 +791,37 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
         sink_for(op, call.md).put(call.payload, c.x0, c.y0, c.w(), c.h());
       } else {
         auto& wr = writers[op.st];
+        const bool gradient = call.bands == 2;
         if (!wr) {
           Metadata md = call.md;
           drop_terracl_keys(md);
           for (const auto& [k, v] : provenance(*op.st)) md[k] = v;
           const std::string f = op.st->options.at("filename").get<std::string>();
           const Level& L = levels[op.level];
-          wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, L.georef, md,
-                                                         resumable ? tile::partial_path_for(f) : std::string());
+          Georef g = L.georef;
+          if (gradient) {  // as the untiled write of a gradient to .tif (gradient_tiff.cpp)
+            for (const char* k : {"terracl:gradient", "terracl:mean_elevation"})
+              if (auto it = call.md.find(k); it != call.md.end()) md[k] = it->second;
+            md = io::gradient_tiff_metadata(md, NAN, g.nodata);
+            g = io::gradient_tiff_georef(g);
+          }
+          wr = std::make_unique<io::GeoTiffWindowWriter>(f, L.w, L.h, g, md,
+                                                         resumable ? tile::partial_path_for(f) : std::string(),
+                                                         call.bands);
         }
-        written.emplace_back(op.st, wr->put(call.payload));
+        if (gradient) {
+          const uint64_t sx = wr->write(c.x0, c.y0, floats_to_core(call.payload, c.w(), c.h(), 2, 0), 0, 0, c.w(), c.h(), 1);
+          const uint64_t sy = wr->write(c.x0, c.y0, floats_to_core(call.payload, c.w(), c.h(), 2, 1), 0, 0, c.w(), c.h(), 2);
+          written.emplace_back(op.st, combine_checksums(sx, sy));
+        } else {
+          written.emplace_back(op.st, wr->put(call.payload));
+        }
       }
       add_seconds(*op.st, std::chrono::duration<double>(Clock::now() - t0).count());
     }
-    // --resume: the tile's blocks reach the partial file before the journal names the tile.
+    // --resume: the tile's blocks reach the partial file before the journal names the tile, and
+    // only a tile whose every window was written is named.
+    stop_point("tiles");
     for (const auto& [st, sum] : written)
       if (auto j = journals.find(st); j != journals.end()) {
         writers.at(st)->flush();

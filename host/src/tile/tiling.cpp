@@ -14,6 +14,7 @@
 
 #include "pipeline/builtin.hpp"
 #include "tile/amplify_tiles.hpp"
+#include "tile/extract_tiles.hpp"
 #include "tile/tile_sinks.hpp"
 
 namespace terracl {
@@ -68,6 +69,8 @@ StageTiling tiling_of(const PipelineStage& st) {
     if (o.value("fill_nodata", false))
       return refuse(
           "fill_nodata is a global (harmonic) solve over the whole raster; fill nodata in an untiled run first");
+    if (ff == FileFormat::GeoTIFF && path_exists(f) && is_gradient_file(f))
+      return refuse("it reads a gradient field, which only reconstruct and edit take (they are not tiled); run it untiled");
     if (ff == FileFormat::GeoTIFF || ff == FileFormat::HGT || ff == FileFormat::AsciiGrid ||
         ff == FileFormat::GDALOther)
       return kind(TileKind::Source);
@@ -99,11 +102,7 @@ StageTiling tiling_of(const PipelineStage& st) {
         "allocation); run it untiled (a distributed solver is not available yet)");
   if (t == "fill_nodata") return refuse("harmonic interpolation of nodata is a global solve; run it untiled");
   if (t == "amplify") return tile::amplify_tiling(o);
-  if (t == "extract")
-    return refuse(
-        "it produces a gradient field, which terracl writes only as OpenEXR (two float channels, written whole); "
-        "tiled runs carry heightfields and write GeoTIFF windows (a tiled 2-band gradient GeoTIFF is not "
-        "implemented yet); run extract untiled");
+  if (t == "extract") return tile::extract_tiling(o);  // to a 2-band gradient GeoTIFF (extract_tiles.cpp)
   if (t == "render") {
     // gdaldem's 3x3 window: a halo of one cell; written by its own sink (tile/render_tiles.cpp).
     const std::string why = tile::render_tiling_limit(o);
