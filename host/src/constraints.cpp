@@ -89,15 +89,15 @@ void ConstraintSet::hard_cells(std::vector<uint32_t>& index, std::vector<float>&
   if (part_index[0].size() == total) {  // one part (one thread, or the others found nothing)
     index = std::move(part_index[0]);
     value = std::move(part_value[0]);
-    return;
-  }
-  index.clear();
-  value.clear();
-  index.reserve(total);
-  value.reserve(total);
-  for (size_t c = 0; c < chunks; ++c) {
-    index.insert(index.end(), part_index[c].begin(), part_index[c].end());
-    value.insert(value.end(), part_value[c].begin(), part_value[c].end());
+  } else {
+    index.clear();
+    value.clear();
+    index.reserve(total);
+    value.reserve(total);
+    for (size_t c = 0; c < chunks; ++c) {
+      index.insert(index.end(), part_index[c].begin(), part_index[c].end());
+      value.insert(value.end(), part_value[c].begin(), part_value[c].end());
+    }
   }
   const uint32_t offset = uint32_t(size_t(m_row0) * size_t(m_width));  // band -> whole-grid index
   if (offset)
