@@ -30,7 +30,6 @@
 #define PROFILE_DROP 3
 #define PROFILE_V 4
 #define PROFILE_U 5
-#define SHARP_ROUND 0.08f  // tensor.cpp's kSharpRound
 
 #define PRIM_STRIDE 24
 
@@ -597,7 +596,7 @@ __kernel void apply_tensor_field(__global const float* sx, __global const float*
 // width f of a flat floor/top, pr[17], pr[18] = taper lengths at the first/last vertex, pr[19] =
 // cliff face width as a fraction of r, pr[20] = scree share of a cliff's drop, pr[21] = arc length.
 // With u = clamp((d - f) / (r - f), 0, 1) and a = pr[13] * the vertex amplitude at the closest point:
-// ROUND: a alpha(u); SHARP: a (1 - u)^3; V: a (1 - u)^3 (1 + 3u); U: a (1 - u^4)^2; STEP: a smoother((s/r + 1)/2)
+// ROUND: a alpha(u); SHARP: a (1 - u)^3 (u from the distance rounded over pr[23] r on the line); V: a (1 - u)^3 (1 + 3u); U: a (1 - u^4)^2; STEP: a smoother((s/r + 1)/2)
 // across a signed distance s (a fault of throw a); DROP: for s >= 0 a cliff face of width c r
 // dropping (1 - k) a, then a concave scree apron over [c r, r] dropping k a (C1 at the foot).
 // Open-curve signed profiles die out past the curve's ends (times alpha(beyond/r)); other open-curve
@@ -621,8 +620,8 @@ vf profile_shape_v(__global const float* pr, vf d, vf s, vf a) {
   const vf u = clamp((d - f) / (r - f), 0.0f, 1.0f);
   if (kind == PROFILE_ROUND) return a * alpha_v(u);
   const vf w = 1.0f - u;
-  if (kind == PROFILE_SHARP) {  // the distance rounded over SHARP_ROUND r on the crest: no slope kink
-    const float rho = SHARP_ROUND * r;
+  if (kind == PROFILE_SHARP) {  // the distance rounded over pr[23] r on the crest: no slope kink
+    const float rho = fmax(pr[23], 0.0f) * r;
     const vf us = clamp((sqrt(d * d + rho * rho) - rho - f) / (r - f), 0.0f, 1.0f), ws = 1.0f - us;
     return a * ws * ws * ws;
   }

@@ -338,3 +338,15 @@ TEST(EditLocality, CliOutputKeepsTheBaseNodataMask) {
   EXPECT_NEAR(out.at(35, 40), 900.0, 1.0) << "the edit itself happened";
   EXPECT_EQ(run(" --keep-filled").count_nodata(), 0u);
 }
+
+// A crest pins its line at its elevation; its flanks must not rise above it beside the pinned cells.
+// With the sharp profile's top rounded (as free crests have it) a 150 m crest with a bend, as a
+// studio stroke draws it, rose to 151.0 m beside the bend; the crest keeps the plain profile.
+TEST(EditLocality, CrestDoesNotRiseAboveItsElevationAtABend) {
+  EditSession s(test::device(), *parse_flat_spec("flat:257x257@10"));
+  s.apply(json::parse(R"({"operations": [{"op": "crest", "points": [[300, 1000], [1300, 700], [2300, 1000]],
+                                          "elevation": 150, "height": 150, "radius": 205}]})"));
+  const Heightfield& h = s.height();
+  const float top = *std::max_element(h.z.begin(), h.z.end());
+  EXPECT_NEAR(top, 150.0f, 0.01f);
+}

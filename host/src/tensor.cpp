@@ -3,7 +3,7 @@
 //   [7] disc radius  [8..11] anisotropic metric M (row-major)  [12] profile  [13] profile amplitude
 //   [14] [15] cos, sin of the tensor's rotation (2 angle for directional tensors)
 //   [16] floor half width  [17] [18] taper lengths at the first / last vertex  [19] cliff face fraction
-//   [20] scree share  [21] total arc length  [22] smooth (Hermite pieces)  [23] unused
+//   [20] scree share  [21] total arc length  [22] smooth (Hermite pieces)  [23] sharp crest rounding (x r)
 // and vertices as float4 (x, y, amplitude factor, arc length from the first vertex), all in metres.
 #include <terracl/error.hpp>
 #include <terracl/tensor.hpp>
@@ -19,23 +19,23 @@ namespace terracl {
 
 namespace {
 constexpr size_t kStride = 24;
-constexpr double kSharpRound = 0.08;  // tensor.cl's SHARP_ROUND
 double smoother(double t) {
   t = std::clamp(t, 0.0, 1.0);
   return t * t * t * (t * (t * 6 - 15) + 10);
 }
 }  // namespace
 
-double profile_value(Profile p, double d, double s, double r, double a, double f, double face, double scree) {
+double profile_value(Profile p, double d, double s, double r, double a, double f, double face, double scree,
+                     double crest_round) {
   if (!(r > 0)) return 0;
   f = std::min(f, 0.95 * r);
   const double u = std::clamp((d - f) / (r - f), 0.0, 1.0), w = 1 - u;
   switch (p) {
     case Profile::Round: return a * alpha(u);
-    // (1 - u)^3 with u from the distance rounded over 0.08 r on the crest line (sqrt(d^2 + rho^2) -
-    // rho): a crest a few cells wide on a wide stroke instead of a slope kink (a knife line).
+    // (1 - u)^3 with u from the distance rounded over crest_round r on the crest line (sqrt(d^2 +
+    // rho^2) - rho): a crest a few cells wide on a wide stroke instead of a slope kink (a knife line).
     case Profile::Sharp: {
-      const double rho = kSharpRound * r, ds = std::sqrt(d * d + rho * rho) - rho;
+      const double rho = std::max(crest_round, 0.0) * r, ds = std::sqrt(d * d + rho * rho) - rho;
       const double v = 1 - std::clamp((ds - f) / (r - f), 0.0, 1.0);
       return a * v * v * v;
     }
@@ -223,7 +223,7 @@ Packed pack(const std::vector<Primitive>& prims) {
                     float(int(pr.tensor)), float(pr.angle), float(pr.disc_radius), float(m00), float(m01),
                     float(m01), float(m11), float(int(pr.profile)), float(pr.profile_amplitude), std::cos(rot), std::sin(rot),
                     float(pr.floor_half_width), float(pr.taper_start), float(pr.taper_end), float(pr.face_fraction),
-                    float(pr.scree), float(arc), pr.smooth && pr.shape == PrimitiveShape::Polyline ? 1.f : 0.f, 0.f});
+                    float(pr.scree), float(arc), pr.smooth && pr.shape == PrimitiveShape::Polyline ? 1.f : 0.f, float(pr.crest_round)});
   }
   if (p.verts.empty()) p.verts.assign(4, 0.f);
   if (p.prims.empty()) p.prims.assign(kStride, 0.f);

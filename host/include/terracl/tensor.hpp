@@ -40,9 +40,12 @@ enum class TensorKind { Directional, Scale, Tangent, Closest };
 /// Near a bend, the values of the two nearest segments are blended (C1 across the medial axis).
 enum class Profile { Round, Sharp, Step, Drop, V, U };
 
+/// Sharp profiles: the distance is rounded over this fraction of r on the crest line (no slope kink).
+constexpr double kSharpCrestRound = 0.08;
+
 /// Profile value at distance d (signed distance s for Step/Drop), host copy of the kernel's formula.
 double profile_value(Profile p, double d, double s, double r, double a, double floor_half_width = 0,
-                     double face_fraction = 1, double scree = 0);
+                     double face_fraction = 1, double scree = 0, double crest_round = kSharpCrestRound);
 
 /// One tensor primitive: a shape with a radius of influence, strength and tensor kind.
 struct Primitive {
@@ -64,6 +67,10 @@ struct Primitive {
   double taper_start = 0, taper_end = 0;
   double face_fraction = 1;         ///< Drop: width of the steep face as a fraction of the radius
   double scree = 0;                 ///< Drop: share of the drop taken by the scree apron (0..1)
+  /// Sharp: the distance rounded over this fraction of r on the crest line (0: the plain (1 - u)^3).
+  /// An operation that pins its crest line (crest) uses 0: a rounded top beside the pinned cells
+  /// rose above them (1.4 m on a 150 m studio crest at a bend).
+  double crest_round = kSharpCrestRound;
   /// Open polylines sampled from a smooth curve (CurveShape's Catmull-Rom, >= 3 points): distances
   /// are taken to the C1 chain of cubic Hermite pieces through the points with their vertex
   /// tangents instead of to the chords, whose creases inside each vertex made slope jumps.

@@ -159,7 +159,9 @@ Operation parse_crest(Params& p) {
     }
     const double r = c.resolve_radius(s.grid(), h, 1.5);
     const auto path = c.path(s.grid(), r);
-    add_profile_gradient(s.device(), s.buffers(), {c.primitive(path, r, c.profile, h)});
+    Primitive pr = c.primitive(path, r, c.profile, h);
+    pr.crest_round = 0;  // the line is pinned: a rounded top beside it rose above the crest
+    add_profile_gradient(s.device(), s.buffers(), {pr});
     rasterize_polyline(s, path, c.floor);
     s.changed();
   };
