@@ -19,32 +19,6 @@ using namespace terracl;
 
 namespace {
 
-// D8 drainage area (in cells): every cell passes its area to the steepest lower of its 8 neighbours
-// (metric distances); processed from the highest cell down. Pits keep what they receive.
-std::vector<double> d8_area(const Heightfield& h) {
-  const int w = h.width, n = int(h.size());
-  const double lx = h.georef.cell_x, ly = h.georef.cell_y;
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return h.z[a] > h.z[b]; });
-  std::vector<double> area(n, 1.0);
-  for (int i : order) {
-    const int x = i % w, y = i / w;
-    double best = 0;
-    int to = -1;
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int xx = x + dx, yy = y + dy;
-        if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= w || yy >= h.height) continue;
-        const int j = yy * w + xx;
-        const double s = (double(h.z[i]) - h.z[j]) / std::hypot(dx * lx, dy * ly);
-        if (s > best) best = s, to = j;
-      }
-    if (to >= 0) area[to] += area[i];
-  }
-  return area;
-}
-
 double gini(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const double n = double(v.size());
@@ -96,7 +70,7 @@ struct Measures {
 };
 
 Measures measure(const Heightfield& before, const Heightfield& after) {
-  const auto a0 = d8_area(before), a1 = d8_area(after);
+  const auto a0 = test::d8_area(before), a1 = test::d8_area(after);
   std::vector<double> depth(before.size()), log_area(before.size());
   for (size_t i = 0; i < depth.size(); ++i) depth[i] = double(before.z[i]) - after.z[i], log_area[i] = std::log(a0[i]);
   return {gini(a0), gini(a1), mean_abs_laplacian(after) / mean_abs_laplacian(before), spearman(depth, log_area)};
@@ -109,7 +83,7 @@ TEST(ErosionReference, MeasuresOnKnownAnswers) {
   Heightfield plane(5, 3);
   for (int y = 0; y < 3; ++y)
     for (int x = 0; x < 5; ++x) plane.at(x, y) = float(10 - x);
-  const auto a = d8_area(plane);
+  const auto a = test::d8_area(plane);
   EXPECT_EQ(a[4], 5.0);
   EXPECT_EQ(a[0], 1.0);
   EXPECT_NEAR(gini({1, 1, 1, 1}), 0.0, 1e-12);

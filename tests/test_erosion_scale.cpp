@@ -284,31 +284,6 @@ TEST(ErosionScale, ChannelsAreSeveralCellsWideAtTenMetres) {
 
 namespace {
 
-/// D8 contributing area (m^2) of every cell, highest cell first, as scripts/erosion-look.py computes
-/// it for its valley-ribbon figure: each cell drains to its steepest lower neighbour (none at pits).
-std::vector<double> d8_area_m2(const Heightfield& h) {
-  const int w = h.width, n = int(h.size());
-  const double lx = h.georef.cell_x, ly = h.georef.cell_y;
-  std::vector<int> order(n);
-  for (int i = 0; i < n; ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return h.z[a] > h.z[b]; });
-  std::vector<double> area(n, lx * ly);
-  for (int i : order) {
-    const int x = i % w, y = i / w;
-    double best = 0;
-    int to = -1;
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int xx = x + dx, yy = y + dy;
-        if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= w || yy >= h.height) continue;
-        const double s = (double(h.z[i]) - h.z[yy * w + xx]) / std::hypot(dx * lx, dy * ly);
-        if (s > best) best = s, to = yy * w + xx;
-      }
-    if (to >= 0) area[to] += area[i];
-  }
-  return area;
-}
-
 struct Ribbon {
   double raised = 0;  ///< share of the valley floors raised more than 1 m above the input
   double p95 = 0;     ///< 95th percentile of their raise (m)
@@ -318,7 +293,7 @@ struct Ribbon {
 /// The valley ribbon of scripts/erosion-look.py: on the cells whose D8 area on the input is at least
 /// 0.5 km^2, how many the run leaves more than 1 m above the input.
 Ribbon ribbon(const Heightfield& input, const Heightfield& out) {
-  const std::vector<double> area = d8_area_m2(input);
+  const std::vector<double> area = test::d8_area(input, input.georef.cell_x * input.georef.cell_y);
   std::vector<double> raise;
   Ribbon r;
   for (size_t i = 0; i < input.size(); ++i) {

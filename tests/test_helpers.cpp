@@ -1,10 +1,12 @@
 #include "test_helpers.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <numeric>
 #include <random>
 
 namespace terracl::test {
@@ -84,6 +86,30 @@ size_t bit_differences(const Heightfield& a, const Heightfield& b) {
     n += (an != bn) || (!an && std::memcmp(&a.z[i], &b.z[i], 4) != 0);
   }
   return n;
+}
+
+std::vector<double> d8_area(const Heightfield& h, double cell_area) {
+  const int w = h.width, n = int(h.size());
+  const double lx = h.georef.cell_x, ly = h.georef.cell_y;
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return h.z[a] > h.z[b]; });
+  std::vector<double> area(n, cell_area);
+  for (int i : order) {
+    const int x = i % w, y = i / w;
+    double best = 0;
+    int to = -1;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int xx = x + dx, yy = y + dy;
+        if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= w || yy >= h.height) continue;
+        const int j = yy * w + xx;
+        const double s = (double(h.z[i]) - h.z[j]) / std::hypot(dx * lx, dy * ly);
+        if (s > best) best = s, to = j;
+      }
+    if (to >= 0) area[to] += area[i];
+  }
+  return area;
 }
 
 }  // namespace terracl::test

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace terracl::test {
 
@@ -44,5 +45,10 @@ Heightfield smooth_terrain(int w, int h, double cell = 10.0, double relief = 500
 
 /// Cells whose float32 bits differ (any NaN equals any NaN: nodata); size_t(-1) when the sizes differ.
 size_t bit_differences(const Heightfield& a, const Heightfield& b);
+
+/// D8 drainage area of every cell in units of `cell_area` per cell: each cell passes its area to
+/// its steepest lower neighbour of 8 (metric distances), highest cell first; pits keep theirs.
+/// (The reference of the erosion tests and of scripts/erosion-look.py's valley-ribbon figure.)
+std::vector<double> d8_area(const Heightfield& h, double cell_area = 1.0);
 
 }  // namespace terracl::test

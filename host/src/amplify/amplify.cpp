@@ -509,6 +509,17 @@ std::unique_ptr<AtomIndex> make_index(const Dictionary& d, const AmplifyOptions&
   return nullptr;
 }
 
+// [a0, a1) along the exemplar's long axis (x when wide), [o0, o1) across: the calibration folds.
+Heightfield fold_crop(const Heightfield& ex, bool wide, int a0, int a1, int o0, int o1) {
+  const int w = wide ? a1 - a0 : o1 - o0, h = wide ? o1 - o0 : a1 - a0;
+  const int x0 = wide ? a0 : o0, y0 = wide ? o0 : a0;
+  Heightfield c(w, h);
+  c.georef = ex.georef;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) c.at(x, y) = ex.at(x0 + x, y0 + y);
+  return c;
+}
+
 }  // namespace
 
 
@@ -626,15 +637,7 @@ double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, cons
   const int len = wide ? ex.width : ex.height, other = wide ? ex.height : ex.width;
   const int k = 2, fold = len / k;
   if (fold / f < 4 * P || other / f < 4 * P) return -1;
-  auto crop = [&](int a0, int a1, int o0, int o1) {
-    const int w = wide ? a1 - a0 : o1 - o0, h = wide ? o1 - o0 : a1 - a0;
-    const int x0 = wide ? a0 : o0, y0 = wide ? o0 : a0;
-    Heightfield c(w, h);
-    c.georef = ex.georef;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) c.at(x, y) = ex.at(x0 + x, y0 + y);
-    return c;
-  };
+  auto crop = [&](int a0, int a1, int o0, int o1) { return fold_crop(ex, wide, a0, a1, o0, o1); };
   LearnOptions lo = learn;
   lo.calibrate = false;
   lo.faithful_radius = 0;
@@ -808,15 +811,7 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   int k = std::max(2, o.calibration_folds);
   while (k > 2 && len / k < 4 * o.patch) --k;
   if (len / k < 4 * o.patch || other < 4 * o.patch) return cal;
-  auto crop = [&](int a0, int a1, int o0, int o1) {  // [a0, a1) along the long axis, [o0, o1) across
-    const int w = wide ? a1 - a0 : o1 - o0, h = wide ? o1 - o0 : a1 - a0;
-    const int x0 = wide ? a0 : o0, y0 = wide ? o0 : a0;
-    Heightfield c(w, h);
-    c.georef = ex.georef;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) c.at(x, y) = ex.at(x0 + x, y0 + y);
-    return c;
-  };
+  auto crop = [&](int a0, int a1, int o0, int o1) { return fold_crop(ex, wide, a0, a1, o0, o1); };
   AmplifyOptions ao;
   ao.factor = f;
   ao.spacing = o.calibration_spacing;

@@ -33,6 +33,24 @@ void ordered_tiles(const Comm& c, size_t n, const std::function<Bytes(size_t)>& 
   }
 }
 
+namespace {
+// A tile's core as a message: width, height, cells.
+Bytes pack_core(const Heightfield& h) {
+  ByteWriter w;
+  w.put(int32_t(h.width)).put(int32_t(h.height)).put_vector(h.z);
+  return std::move(w.bytes());
+}
+
+Heightfield unpack_core(const Bytes& b) {
+  ByteReader r(b);
+  const int w = r.get<int32_t>(), h = r.get<int32_t>();
+  Heightfield core(w, h);
+  core.z = r.get_vector<float>();
+  if (core.z.size() != size_t(w) * size_t(h)) fail("tile", "internal: a {} x {} core of {} cells", w, h, core.z.size());
+  return core;
+}
+}  // namespace
+
 void ordered_cores(const Comm& c, size_t n, const std::function<Heightfield(size_t)>& compute,
                    const std::function<void(size_t, const Heightfield&)>& apply) {
   if (c.size() == 1) {
@@ -41,38 +59,12 @@ void ordered_cores(const Comm& c, size_t n, const std::function<Heightfield(size
   }
   ordered_tiles(
       c, n,
-      [&](size_t t) {
-        const Heightfield h = compute(t);
-        ByteWriter w;
-        w.put(int32_t(h.width)).put(int32_t(h.height)).put_vector(h.z);
-        return std::move(w.bytes());
-      },
-      [&](size_t t, const Bytes& b) {
-        ByteReader r(b);
-        const int w = r.get<int32_t>(), h = r.get<int32_t>();
-        Heightfield core(w, h);
-        core.z = r.get_vector<float>();
-        if (core.z.size() != size_t(w) * size_t(h))
-          fail("tile", "internal: a {} x {} core of {} cells", w, h, core.z.size());
-        apply(t, core);
-      });
+      [&](size_t t) { return pack_core(compute(t)); }, [&](size_t t, const Bytes& b) { apply(t, unpack_core(b)); });
 }
 
 analysis::EncodingWindowWriter cells_writer(const analysis::WindowWriter& write) {
-  return {[](int, int, const Heightfield& h) {
-            ByteWriter w;
-            w.put(int32_t(h.width)).put(int32_t(h.height)).put_vector(h.z);
-            return std::move(w.bytes());
-          },
-          [write](int x, int y, const Bytes& b) {
-            ByteReader r(b);
-            const int w = r.get<int32_t>(), h = r.get<int32_t>();
-            Heightfield core(w, h);
-            core.z = r.get_vector<float>();
-            if (core.z.size() != size_t(w) * size_t(h))
-              fail("tile", "internal: a {} x {} core of {} cells", w, h, core.z.size());
-            write(x, y, core);
-          }};
+  return {[](int, int, const Heightfield& h) { return pack_core(h); },
+          [write](int x, int y, const Bytes& b) { write(x, y, unpack_core(b)); }};
 }
 
 void ByteReader::take(void* dst, size_t n) {
