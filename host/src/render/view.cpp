@@ -61,9 +61,11 @@ ViewSetup view_setup(const Heightfield& h, const Options& opt) {
   const bool any = lo <= hi;
   s.zmin = any ? lo : 0.0;
   s.zmax = any ? hi : 0.0;
-  // The march box: a hair above the highest cell, so that a ray entering through the top starts above.
-  s.zlo = s.zmin * s.z_factor;
-  s.zhi = s.zmax * s.z_factor + 1e-3 * std::max(1.0, (s.zmax - s.zmin) * s.z_factor);
+  // The march box: a hair above the highest cell and below the lowest, so that a ray entering
+  // through the top starts above the surface and one leaving through the bottom ends below it.
+  const double pad = 1e-3 * std::max(1.0, (s.zmax - s.zmin) * s.z_factor);
+  s.zlo = s.zmin * s.z_factor - pad;
+  s.zhi = s.zmax * s.z_factor + pad;
 
   const double az = v.azimuth_deg * kDeg, el = v.elevation_deg * kDeg;
   // Looking from azimuth az (clockwise from north; y points south) down by el.
