@@ -25,9 +25,10 @@
 #define V_HAZE_SCALE 24
 #define V_SHADOWS 25
 #define V_BISECT 20
-#define V_SKY_H ((float3)(214.0f, 226.0f, 236.0f))
-#define V_SKY_Z ((float3)(112.0f, 152.0f, 204.0f))
 
+// Scalars only, no float3 and no structs passed by value: Debian's oclgrind --uninitialized
+// crashes on vector shuffles (docs/gpu.md) and cannot run the noalias scope markers that inlining a
+// by-value struct argument leaves; this kernel is checked under it.
 typedef struct {
   __global const float* z;
   int w, h;
@@ -58,7 +59,7 @@ inline float vg_at(const ViewGrid* g, const float x, const float y, float* metre
 }
 
 // Central-difference gradient at vertex (i, j); a border or nodata neighbour is replaced by the vertex.
-inline float2 vg_vertex_gradient(const ViewGrid* g, const int i, const int j) {
+inline void vg_vertex_gradient(const ViewGrid* g, const int i, const int j, float* gx, float* gy) {
   const float c = vg_z(g, i, j);
   int il = i - 1, ir = i + 1, jt = j - 1, jb = j + 1;
   float l = c, r = c, t = c, b = c;
@@ -66,27 +67,30 @@ inline float2 vg_vertex_gradient(const ViewGrid* g, const int i, const int j) {
   if (ir < g->w && !isnan(vg_z(g, ir, j))) r = vg_z(g, ir, j); else ir = i;
   if (jt >= 0 && !isnan(vg_z(g, i, jt))) t = vg_z(g, i, jt); else jt = j;
   if (jb < g->h && !isnan(vg_z(g, i, jb))) b = vg_z(g, i, jb); else jb = j;
-  return (float2)(ir > il ? (r - l) / ((float)(ir - il) * g->cx) : 0.0f,
-                  jb > jt ? (b - t) / ((float)(jb - jt) * g->cy) : 0.0f);
+  *gx = ir > il ? (r - l) / ((float)(ir - il) * g->cx) : 0.0f;
+  *gy = jb > jt ? (b - t) / ((float)(jb - jt) * g->cy) : 0.0f;
 }
 
-inline float3 vg_normal(const ViewGrid* g, const float x, const float y) {
+inline void vg_normal(const ViewGrid* g, const float x, const float y, float* n) {
   int i, j;
-  float ax, ay;
+  float ax, ay, g0x, g0y, g1x, g1y, g2x, g2y, g3x, g3y;
   vg_cell(g, x, y, &i, &j, &ax, &ay);
-  const float2 g0 = vg_vertex_gradient(g, i, j), g1 = vg_vertex_gradient(g, i + 1, j);
-  const float2 g2 = vg_vertex_gradient(g, i, j + 1), g3 = vg_vertex_gradient(g, i + 1, j + 1);
-  const float gx = (1.0f - ay) * ((1.0f - ax) * g0.x + ax * g1.x) + ay * ((1.0f - ax) * g2.x + ax * g3.x);
-  const float gy = (1.0f - ay) * ((1.0f - ax) * g0.y + ax * g1.y) + ay * ((1.0f - ax) * g2.y + ax * g3.y);
-  const float3 n = (float3)(-gx * g->zf, -gy * g->zf, 1.0f);
-  return n / sqrt(dot(n, n));
+  vg_vertex_gradient(g, i, j, &g0x, &g0y);
+  vg_vertex_gradient(g, i + 1, j, &g1x, &g1y);
+  vg_vertex_gradient(g, i, j + 1, &g2x, &g2y);
+  vg_vertex_gradient(g, i + 1, j + 1, &g3x, &g3y);
+  const float gx = (1.0f - ay) * ((1.0f - ax) * g0x + ax * g1x) + ay * ((1.0f - ax) * g2x + ax * g3x);
+  const float gy = (1.0f - ay) * ((1.0f - ax) * g0y + ax * g1y) + ay * ((1.0f - ax) * g2y + ax * g3y);
+  const float nx = -gx * g->zf, ny = -gy * g->zf;
+  const float len = sqrt(nx * nx + ny * ny + 1.0f);
+  n[0] = nx / len, n[1] = ny / len, n[2] = 1.0f / len;
 }
 
 // Clips the ray o + t d (t >= 0) to the grid's box; 0 when it misses.
-inline int vg_clip(const ViewGrid* g, const float3 o, const float3 d, float* t0, float* t1) {
-  const float lo[3] = {0.0f, 0.0f, g->zlo};
-  const float hi[3] = {(float)(g->w - 1) * g->cx, (float)(g->h - 1) * g->cy, g->zhi};
-  const float oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+inline int vg_clip(const ViewGrid* g, const float* oo, const float* dd, float* t0, float* t1) {
+  float lo[3], hi[3];
+  lo[0] = 0.0f, lo[1] = 0.0f, lo[2] = g->zlo;
+  hi[0] = (float)(g->w - 1) * g->cx, hi[1] = (float)(g->h - 1) * g->cy, hi[2] = g->zhi;
   float a0 = 0.0f, a1 = INFINITY;
   for (int k = 0; k < 3; ++k) {
     if (fabs(dd[k]) < 1e-12f) {
@@ -107,14 +111,14 @@ inline int vg_clip(const ViewGrid* g, const float3 o, const float3 d, float* t0,
   return a0 < a1;
 }
 
-inline float vg_step(const ViewGrid* g, const float3 d) {
-  return 0.5f * fmin(g->cx, g->cy) / fmax(sqrt(d.x * d.x + d.y * d.y), 1e-12f);
+inline float vg_step(const ViewGrid* g, const float* d) {
+  return 0.5f * fmin(g->cx, g->cy) / fmax(sqrt(d[0] * d[0] + d[1] * d[1]), 1e-12f);
 }
 
 // Height of the ray above the surface at t (+inf over a hole).
-inline float vg_above(const ViewGrid* g, const float3 o, const float3 d, const float t) {
+inline float vg_above(const ViewGrid* g, const float* o, const float* d, const float t) {
   float m;
-  return o.z + t * d.z - vg_at(g, o.x + t * d.x, o.y + t * d.y, &m);
+  return o[2] + t * d[2] - vg_at(g, o[0] + t * d[0], o[1] + t * d[1], &m);
 }
 
 __kernel void render_view(__global const float* z, const int w, const int h, __global const float* p,
@@ -125,16 +129,23 @@ __kernel void render_view(__global const float* z, const int w, const int h, __g
   ViewGrid g;
   g.z = z, g.w = w, g.h = h;
   g.cx = p[V_CX], g.cy = p[V_CY], g.zf = p[V_ZF], g.zlo = p[V_ZLO], g.zhi = p[V_ZHI];
-  const float3 eye = (float3)(p[V_EYE], p[V_EYE + 1], p[V_EYE + 2]);
-  const float3 fwd = (float3)(p[V_FWD], p[V_FWD + 1], p[V_FWD + 2]);
-  const float3 right = (float3)(p[V_RIGHT], p[V_RIGHT + 1], p[V_RIGHT + 2]);
-  const float3 up = (float3)(p[V_UP], p[V_UP + 1], p[V_UP + 2]);
-  const float3 sun = (float3)(p[V_SUN], p[V_SUN + 1], p[V_SUN + 2]);
   const float sx = 2.0f * ((float)px + 0.5f) / (float)pw - 1.0f, sy = 1.0f - 2.0f * ((float)py + 0.5f) / (float)ph;
-  float3 d = fwd + sx * right + sy * up;
-  d = d / sqrt(dot(d, d));
-  const float sk = sqrt(clamp(d.z, 0.0f, 1.0f));
-  float3 rgb = V_SKY_H + sk * (V_SKY_Z - V_SKY_H);
+  float eye[3], d[3], sun[3];
+  for (int k = 0; k < 3; ++k) {
+    eye[k] = p[V_EYE + k];
+    sun[k] = p[V_SUN + k];
+    d[k] = p[V_FWD + k] + sx * p[V_RIGHT + k] + sy * p[V_UP + k];
+  }
+  const float dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  for (int k = 0; k < 3; ++k) d[k] = d[k] / dl;
+  // Sky colours as scalars: a constant array would become a program-scope variable, on which
+  // oclgrind's --uninitialized plugin crashes at build time.
+  const float sky_h0 = 214.0f, sky_h1 = 226.0f, sky_h2 = 236.0f;
+  const float sk = sqrt(clamp(d[2], 0.0f, 1.0f));
+  float rgb[3];
+  rgb[0] = sky_h0 + sk * (112.0f - sky_h0);
+  rgb[1] = sky_h1 + sk * (152.0f - sky_h1);
+  rgb[2] = sky_h2 + sk * (204.0f - sky_h2);
   float t0, t1;
   if (vg_clip(&g, eye, d, &t0, &t1)) {
     const float dt = vg_step(&g, d);
@@ -162,15 +173,18 @@ __kernel void render_view(__global const float* z, const int w, const int h, __g
       fp = ft;
     }
     if (thit >= 0.0f) {
-      const float x = eye.x + thit * d.x, y = eye.y + thit * d.y;
+      const float x = eye[0] + thit * d[0], y = eye[1] + thit * d[1];
       float zm = 0.0f;
       const float zs = vg_at(&g, x, y, &zm);
       uchar alb[3];
       ramp_color(zm, ramp_z, ramp_rgb, nramp, nodata_rgb, alb);
-      const float3 n = vg_normal(&g, x, y);
-      float light = fmax(0.0f, dot(n, sun));
+      float n[3];
+      vg_normal(&g, x, y, n);
+      float light = fmax(0.0f, n[0] * sun[0] + n[1] * sun[1] + n[2] * sun[2]);
       if (light > 0.0f && p[V_SHADOWS] != 0.0f) {
-        const float3 o = (float3)(x, y, zs + 1e-4f * fmax(g.zhi - g.zlo, 1.0f));
+        // March toward the sun from just above the hit; any surface above the ray shadows it.
+        float o[3];
+        o[0] = x, o[1] = y, o[2] = zs + 1e-4f * fmax(g.zhi - g.zlo, 1.0f);
         float u0, u1;
         if (vg_clip(&g, o, sun, &u0, &u1)) {
           const float ds = vg_step(&g, sun);
@@ -185,11 +199,11 @@ __kernel void render_view(__global const float* z, const int w, const int h, __g
       const float shade = p[V_AMBIENT] + p[V_DIFFUSE] * light;
       const float hz =
           p[V_HAZE] > 0.0f ? 1.0f - exp(-p[V_HAZE] * fmax(0.0f, thit - p[V_HAZE_NEAR]) / p[V_HAZE_SCALE]) : 0.0f;
-      rgb = (float3)((float)alb[0], (float)alb[1], (float)alb[2]) * shade * (1.0f - hz) + V_SKY_H * hz;
+      rgb[0] = (float)alb[0] * shade * (1.0f - hz) + sky_h0 * hz;
+      rgb[1] = (float)alb[1] * shade * (1.0f - hz) + sky_h1 * hz;
+      rgb[2] = (float)alb[2] * shade * (1.0f - hz) + sky_h2 * hz;
     }
   }
   __global uchar* o = out + ((size_t)py * pw + px) * 3;
-  o[0] = rw_byte(rgb.x);
-  o[1] = rw_byte(rgb.y);
-  o[2] = rw_byte(rgb.z);
+  for (int c = 0; c < 3; ++c) o[c] = rw_byte(rgb[c]);
 }
