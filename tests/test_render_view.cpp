@@ -210,6 +210,7 @@ TEST(RenderView, CliWritesPngAndRefusesBadOptions) {
       {"--view-elevation 0", "view-elevation"},
       {"--view-elevation 90", "view-elevation"},
       {"--size 100", "size"},
+      {"--view-target 5", "view-target"},
   };
   for (const auto& [args, name] : bad) {
     const auto e = test::run_cli("-q render " + in + " -o " + tmp.path("x.png") + " --mode perspective --backend host " + args);

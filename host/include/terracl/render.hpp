@@ -75,6 +75,10 @@ struct View {
   /// 1 frames the whole terrain; z > 1 moves the camera toward the frame's centre, by 1 - 1/z of
   /// its distance (2: half way).
   double zoom = 1;
+  /// Aim at this cell (column, row) instead of the terrain's centre: the view axis passes through
+  /// the surface there, from the framing's distance divided by zoom.
+  bool has_target = false;
+  double target[2] = {0, 0};
   double haze = 1;       ///< strength of the distance haze toward the sky (0: none)
   bool shadows = true;   ///< cast shadows: a march toward the sun from every visible point
   /// An explicit eye instead of the framing (tests): metres east of column 0 and south of row 0,

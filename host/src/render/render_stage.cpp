@@ -50,6 +50,16 @@ render::Options render_stage_options(const StageContext& c) {
     o.view.width = w;
     o.view.height = h;
   }
+  if (c.has("view_target")) {
+    const std::string t = c.get<std::string>("view_target");
+    double col = 0, row = 0;
+    char comma = 0, extra = 0;
+    if (std::sscanf(t.c_str(), "%lf%c%lf%c", &col, &comma, &row, &extra) != 3 || comma != ',')
+      fail("render", "view_target (--view-target) must be COL,ROW in cells, e.g. 600,300; got '{}'", t);
+    o.view.has_target = true;
+    o.view.target[0] = col;
+    o.view.target[1] = row;
+  }
   if (o.mode == render::Mode::Perspective) render::check_view(o.view);
   o.progress = c.progress;
   return o;
@@ -195,6 +205,13 @@ StageInfo render_stage_info() {
             1.0,
             "",
             "Perspective: 1 frames the whole terrain; 2 moves the camera half way toward the frame's centre",
+            {},
+            false},
+           {"view_target",
+            OptionType::String,
+            nullptr,
+            "cells",
+            "Perspective: aim at cell COL,ROW (from the framing's distance / view_zoom) instead of the terrain's centre",
             {},
             false},
            {"haze", OptionType::Float, 1.0, "", "Perspective: strength of the distance haze (0: none)", {}, false},

@@ -38,6 +38,8 @@ void check_view(const View& v) {
     fail("render", "size (--size) must be WxH with 1..16384 pixels a side; got {}x{}", v.width, v.height);
   if (!(v.zoom > 0) || !std::isfinite(v.zoom)) fail("render", "view_zoom (--view-zoom) must be > 0; got {}", v.zoom);
   if (!(v.haze >= 0) || !std::isfinite(v.haze)) fail("render", "haze (--haze) must be >= 0; got {}", v.haze);
+  if (v.has_target && !(std::isfinite(v.target[0]) && std::isfinite(v.target[1])))
+    fail("render", "view_target (--view-target) must be two finite cell coordinates COL,ROW");
 }
 
 namespace detail {
@@ -107,8 +109,19 @@ ViewSetup view_setup(const Heightfield& h, const Options& opt) {
     const double centre[3] = {0.5 * (h.width - 1) * s.cell_x, 0.5 * (h.height - 1) * s.cell_y,
                               0.5 * (s.zlo + s.zmax * s.z_factor)};
     const double depth = dot3(centre, s.fwd) - cf;
-    if (v.zoom != 1 && depth > 0) cf += depth * (1 - 1 / v.zoom);
-    for (int k = 0; k < 3; ++k) s.eye[k] = cr * r[k] + cu * u[k] + cf * s.fwd[k];
+    if (v.has_target) {
+      // The target cell's surface point on the view axis, as far away as the centre was.
+      const int tx_i = std::clamp(int(std::lround(v.target[0])), 0, h.width - 1);
+      const int ty_i = std::clamp(int(std::lround(v.target[1])), 0, h.height - 1);
+      const float tz = h.at(tx_i, ty_i);
+      const double t[3] = {v.target[0] * s.cell_x, v.target[1] * s.cell_y,
+                           std::isnan(tz) ? 0.5 * (s.zlo + s.zhi) : tz * s.z_factor};
+      const double dist = std::max(depth, 1e-6) / v.zoom;
+      for (int k = 0; k < 3; ++k) s.eye[k] = t[k] - dist * s.fwd[k];
+    } else {
+      if (v.zoom != 1 && depth > 0) cf += depth * (1 - 1 / v.zoom);
+      for (int k = 0; k < 3; ++k) s.eye[k] = cr * r[k] + cu * u[k] + cf * s.fwd[k];
+    }
   }
   for (int k = 0; k < 3; ++k) s.right[k] = tx * r[k], s.up[k] = ty * u[k];
 
