@@ -231,7 +231,7 @@ StageInfo render_stage_info() {
 // against the kernels, on a DEM (--set dem=FILE, whole raster) or an N x N synthetic grid.
 void register_render_benches(BenchRegistry& r) {
   r.add({"render",
-         "Shading time of render (hillshade, shaded-relief, tri) on the host and on the OpenCL device, file I/O "
+         "Shading time of render (hillshade, shaded-relief, tri, perspective) on the host and on the OpenCL device, file I/O "
          "excluded; --set dem=FILE renders a whole DEM, else an N x N synthetic grid",
          [](const BenchArgs& a) {
            Heightfield h;
@@ -279,6 +279,11 @@ void register_render_benches(BenchRegistry& r) {
                time(name + " device", [&] { (void)render::render(h, o, *dev); });
              }
            }
+           // The perspective view at its default size and camera (rays, shadows, haze).
+           render::Options o;
+           o.mode = render::Mode::Perspective;
+           time("perspective 1024x640 host", [&] { (void)render::render_view(h, o); });
+           time("perspective 1024x640 device", [&] { (void)render::render_view(h, o, *dev); });
          }});
 }
 
