@@ -2,8 +2,8 @@
 // marcher in double precision. kernels/render_view.cl is the same algorithm in float, step for step
 // (same march samples, same bisection count), so the two differ only where rounding flips a hit.
 #include <algorithm>
+#include <array>
 #include <cmath>
-#include <limits>
 #include <terracl/error.hpp>
 #include <terracl/render.hpp>
 
