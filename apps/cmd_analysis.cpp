@@ -34,6 +34,8 @@ void check_render_file(const json& resolved) {
   const FileFormat f = format_from_extension(file);
   const std::string mode = resolved.value("mode", std::string("hillshade"));
   const bool values = mode == "aspect" || mode == "tri" || mode == "tpi" || mode == "roughness";
+  if (mode == "perspective" && f != FileFormat::PNG)
+    throw UsageError("render", fmt::format("-o {}: a perspective picture has no georeferencing; use a .png name", file));
   if (f != FileFormat::GeoTIFF && (values || f != FileFormat::PNG))
     throw UsageError("render", values ? fmt::format("-o {}: --mode {} writes a float GeoTIFF; use a .tif name", file, mode)
                                       : fmt::format("-o {}: render writes a PNG or a GeoTIFF; use a .png name or a .tif name", file));

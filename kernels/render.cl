@@ -7,37 +7,12 @@
 #pragma OPENCL FP_CONTRACT OFF
 #include "render_window.clh"
 #include "launch.clh"
+#include "render_ramp.clh"
 
 #define MODE_HILLSHADE 0
 #define MODE_RELIEF 1
 #define MODE_SLOPE 2
 #define MODE_SHADED_RELIEF 3
-
-inline void ramp_color(const float v, __global const float* rz, __global const uchar* rgb, const int n,
-                       const uint nodata, uchar* out) {
-  if (isnan(v)) {
-    out[0] = (uchar)(nodata & 255u);
-    out[1] = (uchar)((nodata >> 8) & 255u);
-    out[2] = (uchar)((nodata >> 16) & 255u);
-    return;
-  }
-  if (v <= rz[0]) {
-    out[0] = rgb[0], out[1] = rgb[1], out[2] = rgb[2];
-    return;
-  }
-  for (int k = 1; k < n; ++k) {
-    const float a = rz[k - 1], b = rz[k];
-    if (v <= b) {
-      const float t = b > a ? (v - a) / (b - a) : 1.0f;
-      for (int c = 0; c < 3; ++c) {
-        const float c0 = (float)rgb[3 * (k - 1) + c], c1 = (float)rgb[3 * k + c];
-        out[c] = rw_byte(c0 + t * (c1 - c0));
-      }
-      return;
-    }
-  }
-  out[0] = rgb[3 * (n - 1)], out[1] = rgb[3 * (n - 1) + 1], out[2] = rgb[3 * (n - 1) + 2];
-}
 
 // The picture of one pixel from its window `v` (ok = 0 where gdaldem writes nodata), c = centre.
 __attribute__((always_inline)) inline void render_pixel(const int mode, const int shading, const int ok, const float* v, const float c,

@@ -34,6 +34,18 @@ for name in canyon volcanic_island mountain_range cliff river_valley dem_paste; 
     src="$tmp/${name}_small.tif"
   fi
   "$T" -q render "$src" --mode shaded-relief -o "docs/img/edit_$name.png"
+  # Beside it a perspective view of the full-resolution result (1024 x 640), each camera chosen so
+  # that the landform reads (docs/authoring.md says which paper figure each one stands next to).
+  case "$name" in
+    canyon) view="--view-azimuth 140 --view-elevation 32 --view-zoom 1.3 --azimuth 200 --altitude 45" ;;
+    volcanic_island) view="--view-azimuth 200 --view-elevation 30 --view-zoom 1.15 --azimuth 250 --altitude 35" ;;
+    mountain_range) view="--view-azimuth 205 --view-elevation 30 --view-target 520,440 --view-zoom 1.6 --azimuth 250 --altitude 28" ;;
+    cliff) view="--view-azimuth 250 --view-elevation 22 --view-target 600,600 --view-zoom 1.6 --azimuth 270 --altitude 30" ;;
+    river_valley) view="--view-azimuth 80 --view-elevation 35 --view-target 540,300 --view-zoom 2.2 --z-factor 1.5 --azimuth 160 --altitude 35" ;;
+    dem_paste) view="--view-azimuth 100 --view-elevation 40 --view-target 620,560 --view-zoom 2.6 --z-factor 2 --azimuth 190 --altitude 40" ;;
+  esac
+  # shellcheck disable=SC2086
+  "$T" -q render "$tmp/$name.tif" --mode perspective $view -o "docs/img/edit_${name}_3d.png"
   made=$((made + 1))
 done
 echo "gen-pictures: made $made picture set(s); pictures are under docs/img/"

@@ -92,6 +92,8 @@ for m in hillshade relief slope shaded-relief; do
   run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.png" --mode "$m"
 done
 run render_igor_edges render "$OUT/c45.tif" -o "$OUT/igor.tif" --shading igor --compute-edges
+# The perspective ray march (render_view.cl), shadows and haze on, a small picture (~2 s).
+run render_perspective render "$OUT/c45.tif" -o "$OUT/persp.png" --mode perspective --size 64x40
 for m in aspect tri tpi roughness; do
   run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.tif" --mode "$m" --compute-edges
 done

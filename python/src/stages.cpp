@@ -5,6 +5,7 @@
 #include "common.hpp"
 
 #include <terracl/edit.hpp>
+#include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/memory.hpp>
 #include <terracl/pipeline.hpp>
@@ -14,6 +15,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 
 namespace terracl::python {
@@ -227,6 +229,29 @@ py::array_t<uint8_t> render_image(py::object input, const py::dict& kwargs, py::
   o.tri_alg = r.at("tri_alg").get<std::string>() == "wilson" ? render::TriAlg::Wilson : render::TriAlg::Riley;
   o.aspect_trigonometric = r.at("trigonometric").get<bool>();
   o.zero_for_flat = r.at("zero_for_flat").get<bool>();
+  // The perspective view's camera (render_stage.cpp's render_stage_options).
+  o.view.azimuth_deg = r.at("view_azimuth").get<double>();
+  o.view.elevation_deg = r.at("view_elevation").get<double>();
+  o.view.fov_deg = r.at("fov").get<double>();
+  o.view.zoom = r.at("view_zoom").get<double>();
+  o.view.haze = r.at("haze").get<double>();
+  o.view.shadows = r.at("shadows").get<bool>();
+  {
+    const std::string size = r.at("size").get<std::string>();
+    char x = 0, extra = 0;
+    if (std::sscanf(size.c_str(), "%d%c%d%c", &o.view.width, &x, &o.view.height, &extra) != 3 || (x != 'x' && x != 'X'))
+      fail("render", "size must be WxH in pixels, e.g. 1024x640; got '{}'", size);
+  }
+  if (!r.at("view_target").is_null()) {
+    const std::string t = r.at("view_target").get<std::string>();
+    char comma = 0, extra = 0;
+    if (std::sscanf(t.c_str(), "%lf%c%lf%c", &o.view.target[0], &comma, &o.view.target[1], &extra) != 3 || comma != ',')
+      fail("render", "view_target must be COL,ROW in cells; got '{}'", t);
+    o.view.has_target = true;
+  }
+  if (o.mode == render::Mode::Perspective && to_file &&
+      format_from_extension(r.at("file").get<std::string>()) != FileFormat::PNG)
+    fail("render", "{}: a perspective picture has no georeferencing; write it as .png", r.at("file").get<std::string>());
   const bool host = r.at("backend").get<std::string>() == "host";
   DeviceSlot* slot = host ? nullptr : &device_slot(device);
   ProgressBridge bridge(progress);

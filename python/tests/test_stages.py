@@ -92,6 +92,15 @@ def test_render_equals_cli(dem, dem_path, cli, tmp_path):
     assert not np.array_equal(terracl.render(dem, azimuth=90), terracl.render(dem))
 
 
+def test_render_perspective_equals_cli(dem, dem_path, cli, tmp_path):
+    out = tmp_path / "view.png"
+    flags = ["--mode", "perspective", "--size", "96x60", "--view-azimuth", "120", "--view-target", "20,15"]
+    cli("render", dem_path, "-o", out, *flags)
+    img = terracl.render(dem, mode="perspective", size="96x60", view_azimuth=120, view_target="20,15")
+    assert img.shape == (60, 96, 3)
+    assert np.array_equal(img, png_rgb(out))
+
+
 def test_edit_equals_cli(cli, tmp_path):
     script = {"units": "cells", "operations": [
         {"op": "crest", "points": [[20, 60], [100, 40]], "elevation": 400, "radius": 10, "height": 150},

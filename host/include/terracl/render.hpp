@@ -14,8 +14,8 @@
 
 namespace terracl::render {
 
-enum class Mode { Hillshade, Relief, Slope, ShadedRelief, Aspect, TRI, TPI, Roughness };
-/// hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness (TRI/TPI in either case)
+enum class Mode { Hillshade, Relief, Slope, ShadedRelief, Aspect, TRI, TPI, Roughness, Perspective };
+/// hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness|perspective (TRI/TPI in either case)
 Mode mode_from_name(const std::string& name);
 /// Aspect, TRI, TPI and roughness are only values (values()); slope is both a picture and values.
 bool is_value_mode(Mode m);
@@ -65,6 +65,30 @@ struct ColorRamp {
   void color(double z, double zmin, double zmax, uint8_t out[3]) const;
 };
 
+/// Camera and look of the perspective picture (Mode::Perspective): a pinhole camera looking at the
+/// terrain from `azimuth_deg` and `elevation_deg`, placed so that the whole terrain fills the frame.
+struct View {
+  int width = 1024, height = 640;  ///< picture size in pixels
+  double azimuth_deg = 200;        ///< where the camera looks from, clockwise from north (200: SSW)
+  double elevation_deg = 35;       ///< camera pitch: view axis below the horizon, in (0, 90)
+  double fov_deg = 40;             ///< field of view across the picture's width, in (0, 180)
+  /// 1 frames the whole terrain; z > 1 moves the camera toward the frame's centre, by 1 - 1/z of
+  /// its distance (2: half way).
+  double zoom = 1;
+  /// Aim at this cell (column, row) instead of the terrain's centre: the view axis passes through
+  /// the surface there, from the framing's distance divided by zoom.
+  bool has_target = false;
+  double target[2] = {0, 0};
+  double haze = 1;       ///< strength of the distance haze toward the sky (0: none)
+  bool shadows = true;   ///< cast shadows: a march toward the sun from every visible point
+  /// An explicit eye instead of the framing (tests): metres east of column 0 and south of row 0,
+  /// and height in displayed metres (elevation * z_factor).
+  bool has_eye = false;
+  double eye[3] = {0, 0, 0};
+};
+/// Throws a clear error naming the option (fov, view_elevation, size, ...) for a bad camera.
+void check_view(const View& v);
+
 struct Options {
   Mode mode = Mode::Hillshade;
   double azimuth_deg = 315;   ///< light from the north-west, clockwise from north
@@ -85,6 +109,7 @@ struct Options {
   /// Horizontal units per vertical unit (gdaldem -s), e.g. 111120 for degrees over metres; slope
   /// and hillshade divide the gradient by it (with z_factor on top).
   double scale = 1;
+  View view;  ///< the perspective mode's camera
   /// Rows per device launch: bounds device memory and paces progress.
   int strip_rows = 1024;
   Progress progress;
@@ -96,11 +121,20 @@ std::vector<uint8_t> hillshade(const Heightfield& h, double azimuth_deg = 315, d
                                double z_factor = 1);
 
 /// Host reference implementation of the pictures (double precision). Throws for value modes
-/// other than slope.
+/// other than slope. Mode::Perspective gives render_view's picture.
 Image render(const Heightfield& h, const Options& opt);
 /// The same picture computed by kernels/render.cl on `device`, strip by strip (single precision;
 /// agrees with the host version within one level per channel).
 Image render(const Heightfield& h, const Options& opt, Device& device);
+
+/// Perspective picture (opt.view.width x height, RGB, no georeferencing): every pixel's ray is
+/// marched against the bilinear surface (steps of half a cell), the hit refined by bisection and
+/// shaded with the sun (Lambert + ambient on the interpolated vertex normals, cast shadows), the
+/// colour from opt.ramp at the hit's elevation, hazed toward the sky with distance. Nodata cells are
+/// holes. Host reference in double precision.
+Image render_view(const Heightfield& h, const Options& opt);
+/// The same through kernels/render_view.cl (single precision; one work-item per pixel).
+Image render_view(const Heightfield& h, const Options& opt, Device& device);
 
 /// gdaldem's value raster for `opt.mode` (slope in degrees or percent, aspect in degrees, TRI,
 /// TPI, roughness in elevation units), NaN where gdaldem writes nodata; the georef is the

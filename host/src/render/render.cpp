@@ -33,7 +33,9 @@ Mode mode_from_name(const std::string& name) {
   if (n == "tri") return Mode::TRI;
   if (n == "tpi") return Mode::TPI;
   if (n == "roughness") return Mode::Roughness;
-  fail("render", "unknown mode '{}' (expected hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness)", name);
+  if (n == "perspective") return Mode::Perspective;
+  fail("render", "unknown mode '{}' (expected hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness|perspective)",
+       name);
 }
 
 bool is_value_mode(Mode m) {
@@ -254,6 +256,7 @@ void scan_heights(const float* z, size_t n, const Options& opt, LayoutScan& s) {
 
 PictureLayout picture_layout(int width, int height, const Options& opt, const LayoutScan& s) {
   refuse_value_picture(opt);
+  if (opt.mode == Mode::Perspective) fail("render", "a perspective picture is drawn whole (render_view), not in strips");
   PictureLayout l;
   l.grey = grey_mode(opt);
   l.alpha = s.has_nan || border_nodata(width, height, opt);
@@ -270,6 +273,7 @@ PictureLayout picture_layout(const Heightfield& h, const Options& opt) {
 }
 
 Image render(const Heightfield& h, const Options& opt) {
+  if (opt.mode == Mode::Perspective) return render_view(h, opt);
   check_options(h, opt);
   return render(h, opt, picture_layout(h, opt));
 }

@@ -51,6 +51,7 @@ size_t strip_cells(const Heightfield& h, const Options& opt) {
 }  // namespace
 
 Image render(const Heightfield& h, const Options& opt, Device& device) {
+  if (opt.mode == Mode::Perspective) return render_view(h, opt, device);
   check_options(h, opt);
   return render(h, opt, picture_layout(h, opt), device);
 }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <ctime>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -34,6 +35,32 @@ render::Options render_stage_options(const StageContext& c) {
   o.gradient_alg = c.get<std::string>("alg") == "zevenbergenthorne" ? render::GradientAlg::ZevenbergenThorne
                                                                      : render::GradientAlg::Horn;
   o.scale = c.get<double>("scale");
+  o.view.azimuth_deg = c.get<double>("view_azimuth");
+  o.view.elevation_deg = c.get<double>("view_elevation");
+  o.view.fov_deg = c.get<double>("fov");
+  o.view.zoom = c.get<double>("view_zoom");
+  o.view.haze = c.get<double>("haze");
+  o.view.shadows = c.get<bool>("shadows");
+  {
+    const std::string size = c.get<std::string>("size");
+    int w = 0, h = 0;
+    char x = 0, extra = 0;
+    if (std::sscanf(size.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X'))
+      fail("render", "size (--size) must be WxH in pixels, e.g. 1024x640; got '{}'", size);
+    o.view.width = w;
+    o.view.height = h;
+  }
+  if (c.has("view_target")) {
+    const std::string t = c.get<std::string>("view_target");
+    double col = 0, row = 0;
+    char comma = 0, extra = 0;
+    if (std::sscanf(t.c_str(), "%lf%c%lf%c", &col, &comma, &row, &extra) != 3 || comma != ',')
+      fail("render", "view_target (--view-target) must be COL,ROW in cells, e.g. 600,300; got '{}'", t);
+    o.view.has_target = true;
+    o.view.target[0] = col;
+    o.view.target[1] = row;
+  }
+  if (o.mode == render::Mode::Perspective) render::check_view(o.view);
   o.progress = c.progress;
   return o;
 }
@@ -46,6 +73,8 @@ void run_render(StageContext& c) {
   const bool tif = format_from_extension(file) == FileFormat::GeoTIFF;
   const bool host = c.get<std::string>("backend") == "host";
   const Heightfield& h = c.height();
+  if (o.mode == render::Mode::Perspective && tif)
+    fail("render", "{}: a perspective picture has no georeferencing; write it as .png", file);
   // Slope to a GeoTIFF is gdaldem's float raster; to a PNG the grey picture.
   if (render::is_value_mode(o.mode) && (tif || o.mode != render::Mode::Slope)) {
     if (!tif) fail("render", "{}: mode {} writes values; use a .tif name", file, c.get<std::string>("mode"));
@@ -81,8 +110,9 @@ StageInfo render_stage_info() {
             OptionType::Enum,
             "hillshade",
             "",
-            "What to draw: pictures hillshade|relief|slope|shaded-relief, values (.tif) slope|aspect|tri|tpi|roughness",
-            {"hillshade", "relief", "slope", "shaded-relief", "aspect", "tri", "tpi", "roughness"},
+            "What to draw: pictures hillshade|relief|slope|shaded-relief, a perspective view (.png), values (.tif) "
+            "slope|aspect|tri|tpi|roughness",
+            {"hillshade", "relief", "slope", "shaded-relief", "aspect", "tri", "tpi", "roughness", "perspective"},
             false},
            {"azimuth", OptionType::Float, 315.0, "deg", "Sun azimuth, clockwise from north", {}, false},
            {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},
@@ -154,6 +184,38 @@ StageInfo render_stage_info() {
             false,
             1e-12,
             1e15},
+           {"view_azimuth",
+            OptionType::Float,
+            200.0,
+            "deg",
+            "Perspective: where the camera looks from, clockwise from north (200: from the south-south-west)",
+            {},
+            false},
+           {"view_elevation",
+            OptionType::Float,
+            35.0,
+            "deg",
+            "Perspective: camera pitch below the horizon, in (0, 90)",
+            {},
+            false},
+           {"fov", OptionType::Float, 40.0, "deg", "Perspective: field of view across the picture's width, in (0, 180)", {}, false},
+           {"size", OptionType::String, "1024x640", "px", "Perspective: picture size WxH", {}, false},
+           {"view_zoom",
+            OptionType::Float,
+            1.0,
+            "",
+            "Perspective: 1 frames the whole terrain; 2 moves the camera half way toward the frame's centre",
+            {},
+            false},
+           {"view_target",
+            OptionType::String,
+            nullptr,
+            "cells",
+            "Perspective: aim at cell COL,ROW (from the framing's distance / view_zoom) instead of the terrain's centre",
+            {},
+            false},
+           {"haze", OptionType::Float, 1.0, "", "Perspective: strength of the distance haze (0: none)", {}, false},
+           {"shadows", OptionType::Bool, true, "", "Perspective: cast shadows toward the sun", {}, false},
            {"backend",
             OptionType::Enum,
             "device",
@@ -169,7 +231,7 @@ StageInfo render_stage_info() {
 // against the kernels, on a DEM (--set dem=FILE, whole raster) or an N x N synthetic grid.
 void register_render_benches(BenchRegistry& r) {
   r.add({"render",
-         "Shading time of render (hillshade, shaded-relief, tri) on the host and on the OpenCL device, file I/O "
+         "Shading time of render (hillshade, shaded-relief, tri, perspective) on the host and on the OpenCL device, file I/O "
          "excluded; --set dem=FILE renders a whole DEM, else an N x N synthetic grid",
          [](const BenchArgs& a) {
            Heightfield h;
@@ -217,6 +279,11 @@ void register_render_benches(BenchRegistry& r) {
                time(name + " device", [&] { (void)render::render(h, o, *dev); });
              }
            }
+           // The perspective view at its default size and camera (rays, shadows, haze).
+           render::Options o;
+           o.mode = render::Mode::Perspective;
+           time("perspective 1024x640 host", [&] { (void)render::render_view(h, o); });
+           time("perspective 1024x640 device", [&] { (void)render::render_view(h, o, *dev); });
          }});
 }
 

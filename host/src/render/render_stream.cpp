@@ -42,7 +42,8 @@ bool can_stream_render(const std::string& input, const std::string& output, cons
   const FileFormat in = format_from_extension(input), out = format_from_extension(output);
   const bool gdal_in = in == FileFormat::GeoTIFF || in == FileFormat::HGT || in == FileFormat::GDALOther;
   const bool picture = !is_value_mode(opt.mode) || (opt.mode == Mode::Slope && out == FileFormat::PNG);
-  return gdal_in && picture && (out == FileFormat::PNG || out == FileFormat::GeoTIFF);
+  // A perspective ray may cross the whole raster: drawn from memory (render_view).
+  return gdal_in && picture && opt.mode != Mode::Perspective && (out == FileFormat::PNG || out == FileFormat::GeoTIFF);
 }
 
 void render_file(const std::string& input, const std::string& output, const Options& opt, Device* device,

@@ -40,6 +40,8 @@ std::string extension(const std::string& f) {
 
 namespace tile {
 std::string render_tiling_limit(const json& o) {
+  if (render::mode_from_name(o.at("mode").get<std::string>()) == render::Mode::Perspective)
+    return "a perspective picture is one view of the whole terrain (any ray may cross every tile); run it untiled";
   const std::string file = o.at("file").get<std::string>();
   if (format_from_extension(file) != FileFormat::GeoTIFF)
     return fmt::format(

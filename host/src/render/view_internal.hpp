@@ -1,0 +1,37 @@
+#pragma once
+// The perspective picture's camera, sun and look, computed once on the host (double) and shared by
+// the host reference (view.cpp) and the kernel launcher (view_cl.cpp, as float slots).
+#include <terracl/render.hpp>
+#include <vector>
+
+namespace terracl::render::detail {
+
+/// World frame: x east from column 0 (metres), y south from row 0 (metres), z up in displayed metres
+/// (elevation * z_factor). Camera ray of pixel (px, py): fwd + sx * right + sy * up with
+/// sx, sy in [-1, 1] across the picture (right and up are scaled by the half-fov tangents).
+struct ViewSetup {
+  double eye[3], fwd[3], right[3], up[3];
+  double sun[3];          ///< unit vector toward the sun
+  double cell_x, cell_y;  ///< metres
+  double z_factor;
+  double zlo, zhi;        ///< displayed height range of the valid cells (the march's box)
+  double zmin, zmax;      ///< data range in metres (percentage ramps)
+  double ambient = 0.3, diffuse = 0.8;
+  double haze, haze_near, haze_scale;  ///< haze = 1 - exp(-haze * max(0, d - near) / scale)
+  bool shadows;
+};
+
+/// Sky colours: toward the horizon (also the haze colour) and the zenith.
+constexpr double kSkyHorizon[3] = {214, 226, 236};
+constexpr double kSkyZenith[3] = {112, 152, 204};
+/// Bisection steps refining a hit between two march samples (half a cell apart): 2^-20 of a step.
+constexpr int kBisect = 20;
+
+/// Checks `opt` for a perspective picture of `h` and sets up the camera (framing the terrain
+/// unless opt.view.has_eye).
+ViewSetup view_setup(const Heightfield& h, const Options& opt);
+
+/// The float slots of `s` in the order kernels/render_view.cl reads them (V_* there).
+std::vector<float> view_slots(const ViewSetup& s);
+
+}  // namespace terracl::render::detail
