@@ -81,6 +81,6 @@ band = [[round(west(y) - 200, 1), y] for y in (0, 1280, 2560, 3840, 5120)] + \
        [[round(east(y) + 200, 1), y] for y in (5120, 3840, 2560, 1280, 0)]
 ops.append({"op": "noise", "comment": "gullies down the canyon walls: a band along the two rims", "polygon": band, "falloff": 300,
             "amplitude": 12, "wavelength": 250, "type": "ridged", "octaves": 3, "orient": {"angle": 0, "strength": 0.7}})
-doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on a 500 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons of varied length (heads 0.35-2.2 km back on the plateau) that cut through the rims and end at the wall's foot, fBm, oriented gullies on the walls.",
+doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on a 500 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons of varied length (heads 0.35-1.9 km back on the plateau) that cut through the rims and end at the wall's foot, fBm, oriented gullies on the walls.",
        "base": "flat:1025x1025@5", "units": "m", "seed": 11, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)
