@@ -273,6 +273,73 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (size_t i = 6; i + 4 < pts.size(); i += 2, ++cols)
         EXPECT_LT(crest[i - 1], std::min(crest[i - 2], crest[i]) - 100) << "no col between summits " << i - 2 << " and " << i;
       EXPECT_GE(cols, 3);
+      // The crest reads as one line from peak to peak, not a row of pyramids: each inner col
+      // stands above 0.85 of the lower summit beside it (0.86-0.88; the former range's: 0.78-0.84, each
+      // summit a cone rising from near the plain).
+      for (size_t i = 6; i + 4 < pts.size(); i += 2)
+        EXPECT_GT(crest[i - 1], 0.85 * std::min(crest[i - 2], crest[i])) << "col " << i - 1 << " drops too deep: " << crest[i - 1] << " m between " << crest[i - 2] << " and " << crest[i];
+      // Spurs (the free_crests rooted within 0.15 r of the crest line, narrower than the stroke):
+      // of varied length (the longest >= 2x the shortest) and unevenly spaced along each flank
+      // (coefficient of variation of the spacing >= 0.4; the former comb teeth: lengths
+      // 0.6-0.95 r, 0.31 and 0.36 on its two flanks).
+      std::vector<double> lens, arc_at(line.size(), 0.0);
+      for (size_t i = 1; i < line.size(); ++i) arc_at[i] = arc_at[i - 1] + std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
+      std::vector<double> roots[2];
+      for (const auto& o : script.at("operations")) {
+        if (o.at("op") != "free_crest" || double(o.at("width")) >= 2 * r) continue;
+        const auto& q = o.at("points");
+        const double qx = q[0][0], qy = q[0][1];
+        size_t k = 0;
+        double d = 1e30;
+        for (size_t i = 0; i < line.size(); ++i)
+          if (std::hypot(line[i].x - qx, line[i].y - qy) < d) d = std::hypot(line[i].x - qx, line[i].y - qy), k = i;
+        if (d > 0.15 * r) continue;
+        double len = 0;
+        for (size_t j = 1; j < q.size(); ++j) len += std::hypot(double(q[j][0]) - double(q[j - 1][0]), double(q[j][1]) - double(q[j - 1][1]));
+        lens.push_back(len);
+        const size_t k0 = k ? k - 1 : k, k1 = std::min(k + 1, line.size() - 1);
+        const double cross = (line[k1].x - line[k0].x) * (double(q.back()[1]) - qy) - (line[k1].y - line[k0].y) * (double(q.back()[0]) - qx);
+        roots[cross > 0].push_back(arc_at[k]);
+      }
+      ASSERT_GE(lens.size(), 10u) << "the range has spurs";
+      EXPECT_GE(*std::max_element(lens.begin(), lens.end()), 2 * *std::min_element(lens.begin(), lens.end())) << "spurs of one length";
+      for (auto& rs : roots) {
+        std::sort(rs.begin(), rs.end());
+        ASSERT_GE(rs.size(), 4u);
+        double m = 0, v = 0;
+        for (size_t i = 1; i < rs.size(); ++i) m += (rs[i] - rs[i - 1]) / (rs.size() - 1);
+        for (size_t i = 1; i < rs.size(); ++i) v += (rs[i] - rs[i - 1] - m) * (rs[i] - rs[i - 1] - m) / (rs.size() - 1);
+        EXPECT_GE(std::sqrt(v) / m, 0.4) << "spurs evenly spaced along a flank (comb teeth): " << std::sqrt(v) / m;
+      }
+    }
+    if (kind == "river" && name == "canyon") {
+      // No pit along the canyon's river: down the thalweg (the lowest point across the bed within
+      // r, every half cell along the smoothed river) no closed depression deeper than 3 m (the
+      // depth of water it would hold: min(highest point upstream, highest downstream) - z). The
+      // former side canyons, still 170 m deep at their ends, ran on into the floor and dug pits by
+      // the river 15-40 m deep.
+      const auto& pts = op.at("points");
+      std::vector<Vec2> ctrl;
+      for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])});
+      const auto line = catmull_rom(ctrl, 0.5 * cell);
+      const double r = 0.5 * double(op.at("width"));
+      std::vector<double> z;
+      for (size_t i = 1; i + 1 < line.size(); ++i) {
+        if (line[i].x < 0 || line[i].y < 0 || line[i].x > extent || line[i].y > extent) continue;
+        const double tx = line[i + 1].x - line[i - 1].x, ty = line[i + 1].y - line[i - 1].y, l = std::hypot(tx, ty);
+        double lo = 1e30;
+        for (double s = -r; s <= r; s += 0.5 * cell) lo = std::min(lo, at_m(h, cell, line[i].x - s * ty / l, line[i].y + s * tx / l));
+        z.push_back(lo);
+      }
+      ASSERT_GT(z.size(), 100u);
+      std::vector<double> up(z.size()), down(z.size());
+      for (size_t i = 0; i < z.size(); ++i) up[i] = std::max(z[i], i ? up[i - 1] : -1e30);
+      for (size_t i = z.size(); i-- > 0;) down[i] = std::max(z[i], i + 1 < z.size() ? down[i + 1] : -1e30);
+      double worst = 0;
+      size_t at = 0;
+      for (size_t i = 0; i < z.size(); ++i)
+        if (std::min(up[i], down[i]) - z[i] > worst) worst = std::min(up[i], down[i]) - z[i], at = i;
+      EXPECT_LT(worst, 3.0) << "a pit " << worst << " m deep along the canyon's river (sample " << at << " of " << z.size() << ")";
     }
   }
 }
