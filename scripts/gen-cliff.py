@@ -18,7 +18,9 @@ rng = random.Random(11)
 # (azimuth 315 degrees), and is lit. The brink wanders about the former straight-ish line in bays and
 # headlands (wavelengths >= 500 m: a tighter bend puts the profile's medial-axis crease inside the
 # apron, within the bend's radius of curvature of the rim).
-base = [[1700, -20], [1500, 700], [1180, 1400], [860, 2070]]
+# The stroke runs 400 m past the map at both ends: a cliff dies out past its ends (its drop fades over
+# r), which drew a straight ramp edge across the apron's corner when the stroke ended at the map's edge.
+base = [[1812, -420], [1700, -20], [1500, 700], [1180, 1400], [860, 2070], [669, 2470]]
 
 
 def catmull(P, n=64):
@@ -44,8 +46,8 @@ def base_x(y):
 
 ph1, ph2 = rng.uniform(0, 2 * math.pi), rng.uniform(0, 2 * math.pi)
 rim = []
-for k in range(12):
-    y = -20 + k * (2090 / 11)
+for k in range(16):
+    y = -420 + k * (2890 / 15)
     wander = 45 * math.sin(2 * math.pi * y / 950 + ph1) + 18 * math.sin(2 * math.pi * y / 520 + ph2)
     rim.append([round(base_x(y) + wander, 1), round(y, 1)])
 line = catmull(rim)
@@ -71,6 +73,14 @@ def pt(p, n, f, z=None, t=(0, 0), g=0.0):
     return q + [round(z, 1)] if z is not None else q
 
 
+def band(f0, f1, step=40.0):
+    """A polygon between f0 and f1 metres down the face from the smoothed rim."""
+    ss = [k * step for k in range(int(arc[-1] / step) + 1)] + [arc[-1]]
+    a = [pt(*rim_at_arc(v)[::2], f0) for v in ss]
+    b = [pt(*rim_at_arc(v)[::2], f1) for v in reversed(ss)]
+    return a + b
+
+
 plateau_poly = [[E, 0], [E, E]] + [[x + 40, y] for x, y in reversed(rim)]
 ops = [
     {"op": "noise", "amplitude": 3, "wavelength": 250, "octaves": 4, "comment": "gentle undulation everywhere"},
@@ -80,12 +90,17 @@ ops = [
      "comment": "the plateau's gentle relief (swells and hollows over ~40 m)"},
     {"op": "noise", "polygon": plateau_poly, "falloff": 60, "amplitude": 2.5, "wavelength": 40, "octaves": 3, "seed": 22,
      "comment": "fine roughness on the plateau (outcrops, ledges)"},
+    {"op": "scale_slopes", "polygon": band(-2, 18), "falloff": 4, "factor": 3.5,
+     "comment": "a cap of harder rock: the top of the face is steeper"},
+    {"op": "scale_slopes", "polygon": band(24, 34), "falloff": 4, "factor": 0.55,
+     "comment": "a ledge under the cap (the softer bed below it weathers back)"},
 ]
 
 # Gullies along the brink at irregular spacing; their kinds and sizes drawn at random.
 gullies = []
-s = rng.uniform(60, 140)
-while s < arc[-1] - 80:
+on_map = [v for v, q in zip(arc, line) if 60 < q[0] < E - 60 and 60 < q[1] < E - 60]
+s = on_map[0] + rng.uniform(0, 80)
+while s < on_map[-1] - 40:
     u = rng.random()
     kind = "notch" if u < 0.3 else ("chute" if u < 0.75 else "scar")
     size = rng.uniform(0.6, 1.4)
@@ -99,8 +114,11 @@ for s, kind, size in gullies:
     d = 50 * size * rng.uniform(0.8, 1.2)
     if kind == "notch":
         back = rng.uniform(50, 130)       # how far it cuts back into the plateau
-        pts = [pt(p, n, -back, 0.05 * d), pt(p, n, -0.4 * back, 0.5 * d), pt(p, n, 0.5 * face_w, 1.1 * d), pt(p, n, face_w, 0.4 * d)]
-        cuts.append({"op": "ravine", "points": pts, "smooth": True, "width": round(1.6 * w), "profile": "v", "taper": round(0.6 * w), "exit": 60,
+        pts = [pt(p, n, -back, 0.05 * d), pt(p, n, -0.4 * back, 0.5 * d), pt(p, n, 0.5 * face_w, 1.1 * d), pt(p, n, face_w, 0.5 * d),
+               pt(p, n, face_w + 50, 0.1 * d)]
+        # (It runs out onto the apron: a wide notch ending at the face's foot rose out of its exit
+        # against the apron's fall and left a moat at the foot beside it.)
+        cuts.append({"op": "ravine", "points": pts, "smooth": True, "width": round(1.6 * w), "profile": "v", "taper": round(0.6 * w), "exit": 80,
                      "comment": "a notch: a gully cutting back into the plateau"})
         # A shallow plateau valley draining into the notch's head.
         L = rng.uniform(250, 450)
@@ -123,12 +141,15 @@ for s, kind, size in gullies:
         cone_scale = 0.5
     # Its scree cone: a lobe on the apron below the mouth, highest at the top, fanning out; its size
     # follows the gully's (the material it shed).
+    # It starts up in the gully's lower half (debris fills its floor): a cone starting at the foot
+    # ramps up over its taper and leaves a hollow between the gully's mouth and itself.
     L = cone_scale * rng.uniform(160, 300) * size
     c0 = face_w - 10
-    h = cone_scale * 0.6 * d
-    cones.append({"op": "free_crest", "points": [pt(p, n, c0, h), pt(p, n, c0 + 0.35 * L, 0.85 * h, t, rng.uniform(-15, 15)),
+    h = cone_scale * 0.4 * d
+    cones.append({"op": "free_crest", "points": [pt(p, n, 0.45 * face_w, 0.3 * h), pt(p, n, c0, h),
+                                                  pt(p, n, c0 + 0.35 * L, 0.85 * h, t, rng.uniform(-15, 15)),
                                                   pt(p, n, c0 + L, 0.0, t, rng.uniform(-40, 40))],
-                  "smooth": True, "width": round(1.8 * w * max(cone_scale, 0.7)), "profile": "round", "comment": "scree cone"})
+                  "smooth": True, "width": round(1.5 * w * max(cone_scale, 0.7)), "profile": "round", "comment": "scree cone"})
 
 # Buttresses: a rib down the face between each pair of neighbouring gullies, its height and width
 # following the gap.

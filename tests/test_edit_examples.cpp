@@ -329,25 +329,45 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       // (their cones break the apron): a face steeper than 45 degrees dropping at least a third of
       // the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map. The gullies start
       // on the rim: the chord between their heads gives the rim's direction there.
-      std::vector<Vec2> heads;
-      for (const auto& o : script.at("operations"))
-        if (o.at("op") == "ravine") heads.push_back({double(o.at("points")[0][0]), double(o.at("points")[0][1])});
-      std::sort(heads.begin(), heads.end(), [](const Vec2& a, const Vec2& b) { return a.x < b.x; });
-      ASSERT_GE(heads.size(), 2u) << "the cliff example has gullies";
-      size_t g = 0;
-      while (g + 2 < heads.size() && heads[g + 1].x < 0.5 * extent) ++g;
-      // The fall line starts on the smoothed rim nearest to the midpoint of their heads (a notch's head
-      // lies back on the plateau), along the rim's normal there.
-      const Vec2 ga = heads[g], gb = heads[g + 1];
+      // Each gully (a ravine with a point on the face's side of the smoothed rim; the plateau valleys
+      // feeding the notches have none) is placed at the rim station nearest to it; the fall line starts
+      // on the rim midway (in arc) between the two around the map's middle, along the rim's normal.
       std::vector<Vec2> ctrl;
       for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
       const auto rim = catmull_rom(ctrl, 5.0);
-      size_t k = 1;
-      auto d2 = [&](const Vec2& q) { return std::pow(q.x - 0.5 * (ga.x + gb.x), 2) + std::pow(q.y - 0.5 * (ga.y + gb.y), 2); };
-      for (size_t i = 1; i + 1 < rim.size(); ++i)
-        if (d2(rim[i]) < d2(rim[k])) k = i;
-      const double len = std::hypot(rim[k + 1].x - rim[k - 1].x, rim[k + 1].y - rim[k - 1].y);
-      double nx = -(rim[k + 1].y - rim[k - 1].y) / len, ny = (rim[k + 1].x - rim[k - 1].x) / len;
+      auto normal_at = [&](size_t k) {
+        k = std::clamp<size_t>(k, 1, rim.size() - 2);
+        const double len = std::hypot(rim[k + 1].x - rim[k - 1].x, rim[k + 1].y - rim[k - 1].y);
+        return Vec2{-(rim[k + 1].y - rim[k - 1].y) / len, (rim[k + 1].x - rim[k - 1].x) / len};
+      };
+      Vec2 down = normal_at(rim.size() / 2);
+      {
+        const Vec2 q = rim[rim.size() / 2];
+        if (at_m(h, cell, q.x + 50 * down.x, q.y + 50 * down.y) > at_m(h, cell, q.x - 50 * down.x, q.y - 50 * down.y)) down = {-down.x, -down.y};
+      }
+      std::vector<size_t> heads;
+      for (const auto& o : script.at("operations")) {
+        if (o.at("op") != "ravine") continue;
+        size_t best_k = 0;
+        double best = 1e30, face_side = -1e30;
+        for (const auto& q : o.at("points")) {
+          const double px = q[0], py = q[1];
+          for (size_t i = 1; i + 1 < rim.size(); ++i) {
+            const double d = std::hypot(px - rim[i].x, py - rim[i].y);
+            if (d < best) best = d, best_k = i;
+          }
+        }
+        for (const auto& q : o.at("points"))
+          face_side = std::max(face_side, (double(q[0]) - rim[best_k].x) * down.x + (double(q[1]) - rim[best_k].y) * down.y);
+        if (face_side > 0) heads.push_back(best_k);
+      }
+      std::sort(heads.begin(), heads.end(), [&](size_t a, size_t b) { return rim[a].x < rim[b].x; });
+      ASSERT_GE(heads.size(), 2u) << "the cliff example has gullies";
+      size_t g = 0;
+      while (g + 2 < heads.size() && rim[heads[g + 1]].x < 0.5 * extent) ++g;
+      const size_t k = (heads[g] + heads[g + 1]) / 2;
+      const Vec2 nk = normal_at(k);
+      double nx = nk.x, ny = nk.y;
       const double ox = rim[k].x, oy = rim[k].y;
       if (at_m(h, cell, ox + 50 * nx, oy + 50 * ny) > at_m(h, cell, ox - 50 * nx, oy - 50 * ny)) nx = -nx, ny = -ny;
       // Samples every cell down the fall line, from 40 m back on the plateau.
