@@ -111,10 +111,10 @@ plateau_valleys, cuts, cones, ribs = [], [], [], []
 for s, kind, size in gullies:
     p, t, n = rim_at_arc(s)
     w = round(70 * size * rng.uniform(0.8, 1.2))
-    d = 50 * size * rng.uniform(0.8, 1.2)
+    d = 62 * size * rng.uniform(0.8, 1.2)
     if kind == "notch":
         back = rng.uniform(50, 130)       # how far it cuts back into the plateau
-        pts = [pt(p, n, -back, 0.05 * d), pt(p, n, -0.4 * back, 0.5 * d), pt(p, n, 0.5 * face_w, 1.1 * d), pt(p, n, face_w, 0.5 * d),
+        pts = [pt(p, n, -back, 0.05 * d), pt(p, n, -0.4 * back, 0.5 * d), pt(p, n, 0.3 * face_w, 1.1 * d), pt(p, n, 0.8 * face_w, 0.5 * d),
                pt(p, n, face_w + 50, 0.1 * d)]
         # (It runs out onto the apron: a wide notch ending at the face's foot rose out of its exit
         # against the apron's fall and left a moat at the foot beside it.)
@@ -129,8 +129,10 @@ for s, kind, size in gullies:
                                 "comment": "a shallow valley on the plateau feeding a notch"})
         cone_scale = 1.3
     elif kind == "chute":
-        pts = [pt(p, n, 0.0, 0.3 * d), pt(p, n, 0.5 * face_w, d), pt(p, n, face_w, 0.3 * d)]
-        cuts.append({"op": "ravine", "points": pts, "width": w, "profile": "round", "taper": round(0.2 * w), "exit": 60,
+        # Deepest high on the face; it shallows where the face is steep (shallowing at the foot, where
+        # the face has turned gentle, left a flat step at the mouth).
+        pts = [pt(p, n, 0.0, 0.3 * d), pt(p, n, 0.35 * face_w, d), pt(p, n, 0.8 * face_w, 0.35 * d), pt(p, n, face_w + 40, 0.1 * d)]
+        cuts.append({"op": "ravine", "points": pts, "smooth": True, "width": w, "profile": "round", "taper": round(0.2 * w), "exit": 60,
                      "comment": "a chute from the brink to the face's foot"})
         cone_scale = 1.0
     else:
@@ -146,10 +148,11 @@ for s, kind, size in gullies:
     L = cone_scale * rng.uniform(160, 300) * size
     c0 = face_w - 10
     h = cone_scale * 0.4 * d
-    cones.append({"op": "free_crest", "points": [pt(p, n, 0.45 * face_w, 0.3 * h), pt(p, n, c0, h),
+    cones.append({"op": "free_crest", "points": [pt(p, n, 0.4 * face_w, 0.0), pt(p, n, c0, h),
                                                   pt(p, n, c0 + 0.35 * L, 0.85 * h, t, rng.uniform(-15, 15)),
                                                   pt(p, n, c0 + L, 0.0, t, rng.uniform(-40, 40))],
-                  "smooth": True, "width": round(1.5 * w * max(cone_scale, 0.7)), "profile": "round", "comment": "scree cone"})
+                  "smooth": True, "width": round(1.5 * w * max(cone_scale, 0.7)), "profile": "round", "taper": 15,
+                  "comment": "scree cone (a short taper: the default, its half-width, left it low at the mouth)"})
 
 # Buttresses: a rib down the face between each pair of neighbouring gullies, its height and width
 # following the gap.
