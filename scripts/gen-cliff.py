@@ -4,7 +4,7 @@
 # irregular spacing (+-45 %) of three kinds: notches that cut back into the plateau (fed by shallow
 # plateau valleys), chutes from the brink to the foot, and short scars on the face; buttresses (ribs)
 # between them; a scree cone under each gully, its size following the gully's, merging into a talus
-# apron with fine noise. (Before: ten identical, evenly spaced gullies, a flat slab, a straight brink.)
+# apron with fine noise; a cap band at the brink over a ledge. (Before: ten identical, evenly spaced gullies, a flat slab, a straight brink.)
 # Usage: python3 scripts/gen-cliff.py OUT.json
 import json, math, random, sys
 
@@ -73,9 +73,14 @@ def pt(p, n, f, z=None, t=(0, 0), g=0.0):
     return q + [round(z, 1)] if z is not None else q
 
 
-def band(f0, f1, step=40.0):
-    """A polygon between f0 and f1 metres down the face from the smoothed rim."""
-    ss = [k * step for k in range(int(arc[-1] / step) + 1)] + [arc[-1]]
+on_map = [v for v, q in zip(arc, line) if 60 < q[0] < E - 60 and 60 < q[1] < E - 60]
+
+
+def band(f0, f1, step=60.0):
+    """A polygon between f0 and f1 metres down the face from the smoothed rim, over its part on the
+    map (each vertex costs time in every cell of the region's box)."""
+    a0, a1 = max(0.0, on_map[0] - 100), min(arc[-1], on_map[-1] + 100)
+    ss = [a0 + k * step for k in range(int((a1 - a0) / step) + 1)] + [a1]
     a = [pt(*rim_at_arc(v)[::2], f0) for v in ss]
     b = [pt(*rim_at_arc(v)[::2], f1) for v in reversed(ss)]
     return a + b
@@ -98,7 +103,6 @@ ops = [
 
 # Gullies along the brink at irregular spacing; their kinds and sizes drawn at random.
 gullies = []
-on_map = [v for v, q in zip(arc, line) if 60 < q[0] < E - 60 and 60 < q[1] < E - 60]
 s = on_map[0] + rng.uniform(0, 80)
 while s < on_map[-1] - 40:
     u = rng.random()
@@ -181,8 +185,8 @@ ops += [
 ]
 n_kind = {k: sum(1 for g in gullies if g[1] == k) for k in ("notch", "chute", "scar")}
 doc = {"description": "A cliff band with scree (paper figure 14), written by scripts/gen-cliff.py: a cliff 450 m high running "
-                       "NNE-SSW, facing west into the light, its brink wandering in bays and headlands (+-60 m), over a concave "
-                       "talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %d notches cutting back "
+                       "NNE-SSW, facing west into the light, its brink wandering in bays and headlands (+-60 m), a cap of harder rock "
+                       "(the top 18 m of the face steepened) over a ledge, over a concave talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %d notches cutting back "
                        "into the plateau (each fed by a shallow plateau valley), %d chutes from the brink to the foot, %d scars "
                        "on the face; buttresses between them; a scree cone under each gully, sized by it; a plateau (east) "
                        "with gentle relief and fine roughness, frozen 300 m back from the brink; ridged gullies and fine "
