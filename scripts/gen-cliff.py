@@ -4,7 +4,8 @@
 # irregular spacing (+-45 %) of three kinds: notches that cut back into the plateau (fed by shallow
 # plateau valleys), chutes from the brink to the foot, and short scars on the face; buttresses (ribs)
 # between them; a scree cone under each gully, its size following the gully's, merging into a talus
-# apron with fine noise; a cap band at the brink over a ledge. (Before: ten identical, evenly spaced gullies, a flat slab, a straight brink.)
+# apron with fine noise; a cap band at the brink over a ledge. (Before: ten identical, evenly spaced
+# gullies, a flat featureless slab, a straight brink, scree cones all alike.)
 # Usage: python3 scripts/gen-cliff.py OUT.json
 import json, math, random, sys
 
@@ -106,7 +107,7 @@ gullies = []
 s = on_map[0] + rng.uniform(0, 80)
 while s < on_map[-1] - 40:
     u = rng.random()
-    kind = "notch" if u < 0.3 else ("chute" if u < 0.75 else "scar")
+    kind = "notch" if u < 0.3 else ("chute" if u < 0.65 else "scar")
     size = rng.uniform(0.6, 1.4)
     gullies.append((s, kind, size))
     s += 210 * rng.uniform(0.55, 1.45)
@@ -183,13 +184,18 @@ ops += [
     {"op": "noise", "polygon": apron_poly, "falloff": 80, "amplitude": 0.8, "wavelength": 18, "octaves": 2, "seed": 23,
      "comment": "fine grain on the scree"},
 ]
+def count(k, plural):
+    m = sum(1 for g in gullies if g[1] == k)
+    return "%d %s" % (m, k if m == 1 else plural)
+
+
 n_kind = {k: sum(1 for g in gullies if g[1] == k) for k in ("notch", "chute", "scar")}
 doc = {"description": "A cliff band with scree (paper figure 14), written by scripts/gen-cliff.py: a cliff 450 m high running "
                        "NNE-SSW, facing west into the light, its brink wandering in bays and headlands (+-60 m), a cap of harder rock "
-                       "(the top 18 m of the face steepened) over a ledge, over a concave talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %d notches cutting back "
-                       "into the plateau (each fed by a shallow plateau valley), %d chutes from the brink to the foot, %d scars "
+                       "(the top 18 m of the face steepened) over a ledge, over a concave talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %s cutting back "
+                       "into the plateau (each fed by a shallow plateau valley), %s from the brink to the foot, %s "
                        "on the face; buttresses between them; a scree cone under each gully, sized by it; a plateau (east) "
                        "with gentle relief and fine roughness, frozen 300 m back from the brink; ridged gullies and fine "
-                       "grain on the apron." % (len(gullies), n_kind["notch"], n_kind["chute"], n_kind["scar"]),
+                       "grain on the apron." % (len(gullies), count("notch", "notches"), count("chute", "chutes"), count("scar", "scars")),
        "base": "flat:1025x1025@2", "units": "m", "seed": 3, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)

@@ -322,7 +322,10 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       const double up = rim_y - 0.25 * r;  // north (y grows southwards)
       const double mid = at_m(h, cell, x0, up);
       const double banks = std::min(at_m(h, cell, x0 - r, up), at_m(h, cell, x0 + r, up));
-      EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
+      // (5 m: a chute that notches the brink (cut_rims releases the rim within r of it) lets the
+      // brink sag over its head: 2.4 m at 0.25 r for the deepest chute, 92 m wide and 21 m deep at
+      // the brink, -0.1 m without it; the former couloirs' hollows were 20-41 m.)
+      EXPECT_LT(banks - mid, 5.0) << "a couloir hollow above the rim at x = " << x0;
     }
     if (kind == "cliff" && name == "cliff") {
       // Down the fall line from the brink midway between the two gullies nearest to the map's middle
