@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 
 using namespace terracl;
 
@@ -78,6 +79,141 @@ bool check_turned_cliff(const nlohmann::json& script, const Heightfield& h, doub
   }
   check_shapes("cliff", s, t, cell);
   return true;
+}
+
+// The cliff band reads as natural rock (issue 12, figure 14), on the turned terrain (plateau north):
+// gullies at irregular spacing along the brink, a plateau with relief, a brink that wanders. Each
+// bound fails on the former example (ten evenly spaced identical gullies, a slab frozen flat after
+// 3 m of noise, a 4-point rim whose only bend is one bow).
+void check_cliff_band(const nlohmann::json& op, const Heightfield& h, double cell) {
+  const double extent = (h.width - 1) * cell;
+  std::vector<Vec2> ctrl;
+  for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
+  const double r = 0.5 * double(op.at("width")), face_w = double(op.value("face", 0.3)) * r;
+  auto inside = [&](double x, double y, double m) { return x >= m && y >= m && x <= extent - m && y <= extent - m; };
+  auto z = [&](double x, double y) { return at_m(h, cell, x, y); };
+  // Stations every 5 m along the smoothed rim, with the normal pointing down the face.
+  const auto rim = catmull_rom(ctrl, 5.0);
+  struct Station {
+    double x, y, nx, ny, s;
+  };
+  std::vector<Station> st;
+  double s = 0;
+  for (size_t i = 1; i + 1 < rim.size(); ++i) {
+    s += std::hypot(rim[i].x - rim[i - 1].x, rim[i].y - rim[i - 1].y);
+    const double tx = rim[i + 1].x - rim[i - 1].x, ty = rim[i + 1].y - rim[i - 1].y, l = std::hypot(tx, ty);
+    if (l > 0 && inside(rim[i].x, rim[i].y, 60)) st.push_back({rim[i].x, rim[i].y, -ty / l, tx / l, s});
+  }
+  ASSERT_GT(st.size(), 100u);
+  const Station& mid = st[st.size() / 2];
+  if (z(mid.x + 60 * mid.nx, mid.y + 60 * mid.ny) > z(mid.x - 60 * mid.nx, mid.y - 60 * mid.ny))
+    for (auto& q : st) q.nx = -q.nx, q.ny = -q.ny;
+
+  // Gullies: hollows across the face at half its width, below the running median (+-150 m) by more
+  // than 8 m; runs closer than 30 m are one gully, its centre the run's lowest point.
+  std::vector<double> zf;
+  for (const auto& q : st) zf.push_back(z(q.x + 0.5 * face_w * q.nx, q.y + 0.5 * face_w * q.ny));
+  std::vector<double> centres;
+  double run_lo = 1e30, run_s = -1, last_s = -1e30;
+  for (size_t i = 0; i < st.size(); ++i) {
+    size_t a = i, b = i;
+    while (a > 0 && st[i].s - st[a - 1].s <= 150) --a;
+    while (b + 1 < st.size() && st[b + 1].s - st[i].s <= 150) ++b;
+    std::vector<double> w(zf.begin() + a, zf.begin() + b + 1);
+    std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
+    const double dev = zf[i] - w[w.size() / 2];
+    if (dev < -8) {
+      if (st[i].s - last_s > 30 && run_s >= 0) centres.push_back(run_s), run_lo = 1e30;
+      if (dev < run_lo) run_lo = dev, run_s = st[i].s;
+      last_s = st[i].s;
+    }
+  }
+  if (run_s >= 0) centres.push_back(run_s);
+  ASSERT_GE(centres.size(), 6u) << "the cliff band has gullies across its face";
+  std::vector<double> gap;
+  for (size_t i = 1; i < centres.size(); ++i) gap.push_back(centres[i] - centres[i - 1]);
+  double mean = 0, var = 0;
+  for (double g : gap) mean += g / gap.size();
+  for (double g : gap) var += (g - mean) * (g - mean) / gap.size();
+  const double cv = std::sqrt(var) / mean;
+  EXPECT_GT(cv, 0.2) << "gullies evenly spaced (organ pipes): " << centres.size() << " gullies, mean spacing " << mean << " m";
+
+  // The plateau from 60 to 300 m behind the brink: relief and slope spread.
+  std::vector<double> pz, ps;
+  for (size_t i = 0; i < st.size(); i += 4)
+    for (double t = 60; t <= 300; t += 2 * cell) {
+      const double x = st[i].x - t * st[i].nx, y = st[i].y - t * st[i].ny;
+      if (!inside(x, y, cell)) continue;
+      pz.push_back(z(x, y));
+      ps.push_back(std::hypot(z(x + cell, y) - z(x - cell, y), z(x, y + cell) - z(x, y - cell)) / (2 * cell));
+    }
+  ASSERT_GT(pz.size(), 500u);
+  const double relief = *std::max_element(pz.begin(), pz.end()) - *std::min_element(pz.begin(), pz.end());
+  double ps_mean = 0, ps_var = 0;
+  for (double v : ps) ps_mean += v / ps.size();
+  for (double v : ps) ps_var += (v - ps_mean) * (v - ps_mean) / ps.size();
+  EXPECT_GT(relief, 20.0) << "a flat plateau slab";
+  EXPECT_GT(std::sqrt(ps_var), 0.03) << "a featureless plateau (slope std)";
+
+  // The brink: along the chord between the rim's ends, every 20 m, the steepest drop on the chord's
+  // normal (+-300 m) marks the face; median over +-60 m (gully notches out), then the RMS of its
+  // offset from the best quadratic in the chord's coordinate (a straight or evenly bowed brink: ~0).
+  const Vec2 c0 = ctrl.front(), c1 = ctrl.back();
+  const double cl = std::hypot(c1.x - c0.x, c1.y - c0.y), ux = (c1.x - c0.x) / cl, uy = (c1.y - c0.y) / cl;
+  double vx = -uy, vy = ux;
+  if (vx * mid.nx + vy * mid.ny < 0) vx = -vx, vy = -vy;
+  std::vector<double> us, off;
+  for (double u = 0; u <= cl; u += 20) {
+    const double bx = c0.x + u * ux, by = c0.y + u * uy;
+    double best = -1, at = 0;
+    bool ok = true;
+    for (double t = -300; t <= 300; t += cell) {
+      const double x = bx + t * vx, y = by + t * vy;
+      if (!inside(x, y, 2 * cell)) {
+        ok = false;
+        break;
+      }
+      const double drop = z(x, y) - z(x + 2 * cell * vx, y + 2 * cell * vy);
+      if (drop > best) best = drop, at = t;
+    }
+    if (ok) us.push_back(u), off.push_back(at);
+  }
+  ASSERT_GT(us.size(), 30u);
+  std::vector<double> med(off.size());
+  for (size_t i = 0; i < off.size(); ++i) {
+    std::vector<double> w(off.begin() + std::max<long>(0, long(i) - 3), off.begin() + std::min(off.size(), i + 4));
+    std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
+    med[i] = w[w.size() / 2];
+  }
+  // Least squares off = a + b u + c u^2 (u scaled to [0, 1]) by the 3x3 normal equations.
+  double A[3][4] = {};
+  for (size_t i = 0; i < us.size(); ++i) {
+    const double p[3] = {1, us[i] / cl, us[i] * us[i] / (cl * cl)};
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < 3; ++k) A[j][k] += p[j] * p[k];
+      A[j][3] += p[j] * med[i];
+    }
+  }
+  for (int j = 0; j < 3; ++j)
+    for (int k = j + 1; k < 3; ++k) {
+      const double f = A[k][j] / A[j][j];
+      for (int m = j; m < 4; ++m) A[k][m] -= f * A[j][m];
+    }
+  double coef[3];
+  for (int j = 2; j >= 0; --j) {
+    coef[j] = A[j][3];
+    for (int k = j + 1; k < 3; ++k) coef[j] -= A[j][k] * coef[k];
+    coef[j] /= A[j][j];
+  }
+  double rms = 0;
+  for (size_t i = 0; i < us.size(); ++i) {
+    const double q = us[i] / cl, e = med[i] - (coef[0] + coef[1] * q + coef[2] * q * q);
+    rms += e * e / us.size();
+  }
+  rms = std::sqrt(rms);
+  EXPECT_GT(rms, 16.0) << "a straight brink";
+  std::cout << fmt::format("cliff band: {} gullies, spacing mean {:.0f} m cv {:.2f}; plateau relief {:.1f} m slope std {:.3f}; brink wander rms {:.1f} m\n",
+                           centres.size(), mean, cv, relief, std::sqrt(ps_var), rms);
 }
 
 void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell) {
@@ -181,27 +317,61 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       double rim_y = 0, best = 1e30;
       for (const auto& q : rim)
         if (std::abs(q.x - x0) < best) best = std::abs(q.x - x0), rim_y = q.y;
+      // A notch starts back on the plateau (north of the rim, y grows southwards): its hollow is meant.
+      if (double(op.at("points")[0][1]) < rim_y - 5) continue;
       const double up = rim_y - 0.25 * r;  // north (y grows southwards)
       const double mid = at_m(h, cell, x0, up);
       const double banks = std::min(at_m(h, cell, x0 - r, up), at_m(h, cell, x0 + r, up));
-      EXPECT_LT(banks - mid, 2.0) << "a couloir hollow above the rim at x = " << x0;
+      // (5 m: a chute that notches the brink (cut_rims releases the rim within r of it) lets the
+      // brink sag over its head: 2.4 m at 0.25 r for the deepest chute, 92 m wide and 21 m deep at
+      // the brink, -0.1 m without it; the former couloirs' hollows were 20-41 m.)
+      EXPECT_LT(banks - mid, 5.0) << "a couloir hollow above the rim at x = " << x0;
     }
     if (kind == "cliff" && name == "cliff") {
       // Down the fall line from the brink midway between the two gullies nearest to the map's middle
       // (their cones break the apron): a face steeper than 45 degrees dropping at least a third of
       // the height, then a scree apron (slopes 0.25..0.85) over >= 8 % of the map. The gullies start
       // on the rim: the chord between their heads gives the rim's direction there.
-      std::vector<Vec2> heads;
-      for (const auto& o : script.at("operations"))
-        if (o.at("op") == "ravine") heads.push_back({double(o.at("points")[0][0]), double(o.at("points")[0][1])});
-      std::sort(heads.begin(), heads.end(), [](const Vec2& a, const Vec2& b) { return a.x < b.x; });
+      // Each gully (a ravine with a point on the face's side of the smoothed rim; the plateau valleys
+      // feeding the notches have none) is placed at the rim station nearest to it; the fall line starts
+      // on the rim midway (in arc) between the two around the map's middle, along the rim's normal.
+      std::vector<Vec2> ctrl;
+      for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
+      const auto rim = catmull_rom(ctrl, 5.0);
+      auto normal_at = [&](size_t k) {
+        k = std::clamp<size_t>(k, 1, rim.size() - 2);
+        const double len = std::hypot(rim[k + 1].x - rim[k - 1].x, rim[k + 1].y - rim[k - 1].y);
+        return Vec2{-(rim[k + 1].y - rim[k - 1].y) / len, (rim[k + 1].x - rim[k - 1].x) / len};
+      };
+      Vec2 down = normal_at(rim.size() / 2);
+      {
+        const Vec2 q = rim[rim.size() / 2];
+        if (at_m(h, cell, q.x + 50 * down.x, q.y + 50 * down.y) > at_m(h, cell, q.x - 50 * down.x, q.y - 50 * down.y)) down = {-down.x, -down.y};
+      }
+      std::vector<size_t> heads;
+      for (const auto& o : script.at("operations")) {
+        if (o.at("op") != "ravine") continue;
+        size_t best_k = 0;
+        double best = 1e30, face_side = -1e30;
+        for (const auto& q : o.at("points")) {
+          const double px = q[0], py = q[1];
+          for (size_t i = 1; i + 1 < rim.size(); ++i) {
+            const double d = std::hypot(px - rim[i].x, py - rim[i].y);
+            if (d < best) best = d, best_k = i;
+          }
+        }
+        for (const auto& q : o.at("points"))
+          face_side = std::max(face_side, (double(q[0]) - rim[best_k].x) * down.x + (double(q[1]) - rim[best_k].y) * down.y);
+        if (face_side > 0) heads.push_back(best_k);
+      }
+      std::sort(heads.begin(), heads.end(), [&](size_t a, size_t b) { return rim[a].x < rim[b].x; });
       ASSERT_GE(heads.size(), 2u) << "the cliff example has gullies";
       size_t g = 0;
-      while (g + 2 < heads.size() && heads[g + 1].x < 0.5 * extent) ++g;
-      const Vec2 ga = heads[g], gb = heads[g + 1];
-      const double len = std::hypot(gb.x - ga.x, gb.y - ga.y);
-      double nx = -(gb.y - ga.y) / len, ny = (gb.x - ga.x) / len;
-      const double ox = 0.5 * (ga.x + gb.x), oy = 0.5 * (ga.y + gb.y);
+      while (g + 2 < heads.size() && rim[heads[g + 1]].x < 0.5 * extent) ++g;
+      const size_t k = (heads[g] + heads[g + 1]) / 2;
+      const Vec2 nk = normal_at(k);
+      double nx = nk.x, ny = nk.y;
+      const double ox = rim[k].x, oy = rim[k].y;
       if (at_m(h, cell, ox + 50 * nx, oy + 50 * ny) > at_m(h, cell, ox - 50 * nx, oy - 50 * ny)) nx = -nx, ny = -ny;
       // Samples every cell down the fall line, from 40 m back on the plateau.
       std::vector<double> z;
@@ -223,6 +393,15 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       int toe = foot;
       while (toe + 4 < n && apron(toe) >= 0.25 && apron(toe) <= 0.85) ++toe;
       EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read (from " << ox << ", " << oy << ")";
+      // The apron's top, 60 m below the face's foot, lies near the repose angle of scree (33-37
+      // degrees: slope 0.65-0.75): its mean slope within 30-39 degrees.
+      double top_slope = 0;
+      const int m = int(60 / cell);
+      for (int i = foot; i < foot + m; ++i) top_slope += apron(std::min(i, n - 5)) / m;
+      EXPECT_GT(top_slope, 0.58) << "the scree's top is gentler than its repose angle";
+      EXPECT_LT(top_slope, 0.8) << "the scree's top is steeper than its repose angle";
+      std::cout << fmt::format("cliff: face {:.2f} at its steepest, scree top {:.2f} over 60 m\n", slope(steep), top_slope);
+      check_cliff_band(op, h, cell);
     }
     if (kind == "mountain_range" && name == "mountain_range") {
       // At stations every 400 m along the smoothed stroke, wherever it is above 900 m (summits,
