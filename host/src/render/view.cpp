@@ -236,11 +236,7 @@ Image render_view(const Heightfield& h, const Options& opt) {
   const ViewSetup s = detail::view_setup(h, opt);
   const Surface surf{h, s};
   const View& v = opt.view;
-  Image img;
-  img.width = v.width;
-  img.height = v.height;
-  img.channels = 3;
-  img.pixels.assign(size_t(3) * v.width * v.height, 0);
+  Image img = detail::blank_view(v);
   const double eps = 1e-4 * std::max(s.zhi - s.zlo, 1.0);
   for (int py = 0; py < v.height; ++py) {
     for (int px = 0; px < v.width; ++px) {

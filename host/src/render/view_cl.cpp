@@ -21,11 +21,7 @@ Image render_view(const Heightfield& h, const Options& opt, Device& device) {
   const uint32_t nodata =
       uint32_t(opt.ramp.nodata_rgb[0]) | uint32_t(opt.ramp.nodata_rgb[1]) << 8 | uint32_t(opt.ramp.nodata_rgb[2]) << 16;
   const View& v = opt.view;
-  Image img;
-  img.width = v.width;
-  img.height = v.height;
-  img.channels = 3;
-  img.pixels.assign(size_t(3) * v.width * v.height, 0);
+  Image img = detail::blank_view(v);
   try {
     cl::CommandQueue& q = device.queue();
     cl::Buffer z = device.buffer(h.z.size() * sizeof(float), CL_MEM_READ_ONLY, "perspective heights");

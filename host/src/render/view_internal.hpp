@@ -34,4 +34,14 @@ ViewSetup view_setup(const Heightfield& h, const Options& opt);
 /// The float slots of `s` in the order kernels/render_view.cl reads them (V_* there).
 std::vector<float> view_slots(const ViewSetup& s);
 
+/// The picture both backends fill: v.width x v.height RGB, black.
+inline Image blank_view(const View& v) {
+  Image img;
+  img.width = v.width;
+  img.height = v.height;
+  img.channels = 3;
+  img.pixels.assign(size_t(3) * v.width * v.height, 0);
+  return img;
+}
+
 }  // namespace terracl::render::detail
