@@ -27,6 +27,10 @@ ErodeSpec parse_erode_spec(Params& p) {
   e.params.evaporation = p.number("evaporation", e.params.evaporation, 0.0, 100.0);
   e.params.thermal_rate = p.number("thermal_rate", e.params.thermal_rate, 0.0, 100.0);
   e.params.talus_deg = p.number("talus", e.params.talus_deg, 0.0, 89.0);
+  // Creep and channel widening (docs/erosion.md): on a steep range the default channel diffusion
+  // planes the sheet-flow flanks smooth; a gallery pass lowers both to keep the gullies it cuts.
+  e.params.diffusion = p.number("diffusion", e.params.diffusion, 0.0, 1e4);
+  e.params.channel_diffusion = p.number("channel_diffusion", e.params.channel_diffusion, 0.0, 1e4);
   e.region = parse_region(p, true);
   e.falloff = p.hlength("falloff", 0.0);
   return e;
