@@ -59,14 +59,10 @@ Image render(const Heightfield& h, const Options& opt, Device& device) {
 Image render(const Heightfield& h, const Options& opt, const PictureLayout& l, Device& device) {
   check_options(h, opt);
   // Ramp entries with percentages resolved against this heightfield's range, in file order.
-  std::vector<float> rz;
-  std::vector<uint8_t> rgb;
-  for (const auto& e : opt.ramp.entries) {
-    rz.push_back(float(e.percent ? l.zmin + e.value / 100.0 * (l.zmax - l.zmin) : e.value));
-    rgb.insert(rgb.end(), e.rgb, e.rgb + 3);
-  }
-  const uint32_t nodata =
-      uint32_t(opt.ramp.nodata_rgb[0]) | uint32_t(opt.ramp.nodata_rgb[1]) << 8 | uint32_t(opt.ramp.nodata_rgb[2]) << 16;
+  const DeviceRamp ramp = device_ramp(opt.ramp, l.zmin, l.zmax);
+  const std::vector<float>& rz = ramp.z;
+  const std::vector<uint8_t>& rgb = ramp.rgb;
+  const uint32_t nodata = ramp.nodata;
   const int mode = opt.mode == Mode::Hillshade ? 0 : opt.mode == Mode::Relief ? 1 : opt.mode == Mode::Slope ? 2 : 3;
   const std::vector<float> prm = detail::ShadeParams(h, opt).slots();
   Image img;

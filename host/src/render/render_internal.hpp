@@ -2,7 +2,9 @@
 // Shared by the host and device paths of render: argument checks and the picture's layout.
 #include <cmath>
 #include <functional>
+#include <cstdint>
 #include <string>
+#include <vector>
 #include <terracl/render.hpp>
 
 namespace terracl::render {
@@ -16,6 +18,23 @@ struct PictureLayout {
   int channels = 3;
   double zmin = 0, zmax = 0;  ///< data range, only computed when a ramp entry is a percentage
 };
+/// The colour ramp as the kernels read it (render.cl, render_view.cl through render_ramp.clh):
+/// entry elevations with percentages resolved against [zmin, zmax], their RGB, nodata as 0xBBGGRR.
+struct DeviceRamp {
+  std::vector<float> z;
+  std::vector<uint8_t> rgb;
+  uint32_t nodata = 0;
+};
+inline DeviceRamp device_ramp(const ColorRamp& ramp, double zmin, double zmax) {
+  DeviceRamp d;
+  for (const auto& e : ramp.entries) {
+    d.z.push_back(float(e.percent ? zmin + e.value / 100.0 * (zmax - zmin) : e.value));
+    d.rgb.insert(d.rgb.end(), e.rgb, e.rgb + 3);
+  }
+  d.nodata = uint32_t(ramp.nodata_rgb[0]) | uint32_t(ramp.nodata_rgb[1]) << 8 | uint32_t(ramp.nodata_rgb[2]) << 16;
+  return d;
+}
+
 /// Layout of the picture of `h` (one pass over the heights); throws for value-only modes.
 PictureLayout picture_layout(const Heightfield& h, const Options& opt);
 

@@ -5,6 +5,7 @@
 #include <terracl/error.hpp>
 #include <terracl/render.hpp>
 
+#include "render/render_internal.hpp"
 #include "render/view_internal.hpp"
 
 namespace terracl::render {
@@ -12,14 +13,10 @@ namespace terracl::render {
 Image render_view(const Heightfield& h, const Options& opt, Device& device) {
   const detail::ViewSetup s = detail::view_setup(h, opt);
   const std::vector<float> prm = detail::view_slots(s);
-  std::vector<float> rz;
-  std::vector<uint8_t> rgb;
-  for (const auto& e : opt.ramp.entries) {
-    rz.push_back(float(e.percent ? s.zmin + e.value / 100.0 * (s.zmax - s.zmin) : e.value));
-    rgb.insert(rgb.end(), e.rgb, e.rgb + 3);
-  }
-  const uint32_t nodata =
-      uint32_t(opt.ramp.nodata_rgb[0]) | uint32_t(opt.ramp.nodata_rgb[1]) << 8 | uint32_t(opt.ramp.nodata_rgb[2]) << 16;
+  const DeviceRamp ramp = device_ramp(opt.ramp, s.zmin, s.zmax);
+  const std::vector<float>& rz = ramp.z;
+  const std::vector<uint8_t>& rgb = ramp.rgb;
+  const uint32_t nodata = ramp.nodata;
   const View& v = opt.view;
   Image img = detail::blank_view(v);
   try {
