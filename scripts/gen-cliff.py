@@ -7,7 +7,10 @@
 # apron with fine noise; a cap band at the brink over a ledge. (Before: ten identical, evenly spaced
 # gullies, a flat featureless slab, a straight brink, scree cones all alike.)
 # Usage: python3 scripts/gen-cliff.py OUT.json
-import json, math, random, sys
+import json, math, os, random, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from polyline import arc_lengths, catmull  # noqa: E402
 
 E = 2048.0          # extent (m): 1025 cells of 2 m
 TOP, DROP = 1500.0, 450.0
@@ -24,20 +27,7 @@ rng = random.Random(11)
 base = [[1812, -420], [1700, -20], [1500, 700], [1180, 1400], [860, 2070], [669, 2470]]
 
 
-def catmull(P, n=64):
-    Q = [P[0]] + P + [P[-1]]
-    out = []
-    for i in range(1, len(Q) - 2):
-        p0, p1, p2, p3 = Q[i - 1], Q[i], Q[i + 1], Q[i + 2]
-        for k in range(n):
-            t = k / n
-            out.append([0.5 * (2 * p1[j] + (-p0[j] + p2[j]) * t + (2 * p0[j] - 5 * p1[j] + 4 * p2[j] - p3[j]) * t * t +
-                               (-p0[j] + 3 * p1[j] - 3 * p2[j] + p3[j]) * t ** 3) for j in range(2)])
-    out.append(P[-1])
-    return out
-
-
-base_line = catmull(base)
+base_line = catmull(base, 64)
 
 
 def base_x(y):
@@ -51,10 +41,8 @@ for k in range(16):
     y = -420 + k * (2890 / 15)
     wander = 45 * math.sin(2 * math.pi * y / 950 + ph1) + 18 * math.sin(2 * math.pi * y / 520 + ph2)
     rim.append([round(base_x(y) + wander, 1), round(y, 1)])
-line = catmull(rim)
-arc = [0.0]
-for a, b in zip(line, line[1:]):
-    arc.append(arc[-1] + math.hypot(b[0] - a[0], b[1] - a[1]))
+line = catmull(rim, 64)
+arc = arc_lengths(line)
 
 
 def rim_at_arc(s):

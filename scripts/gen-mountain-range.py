@@ -4,7 +4,10 @@
 # (free_crest) of varied length and spacing descending from the crest on both flanks, the long ones
 # branching, a ravine between each pair of neighbouring spurs of a flank, foothills on the plain, a
 # river. Usage: python3 scripts/gen-mountain-range.py OUT.json
-import json, math, random, sys
+import json, math, os, random, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from polyline import arc_lengths, catmull  # noqa: E402
 
 # The crest: summits (even indices) and cols (odd), [x, y, z] in metres on a 15.36 km square, z the
 # crest's relief over the massif. The cols stand at ~0.8 of the lower summit beside them (and the
@@ -18,24 +21,8 @@ HALF = 2400.0  # the stroke's half-width r (m)
 MASSIF = 4300.0  # the massif's half-width (m)
 
 
-def catmull(pts, n=24):
-    """Uniform Catmull-Rom samples through pts (x, y, z), n per segment."""
-    out = []
-    P = [pts[0]] + pts + [pts[-1]]
-    for i in range(1, len(P) - 2):
-        p0, p1, p2, p3 = P[i - 1], P[i], P[i + 1], P[i + 2]
-        for k in range(n):
-            t = k / n
-            out.append([0.5 * ((2 * p1[j]) + (-p0[j] + p2[j]) * t + (2 * p0[j] - 5 * p1[j] + 4 * p2[j] - p3[j]) * t * t +
-                               (-p0[j] + 3 * p1[j] - 3 * p2[j] + p3[j]) * t ** 3) for j in range(3)])
-    out.append(list(pts[-1]))
-    return out
-
-
-line = catmull(crest)
-arc = [0.0]
-for a, b in zip(line, line[1:]):
-    arc.append(arc[-1] + math.hypot(b[0] - a[0], b[1] - a[1]))
+line = catmull(crest, 24)
+arc = arc_lengths(line)
 
 
 def at(s):
