@@ -161,7 +161,9 @@ inline void vg_terrain(const ViewGrid* g, __global const float* p, const float x
   vg_normal(g, x, y, n);
   if (p[V_MATERIAL] != 0.0f) {
     const float e = (zm - p[V_BASE]) * p[V_INV_RANGE];
-    natural_albedo(x, y, e, e - p[V_SNOW_E], n[2], p[V_LAMBDA], p[V_WATER] != 0.0f, alb);
+    // The true slope's cosine: the material follows the ground, not its exaggeration.
+    const float q = (n[0] * n[0] + n[1] * n[1]) * p[V_INV_ZF] * p[V_INV_ZF] / (n[2] * n[2]);
+    natural_albedo(x, y, e, e - p[V_SNOW_E], 1.0f / sqrt(q + 1.0f), p[V_LAMBDA], p[V_WATER] != 0.0f, alb);
   } else {
     uchar a[3];
     ramp_color(zm, ramp_z, ramp_rgb, nramp, nodata_rgb, a);

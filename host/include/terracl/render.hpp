@@ -99,7 +99,7 @@ struct View {
   double water_level = 0;
   /// Beer-Lambert extinction length of the water's red channel in metres of path through it (green
   /// and blue go 2.5x and 5x as far): larger is clearer water.
-  double water_clarity = 10;
+  double water_clarity = 20;
   /// An explicit eye instead of the framing (tests): metres east of column 0 and south of row 0,
   /// and height in displayed metres (elevation * z_factor).
   bool has_eye = false;

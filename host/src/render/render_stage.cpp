@@ -245,7 +245,7 @@ StageInfo render_stage_info() {
            {"water", OptionType::Bool, true, "", "Perspective: draw the water surface (--no-water: none)", {}, false},
            {"water_clarity",
             OptionType::Float,
-            10.0,
+            20.0,
             "m",
             "Perspective: the water's red extinction length along the ray (green 2.5x, blue 5x); larger is clearer",
             {},

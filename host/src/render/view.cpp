@@ -285,7 +285,9 @@ Image render_view(const Heightfield& h, const Options& opt) {
     double albedo[3];
     if (s.material == Material::Natural) {
       const double e = (z - s.base) * inv_range;
-      detail::natural_albedo(x, y, e, e - snow_e, n[2], s.noise_lambda, s.water, albedo);
+      // The true slope's cosine: the material follows the ground, not its exaggeration.
+      const double q = (n[0] * n[0] + n[1] * n[1]) / (s.z_factor * s.z_factor * n[2] * n[2]);
+      detail::natural_albedo(x, y, e, e - snow_e, 1 / std::sqrt(q + 1), s.noise_lambda, s.water, albedo);
     } else {
       uint8_t a[3];
       opt.ramp.color(z, s.zmin, s.zmax, a);

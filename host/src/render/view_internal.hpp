@@ -24,15 +24,15 @@ struct ViewSetup {
   // displayed), its clarity (red extinction length, metres) and deep colour.
   Material material = Material::Ramp;
   bool water = false;
-  double water_level = 0, water_z = 0, water_clarity = 10;
+  double water_level = 0, water_z = 0, water_clarity = 20;
   double deep[3] = {22, 74, 100};
   double base = 0, top = 1;  ///< natural material: elevation fraction (zm - base) / (top - base)
   double snow_line = 0;      ///< metres: snow from here up (on gentle slopes)
   double noise_lambda = 1;   ///< metres: the material noise's finest wavelength
 };
 
-/// Natural material's snow line above `base` (metres): 65 % of the way to the top, at least 1500 m up.
-constexpr double kSnowFraction = 0.65, kSnowMinRise = 1500;
+/// Natural material's snow line above `base` (metres): 60 % of the way to the top, at least 1500 m up.
+constexpr double kSnowFraction = 0.6, kSnowMinRise = 1500;
 /// Water: Fresnel reflectance at normal incidence (Schlick), glint exponent and strength, and the
 /// green and blue extinction lengths as multiples of the red one (water_clarity).
 constexpr double kWaterF0 = 0.02, kGlintPower = 120, kGlintGain = 0.9, kClarityG = 2.5, kClarityB = 5;

@@ -63,13 +63,13 @@ void natural_albedo(double x, double y, double e, double es, double nz, double l
   const double j = material_noise(x, y, lam, 7u), j2 = material_noise(x, y, 2 * lam, 13u);
   const double slope = std::acos(std::clamp(nz, 0.0, 1.0)) * 57.29577951 + 5 * j;
   c[0] = 92, c[1] = 128, c[2] = 58;
-  mix(c, 56, 86, 42, smooth(-0.15, 0.25, j2));
-  mix(c, 122, 126, 82, smooth(0.2, 0.7, e + 0.12 * j));
+  mix(c, 56, 86, 42, 0.7 * smooth(-0.25, 0.35, j2));
+  mix(c, 122, 126, 82, smooth(-0.35, -0.05, es + 0.12 * j));
   if (shore) mix(c, 196, 180, 136, 1 - smooth(0.002, 0.012, e + 0.006 * j));
-  mix(c, 140, 126, 106, smooth(22, 30, slope));
+  mix(c, 132, 120, 102, smooth(22, 30, slope));
   const double r = smooth(-0.3, 0.3, j2);
   mix(c, 96 + r * 46, 90 + r * 44, 84 + r * 40, smooth(33, 41, slope));
-  mix(c, 238, 240, 244, smooth(0, 0.05, es + 0.04 * j) * (1 - smooth(38, 50, slope)));
+  mix(c, 238, 240, 244, smooth(0, 0.05, es + 0.04 * j) * (1 - smooth(40, 55, slope)));
   const double t = 1 + 0.16 * material_noise(x, y, 0.4 * lam, 11u);
   for (int k = 0; k < 3; ++k) c[k] *= t;
 }
