@@ -48,11 +48,12 @@ void mix(double* c, double r, double g, double b, double t) {
 }  // namespace
 
 double material_noise(double x, double y, double lam, uint32_t seed) {
-  const double wgt[3] = {0.2, 0.3, 0.5};
+  // Octave k: rotation 0.5 + 2.39996 k rad (golden-angle steps), wavelength 2.5^k lam, offset k (17.13, -9.71).
+  static const double c[3] = {0.87758256, -0.97094937, 0.55431313}, s[3] = {0.47942554, 0.23928503, -0.83230821};
+  static const double wgt[3] = {0.2, 0.3, 0.5};
   double sum = 0, wl = lam;
   for (int k = 0; k < 3; ++k) {
-    const double ang = 0.5 + 2.39996323 * k, c = std::cos(ang), s = std::sin(ang);
-    const double u = (c * x - s * y) / wl + 17.13 * k, v = (s * x + c * y) / wl - 9.71 * k;
+    const double u = (c[k] * x - s[k] * y) / wl + 17.13 * k, v = (s[k] * x + c[k] * y) / wl - 9.71 * k;
     sum += wgt[k] * value_noise(u, v, seed + uint32_t(k));
     wl *= 2.5;
   }
