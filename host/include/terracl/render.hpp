@@ -149,7 +149,8 @@ Image render(const Heightfield& h, const Options& opt, Device& device);
 /// Perspective picture (opt.view.width x height, RGB, no georeferencing): every pixel's ray is
 /// marched against the bilinear surface (steps of half a cell), the hit refined by bisection and
 /// shaded with the sun (Lambert + ambient on the interpolated vertex normals, cast shadows), the
-/// colour from opt.ramp at the hit's elevation, hazed toward the sky with distance. Nodata cells are
+/// colour from opt.ramp at the hit's elevation or the natural material (opt.view.material), under
+/// an optional water plane (opt.view.water*), hazed toward the sky with distance. Nodata cells are
 /// holes. Host reference in double precision.
 Image render_view(const Heightfield& h, const Options& opt);
 /// The same through kernels/render_view.cl (single precision; one work-item per pixel).
