@@ -181,19 +181,21 @@ TEST(RenderView, DeviceMatchesHostWithWaterAndNaturalMaterial) {
   o.view.width = 160, o.view.height = 100;
   o.view.material = render::Material::Natural;
   o.view.has_water_level = true, o.view.water_level = 3530;
-  o.azimuth_deg = 160, o.altitude_deg = 30;  // glint toward the camera (view azimuth 200)
+  o.azimuth_deg = 20, o.altitude_deg = 30;  // the sun ahead of the camera (view azimuth 200): glint
   const render::Image a = render::render_view(h, o), b = render::render_view(h, o, test::device());
   ASSERT_EQ(a.pixels.size(), b.pixels.size());
-  size_t ok = 0, water = 0;
+  size_t ok = 0, water = 0, glint = 0;
   const size_t n = size_t(a.width) * a.height;
   for (size_t i = 0; i < n; ++i) {
     int d = 0;
     for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(int(a.pixels[3 * i + c]) - int(b.pixels[3 * i + c])));
     ok += d <= 2;
     water += a.pixels[3 * i + 2] > a.pixels[3 * i] + 30 && a.pixels[3 * i + 2] < 200;  // blue, not sky
+    glint += a.pixels[3 * i] > 245 && a.pixels[3 * i + 1] > 245;
   }
   EXPECT_GE(ok, size_t(std::ceil(0.999 * n))) << n - ok << " pixels differ by more than 2";
   EXPECT_GT(water, n / 10) << "the lake covers part of the picture";
+  EXPECT_GT(glint, 0u) << "the sun's glint";
 }
 
 // A flat floor D metres under the water, seen at elevation e: the centre pixel is Schlick's Fresnel
