@@ -94,6 +94,10 @@ done
 run render_igor_edges render "$OUT/c45.tif" -o "$OUT/igor.tif" --shading igor --compute-edges
 # The perspective ray march (render_view.cl), shadows and haze on, a small picture (~2 s).
 run render_perspective render "$OUT/c45.tif" -o "$OUT/persp.png" --mode perspective --size 64x40
+# The same with a lake (the crop spans 309..477 m) and the hypsometric ramp: water body, glint,
+# shadows on the water; the case above draws the natural material.
+run render_perspective_water render "$OUT/c45.tif" -o "$OUT/perspw.png" --mode perspective --size 48x30 \
+  --water-level 400 --ramp hypsometric --azimuth 160
 for m in aspect tri tpi roughness; do
   run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.tif" --mode "$m" --compute-edges
 done

@@ -172,6 +172,122 @@ TEST(RenderView, DeviceMatchesHostReference) {
   EXPECT_GT(terrain, n / 3);
 }
 
+// The kernel and the host reference agree with the natural material and a lake (water level at the
+// crop's mean elevation): rock, grass, snow, shore, water body and glint in one picture.
+TEST(RenderView, DeviceMatchesHostWithWaterAndNaturalMaterial) {
+  const Heightfield h = read_heightfield(test::data_path("crops/frontrange_64.asc"));
+  render::Options o;
+  o.mode = render::Mode::Perspective;
+  o.view.width = 160, o.view.height = 100;
+  o.view.material = render::Material::Natural;
+  o.view.has_water_level = true, o.view.water_level = 3530;
+  o.azimuth_deg = 20, o.altitude_deg = 30;  // the sun ahead of the camera (view azimuth 200): glint
+  const render::Image a = render::render_view(h, o), b = render::render_view(h, o, test::device());
+  ASSERT_EQ(a.pixels.size(), b.pixels.size());
+  size_t ok = 0, water = 0, glint = 0;
+  const size_t n = size_t(a.width) * a.height;
+  for (size_t i = 0; i < n; ++i) {
+    int d = 0;
+    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(int(a.pixels[3 * i + c]) - int(b.pixels[3 * i + c])));
+    ok += d <= 2;
+    water += a.pixels[3 * i + 2] > a.pixels[3 * i] + 30 && a.pixels[3 * i + 2] < 200;  // blue, not sky
+    glint += a.pixels[3 * i] > 245 && a.pixels[3 * i + 1] > 245;
+  }
+  EXPECT_GE(ok, size_t(std::ceil(0.999 * n))) << n - ok << " pixels differ by more than 2";
+  EXPECT_GT(water, n / 10) << "the lake covers part of the picture";
+  EXPECT_GT(glint, 0u) << "the sun's glint";
+}
+
+// A flat floor D metres under the water, seen at elevation e: the centre pixel is Schlick's Fresnel
+// F = 0.02 + 0.98 (1 - sin e)^5 mixing the sky at sqrt(sin e) of the way to the zenith with the
+// body: the Lambert-lit floor through exp(-L / (c, 2.5 c, 5 c)), L = D / sin e, over the deep
+// colour (22, 74, 100) lit by 0.3 + 0.8 sin(alt). The sun stands off the mirror direction (no glint).
+TEST(RenderView, WaterOverFlatFloorHasBeerLambertAndFresnelColour) {
+  const double e = 30, alt = 45, clarity = 10;
+  for (double depth : {4.0, 30.0}) {
+    Heightfield h = plane(65, 65, 10);
+    std::fill(h.z.begin(), h.z.end(), float(-depth));
+    render::Options o;
+    o.mode = render::Mode::Perspective;
+    o.ramp = render::ColorRamp::parse("-1000 200 180 160\n1000 200 180 160\n", "test ramp");
+    o.view.width = o.view.height = 33;
+    o.view.haze = 0;
+    o.view.has_water_level = true, o.view.water_level = 0;
+    o.view.water_clarity = clarity;
+    o.azimuth_deg = 90, o.altitude_deg = alt;
+    aim(o, 320, 320, 0, e, 500);
+    const double se = std::sin(e * kDeg), lit = 0.3 + 0.8 * std::sin(alt * kDeg);
+    const double fr = 0.02 + 0.98 * std::pow(1 - se, 5), L = depth / se;
+    const double floor_rgb[3] = {200, 180, 160}, deep[3] = {22, 74, 100}, ext[3] = {clarity, 2.5 * clarity, 5 * clarity};
+    const double hor[3] = {214, 226, 236}, zen[3] = {112, 152, 204};
+    for (Device* dev : {static_cast<Device*>(nullptr), &test::device()}) {
+      const render::Image img = dev ? render::render(h, o, *dev) : render::render(h, o);
+      const uint8_t* p = px(img, 16, 16);
+      for (int c = 0; c < 3; ++c) {
+        const double t = std::exp(-L / ext[c]);
+        const double body = floor_rgb[c] * lit * t + deep[c] * lit * (1 - t);
+        const double want = (1 - fr) * body + fr * (hor[c] + std::sqrt(se) * (zen[c] - hor[c]));
+        EXPECT_NEAR(p[c], want, 1.0) << "channel " << c << " depth " << depth << (dev ? " device" : " host");
+      }
+    }
+  }
+}
+
+// Water at or below the lowest cell changes nothing (host and device, byte for byte); nor does
+// the automatic sea level on a terrain wholly above 0 m.
+TEST(RenderView, TerrainAboveTheWaterIsUnchanged) {
+  const Heightfield h = read_heightfield(test::data_path("crops/frontrange_64.asc"));  // 2971..4320 m
+  render::Options o;
+  o.mode = render::Mode::Perspective;
+  o.view.width = 64, o.view.height = 40;
+  o.view.material = render::Material::Natural;
+  for (Device* dev : {static_cast<Device*>(nullptr), &test::device()}) {
+    auto draw = [&](const render::Options& x) { return dev ? render::render(h, x, *dev) : render::render(h, x); };
+    render::Options dry = o;
+    dry.view.water = false;
+    const render::Image ref = draw(dry);
+    EXPECT_EQ(draw(o).pixels, ref.pixels) << "automatic sea level";
+    render::Options low = o;
+    low.view.has_water_level = true, low.view.water_level = 2971;
+    EXPECT_EQ(draw(low).pixels, ref.pixels) << "water at the lowest cell";
+    low.view.water_level = 2990;
+    EXPECT_NE(draw(low).pixels, ref.pixels) << "water above the lowest cell shows";
+  }
+}
+
+// Natural material on planes of known slope, lit from straight above the slope's normal plane:
+// dividing the centre pixel by Lambert's shade gives the albedo: grey rock on a 60 deg plane,
+// green (grass or forest) on a flat one.
+TEST(RenderView, NaturalMaterialRockOnSteepGrassOnFlat) {
+  for (double slope : {0.0, 60.0}) {
+    Heightfield h = plane(65, 65, 10);
+    const double g = std::tan(slope * kDeg);
+    for (int y = 0; y < h.height; ++y)
+      for (int x = 0; x < h.width; ++x) h.at(x, y) = float(g * 10 * (32 - y));  // rising northward
+    render::Options o;
+    o.mode = render::Mode::Perspective;
+    o.view.material = render::Material::Natural;
+    o.view.width = o.view.height = 33;
+    o.view.haze = 0;
+    o.azimuth_deg = 180, o.altitude_deg = 50;  // sun from the south, the slope faces south
+    aim(o, 320, 320, 0, 20, 150);
+    const double n[3] = {0, std::sin(slope * kDeg), std::cos(slope * kDeg)};
+    const double sun[3] = {0, std::cos(50 * kDeg), std::sin(50 * kDeg)};
+    const double shade = 0.3 + 0.8 * std::max(0.0, n[1] * sun[1] + n[2] * sun[2]);
+    for (Device* dev : {static_cast<Device*>(nullptr), &test::device()}) {
+      const render::Image img = dev ? render::render(h, o, *dev) : render::render(h, o);
+      const uint8_t* p = px(img, 16, 16);
+      const double r = p[0] / shade, gr = p[1] / shade, b = p[2] / shade;
+      if (slope > 0) {
+        EXPECT_TRUE(r > 70 && r < 170 && std::abs(r - b) < 16 && std::abs(r - gr) < 10)
+            << "rock " << r << " " << gr << " " << b;
+      } else {
+        EXPECT_TRUE(gr > r + 20 && gr > b + 35) << "grass " << r << " " << gr << " " << b;
+      }
+    }
+  }
+}
+
 TEST(RenderView, BadCameraIsAClearError) {
   const Heightfield h = plane(8, 8, 10);
   auto message = [&](auto set) {
@@ -190,6 +306,18 @@ TEST(RenderView, BadCameraIsAClearError) {
   EXPECT_NE(message([](render::Options& o) { o.view.elevation_deg = 0; }).find("view_elevation"), std::string::npos);
   EXPECT_NE(message([](render::Options& o) { o.view.elevation_deg = 90; }).find("view_elevation"), std::string::npos);
   EXPECT_NE(message([](render::Options& o) { o.view.width = 0; }).find("size"), std::string::npos);
+  EXPECT_NE(message([](render::Options& o) {
+              o.view.has_water_level = true;
+              o.view.water_level = NAN;
+            }).find("water_level"),
+            std::string::npos);
+  EXPECT_NE(message([](render::Options& o) { o.view.water_clarity = 0; }).find("water_clarity"), std::string::npos);
+  try {
+    (void)render::material_from_name("chalk");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("material"), std::string::npos) << e.what();
+  }
 }
 
 // The CLI: a perspective PNG of the requested size; bad options name the flag and leave no file.
@@ -209,6 +337,8 @@ TEST(RenderView, CliWritesPngAndRefusesBadOptions) {
       {"--view-elevation 90", "view-elevation"},
       {"--size 100", "size"},
       {"--view-target 5", "view-target"},
+      {"--water-level nan", "water_level"},
+      {"--material chalk", "material"},
   };
   for (const auto& [args, name] : bad) {
     const auto e = test::run_cli("-q render " + in + " -o " + tmp.path("x.png") + " --mode perspective --backend host " + args);

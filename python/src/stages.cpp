@@ -236,6 +236,16 @@ py::array_t<uint8_t> render_image(py::object input, const py::dict& kwargs, py::
   o.view.zoom = r.at("view_zoom").get<double>();
   o.view.haze = r.at("haze").get<double>();
   o.view.shadows = r.at("shadows").get<bool>();
+  // The natural material is the perspective default unless a ramp is asked for (render_stage.cpp).
+  o.view.material = !r.at("material").is_null() ? render::material_from_name(r.at("material").get<std::string>())
+                    : !r.at("ramp").is_null()    ? render::Material::Ramp
+                                                 : render::Material::Natural;
+  o.view.water = r.at("water").get<bool>();
+  if (!r.at("water_level").is_null()) {
+    o.view.has_water_level = true;
+    o.view.water_level = r.at("water_level").get<double>();
+  }
+  o.view.water_clarity = r.at("water_clarity").get<double>();
   {
     const std::string size = r.at("size").get<std::string>();
     char x = 0, extra = 0;

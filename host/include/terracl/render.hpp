@@ -49,6 +49,8 @@ struct ColorRamp {
   };
   std::vector<Entry> entries;  ///< sorted by value after resolving percentages
   uint8_t nodata_rgb[3] = {0, 0, 0};
+  /// The named ramp this is ("hypsometric", "relative", "grey"), empty for a file's.
+  std::string name;
 
   /// Parses ramp text; errors name `where` (the file) and the line.
   static ColorRamp parse(const std::string& text, const std::string& where);
@@ -64,6 +66,12 @@ struct ColorRamp {
   /// Colour of elevation z for data range [zmin, zmax] (percentages resolve against it).
   void color(double z, double zmin, double zmax, uint8_t out[3]) const;
 };
+
+/// Surface colouring of the perspective picture: the ramp at the hit's elevation, or the natural
+/// look (rock on steep faces, scree, grass, snow on high gentle ground, sand at the shore, by slope
+/// and elevation with world-space noise; docs/analysis.md).
+enum class Material { Ramp, Natural };
+Material material_from_name(const std::string& name);  ///< "ramp" | "natural"
 
 /// Camera and look of the perspective picture (Mode::Perspective): a pinhole camera looking at the
 /// terrain from `azimuth_deg` and `elevation_deg`, placed so that the whole terrain fills the frame.
@@ -81,6 +89,17 @@ struct View {
   double target[2] = {0, 0};
   double haze = 1;       ///< strength of the distance haze toward the sky (0: none)
   bool shadows = true;   ///< cast shadows: a march toward the sun from every visible point
+  /// Ramp by default in the library (the CLI and stage default to natural unless --ramp is given).
+  Material material = Material::Ramp;
+  /// Water surface: false draws none (--no-water). Else at water_level (metres) when
+  /// has_water_level, otherwise at sea level 0 m when the look is the hypsometric ramp or the
+  /// natural material and some cell lies below 0 m. Water at or below the lowest cell is not drawn.
+  bool water = true;
+  bool has_water_level = false;
+  double water_level = 0;
+  /// Beer-Lambert extinction length of the water's red channel in metres of path through it (green
+  /// and blue go 2.5x and 5x as far): larger is clearer water.
+  double water_clarity = 20;
   /// An explicit eye instead of the framing (tests): metres east of column 0 and south of row 0,
   /// and height in displayed metres (elevation * z_factor).
   bool has_eye = false;
@@ -130,7 +149,8 @@ Image render(const Heightfield& h, const Options& opt, Device& device);
 /// Perspective picture (opt.view.width x height, RGB, no georeferencing): every pixel's ray is
 /// marched against the bilinear surface (steps of half a cell), the hit refined by bisection and
 /// shaded with the sun (Lambert + ambient on the interpolated vertex normals, cast shadows), the
-/// colour from opt.ramp at the hit's elevation, hazed toward the sky with distance. Nodata cells are
+/// colour from opt.ramp at the hit's elevation or the natural material (opt.view.material), under
+/// an optional water plane (opt.view.water*), hazed toward the sky with distance. Nodata cells are
 /// holes. Host reference in double precision.
 Image render_view(const Heightfield& h, const Options& opt);
 /// The same through kernels/render_view.cl (single precision; one work-item per pixel).

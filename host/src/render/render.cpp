@@ -38,6 +38,12 @@ Mode mode_from_name(const std::string& name) {
        name);
 }
 
+Material material_from_name(const std::string& name) {
+  if (name == "ramp") return Material::Ramp;
+  if (name == "natural") return Material::Natural;
+  fail("render", "unknown material '{}' (--material: expected natural|ramp)", name);
+}
+
 bool is_value_mode(Mode m) {
   return m == Mode::Slope || m == Mode::Aspect || m == Mode::TRI || m == Mode::TPI || m == Mode::Roughness;
 }
@@ -157,14 +163,21 @@ static const char* kRelative =
     "nv 0 0 0\n";
 static const char* kGrey = "0% 0 0 0\n100% 255 255 255\nnv 0 0 0\n";
 
-ColorRamp ColorRamp::default_ramp() { return parse(kHypsometric, "hypsometric ramp"); }
+ColorRamp ColorRamp::default_ramp() {
+  ColorRamp r = parse(kHypsometric, "hypsometric ramp");
+  r.name = "hypsometric";
+  return r;
+}
 
 std::vector<std::string> ColorRamp::names() { return {"hypsometric", "relative", "grey"}; }
 
 ColorRamp ColorRamp::from_spec(const std::string& spec) {
   if (spec == "hypsometric") return default_ramp();
-  if (spec == "relative") return parse(kRelative, "relative ramp");
-  if (spec == "grey" || spec == "gray") return parse(kGrey, "grey ramp");
+  if (spec == "relative" || spec == "grey" || spec == "gray") {
+    ColorRamp r = spec == "relative" ? parse(kRelative, "relative ramp") : parse(kGrey, "grey ramp");
+    r.name = spec == "relative" ? "relative" : "grey";
+    return r;
+  }
   std::ifstream f(spec);
   if (!f)
     fail("render", "ramp '{}' is neither a named ramp (hypsometric, relative, grey) nor a readable gdaldem colour file",

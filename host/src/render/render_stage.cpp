@@ -41,6 +41,16 @@ render::Options render_stage_options(const StageContext& c) {
   o.view.zoom = c.get<double>("view_zoom");
   o.view.haze = c.get<double>("haze");
   o.view.shadows = c.get<bool>("shadows");
+  // The natural material is the perspective default unless a ramp is asked for.
+  o.view.material = c.has("material")  ? render::material_from_name(c.get<std::string>("material"))
+                    : c.has("ramp")    ? render::Material::Ramp
+                                       : render::Material::Natural;
+  o.view.water = c.get<bool>("water");
+  if (c.has("water_level")) {
+    o.view.has_water_level = true;
+    o.view.water_level = c.get<double>("water_level");
+  }
+  o.view.water_clarity = c.get<double>("water_clarity");
   {
     const std::string size = c.get<std::string>("size");
     int w = 0, h = 0;
@@ -216,6 +226,32 @@ StageInfo render_stage_info() {
             false},
            {"haze", OptionType::Float, 1.0, "", "Perspective: strength of the distance haze (0: none)", {}, false},
            {"shadows", OptionType::Bool, true, "", "Perspective: cast shadows toward the sun", {}, false},
+           {"material",
+            OptionType::Enum,
+            nullptr,
+            "",
+            "Perspective: surface colours: natural (rock, scree, grass, snow, sand by slope and elevation; the default "
+            "unless ramp is given) or ramp (the colour ramp by elevation)",
+            {"natural", "ramp"},
+            false},
+           {"water_level",
+            OptionType::Float,
+            nullptr,
+            "m",
+            "Perspective: elevation of a water surface (default: sea level 0 m where cells lie below it and the look is "
+            "natural or the hypsometric ramp, else none)",
+            {},
+            false},
+           {"water", OptionType::Bool, true, "", "Perspective: draw the water surface (--no-water: none)", {}, false},
+           {"water_clarity",
+            OptionType::Float,
+            20.0,
+            "m",
+            "Perspective: the water's red extinction length along the ray (green 2.5x, blue 5x); larger is clearer",
+            {},
+            false,
+            1e-3,
+            1e6},
            {"backend",
             OptionType::Enum,
             "device",

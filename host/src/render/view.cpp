@@ -38,6 +38,10 @@ void check_view(const View& v) {
     fail("render", "size (--size) must be WxH with 1..16384 pixels a side; got {}x{}", v.width, v.height);
   if (!(v.zoom > 0) || !std::isfinite(v.zoom)) fail("render", "view_zoom (--view-zoom) must be > 0; got {}", v.zoom);
   if (!(v.haze >= 0) || !std::isfinite(v.haze)) fail("render", "haze (--haze) must be >= 0; got {}", v.haze);
+  if (v.has_water_level && !std::isfinite(v.water_level))
+    fail("render", "water_level (--water-level) must be a finite elevation in metres; got {}", v.water_level);
+  if (!(v.water_clarity > 0) || !std::isfinite(v.water_clarity))
+    fail("render", "water_clarity (--water-clarity) must be > 0 metres; got {}", v.water_clarity);
   if (v.has_target && !(std::isfinite(v.target[0]) && std::isfinite(v.target[1])))
     fail("render", "view_target (--view-target) must be two finite cell coordinates COL,ROW");
 }
@@ -68,6 +72,24 @@ ViewSetup view_setup(const Heightfield& h, const Options& opt) {
   const double pad = 1e-3 * std::max(1.0, (s.zmax - s.zmin) * s.z_factor);
   s.zlo = s.zmin * s.z_factor - pad;
   s.zhi = s.zmax * s.z_factor + pad;
+
+  // Water: an explicit level, else sea level where the look has a coast (hypsometric ramp or
+  // natural material) and the terrain reaches below it. Water at or below the lowest cell could
+  // only show through holes: none, so that such a terrain's picture is unchanged.
+  s.material = v.material;
+  const bool coastal_look = v.material == Material::Natural || opt.ramp.name == "hypsometric";
+  if (v.water && (v.has_water_level || (coastal_look && any && s.zmin < 0))) {
+    s.water_level = v.has_water_level ? v.water_level : 0.0;
+    s.water = any && s.water_level > s.zmin;
+  }
+  s.water_z = s.water_level * s.z_factor;
+  s.water_clarity = v.water_clarity;
+  if (s.water) s.zhi = std::max(s.zhi, s.water_z + pad);  // a sea above every cell still shows
+  s.base = s.water ? s.water_level : s.zmin;
+  s.top = std::max(s.zmax, s.base + 1e-6);
+  s.snow_line = s.base + std::max(kSnowFraction * (s.top - s.base), kSnowMinRise);
+  s.noise_lambda = std::max(6 * std::min(s.cell_x, s.cell_y),
+                            std::max((h.width - 1) * s.cell_x, (h.height - 1) * s.cell_y) / 128);
 
   const double az = v.azimuth_deg * kDeg, el = v.elevation_deg * kDeg;
   // Looking from azimuth az (clockwise from north; y points south) down by el.
@@ -144,7 +166,10 @@ std::vector<float> view_slots(const ViewSetup& s) {
   for (const double* v : {s.eye, s.fwd, s.right, s.up, s.sun})
     for (int k = 0; k < 3; ++k) p.push_back(float(v[k]));
   for (double d : {s.cell_x, s.cell_y, s.z_factor, s.zlo, s.zhi, s.ambient, s.diffuse, s.haze, s.haze_near,
-                   s.haze_scale, s.shadows ? 1.0 : 0.0})
+                   s.haze_scale, s.shadows ? 1.0 : 0.0, s.material == Material::Natural ? 1.0 : 0.0,
+                   s.water ? 1.0 : 0.0, s.water_z, s.water_clarity, s.base, 1 / (s.top - s.base),
+                   (s.snow_line - s.base) / (s.top - s.base), s.noise_lambda, 1 / s.z_factor, s.deep[0], s.deep[1],
+                   s.deep[2]})
     p.push_back(float(d));
   return p;
 }
@@ -238,6 +263,47 @@ Image render_view(const Heightfield& h, const Options& opt) {
   const View& v = opt.view;
   Image img = detail::blank_view(v);
   const double eps = 1e-4 * std::max(s.zhi - s.zlo, 1.0);
+  const double wx = (h.width - 1) * s.cell_x, wy = (h.height - 1) * s.cell_y;
+  const double inv_range = 1 / (s.top - s.base), snow_e = (s.snow_line - s.base) * inv_range;
+  // 1 when a march toward the sun from o finds no surface above it (or shadows are off).
+  auto lit_from = [&](const double* o) {
+    double u0, u1;
+    if (!s.shadows || !surf.clip(o, s.sun, u0, u1)) return 1.0;
+    const double ds = surf.step(s.sun);
+    for (long k = 1; k * ds < u1; ++k) {
+      const double t = k * ds;
+      if (o[2] + t * s.sun[2] < surf.at(o[0] + t * s.sun[0], o[1] + t * s.sun[1])) return 0.0;
+    }
+    return 1.0;
+  };
+  // Shaded (unhazed) terrain colour at (x, y); `lit` < 0: march for its own shadow.
+  auto terrain = [&](double x, double y, double lit, double rgb[3]) {
+    double z = 0;
+    const double zs = surf.at(x, y, &z);
+    double n[3];
+    surf.normal(x, y, n);
+    double albedo[3];
+    if (s.material == Material::Natural) {
+      const double e = (z - s.base) * inv_range;
+      // The true slope's cosine: the material follows the ground, not its exaggeration.
+      const double q = (n[0] * n[0] + n[1] * n[1]) / (s.z_factor * s.z_factor * n[2] * n[2]);
+      detail::natural_albedo(x, y, e, e - snow_e, 1 / std::sqrt(q + 1), s.noise_lambda, s.water, albedo);
+    } else {
+      uint8_t a[3];
+      opt.ramp.color(z, s.zmin, s.zmax, a);
+      for (int k = 0; k < 3; ++k) albedo[k] = a[k];
+    }
+    double light = std::max(0.0, dot3(n, s.sun));
+    if (light > 0 && lit < 0) {
+      // March toward the sun from just above the hit; any surface above the ray shadows it.
+      const double o[3] = {x, y, zs + eps};
+      light *= lit_from(o);
+    } else if (lit >= 0) {
+      light *= lit;
+    }
+    const double shade = s.ambient + s.diffuse * light;
+    for (int k = 0; k < 3; ++k) rgb[k] = albedo[k] * shade;
+  };
   for (int py = 0; py < v.height; ++py) {
     for (int px = 0; px < v.width; ++px) {
       const double sx = 2.0 * (px + 0.5) / v.width - 1.0, sy = 1.0 - 2.0 * (py + 0.5) / v.height;
@@ -249,11 +315,11 @@ Image render_view(const Heightfield& h, const Options& opt) {
       // Sky: pale at and below the horizon, deeper blue toward the zenith.
       const double sk = std::sqrt(std::clamp(d[2], 0.0, 1.0));
       for (int k = 0; k < 3; ++k) rgb[k] = detail::kSkyHorizon[k] + sk * (detail::kSkyZenith[k] - detail::kSkyHorizon[k]);
-      double t0, t1;
+      double t0 = 0, t1, thit = -1;
       if (surf.clip(s.eye, d, t0, t1)) {
         auto f = [&](double t) { return s.eye[2] + t * d[2] - surf.at(s.eye[0] + t * d[0], s.eye[1] + t * d[1]); };
         const double dt = surf.step(d);
-        double tp = t0, fp = f(t0), thit = -1;
+        double tp = t0, fp = f(t0);
         // A ray that enters the box below the surface (through a side) sees no terrain: no skirts.
         for (long k = 1; fp > 0; ++k) {
           double t = t0 + k * dt;
@@ -272,34 +338,49 @@ Image render_view(const Heightfield& h, const Options& opt) {
           if (last) break;
           tp = t, fp = ft;
         }
-        if (thit >= 0) {
-          const double x = s.eye[0] + thit * d[0], y = s.eye[1] + thit * d[1];
-          double z = 0;
-          const double zs = surf.at(x, y, &z);
-          uint8_t albedo[3];
-          opt.ramp.color(z, s.zmin, s.zmax, albedo);
-          double n[3];
-          surf.normal(x, y, n);
-          double light = std::max(0.0, dot3(n, s.sun));
-          if (light > 0 && s.shadows) {
-            // March toward the sun from just above the hit; any surface above the ray shadows it.
-            const double o[3] = {x, y, zs + eps};
-            double u0, u1;
-            if (surf.clip(o, s.sun, u0, u1)) {
-              const double ds = surf.step(s.sun);
-              for (long k = 1; k * ds < u1; ++k) {
-                const double t = k * ds;
-                if (o[2] + t * s.sun[2] < surf.at(o[0] + t * s.sun[0], o[1] + t * s.sun[1])) {
-                  light = 0;
-                  break;
-                }
-              }
-            }
-          }
-          const double shade = s.ambient + s.diffuse * light;
-          const double hz = s.haze > 0 ? 1 - std::exp(-s.haze * std::max(0.0, thit - s.haze_near) / s.haze_scale) : 0;
-          for (int k = 0; k < 3; ++k) rgb[k] = albedo[k] * shade * (1 - hz) + detail::kSkyHorizon[k] * hz;
+      }
+      // The water plane, where the ray meets it over the grid before any terrain.
+      double tw = -1;
+      if (s.water && d[2] < 0 && s.eye[2] > s.water_z) {
+        const double t = (s.water_z - s.eye[2]) / d[2];
+        const double x = s.eye[0] + t * d[0], y = s.eye[1] + t * d[1];
+        if (x >= 0 && x <= wx && y >= 0 && y <= wy && (thit < 0 || t < thit)) tw = t;
+      }
+      // A ray entering the box below the water through a side sees no sea floor: no water skirts.
+      if (s.water && tw < 0 && thit >= 0 && s.eye[2] + t0 * d[2] < s.water_z) thit = -1;
+      double tdist = -1, col[3];
+      if (tw >= 0) {
+        const double x = s.eye[0] + tw * d[0], y = s.eye[1] + tw * d[1];
+        const double o[3] = {x, y, s.water_z + eps};
+        const double lit = s.sun[2] > 0 ? lit_from(o) : 0.0;
+        // Beer-Lambert along the ray's path through the water (in metres: vertical lengths
+        // undo the z factor) toward the deep colour, lit by the sun like a flat surface.
+        const double path = (thit >= 0 ? thit - tw : INFINITY) *
+                            std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] / (s.z_factor * s.z_factor));
+        double bed[3] = {0, 0, 0};
+        if (thit >= 0) terrain(s.eye[0] + thit * d[0], s.eye[1] + thit * d[1], lit, bed);
+        const double body_shade = s.ambient + s.diffuse * std::max(0.0, s.sun[2]) * lit;
+        const double ext[3] = {s.water_clarity, s.water_clarity * detail::kClarityG, s.water_clarity * detail::kClarityB};
+        // Fresnel (Schlick) toward the sky seen in the mirror direction, plus the sun's glint.
+        const double c = std::clamp(-d[2], 0.0, 1.0), m = 1 - c;
+        const double fr = detail::kWaterF0 + (1 - detail::kWaterF0) * m * m * m * m * m;
+        const double rs = std::sqrt(c);
+        const double refl = std::max(0.0, d[0] * s.sun[0] + d[1] * s.sun[1] - d[2] * s.sun[2]);
+        const double glint = lit * detail::kGlintGain * 255 * std::pow(refl, detail::kGlintPower);
+        for (int k = 0; k < 3; ++k) {
+          const double tr = std::exp(-path / ext[k]);
+          const double body = bed[k] * tr + s.deep[k] * body_shade * (1 - tr);
+          const double sky = detail::kSkyHorizon[k] + rs * (detail::kSkyZenith[k] - detail::kSkyHorizon[k]);
+          col[k] = (1 - fr) * body + fr * sky + glint;
         }
+        tdist = tw;
+      } else if (thit >= 0) {
+        terrain(s.eye[0] + thit * d[0], s.eye[1] + thit * d[1], -1, col);
+        tdist = thit;
+      }
+      if (tdist >= 0) {
+        const double hz = s.haze > 0 ? 1 - std::exp(-s.haze * std::max(0.0, tdist - s.haze_near) / s.haze_scale) : 0;
+        for (int k = 0; k < 3; ++k) rgb[k] = col[k] * (1 - hz) + detail::kSkyHorizon[k] * hz;
       }
       uint8_t* o = &img.pixels[(size_t(py) * v.width + px) * 3];
       for (int k = 0; k < 3; ++k) o[k] = detail::to_byte(rgb[k]);

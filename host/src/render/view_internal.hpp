@@ -1,6 +1,7 @@
 #pragma once
 // The perspective picture's camera, sun and look, computed once on the host (double) and shared by
 // the host reference (view.cpp) and the kernel launcher (view_cl.cpp, as float slots).
+#include <cstdint>
 #include <terracl/render.hpp>
 #include <vector>
 
@@ -19,7 +20,27 @@ struct ViewSetup {
   double ambient = 0.3, diffuse = 0.8;
   double haze, haze_near, haze_scale;  ///< haze = 1 - exp(-haze * max(0, d - near) / scale)
   bool shadows;
+  // The look (view_look.cpp): the material, and the water plane when `water` (level in metres and
+  // displayed), its clarity (red extinction length, metres) and deep colour.
+  Material material = Material::Ramp;
+  bool water = false;
+  double water_level = 0, water_z = 0, water_clarity = 20;
+  double deep[3] = {22, 74, 100};
+  double base = 0, top = 1;  ///< natural material: elevation fraction (zm - base) / (top - base)
+  double snow_line = 0;      ///< metres: snow from here up (on gentle slopes)
+  double noise_lambda = 1;   ///< metres: the material noise's finest wavelength
 };
+
+/// Natural material's snow line above `base` (metres): 60 % of the way to the top, at least 1500 m up.
+constexpr double kSnowFraction = 0.6, kSnowMinRise = 1500;
+/// Water: Fresnel reflectance at normal incidence (Schlick), glint exponent and strength, and the
+/// green and blue extinction lengths as multiples of the red one (water_clarity).
+constexpr double kWaterF0 = 0.02, kGlintPower = 120, kGlintGain = 0.9, kClarityG = 2.5, kClarityB = 5;
+
+/// Noise of the natural material: three rotated value-noise octaves, in about [-1, 1].
+double material_noise(double x, double y, double lam, uint32_t seed);
+/// Natural albedo (0..255 per channel, kernels/render_material.clh's natural_albedo).
+void natural_albedo(double x, double y, double e, double es, double nz, double lam, bool shore, double c[3]);
 
 /// Sky colours: toward the horizon (also the haze colour) and the zenith.
 constexpr double kSkyHorizon[3] = {214, 226, 236};
