@@ -234,7 +234,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     clk.mark(d, "device init");
     make_rhs(d, p.g, clk, bufs);
     clk.mark(d, "device init");
-    peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
+    peak = std::max<uint64_t>(peak, d.allocated_since(baseline));
     if (hard) {
       cl::Buffer bi = bufs.take("hard index", hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
       cl::Buffer bv = bufs.take("hard value", hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
@@ -245,7 +245,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
       set_args(sc, p.u, p.g, bi, bv, int(hard), chunk, float(m));
       launch_rows(d, sc, (hard + chunk - 1) / chunk);
-      peak = std::max<uint64_t>(peak, d.allocated_bytes() - baseline);
+      peak = std::max<uint64_t>(peak, d.allocated_since(baseline));
     }
     q.finish();  // the gradient and hard-list buffers go back to the (releasable) cache
     bufs.put_back_all_but("u", "g");

@@ -223,4 +223,9 @@ void Device::fill(const cl::Buffer& buf, float value, size_t offset, size_t coun
 
 uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, m_allocated->load())); }
 
+uint64_t Device::allocated_since(uint64_t baseline) const {
+  const uint64_t now = allocated_bytes();
+  return now > baseline ? now - baseline : 0;
+}
+
 }  // namespace terracl

@@ -104,7 +104,7 @@ class Solver {
 
   // Buffers reused from the workspace were allocated before the solve: added back.
   void track() {
-    m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_d.allocated_bytes() - m_baseline + m_ws.reused());
+    m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_d.allocated_since(m_baseline) + m_ws.reused());
   }
   /// The hierarchy's buffers (cached between solves of one grid size, cl/workspace.hpp); the
   /// refinement takes its vectors from the same.
