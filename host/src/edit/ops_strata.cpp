@@ -6,14 +6,18 @@
 // and gentle (f_soft = f_hard / contrast) through the soft one, and S is the identity at every
 // pair's boundaries, so the stack neither lifts nor sinks the terrain as a whole.
 //
-// Gradient form (default): every face steep enough, inside the region, has its gradient multiplied
-// by the secant slope (S(h1) - S(h0)) / (h1 - h0) of the stack between the elevations of its two
-// cells: the discrete chain rule, so a curl-free field stays curl-free where the weight is 1 and
-// the reconstruction is S(h) there: hard layers become risers, soft layers benches. Where the
-// weight fades (gentle slopes, the region's edge) the Poisson solve spreads the mismatch smoothly.
+// Gradient form (default): the terrain's slope at every steep face inside the region is scaled by
+// the secant slope (S(h1) - S(h0)) / (h1 - h0) of the stack between the elevations of its two cells
+// (the discrete chain rule): the face's gradient gains w (S(h1) - S(h0) - (h1 - h0)) / d, w the
+// region's weight times a slope weight (0 below min_slope). Where w is 1 the reconstruction moves
+// by exactly S(h) - h: hard layers become risers, soft layers benches; where w fades (gentle
+// slopes, the region's edge) the Poisson solve spreads the mismatch smoothly. The change is taken
+// from the terrain h (the current reconstruction), not from the field's own gradient: on a canyon
+// wall between a pinned rim and a pinned river the field explains only part of the drop (the solve
+// adds the rest as a harmonic correction), and scaling the field alone diluted the steps ~3x.
 // Remap form ("form": "remap", kept for comparison): g += grad(w (S(h) - h)), the elevation remap
-// blended by the weight; where w varies, (S(h) - h) grad(w) draws bumps along the weight's contours
-// (the foot of every wall), which is why it is not the default (docs/authoring.md, "strata").
+// blended by the weight: the same where w is constant, plus (S(h) - h) grad(w), which draws bumps
+// along the weight's contours (the foot and brink of every wall): why it is not the default.
 #include "edit/state.hpp"
 
 #include <terracl/error.hpp>
@@ -169,72 +173,61 @@ Operation parse_strata(Params& p) {
         if (wr[size_t(y) * box.w + x] > 0) zmin = std::min(zmin, h.z[size_t(box.y0 + y) * W + box.x0 + x]);
     const Stack stack(sp, std::isfinite(zmin) ? double(zmin) - 1.0 : sp.top);
     GradientField g = s.download();
-    const GradientField g_in = g;  // slopes are read from the field before this operation
-    auto gx = [&](int x, int y) { return double(g_in.gx[size_t(y) * W + x]); };
-    auto gy = [&](int x, int y) { return double(g_in.gy[size_t(y) * W + x]); };
     auto in_box = [&](int x, int y) { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; };
     auto w_region = [&](int x, int y) { return in_box(x, y) ? double(wr[size_t(y - box.y0) * box.w + (x - box.x0)]) : 0.0; };
     auto w_slope = [&](double slope) { return t1 > t0 ? smoother01((slope - t0) / (t1 - t0)) : (slope >= t0 ? 1.0 : 0.0); };
-    // A face's slope: its own component and the mean of the other component's 4 faces around it.
-    auto face_slope = [&](int x, int y, bool xface) {
-      double o = 0;
-      int n = 0;
-      const int dx = xface ? 1 : 0, dy = xface ? 0 : 1;
-      for (int j = 0; j < 2; ++j) {
-        const int cx = x + j * dx, cy = y + j * dy;  // the face's two cells
-        for (int k = -1; k <= 0; ++k) {
-          const int fx = xface ? cx : cx + k, fy = xface ? cy + k : cy;
-          if (fx < 0 || fy < 0) continue;
-          if (xface ? (fy >= H - 1 || fx >= W) : (fx >= W - 1 || fy >= H)) continue;
-          o += xface ? gy(fx, fy) : gx(fx, fy);
-          ++n;
-        }
+    // The terrain's slope at each cell of the box (central differences, one-sided at the map's
+    // border): the slope the layers meet, whatever the field holds (hard constraints may have bent
+    // the reconstruction away from it).
+    auto z = [&](int x, int y) { return double(h.z[size_t(y) * W + x]); };
+    std::vector<double> cs(size_t(box.w) * box.h);
+    for (int y = box.y0; y < box.y0 + box.h; ++y)
+      for (int x = box.x0; x < box.x0 + box.w; ++x) {
+        const int xa = std::max(0, x - 1), xb = std::min(W - 1, x + 1), ya = std::max(0, y - 1), yb = std::min(H - 1, y + 1);
+        const double sx = xb > xa ? (z(xb, y) - z(xa, y)) / ((xb - xa) * b.cell_x) : 0.0;
+        const double sy = yb > ya ? (z(x, yb) - z(x, ya)) / ((yb - ya) * b.cell_y) : 0.0;
+        cs[size_t(y - box.y0) * box.w + (x - box.x0)] = std::hypot(sx, sy);
       }
-      return std::hypot(xface ? gx(x, y) : gy(x, y), n ? o / n : 0.0);
+    auto cell_w = [&](int x, int y) {
+      const double wreg = w_region(x, y);
+      return wreg > 0 ? wreg * w_slope(cs[size_t(y - box.y0) * box.w + (x - box.x0)]) : 0.0;
     };
     size_t touched = 0;
     const int x0 = box.x0, y0 = box.y0, x1 = box.x0 + box.w, y1 = box.y0 + box.h;
-    if (!remap) {
-      for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x)
-          for (int xface = 0; xface < 2; ++xface) {
-            const int bx = x + xface, by = y + 1 - xface;  // the face's second cell
-            if (bx >= W || by >= H) continue;
-            const double w = 0.5 * (w_region(x, y) + w_region(bx, by)) * w_slope(face_slope(x, y, xface));
-            if (!(w > 0)) continue;  // untouched: flat ground and the outside keep their bits
-            const size_t i = size_t(y) * W + x;
-            const double f = stack.secant(h.z[i], h.z[size_t(by) * W + bx]);
-            float& v = xface ? g.gx[i] : g.gy[i];
-            v = float(v * (1 - w + w * f));
-            ++touched;
-          }
-    } else {
-      // d = w (S(h) - h) at the cells; w from the cell's slope (the mean of its faces' slopes).
-      std::vector<double> dz(size_t(box.w) * box.h, 0.0);
+    // The change of each face's gradient: w (S(h1) - S(h0) - (h1 - h0)) / d (gradient form, w the
+    // face's weight: the reconstruction moves by S(h) - h where w is 1), or the face difference of
+    // w (S(h) - h) at the cells (remap form).
+    std::vector<double> dz;
+    if (remap) {
+      dz.assign(size_t(box.w) * box.h, 0.0);
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
-          const double wreg = w_region(x, y);
-          if (!(wreg > 0)) continue;
-          const double sx = 0.5 * ((x > 0 ? gx(x - 1, y) : 0.0) + (x < W - 1 ? gx(x, y) : 0.0));
-          const double sy = 0.5 * ((y > 0 ? gy(x, y - 1) : 0.0) + (y < H - 1 ? gy(x, y) : 0.0));
-          const double w = wreg * w_slope(std::hypot(sx, sy));
-          const double z = h.z[size_t(y) * W + x];
-          if (w > 0) dz[size_t(y - y0) * box.w + (x - x0)] = w * (stack.map(z) - z);
+          const double w = cell_w(x, y);
+          if (w > 0) dz[size_t(y - y0) * box.w + (x - x0)] = w * (stack.map(z(x, y)) - z(x, y));
         }
-      auto dz_at = [&](int x, int y) { return in_box(x, y) ? dz[size_t(y - y0) * box.w + (x - x0)] : 0.0; };
-      for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x)
-          for (int xface = 0; xface < 2; ++xface) {
-            const int bx = x + xface, by = y + 1 - xface;
-            if (bx >= W || by >= H) continue;
+    }
+    auto dz_at = [&](int x, int y) { return in_box(x, y) ? dz[size_t(y - y0) * box.w + (x - x0)] : 0.0; };
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x)
+        for (int xface = 0; xface < 2; ++xface) {
+          const int bx = x + xface, by = y + 1 - xface;  // the face's second cell
+          if (bx >= W || by >= H) continue;
+          double delta;
+          if (remap) {
             const double a = dz_at(x, y), c = dz_at(bx, by);
             if (a == 0 && c == 0) continue;
-            const size_t i = size_t(y) * W + x;
-            float& v = xface ? g.gx[i] : g.gy[i];
-            v = float(v + (c - a) / (xface ? b.cell_x : b.cell_y));
-            ++touched;
+            delta = c - a;
+          } else {
+            const double w = 0.5 * (cell_w(x, y) + cell_w(bx, by));
+            if (!(w > 0)) continue;  // untouched: gentle ground and the outside keep their bits
+            const double za = z(x, y), zb = z(bx, by);
+            delta = w * ((stack.map(zb) - stack.map(za)) - (zb - za));
           }
-    }
+          const size_t i = size_t(y) * W + x;
+          float& v = xface ? g.gx[i] : g.gy[i];
+          v = float(v + delta / (xface ? b.cell_x : b.cell_y));
+          ++touched;
+        }
     s.upload(g);
     s.log().back()["layer_pairs"] = stack.pairs().size();
     s.log().back()["faces"] = touched;
