@@ -385,13 +385,52 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (int i = y; i < std::min(n - 1, y + int(0.15 * extent / cell)); ++i)
         if (slope(i) > slope(steep)) steep = i;
       EXPECT_GT(slope(steep), 1.0) << "no steep face";
-      int foot = steep;
-      while (foot + 1 < n && slope(foot) > 0.8) ++foot;
+      // The face runs on over its ledges (strata: gentler runs shorter than 16 m between its cliff
+      // bands) down to the foot.
+      int foot = y;
+      while (foot + 1 < n) {
+        if (slope(foot) > 0.8) {
+          ++foot;
+          continue;
+        }
+        int j = foot;
+        while (j + 1 < n && slope(j) <= 0.8 && (j - foot) * cell < 16) ++j;
+        if (j + 1 >= n || slope(j) <= 0.8 || foot < steep - int(0.1 * extent / cell)) break;
+        foot = j;
+      }
+      foot = std::max(foot, steep);
       EXPECT_GT(z[y] - z[foot], height / 3) << "the face drops too little";
+      // Ledges (strata): runs gentler than 2 between cliff bands steeper than 3.5 within 16 m above
+      // and below, >= 2 of them between the brink and the foot (the former face, one smooth wall
+      // under a steepened cap, had at most one).
+      int ledges = 0;
+      const int reach = std::max(1, int(16 / cell));
+      for (int i = y + 1; i < foot; ++i) {
+        if (slope(i) >= 2.0 || slope(i - 1) < 2.0) continue;  // the first gentle cell of a run
+        int j = i;
+        while (j < foot && slope(j) < 2.0) ++j;
+        bool above = false, below = false;
+        for (int k = std::max(y, i - reach); k < i; ++k) above = above || slope(k) > 3.5;
+        for (int k = j; k < std::min(n - 1, j + reach); ++k) below = below || slope(k) > 3.5;
+        ledges += above && below;
+      }
+      EXPECT_GE(ledges, 2) << "no ledges on the face (strata)";
+      std::cout << fmt::format("cliff: {} ledges down the face, which drops {:.0f} m\n", ledges, z[y] - z[foot]);
       // (The apron's slope over 16 m: the ridged gullies oriented down it ripple a one-cell slope.)
       auto apron = [&](int i) { return (z[i] - z[std::min(n - 1, i + 4)]) / (4 * cell); };
+      // (A fallen block on the fall line interrupts the apron for less than 24 m.)
+      auto on_apron = [&](int i) { return apron(i) >= 0.25 && apron(i) <= 0.85; };
       int toe = foot;
-      while (toe + 4 < n && apron(toe) >= 0.25 && apron(toe) <= 0.85) ++toe;
+      while (toe + 4 < n) {
+        if (on_apron(toe)) {
+          ++toe;
+          continue;
+        }
+        int j = toe;
+        while (j + 4 < n && !on_apron(j) && (j - toe) * cell < 24) ++j;
+        if (j + 4 >= n || !on_apron(j)) break;
+        toe = j;
+      }
       EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read (from " << ox << ", " << oy << ")";
       // The apron's top, 60 m below the face's foot, lies near the repose angle of scree (33-37
       // degrees: slope 0.65-0.75): its mean slope within 30-39 degrees.
