@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -96,15 +97,6 @@ class Stack {
     if (!q) return z;
     return z <= q->split_in ? q->lo + q->f_soft * (z - q->lo) : q->soft_out + q->f_hard * (z - q->split_in);
   }
-  double slope(double z) const {
-    const Pair* q = find(z);
-    return !q ? 1.0 : z <= q->split_in ? q->f_soft : q->f_hard;
-  }
-  /// The secant slope of S between a and b (its derivative when they are equal).
-  double secant(double a, double b) const {
-    if (std::abs(b - a) < 1e-6) return slope(0.5 * (a + b));
-    return (map(b) - map(a)) / (b - a);
-  }
   const std::vector<Pair>& pairs() const { return m_pairs; }
 
  private:
@@ -157,7 +149,8 @@ Operation parse_strata(Params& p) {
     const Primitive region = region_primitive(r, s.grid(), falloff);
     const Box box = primitives_box({region}, b.width, b.height, b.cell_x, b.cell_y);
     if (box.empty()) return;
-    const Heightfield& h = s.height();  // the elevations the layers are read at
+    const Heightfield& h = s.height();  // the elevations the layers are read at (a solve when stale)
+    const auto t_start = std::chrono::steady_clock::now();
     primitive_weight(d, b, {region}, box, false);
     std::vector<float> wr(size_t(box.w) * box.h);
     {
@@ -231,6 +224,8 @@ Operation parse_strata(Params& p) {
     s.upload(g);
     s.log().back()["layer_pairs"] = stack.pairs().size();
     s.log().back()["faces"] = touched;
+    // The operation's own cost, without the solve that gave it the terrain.
+    s.log().back()["strata_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start).count();
     s.changed();
   };
 }
