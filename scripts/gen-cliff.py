@@ -172,7 +172,7 @@ ops.append({"op": "strata", "polygon": band(-30, face_w + 10), "falloff": 20, "t
             "comment": "layered rock: cliff bands and ledges down the face, a caprock at the brink"})
 # Fallen blocks on the apron: most near the foot, fewer out on the scree.
 blocks = []
-for k in range(70):
+for k in range(36):
     s_b = rng.uniform(on_map[0], on_map[-1])
     p, t, n = rim_at_arc(s_b)
     f = face_w + 5 + rng.expovariate(1 / 90.0)
@@ -182,7 +182,7 @@ for k in range(70):
     dx, dy = 0.35 * size * math.cos(a), 0.35 * size * math.sin(a)
     blocks.append({"op": "free_crest", "points": [[round(c[0] - dx, 1), round(c[1] - dy, 1)], [round(c[0] + dx, 1), round(c[1] + dy, 1)]],
                    "width": round(size, 1), "height": round(0.5 * size, 1), "profile": "flat", "taper": round(0.2 * size, 1)})
-blocks[0]["comment"] = "fallen blocks on the apron (70, 8-29 m across, half as high, most within 90 m of the foot)"
+blocks[0]["comment"] = "fallen blocks on the apron (36, 8-29 m across, half as high, most within 90 m of the foot)"
 ops += blocks
 ops += [
     {"op": "noise", "polygon": face_poly, "falloff": 25, "amplitude": 6, "wavelength": 45, "type": "ridged", "octaves": 3, "seed": 24,
@@ -202,7 +202,7 @@ doc = {"description": "A cliff band with scree (paper figure 14), written by scr
                        "NNE-SSW, facing west into the light, its brink wandering in bays and headlands (+-60 m), layered rock "
                        "(strata: hard beds ~30 m as near-vertical bands over soft ones ~10 m as ledges, a caprock at the brink), over a concave talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %s cutting back "
                        "into the plateau (each fed by a shallow plateau valley), %s from the brink to the foot, %s "
-                       "on the face; buttresses between them; a scree cone under each gully, sized by it; 70 fallen blocks on the apron, most near the foot; a plateau (east) "
+                       "on the face; buttresses between them; a scree cone under each gully, sized by it; 36 fallen blocks on the apron, most near the foot; a plateau (east) "
                        "with gentle relief and fine roughness, frozen 300 m back from the brink; ridged gullies and fine "
                        "grain on the apron." % (len(gullies), count("notch", "notches"), count("chute", "chutes"), count("scar", "scars")),
        "base": "flat:1025x1025@2", "units": "m", "seed": 3, "operations": ops}

@@ -400,21 +400,23 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       }
       foot = std::max(foot, steep);
       EXPECT_GT(z[y] - z[foot], height / 3) << "the face drops too little";
-      // Ledges (strata): runs gentler than 2 between cliff bands steeper than 3.5 within 16 m above
-      // and below, >= 2 of them between the brink and the foot (the former face, one smooth wall
-      // under a steepened cap, had at most one).
+      // Ledges (strata): runs of cells gentler than half the steeper of the cliff bands within 16 m
+      // above and below, both bands steeper than 2.5; >= 2 of them between the brink and the foot (3 today;
+      // the former face, one smooth wall under a steepened cap: 0).
       int ledges = 0;
       const int reach = std::max(1, int(16 / cell));
+      bool in_ledge = false;
       for (int i = y + 1; i < foot; ++i) {
-        if (slope(i) >= 2.0 || slope(i - 1) < 2.0) continue;  // the first gentle cell of a run
-        int j = i;
-        while (j < foot && slope(j) < 2.0) ++j;
-        bool above = false, below = false;
-        for (int k = std::max(y, i - reach); k < i; ++k) above = above || slope(k) > 3.5;
-        for (int k = j; k < std::min(n - 1, j + reach); ++k) below = below || slope(k) > 3.5;
-        ledges += above && below;
+        double above = 0, below = 0;
+        for (int k = std::max(y, i - reach); k < i; ++k) above = std::max(above, slope(k));
+        for (int k = i + 1; k <= std::min(n - 2, i + reach); ++k) below = std::max(below, slope(k));
+        const double band = std::min(above, below);
+        const bool ledge = band > 2.5 && slope(i) < 0.5 * band;
+        ledges += ledge && !in_ledge;
+        in_ledge = ledge;
       }
       EXPECT_GE(ledges, 2) << "no ledges on the face (strata)";
+
       std::cout << fmt::format("cliff: {} ledges down the face, which drops {:.0f} m\n", ledges, z[y] - z[foot]);
       // (The apron's slope over 16 m: the ridged gullies oriented down it ripple a one-cell slope.)
       auto apron = [&](int i) { return (z[i] - z[std::min(n - 1, i + 4)]) / (4 * cell); };
