@@ -4,7 +4,8 @@
 # irregular spacing (+-45 %) of three kinds: notches that cut back into the plateau (fed by shallow
 # plateau valleys), chutes from the brink to the foot, and short scars on the face; buttresses (ribs)
 # between them; a scree cone under each gully, its size following the gully's, merging into a talus
-# apron with fine noise; a cap band at the brink over a ledge. (Before: ten identical, evenly spaced
+# apron with fine noise; layered rock (strata) down the face: cliff bands, ledges and a caprock;
+# fallen blocks on the apron. (Before: ten identical, evenly spaced
 # gullies, a flat featureless slab, a straight brink, scree cones all alike.)
 # Usage: python3 scripts/gen-cliff.py OUT.json
 import json, math, os, random, sys
@@ -84,10 +85,6 @@ ops = [
      "comment": "the plateau's gentle relief (swells and hollows over ~40 m)"},
     {"op": "noise", "polygon": plateau_poly, "falloff": 60, "amplitude": 2.5, "wavelength": 40, "octaves": 3, "seed": 22,
      "comment": "fine roughness on the plateau (outcrops, ledges)"},
-    {"op": "scale_slopes", "polygon": band(-2, 18), "falloff": 4, "factor": 3.5,
-     "comment": "a cap of harder rock: the top of the face is steeper"},
-    {"op": "scale_slopes", "polygon": band(24, 34), "falloff": 4, "factor": 0.55,
-     "comment": "a ledge under the cap (the softer bed below it weathers back)"},
 ]
 
 # Gullies along the brink at irregular spacing; their kinds and sizes drawn at random.
@@ -164,6 +161,29 @@ ops += plateau_valleys
 ops.append({"op": "freeze", "polygon": [[E, 0], [E, E]] + [[x + 300, y] for x, y in reversed(rim)],
             "comment": "the plateau (east), back from the brink"})
 ops += cuts + ribs + cones
+# Layered rock in the face (after the gullies, which it steps too; before the runnels, which it
+# would comb into vertical stripes): hard beds ~26 m thick as near-vertical bands, soft ones ~7 m as
+# ledges, under a caprock at the brink. (It replaces the former cap and ledge, two scale_slopes bands.)
+# (The stack ends 30 m above the face's foot: beds reaching the apron's top stepped it, with a
+# counter-slope, a hollow, under the foot.)
+ops.append({"op": "strata", "polygon": band(-30, face_w + 10), "falloff": 20, "top": TOP + 4,
+            "bottom": round(TOP - (1 - SCREE) * DROP + 30),
+            "thickness": 30, "soft_thickness": 10, "jitter": 0.4, "contrast": 20, "min_slope": 40, "slope_ramp": 12, "seed": 9,
+            "comment": "layered rock: cliff bands and ledges down the face, a caprock at the brink"})
+# Fallen blocks on the apron: most near the foot, fewer out on the scree.
+blocks = []
+for k in range(36):
+    s_b = rng.uniform(on_map[0], on_map[-1])
+    p, t, n = rim_at_arc(s_b)
+    f = face_w + 5 + rng.expovariate(1 / 90.0)
+    size = rng.uniform(10, 24) * (1.2 if f < face_w + 60 else 0.8)
+    a = rng.uniform(0, math.pi)
+    c = pt(p, n, f, None, t, rng.uniform(-20, 20))
+    dx, dy = 0.35 * size * math.cos(a), 0.35 * size * math.sin(a)
+    blocks.append({"op": "free_crest", "points": [[round(c[0] - dx, 1), round(c[1] - dy, 1)], [round(c[0] + dx, 1), round(c[1] + dy, 1)]],
+                   "width": round(size, 1), "height": round(0.5 * size, 1), "profile": "flat", "taper": round(0.2 * size, 1)})
+blocks[0]["comment"] = "fallen blocks on the apron (36, 8-29 m across, half as high, most within 90 m of the foot)"
+ops += blocks
 ops += [
     {"op": "noise", "polygon": face_poly, "falloff": 25, "amplitude": 6, "wavelength": 45, "type": "ridged", "octaves": 3, "seed": 24,
      "orient": {"angle": 90, "strength": 0.85}, "comment": "ribs and runnels down the face"},
@@ -179,10 +199,10 @@ def count(k, plural):
 
 n_kind = {k: sum(1 for g in gullies if g[1] == k) for k in ("notch", "chute", "scar")}
 doc = {"description": "A cliff band with scree (paper figure 14), written by scripts/gen-cliff.py: a cliff 450 m high running "
-                       "NNE-SSW, facing west into the light, its brink wandering in bays and headlands (+-60 m), a cap of harder rock "
-                       "(the top 18 m of the face steepened) over a ledge, over a concave talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %s cutting back "
+                       "NNE-SSW, facing west into the light, its brink wandering in bays and headlands (+-60 m), layered rock "
+                       "(strata: hard beds ~30 m as near-vertical bands over soft ones ~10 m as ledges, a caprock at the brink), over a concave talus apron (~0.7 at its top: the scree angle). %d gullies at irregular spacing: %s cutting back "
                        "into the plateau (each fed by a shallow plateau valley), %s from the brink to the foot, %s "
-                       "on the face; buttresses between them; a scree cone under each gully, sized by it; a plateau (east) "
+                       "on the face; buttresses between them; a scree cone under each gully, sized by it; 36 fallen blocks on the apron, most near the foot; a plateau (east) "
                        "with gentle relief and fine roughness, frozen 300 m back from the brink; ridged gullies and fine "
                        "grain on the apron." % (len(gullies), count("notch", "notches"), count("chute", "chutes"), count("scar", "scars")),
        "base": "flat:1025x1025@2", "units": "m", "seed": 3, "operations": ops}

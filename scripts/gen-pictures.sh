@@ -37,7 +37,7 @@ for name in canyon volcanic_island mountain_range cliff river_valley dem_paste; 
   # Beside it a perspective view of the full-resolution result (1024 x 640), each camera chosen so
   # that the landform reads (docs/authoring.md says which paper figure each one stands next to).
   case "$name" in
-    canyon) view="--view-azimuth 140 --view-elevation 32 --view-zoom 1.3 --azimuth 200 --altitude 45" ;;
+    canyon) view="--view-azimuth 140 --view-elevation 32 --view-zoom 1.3 --azimuth 250 --altitude 60" ;;
     volcanic_island) view="--view-azimuth 200 --view-elevation 30 --view-zoom 1.15 --azimuth 250 --altitude 35" ;;
     mountain_range) view="--view-azimuth 205 --view-elevation 30 --view-target 520,440 --view-zoom 1.6 --azimuth 250 --altitude 28" ;;
     cliff) view="--view-azimuth 250 --view-elevation 22 --view-target 600,600 --view-zoom 1.6 --azimuth 270 --altitude 30" ;;

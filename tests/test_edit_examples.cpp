@@ -385,13 +385,54 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (int i = y; i < std::min(n - 1, y + int(0.15 * extent / cell)); ++i)
         if (slope(i) > slope(steep)) steep = i;
       EXPECT_GT(slope(steep), 1.0) << "no steep face";
-      int foot = steep;
-      while (foot + 1 < n && slope(foot) > 0.8) ++foot;
+      // The face runs on over its ledges (strata: gentler runs shorter than 16 m between its cliff
+      // bands) down to the foot.
+      int foot = y;
+      while (foot + 1 < n) {
+        if (slope(foot) > 0.8) {
+          ++foot;
+          continue;
+        }
+        int j = foot;
+        while (j + 1 < n && slope(j) <= 0.8 && (j - foot) * cell < 16) ++j;
+        if (j + 1 >= n || slope(j) <= 0.8 || foot < steep - int(0.1 * extent / cell)) break;
+        foot = j;
+      }
+      foot = std::max(foot, steep);
       EXPECT_GT(z[y] - z[foot], height / 3) << "the face drops too little";
+      // Ledges (strata): runs of cells gentler than half the steeper of the cliff bands within 16 m
+      // above and below, both bands steeper than 2.5; >= 2 of them between the brink and the foot (3 today;
+      // the former face, one smooth wall under a steepened cap: 0).
+      int ledges = 0;
+      const int reach = std::max(1, int(16 / cell));
+      bool in_ledge = false;
+      for (int i = y + 1; i < foot; ++i) {
+        double above = 0, below = 0;
+        for (int k = std::max(y, i - reach); k < i; ++k) above = std::max(above, slope(k));
+        for (int k = i + 1; k <= std::min(n - 2, i + reach); ++k) below = std::max(below, slope(k));
+        const double band = std::min(above, below);
+        const bool ledge = band > 2.5 && slope(i) < 0.5 * band;
+        ledges += ledge && !in_ledge;
+        in_ledge = ledge;
+      }
+      EXPECT_GE(ledges, 2) << "no ledges on the face (strata)";
+
+      std::cout << fmt::format("cliff: {} ledges down the face, which drops {:.0f} m\n", ledges, z[y] - z[foot]);
       // (The apron's slope over 16 m: the ridged gullies oriented down it ripple a one-cell slope.)
       auto apron = [&](int i) { return (z[i] - z[std::min(n - 1, i + 4)]) / (4 * cell); };
+      // (A fallen block on the fall line interrupts the apron for less than 24 m.)
+      auto on_apron = [&](int i) { return apron(i) >= 0.25 && apron(i) <= 0.85; };
       int toe = foot;
-      while (toe + 4 < n && apron(toe) >= 0.25 && apron(toe) <= 0.85) ++toe;
+      while (toe + 4 < n) {
+        if (on_apron(toe)) {
+          ++toe;
+          continue;
+        }
+        int j = toe;
+        while (j + 4 < n && !on_apron(j) && (j - toe) * cell < 24) ++j;
+        if (j + 4 >= n || !on_apron(j)) break;
+        toe = j;
+      }
       EXPECT_GE((toe - foot) * cell, 0.08 * extent) << "the scree apron is too narrow to read (from " << ox << ", " << oy << ")";
       // The apron's top, 60 m below the face's foot, lies near the repose angle of scree (33-37
       // degrees: slope 0.65-0.75): its mean slope within 30-39 degrees.
@@ -491,7 +532,98 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         EXPECT_GE(std::sqrt(v) / m, 0.4) << "spurs evenly spaced along a flank (comb teeth): " << std::sqrt(v) / m;
       }
     }
-    if (kind == "river" && name == "canyon") {
+    if (kind == "cliff" && name == "canyon") {
+      // The walls are layered rock (strata): down the fall line from the rim, at every rim vertex on
+      // the map and 400 m or more from a side canyon, >= 3 cliff bands (runs steeper than 1.2 that
+      // drop >= 20 m) with a bench (gentler than 0.7) between each pair. The
+      // former walls, one smooth face over scree, had one band.
+      std::vector<Vec2> heads;
+      for (const auto& o : script.at("operations"))
+        if (o.at("op") == "ravine") heads.push_back({double(o.at("points")[2][0]), double(o.at("points")[2][1])});
+      const auto& pts = op.at("points");
+      int walls = 0, layered = 0;
+      for (size_t i = 1; i + 1 < pts.size(); ++i) {
+        const double px = pts[i][0], py = pts[i][1];
+        if (px < 200 || py < 200 || px > extent - 200 || py > extent - 200) continue;
+        bool near = false;
+        for (const auto& q : heads) near = near || std::hypot(q.x - px, q.y - py) < 400;
+        if (near) continue;
+        double nx = -(double(pts[i + 1][1]) - double(pts[i - 1][1])), ny = double(pts[i + 1][0]) - double(pts[i - 1][0]);
+        const double l = std::hypot(nx, ny);
+        nx /= l, ny /= l;
+        if (at_m(h, cell, px + 100 * nx, py + 100 * ny) > at_m(h, cell, px - 100 * nx, py - 100 * ny)) nx = -nx, ny = -ny;
+        std::vector<double> z;
+        for (double t = -30; t <= 700; t += cell) z.push_back(at_m(h, cell, px + t * nx, py + t * ny));
+        int bands = 0, benches = 0, gentle = 0;
+        double drop = 0;
+        bool in_band = false;
+        for (size_t k = 0; k + 1 < z.size(); ++k) {
+          const double s = (z[k] - z[k + 1]) / cell;
+          if (s > 1.2) {
+            if (!in_band && drop == 0 && bands > 0 && gentle >= 1) ++benches;
+            drop += z[k] - z[k + 1], in_band = true, gentle = 0;
+          } else {
+            if (in_band && drop >= 20) ++bands;
+            if (in_band) drop = 0;
+            in_band = false;
+            gentle += s < 0.7 ? 1 : 0;
+          }
+        }
+        ++walls;
+        layered += bands >= 3 && benches >= 2;
+        std::cout << fmt::format("canyon wall at {:.0f}, {:.0f}: {} cliff bands, {} benches between\n", px, py, bands, benches);
+      }
+      ASSERT_GE(walls, 4);
+      EXPECT_GE(layered, (walls * 2 + 2) / 3) << "canyon walls without strata (of " << walls << ")";
+    }
+    if (kind == "ravine" && name == "canyon") {
+      // A side canyon is a notch cut through the rim: where it crosses the rim (its third point) its
+      // floor lies >= 250 m below the plateau beside it (the former: ~130 m, half the wall, read as
+      // light tongues on the plateau), between walls of its own (steeper than 1 somewhere across
+      // it), and its floor falls from its head to its end without a pit (graded to the main floor).
+      const auto& pts = op.at("points");
+      const double r = 0.5 * double(op.at("width"));
+      const double cx = pts[2][0], cy = pts[2][1];
+      const double ux = double(pts[1][0]) - double(pts[3][0]), uy = double(pts[1][1]) - double(pts[3][1]);
+      const double ul = std::hypot(ux, uy), ax = ux / ul, ay = uy / ul;  // along it, towards its head
+      double floor = 1e30, steep = 0;
+      for (double s = -r; s <= r; s += cell) {
+        const double v = at_m(h, cell, cx - s * ay, cy + s * ax);
+        if (std::abs(s) <= 0.3 * r) floor = std::min(floor, v);
+        steep = std::max(steep, std::abs(at_m(h, cell, cx - (s + cell) * ay, cy + (s + cell) * ax) - v) / cell);
+      }
+      // The plateau beside it: 1.3 r either side, 100 m back from the rim.
+      const double bx = cx + 100 * ax, by = cy + 100 * ay;
+      const double plateau = std::min(at_m(h, cell, bx - 1.3 * r * ay, by + 1.3 * r * ax), at_m(h, cell, bx + 1.3 * r * ay, by - 1.3 * r * ax));
+      std::cout << fmt::format("side canyon at {:.0f}, {:.0f}: floor {:.0f} m, plateau beside {:.0f} m, steepest wall {:.2f}\n", cx, cy, floor, plateau, steep);
+      EXPECT_GE(plateau - floor, 250.0) << "side canyon at " << cx << ", " << cy << " does not cut the rim";
+      EXPECT_GT(steep, 1.0) << "side canyon at " << cx << ", " << cy << " has no walls";
+      std::vector<Vec2> ctrl;
+      for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])});
+      const auto line = catmull_rom(ctrl, cell);
+      std::vector<double> zf;
+      for (size_t i = 1; i + 1 < line.size(); ++i) {
+        if (line[i].x < 0 || line[i].y < 0 || line[i].x > extent || line[i].y > extent) continue;
+        const double tx = line[i + 1].x - line[i - 1].x, ty = line[i + 1].y - line[i - 1].y, l = std::hypot(tx, ty);
+        double lo = 1e30;
+        // (Within 0.15 r, the floor's half-width: across a side canyon that meets the wall obliquely
+        // a wider window reaches down the main wall beside it.)
+        for (double s = -0.15 * r; s <= 0.15 * r; s += 0.5 * cell) lo = std::min(lo, at_m(h, cell, line[i].x - s * ty / l, line[i].y + s * tx / l));
+        zf.push_back(lo);
+      }
+      ASSERT_GT(zf.size(), 20u);
+      double pit = 0, low = zf.front();
+      for (double v : zf) pit = std::max(pit, v - low), low = std::min(low, v);
+      if (pit >= 8.0) {
+        std::string prof;
+        for (size_t i = 0; i < zf.size(); i += 3) prof += fmt::format(" {:.0f}", zf[i]);
+        std::cout << "floor:" << prof << "\n";
+      }
+      EXPECT_LT(pit, 8.0) << "the floor of the side canyon at " << cx << ", " << cy << " rises again downstream";
+      EXPECT_GT(zf.front() - zf.back(), 300.0) << "the side canyon at " << cx << ", " << cy << " is not graded to the main floor";
+    }
+    if (kind == "river" && name == "canyon" && double(op.at("width")) >= 300) {
+      // (The main river; the side canyons' streams are checked with their canyons.)
       // No pit along the canyon's river: down the thalweg (the lowest point across the bed within
       // r, every half cell along the smoothed river) no closed depression deeper than 3 m (the
       // depth of water it would hold: min(highest point upstream, highest downstream) - z). The

@@ -77,6 +77,7 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "erode"}, {"steps", 10}, {"center", {5, 5}}, {"radius", 0}}, "/operations/0/radius"},
       {{{"op", "amplify"}, {"exemplar", "/nonexistent/dem.tif"}}, "/operations/0/exemplar"},
       {{{"op", "amplify"}, {"exemplar", dem}, {"factor", 3}}, "/operations/0/factor"},
+      {{{"op", "strata"}, {"center", {150, 150}}, {"radius", 50}, {"top", 100}, {"thickness", -2}}, "/operations/0/thickness"},
   };
   std::set<std::string> covered;
   for (const auto& c : cases) {

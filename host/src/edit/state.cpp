@@ -440,6 +440,7 @@ const std::vector<OpSpec>& operations() {
     add_fit_ops(v);
     add_erode_ops(v);
     add_amplify_ops(v);
+    add_strata_ops(v);
     return v;
   }();
   return ops;

@@ -140,6 +140,7 @@ void add_composite_ops(std::vector<OpSpec>& ops);  // ops_composite.cpp
 void add_paste_ops(std::vector<OpSpec>& ops);      // ops_paste.cpp
 void add_fit_ops(std::vector<OpSpec>& ops);        // ops_fit.cpp
 void add_amplify_ops(std::vector<OpSpec>& ops);    // ops_amplify.cpp
+void add_strata_ops(std::vector<OpSpec>& ops);     // ops_strata.cpp
 
 // ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
 
