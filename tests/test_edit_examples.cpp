@@ -523,6 +523,36 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
   }
 }
 
+// The river valley opens onto the plains flush with them: in the valley's outer bank zone (0.5 r to
+// 1.5 r from the smoothed river) wherever the base DEM is below 1700 m (the plains and the mountain
+// front's foot), no cell stands more than 10 m above the unedited DEM. The former example's 280 m
+// banks, above a river that runs 10-40 m below the plain there, lifted that zone by up to 214 m: a
+// raised lobe on the plain.
+void check_river_valley(const nlohmann::json& script, const Heightfield& h) {
+  const Heightfield base = read_heightfield(test::data_path("dem/frontrange_srtm3_758.asc"));
+  ASSERT_EQ(base.size(), h.size());
+  for (const auto& op : script.at("operations")) {
+    if (op.at("op") != "river") continue;
+    std::vector<Vec2> ctrl;
+    for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
+    const auto line = catmull_rom(ctrl, 1.0);
+    const double r = 0.5 * double(op.at("width"));
+    double worst = -1e30;
+    size_t n = 0;
+    for (int y = 0; y < h.height; ++y)
+      for (int x = 0; x < h.width; ++x) {
+        if (!(base.at(x, y) < 1700.0f)) continue;
+        double d = 1e30;
+        for (const auto& q : line) d = std::min(d, std::hypot(q.x - x, q.y - y));
+        if (d < 0.5 * r || d > 1.5 * r) continue;
+        ++n, worst = std::max(worst, double(h.at(x, y)) - base.at(x, y));
+      }
+    EXPECT_GT(n, 2000u) << "the river should reach the plains";
+    EXPECT_LE(worst, 10.0) << "the river valley's banks stand as a raised lobe on the plain";
+    std::cout << fmt::format("river valley: {} cells of the outer bank zone on the plains, highest {:.1f} m above the DEM\n", n, worst);
+  }
+}
+
 }  // namespace
 
 TEST(EditExamples, EveryExampleScriptRuns) {
@@ -558,6 +588,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
     EXPECT_GT(hi - lo, 50.0f) << name << ": the edits should make relief";
+    if (name == "river_valley") check_river_valley(script, h);
     if (!cli_base.empty()) check_shapes(name == "cliff" ? "cliff_turned" : name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
   }
   EXPECT_GE(n, 7);
