@@ -216,6 +216,129 @@ void check_cliff_band(const nlohmann::json& op, const Heightfield& h, double cel
                            centres.size(), mean, cv, relief, std::sqrt(ps_var), rms);
 }
 
+// The mountain range's ravines form a dendritic network (issue 12: "smooth V troughs without
+// gullies"): second-order ravines (narrower than 550 m, ending within 0.6 r of a main ravine's
+// axis) join the main ravines at an acute angle pointing downstream, on both sides of most of
+// them; third-order gullies join the branches; sub-spurs stand between branches. On the terrain,
+// each branch is a valley (across its middle its floor lies >= 0.3 of its nominal depth below its
+// banks) that drains: no closed depression deeper than 10 m down its thalweg into the main ravine.
+// The former example had none of these (14 main ravines, no branch).
+void check_range_network(const nlohmann::json& script, const Heightfield& h, double cell) {
+  struct Line {
+    std::vector<Vec2> pts;
+    std::vector<double> z;  // per-point depths along pts
+    double r = 0;
+  };
+  auto line_of = [&](const nlohmann::json& op) {
+    Line l;
+    std::vector<Vec2> ctrl;
+    std::vector<double> zc;
+    for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])}), zc.push_back(q.size() > 2 ? double(q[2]) : 0.0);
+    l.pts = catmull_rom(ctrl, 0.25 * cell, zc, &l.z);
+    l.r = 0.5 * double(op.at("width"));
+    return l;
+  };
+  // Distance to a line, the index of its nearest point.
+  auto nearest = [](const Line& l, Vec2 p, size_t* at = nullptr) {
+    double best = 1e30;
+    for (size_t i = 0; i < l.pts.size(); ++i) {
+      const double d = std::hypot(l.pts[i].x - p.x, l.pts[i].y - p.y);
+      if (d < best) best = d, at ? *at = i : 0;
+    }
+    return best;
+  };
+  std::vector<Line> mains, branches;
+  std::vector<int> sides;  // per main: bit 0 a branch on its left, bit 1 on its right
+  int subspurs = 0;
+  for (const auto& op : script.at("operations")) {
+    if (op.at("op") == "free_crest" && double(op.at("width")) < 600) ++subspurs;
+    if (op.at("op") == "ravine" && double(op.at("width")) >= 550) mains.push_back(line_of(op));
+  }
+  sides.assign(mains.size(), 0);
+  // Third-order gullies end on a wider branch; the other narrow ravines are branches if they end
+  // on a main ravine.
+  std::vector<Line> narrow;
+  for (const auto& op : script.at("operations"))
+    if (op.at("op") == "ravine" && double(op.at("width")) < 550) narrow.push_back(line_of(op));
+  int acute = 0, third = 0;
+  for (const Line& b : narrow) {
+    bool on_branch = false;
+    for (const Line& o : narrow)
+      if (o.r > b.r && nearest(o, b.pts.back()) <= 0.6 * o.r && nearest(o, b.pts.front()) > nearest(o, b.pts.back())) on_branch = true;
+    if (on_branch) {
+      ++third;
+      continue;
+    }
+    const Vec2 end = b.pts.back(), head = b.pts.front();
+    bool joined = false;
+    for (size_t m = 0; m < mains.size() && !joined; ++m) {
+      size_t k = 0;
+      if (nearest(mains[m], end, &k) > 0.6 * mains[m].r || nearest(mains[m], head) <= nearest(mains[m], end)) continue;
+      joined = true;
+      // The angle between the branch's last stretch (its last r) and the main ravine downstream.
+      const Line& M = mains[m];
+      const size_t k0 = k ? k - 1 : k, k1 = std::min(k + 1, M.pts.size() - 1);
+      const double mx = M.pts[k1].x - M.pts[k0].x, my = M.pts[k1].y - M.pts[k0].y;
+      size_t j = b.pts.size() - 1;
+      while (j > 0 && std::hypot(b.pts[j].x - end.x, b.pts[j].y - end.y) < b.r) --j;
+      const double bx = end.x - b.pts[j].x, by = end.y - b.pts[j].y;
+      const double c = (mx * bx + my * by) / (std::hypot(mx, my) * std::hypot(bx, by) + 1e-12);
+      acute += c > 0.5;
+      sides[m] |= (mx * (head.y - M.pts[k].y) - my * (head.x - M.pts[k].x)) > 0 ? 1 : 2;
+    }
+    if (joined) branches.push_back(b);
+  }
+  int both = 0;
+  for (int s : sides) both += s == 3;
+  ASSERT_GE(mains.size(), 10u);
+  EXPECT_GE(2 * branches.size(), 5 * mains.size()) << "main ravines without side branches (2.5 each on average)";
+  EXPECT_GE(acute, int(0.9 * branches.size())) << "branches should join at an acute angle pointing downstream";
+  EXPECT_GE(both, int(mains.size() / 2)) << "branches on both sides of most main ravines";
+  EXPECT_GE(third, 10) << "third-order gullies";
+  EXPECT_GE(subspurs, 10) << "sub-spurs between the branches";
+  // On the terrain: valleys that drain.
+  int valleys = 0, worst_at = -1;
+  double worst_pit = 0;
+  for (size_t i = 0; i < branches.size(); ++i) {
+    const Line& b = branches[i];
+    const size_t mid = b.pts.size() / 2;
+    const size_t a = mid ? mid - 1 : 0, c = std::min(mid + 1, b.pts.size() - 1);
+    const double tx = b.pts[c].x - b.pts[a].x, ty = b.pts[c].y - b.pts[a].y, l = std::hypot(tx, ty);
+    const double nx = -ty / l, ny = tx / l;
+    std::vector<double> t, z;
+    for (double s = -b.r; s <= b.r + 1e-9; s += 0.5 * cell)
+      t.push_back(s), z.push_back(at_m(h, cell, b.pts[mid].x + s * nx, b.pts[mid].y + s * ny));
+    const double z0 = z.front(), z1 = z.back();
+    double floor = 1e30;
+    for (size_t q = 0; q < t.size(); ++q)
+      if (std::abs(t[q]) <= 0.35 * b.r) floor = std::min(floor, z[q] - (z0 + (z1 - z0) * (t[q] + b.r) / (2 * b.r)));
+    const double depth = -floor;  // below the straight line between the banks
+    valleys += depth >= 0.3 * b.z[mid];
+    // Down the thalweg (the lowest point within 0.4 r across, every half cell) from the head to
+    // the branch's last point on the main ravine's wall: the deepest closed depression.
+    std::vector<double> th;
+    for (size_t q = 0; q < b.pts.size(); q += 2) {  // (pts every quarter cell)
+      const size_t qa = q ? q - 1 : 0, qc = std::min(q + 1, b.pts.size() - 1);
+      const double ux = b.pts[qc].x - b.pts[qa].x, uy = b.pts[qc].y - b.pts[qa].y, ul = std::hypot(ux, uy);
+      double lo = 1e30;
+      for (double s = -0.4 * b.r; s <= 0.4 * b.r + 1e-9; s += 0.5 * cell)
+        lo = std::min(lo, at_m(h, cell, b.pts[q].x - s * uy / ul, b.pts[q].y + s * ux / ul));
+      th.push_back(lo);
+    }
+    std::vector<double> up(th.size()), down(th.size());
+    for (size_t q = 0; q < th.size(); ++q) up[q] = std::max(th[q], q ? up[q - 1] : -1e30);
+    for (size_t q = th.size(); q-- > 0;) down[q] = std::max(th[q], q + 1 < th.size() ? down[q + 1] : -1e30);
+    for (size_t q = 0; q + 1 < th.size(); ++q)
+      if (std::min(up[q], down[q]) - th[q] > worst_pit) worst_pit = std::min(up[q], down[q]) - th[q], worst_at = int(i);
+  }
+  EXPECT_GE(valleys, int(0.8 * branches.size())) << "branches that are not valleys on the terrain";
+  EXPECT_LT(worst_pit, 10.0) << "a pit " << worst_pit << " m deep down the branch from " << branches[std::max(0, worst_at)].pts.front().x << ", "
+                              << branches[std::max(0, worst_at)].pts.front().y;
+  std::cout << fmt::format("mountain range network: {} main ravines, {} branches ({} joining at an acute angle, {} mains with branches on both sides, "
+                           "{} valleys on the terrain), {} third-order gullies, {} sub-spurs; deepest closed depression down a branch {:.1f} m\n",
+                           mains.size(), branches.size(), acute, both, valleys, third, subspurs, worst_pit);
+}
+
 void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell) {
   const double extent = (h.width - 1) * cell;
   if (name == "cliff_turned") {
@@ -224,7 +347,9 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
   }
   for (const auto& op : script.at("operations")) {
     const std::string kind = op.at("op");
-    if (kind == "ravine" && (name == "volcanic_island" || name == "mountain_range")) {
+    // (On the mountain range only its main ravines, 550 m wide or more; check_range_network checks
+    // their narrower branches.)
+    if (kind == "ravine" && (name == "volcanic_island" || (name == "mountain_range" && double(op.at("width")) >= 550))) {
       // Across the middle of the ravine: depth below its banks at r, and the width of the
       // part below half that depth in cells of the 513^2 run, i.e. pixels of the README's 512-px
       // picture: >= 10 on the island (the former 400 m V ravines: 6, read as scratches), >= 6 on
@@ -445,6 +570,7 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       check_cliff_band(op, h, cell);
     }
     if (kind == "mountain_range" && name == "mountain_range") {
+      check_range_network(script, h, cell);
       // At stations every 400 m along the smoothed stroke, wherever it is above 900 m (summits,
       // cols and the slopes between): the crest is the highest point across the stroke within 0.3 r
       // (to 6 % of r: the noise moves it a little) and stands at least 15 % of its height above
@@ -506,7 +632,7 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (size_t i = 1; i < line.size(); ++i) arc_at[i] = arc_at[i - 1] + std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
       std::vector<double> roots[2];
       for (const auto& o : script.at("operations")) {
-        if (o.at("op") != "free_crest" || double(o.at("width")) >= 2 * r) continue;
+        if (o.at("op") != "free_crest" || double(o.at("width")) >= 2 * r || double(o.at("width")) < 600) continue;  // (not the sub-spurs)
         const auto& q = o.at("points");
         const double qx = q[0][0], qy = q[0][1];
         size_t k = 0;
@@ -655,6 +781,36 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
   }
 }
 
+// The river valley opens onto the plains flush with them: in the valley's outer bank zone (0.5 r to
+// 1.5 r from the smoothed river) wherever the base DEM is below 1700 m (the plains and the mountain
+// front's foot), no cell stands more than 10 m above the unedited DEM. The former example's 280 m
+// banks, above a river that runs 10-40 m below the plain there, lifted that zone by up to 214 m: a
+// raised lobe on the plain.
+void check_river_valley(const nlohmann::json& script, const Heightfield& h) {
+  const Heightfield base = read_heightfield(test::data_path("dem/frontrange_srtm3_758.asc"));
+  ASSERT_EQ(base.size(), h.size());
+  for (const auto& op : script.at("operations")) {
+    if (op.at("op") != "river") continue;
+    std::vector<Vec2> ctrl;
+    for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
+    const auto line = catmull_rom(ctrl, 1.0);
+    const double r = 0.5 * double(op.at("width"));
+    double worst = -1e30;
+    size_t n = 0;
+    for (int y = 0; y < h.height; ++y)
+      for (int x = 0; x < h.width; ++x) {
+        if (!(base.at(x, y) < 1700.0f)) continue;
+        double d = 1e30;
+        for (const auto& q : line) d = std::min(d, std::hypot(q.x - x, q.y - y));
+        if (d < 0.5 * r || d > 1.5 * r) continue;
+        ++n, worst = std::max(worst, double(h.at(x, y)) - base.at(x, y));
+      }
+    EXPECT_GT(n, 2000u) << "the river should reach the plains";
+    EXPECT_LE(worst, 10.0) << "the river valley's banks stand as a raised lobe on the plain";
+    std::cout << fmt::format("river valley: {} cells of the outer bank zone on the plains, highest {:.1f} m above the DEM\n", n, worst);
+  }
+}
+
 }  // namespace
 
 TEST(EditExamples, EveryExampleScriptRuns) {
@@ -690,6 +846,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
     EXPECT_GT(hi - lo, 50.0f) << name << ": the edits should make relief";
+    if (name == "river_valley") check_river_valley(script, h);
     if (!cli_base.empty()) check_shapes(name == "cliff" ? "cliff_turned" : name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
   }
   EXPECT_GE(n, 7);

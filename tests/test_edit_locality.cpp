@@ -350,3 +350,39 @@ TEST(EditLocality, CrestDoesNotRiseAboveItsElevationAtABend) {
   const float top = *std::max_element(h.z.begin(), h.z.end());
   EXPECT_NEAR(top, 150.0f, 0.01f);
 }
+
+// A river 10 m below the plains of the Front Range (the east edge of the bundled DEM) with its banks
+// to the terrain (`"bank_height": "terrain"`) opens as a trough flush with the plain: nothing beside
+// it rises above the base. With a fixed bank height above the cut, the excess lifts the ground past
+// r (the raised lobe of the river_valley example at the mountain front: +214 m).
+TEST(EditLocality, RiverBanksToTheTerrainStayFlushWithThePlain) {
+  const Heightfield base = dem("frontrange_srtm3_758.asc", 629, 250, 129);
+  // West to east across the hogbacks of the mountain front onto the plain, 10 m below the lowest
+  // ground upstream (a bed that descends and cuts through the ridges).
+  const std::array<double, 2> a{0, 64}, b{128, 70};
+  json pts = json::array();
+  double z = 1e30;
+  for (int x = 0; x <= 128; x += 8) {
+    const double y = a[1] + (b[1] - a[1]) * x / 128.0;
+    z = std::min(z, double(base.at(x, int(std::lround(y)))) - 10);
+    pts.push_back({x, y, z});
+  }
+  const double r_cells = 20, r = r_cells * base.georef.cell_x;
+  auto rise = [&](const json& bank) {
+    json river = {{"op", "river"}, {"points", pts}, {"width", 2 * r_cells}, {"profile", "flat"}, {"bank_height", bank}};
+    EditSession s(test::device(), base);
+    s.apply(json{{"units", "cells"}, {"operations", {river}}});
+    const Heightfield& h = s.height();
+    double worst = -1e30;
+    for (int y = 0; y < base.height; ++y)
+      for (int x = 0; x < base.width; ++x) {
+        const double d = seg_dist(base, x, y, a, b);
+        if (d >= 1.1 * r && d <= 2.5 * r) worst = std::max(worst, double(h.at(x, y)) - base.at(x, y));
+      }
+    return worst;
+  };
+  const double flush = rise("terrain"), lobe = rise(60.0);
+  std::printf("river beside the plain, 1.1-2.5 r: banks to the terrain rise %.2f m, a 60 m bank %.1f m\n", flush, lobe);
+  EXPECT_LT(flush, 2.0) << "the valley's banks stand above the plain";
+  EXPECT_GT(lobe, 20.0) << "a bank above the cut should lift the plain (the case the option is for)";
+}

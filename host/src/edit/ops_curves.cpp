@@ -189,16 +189,76 @@ Operation parse_cliff(Params& p) {
   };
 }
 
+// The terrain under the river (last solution, else the real base) minus the river's z along its
+// path, at least 0: the bank height at which the valley's walls meet the terrain at r. A bank higher than the cut raises everything beyond r by the excess (the
+// profile's rise is added to the terrain's own slope), which on a plain stood as a raised lobe.
+std::vector<double> banks_to_terrain(EditState& s, const std::vector<Vec3>& path, double r) {
+  const Heightfield* last = s.last_solution();
+  const Heightfield& h = last ? *last : s.height();
+  const Grid& g = s.grid();
+  std::vector<double> cut(path.size(), 0.0), arc(path.size(), 0.0), w(path.size(), 0.0);
+  for (size_t i = 0; i < path.size(); ++i) {
+    if (i) arc[i] = arc[i - 1] + std::hypot(path[i].x - path[i - 1].x, path[i].y - path[i - 1].y);
+    const double fx = std::clamp(path[i].x / g.cell_x, 0.0, h.width - 1.0);
+    const double fy = std::clamp(path[i].y / g.cell_y, 0.0, h.height - 1.0);
+    const int x0 = std::max(0, std::min(int(fx), h.width - 2)), y0 = std::max(0, std::min(int(fy), h.height - 2));
+    const int x1 = std::min(x0 + 1, h.width - 1), y1 = std::min(y0 + 1, h.height - 1);
+    const double tx = fx - x0, ty = fy - y0;
+    const double z = (1 - ty) * ((1 - tx) * h.at(x0, y0) + tx * h.at(x1, y0)) + ty * ((1 - tx) * h.at(x0, y1) + tx * h.at(x1, y1));
+    if (std::isfinite(z)) cut[i] = z - path[i].z, w[i] = 1;
+  }
+  // The least cut within r/4, then its mean within r/4: smooth along the arc (a jumping amplitude
+  // draws streaks across the banks) and never above the cut at the vertex itself (every window of
+  // the mean contains the vertex), so the banks stay at or below the terrain.
+  auto window = [&](size_t i, auto&& f) {
+    for (size_t j = i; j-- > 0 && arc[i] - arc[j] <= 0.25 * r;) f(j);
+    for (size_t j = i; j < path.size() && arc[j] - arc[i] <= 0.25 * r; ++j) f(j);
+  };
+  std::vector<double> lo(path.size(), 0.0), out(path.size(), 0.0);
+  for (size_t i = 0; i < path.size(); ++i) {
+    double m = std::numeric_limits<double>::infinity();
+    window(i, [&](size_t j) { if (w[j] > 0) m = std::min(m, cut[j]); });
+    lo[i] = std::isfinite(m) ? std::max(0.0, m) : 0.0;
+  }
+  for (size_t i = 0; i < path.size(); ++i) {
+    double sum = 0, n = 0;
+    window(i, [&](size_t j) { sum += lo[j], n += 1; });
+    out[i] = sum / n;
+  }
+  return out;
+}
+
 Operation parse_river(Params& p) {
   CurveShape c = parse_curve_shape(p, "round", {"round", "u", "v", "flat"}, false);
   with_elevation(p, c.pts);
-  const std::optional<double> bank = p.has("bank_height") ? std::optional<double>(p.vlength("bank_height")) : std::nullopt;
-  if (bank && *bank < 0) param_error(p.where("bank_height"), "expected >= 0 m (banks rise away from the river)");
+  // `bank_height`: metres, or "terrain" (per vertex: the depth of the river below the terrain).
+  const bool to_terrain = p.has("bank_height") && p.raw("bank_height").is_string() && p.string("bank_height") == "terrain";
+  const std::optional<double> bank =
+      !to_terrain && p.has("bank_height") ? std::optional<double>(p.vlength("bank_height")) : std::nullopt;
+  if (bank && *bank < 0) param_error(p.where("bank_height"), "expected >= 0 m (banks rise away from the river) or \"terrain\"");
   return [=](EditState& s) {
     const double r = c.resolve_radius(s.grid(), bank.value_or(0), 0.0);
-    const double b = bank.value_or(0.1 * r);
-    const auto path = c.path(s.grid(), r);
-    add_profile_gradient(s.device(), s.buffers(), {c.primitive(path, r, c.profile, -b)});
+    auto path = c.path(s.grid(), r);
+    if (to_terrain) {
+      // Vertices every r/4 at most (z linear along each piece, as the bed is rasterized), so the
+      // bank height follows the terrain between sparse hand-placed points.
+      std::vector<Vec3> dense{path.front()};
+      for (size_t i = 1; i < path.size(); ++i) {
+        const Vec3 &u = path[i - 1], &v = path[i];
+        const int n = std::max(1, int(std::ceil(std::hypot(v.x - u.x, v.y - u.y) / (0.25 * r))));
+        for (int k = 1; k <= n; ++k) {
+          const double t = double(k) / n;
+          dense.push_back({u.x + t * (v.x - u.x), u.y + t * (v.y - u.y), u.z + t * (v.z - u.z)});
+        }
+      }
+      path = std::move(dense);
+      Primitive pr = c.primitive(path, r, c.profile, 1.0);
+      for (double b : banks_to_terrain(s, path, r)) pr.amplitude.push_back(-b);
+      add_profile_gradient(s.device(), s.buffers(), {pr});
+    } else {
+      const double b = bank.value_or(0.1 * r);
+      add_profile_gradient(s.device(), s.buffers(), {c.primitive(path, r, c.profile, -b)});
+    }
     rasterize_polyline(s, path, c.floor);
     s.changed();
   };
