@@ -280,6 +280,10 @@ struct AmplifyOptions {
   /// normalisation sqrt((1 - rho) sum w^2 + rho (sum w)^2) assumes (0: independent, 1: the average);
   /// < 0: measured on the output's own patches (a first pass over the tiles).
   float detail_correlation = -1.f;
+  /// Detail blend with a measured rho: also measure the anisotropy delta (x-neighbour overlaps
+  /// correlated by rho + delta, y-neighbour ones by rho - delta), which removes the ripple with the
+  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md, issue 16 session 8).
+  bool detail_anisotropy = true;
   /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
   /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the
   /// dictionary's). The patches' details are taken relative to the same base.
