@@ -280,6 +280,10 @@ struct AmplifyOptions {
   /// normalisation sqrt((1 - rho) sum w^2 + rho (sum w)^2) assumes (0: independent, 1: the average);
   /// < 0: measured on the output's own patches (a first pass over the tiles).
   float detail_correlation = -1.f;
+  /// Detail blend with a measured rho: also measure the anisotropy delta (x-neighbour overlaps
+  /// correlated by rho + delta, y-neighbour ones by rho - delta), which removes the ripple with the
+  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md, issue 16 session 8).
+  bool detail_anisotropy = true;
   /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
   /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the
   /// dictionary's). The patches' details are taken relative to the same base.
@@ -430,6 +434,11 @@ struct PeriodicTrace {
   double peak = 0, ripple = 0;
 };
 PeriodicTrace periodic_trace(const Heightfield& h, int period);
+/// The same over several rasters of one size (e.g. one amplification at several seeds): the profiles'
+/// power spectra and folded profiles are averaged before the peak and ripple are read. A ripple the
+/// rasters share keeps its peak; the noise around it averages (no trace: a mean of n exponential
+/// variables, > 8 with probability ~1e-8 for n = 3 instead of 3e-4 for one).
+PeriodicTrace periodic_trace(const std::vector<const Heightfield*>& rasters, int period);
 
 /// Compression report (section 5.1): learn N atoms of P x P patches spaced P/2 on `h`, encode with
 /// sparsity s and reconstruct. rho = (K N + n (2 s + 2) + 1) / (w h).
