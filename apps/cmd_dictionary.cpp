@@ -89,6 +89,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                     "Detail mode's base the gain is calibrated for and amplify uses by default (see amplify --base)")
       ->check(CLI::IsMember({"bicubic", "bandlimited"}))
       ->capture_default_str();
+  learn->add_flag("--no-detail-anisotropy{false}", la->o.calibration_anisotropy,
+                  "Calibrate the gain for one detail correlation rho (amplify then keeps one rho with this dictionary)");
   learn->add_option("--faithful-radius", la->o.faithful_radius,
                     "Neighbourhood radius (input cells, 1-4) of the faithful mode's regression stored with the dictionary (0: none)")
       ->check(CLI::Range(0, 4))
@@ -194,6 +196,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       ->capture_default_str();
   ev->add_option("--mode", va->amp.mode, "detail | faithful (see amplify --mode)")->capture_default_str();
   ev->add_option("--detail-correlation", va->amp.detail_correlation, "Detail blend: assumed correlation of overlapping details")->capture_default_str();
+  ev->add_flag("--no-detail-anisotropy{false}", va->amp.detail_anisotropy,
+              "Detail blend: one measured rho for all overlaps (before issue 16 session 8)");
   ev->add_option("--base", va->amp.base, "bicubic | bandlimited | auto (see amplify --base)")->capture_default_str();
   ev->add_option("--blend", va->amp.blend, "detail | average | auto (see amplify --blend)")->capture_default_str();
   ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();

@@ -123,6 +123,10 @@ struct Dictionary {
   /// The base the gain was calibrated for (AmplifyOptions::base): "bicubic", or "bandlimited" (flag
   /// bit 4, format version 3).
   std::string base = "bicubic";
+  /// Whether the gain was calibrated with the anisotropic detail correlation
+  /// (AmplifyOptions::detail_anisotropy; flag bit 6, format version 5). Files of versions 1-4 were
+  /// calibrated with one rho: false, and amplify keeps one rho with them.
+  bool anisotropy = true;
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
@@ -173,6 +177,9 @@ struct LearnOptions {
   std::string calibration_blend = "detail";
   /// AmplifyOptions::base the gain is calibrated for (and amplify's default with this dictionary).
   std::string calibration_base = "bandlimited";
+  /// AmplifyOptions::detail_anisotropy of the amplification the gain is calibrated for (and what
+  /// amplify uses with this dictionary; Dictionary::anisotropy).
+  bool calibration_anisotropy = true;
   /// HF energy ratio the gain aims at on the held-out folds. Slightly above 1: the exemplar's own
   /// folds resemble each other more than the input's terrain (x4 on the bundled DEMs: the ratio
   /// against the truth is 1.16 / 0.67 of the held-out one; docs/amplify.md).
@@ -282,7 +289,9 @@ struct AmplifyOptions {
   float detail_correlation = -1.f;
   /// Detail blend with a measured rho: also measure the anisotropy delta (x-neighbour overlaps
   /// correlated by rho + delta, y-neighbour ones by rho - delta), which removes the ripple with the
-  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md, issue 16 session 8).
+  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md, issue 16 session 8). Only
+  /// with a dictionary whose gain was calibrated so (Dictionary::anisotropy; not .tdic files before
+  /// version 5): false, or such a dictionary, gives one rho.
   bool detail_anisotropy = true;
   /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
   /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the

@@ -62,6 +62,7 @@ AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
   if (o.magnitude_weight < 0) o.magnitude_weight = d.magnitude_weight;
   if (o.blend == "auto") o.blend = d.blend;
   if (o.base == "auto") o.base = d.base;
+  o.detail_anisotropy = o.detail_anisotropy && d.anisotropy;  // as the gain was calibrated
   return o;
 }
 
@@ -752,6 +753,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   if (o.magnitude_weight >= 0) lo.calibration_magnitude_weight = o.magnitude_weight;
   if (o.blend != "auto") lo.calibration_blend = o.blend;
   if (o.base != "auto") lo.calibration_base = o.base;
+  lo.calibration_anisotropy = o.detail_anisotropy;
   lo.faithful_radius = 0;  // detail mode here; faithful mode learns its own regression below
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
@@ -879,6 +881,7 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   ao.magnitude_weight = o.calibration_magnitude_weight;
   ao.blend = o.calibration_blend;
   ao.base = o.calibration_base;
+  ao.detail_anisotropy = o.calibration_anisotropy;
   // Sums over every held-out fold (pooled cross-validation): the HF energy terms hb, hbd, hd, ht and
   // the RMSE terms e2, ed, d2, r2 defined below.
   double hb = 0, hbd = 0, hd = 0, ht = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0, sp = 0, spt = 0;
