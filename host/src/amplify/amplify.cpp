@@ -685,21 +685,26 @@ static std::string warp_command(const std::string& file, const Georef& g, double
 // The x16 target (1.3) less a margin for the transfer from the folds to other terrain: at 1.24 on the
 // folds the Front Range's east half came out at 1.324 (docs/amplify.md).
 constexpr double kCascadeRmseBudget = 1.2;
-double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, const AmplifyOptions& o1,
-                          const AmplifyOptions& o2, float g2, double hf_target) {
+// The chosen gain and, at it (interpolated like the gain), the folds' pooled HF energy ratio, RMSE over
+// bicubic's and mean-slope ratio (output over truth): what the calibration expects on the input.
+struct CascadeGain {
+  double gain = -1, hf = 0, rmse = 0, slope = 0;
+};
+CascadeGain cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, const AmplifyOptions& o1,
+                               const AmplifyOptions& o2, float g2, double hf_target) {
   const int f = learn.factor, F = f * f, P = learn.patch;
   const bool wide = ex.width >= ex.height;
   const int len = wide ? ex.width : ex.height, other = wide ? ex.height : ex.width;
   const int k = 2, fold = len / k;
-  if (fold / f < 4 * P || other / f < 4 * P) return -1;
+  if (fold / f < 4 * P || other / f < 4 * P) return {};
   auto crop = [&](int a0, int a1, int o0, int o1) { return fold_crop(ex, wide, a0, a1, o0, o1); };
   LearnOptions lo = learn;
   lo.calibrate = false;
   lo.faithful_radius = 0;
   lo.max_patches = learn.max_patches / 2;
   const std::vector<double> grid = {1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75};
-  std::vector<double> hf(grid.size(), 0), e2(grid.size(), 0);
-  double ht = 0, eb2 = 0;
+  std::vector<double> hf(grid.size(), 0), e2(grid.size(), 0), sl(grid.size(), 0);
+  double ht = 0, eb2 = 0, slt = 0;
   for (int i = 0; i < k; ++i) {
     const int a0 = i * fold, a1 = i == k - 1 ? len : a0 + fold;
     std::vector<Heightfield> train2, train1;
@@ -712,6 +717,7 @@ double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, cons
     const std::vector<float> bic = bicubic_upsample(low, F).z;
     for (size_t j = 0; j < bic.size(); ++j) eb2 += double(bic[j] - b.z[j]) * (bic[j] - b.z[j]);
     ht += energy_above(b, F);
+    slt += compute_stats(b).mean_slope_deg * double(b.size());
     AmplifyOptions a = o1, c = o2;
     a.factor = c.factor = f;
     c.detail_gain = g2;
@@ -719,20 +725,36 @@ double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, cons
       a.detail_gain = float(grid[q]);
       const Heightfield out = amplify(amplify(low, d1, a), d2, c);
       hf[q] += energy_above(out, F);
+      sl[q] += compute_stats(out).mean_slope_deg * double(out.size());
       for (size_t j = 0; j < out.z.size(); ++j) e2[q] += double(out.z[j] - b.z[j]) * (out.z[j] - b.z[j]);
     }
   }
-  if (!(ht > 0) || !(eb2 > 0)) return -1;
+  if (!(ht > 0) || !(eb2 > 0) || !(slt > 0)) return {};
   // The excess over each bound per grid gain (<= 0: within); the gain where the first one reaches 0.
   auto excess = [&](size_t q) {
     return std::max(hf[q] / ht - hf_target, std::sqrt(e2[q] / eb2) - kCascadeRmseBudget);
   };
-  if (excess(0) > 0) return grid[0];
-  for (size_t q = 1; q < grid.size(); ++q) {
-    const double x0 = excess(q - 1), x1 = excess(q);
-    if (x1 > 0) return grid[q - 1] + (grid[q] - grid[q - 1]) * (-x0) / std::max(1e-12, x1 - x0);
+  // Grid position q + t (t in [0, 1]) of the chosen gain, and the folds' figures there.
+  size_t q0 = 0;
+  double t = 0;
+  if (excess(0) <= 0) {
+    q0 = grid.size() - 1;
+    for (size_t q = 1; q < grid.size(); ++q) {
+      const double x0 = excess(q - 1), x1 = excess(q);
+      if (x1 > 0) {
+        q0 = q - 1, t = (-x0) / std::max(1e-12, x1 - x0);
+        break;
+      }
+    }
   }
-  return grid.back();
+  const size_t q1 = std::min(q0 + 1, grid.size() - 1);
+  auto at = [&](const std::vector<double>& v) { return v[q0] + t * (v[q1] - v[q0]); };
+  CascadeGain r;
+  r.gain = at(grid);
+  r.hf = at(hf) / ht;
+  r.rmse = std::sqrt(at(e2) / eb2);
+  r.slope = at(sl) / slt;
+  return r;
 }
 
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
@@ -747,6 +769,7 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   std::unique_ptr<BlockRegression> reg;
   std::vector<std::string> gains, notes, hf_notes;
   double cascade_gain = -1;
+  CascadeGain cascade;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
   if (o.neighbours > 0) lo.calibration_neighbours = o.neighbours;
   lo.calibration_candidates = o.candidates;
@@ -797,8 +820,9 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
           for (const auto& h : exemplars) ex2.push_back(r2 > 1 ? block_mean(h, r2) : h);
           next_dict = std::make_unique<Dictionary>(learn_dictionary(ex2, lo, scaled_progress(pk, 0.25, 0.5)));
           check_options(o, *next_dict);
-          cascade_gain = cascade_first_gain(ex2[0], lo, resolved(o, *dict), resolved(o, *next_dict),
-                                            next_dict->detail_gain, lo.calibration_hf_target);
+          cascade = cascade_first_gain(ex2[0], lo, resolved(o, *dict), resolved(o, *next_dict),
+                                       next_dict->detail_gain, lo.calibration_hf_target);
+          cascade_gain = cascade.gain;
         }
       }
     }
@@ -828,8 +852,9 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     gains.push_back(cur.metadata["amplify_detail_gain"]);
     if (k == 0 && cascade_gain > 0)
       hf_notes.push_back(fmt::format("step 1: gain {:.3f} (dictionary's {:.3f}) from both steps on the exemplar's held-out "
-                                     "folds (x16 HF target {:.2f}, RMSE budget {:.2f} x bicubic)", cascade_gain,
-                                     dict->detail_gain, lo.calibration_hf_target, kCascadeRmseBudget));
+                                     "folds (x16 HF target {:.2f}, RMSE budget {:.2f} x bicubic; there: HF {:.3f}, RMSE "
+                                     "{:.3f} x bicubic, slope {:.3f})", cascade_gain, dict->detail_gain,
+                                     lo.calibration_hf_target, kCascadeRmseBudget, cascade.hf, cascade.rmse, cascade.slope));
     if (input_gain > 0 && r.detail_gain < 0)
       hf_notes.push_back(fmt::format("step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this "
                                      "input's own spectrum", k + 1, input_gain, dict->detail_gain));
