@@ -5,7 +5,10 @@
 # the input's Nyquist, roughness ratio, mean-slope ratio, LR consistency, the periodic peaks of the
 # squared curvature at the patch spacing and the block size, D8 river agreement with the truth (see
 # docs/amplify.md) and the calibrated gains, FLANN recall for x4, and with --bench the timings of x4
-# of a 1201^2 DEM and x256 of 32^2 -> 8192^2.
+# of a 1201^2 DEM and x256 of 32^2 -> 8192^2. Detail mode's pk S / pk f are read from the curvature
+# spectra averaged over 3 seeds (--seed S, S+1, S+2; TRACE_SEEDS=1: one seed, as before issue 16
+# session 8); the other columns are seed S's. The detail blend's correlation is anisotropic by
+# default (issue 16 sessions 8-9); pass --no-detail-anisotropy for the single-rho figures.
 #   scripts/eval-amplify.sh [--bench] [extra `terracl dictionary evaluate` options]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +21,7 @@ for dem in data/dem/*.hgt data/dem/*.asc; do
   for f in 4 16; do
     recall=()
     [[ $f == 4 ]] && recall=(--recall 2000)
-    $T dictionary evaluate "$dem" --factor $f $header "${recall[@]}" "$@"
+    $T dictionary evaluate "$dem" --factor $f $header --trace-seeds "${TRACE_SEEDS:-3}" "${recall[@]}" "$@"
     header=
     $T dictionary evaluate "$dem" --factor $f --mode faithful "$@"
   done

@@ -330,7 +330,7 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
     std::ifstream f(tmp.path("d.tdic"), std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(f), {});
   }
-  ASSERT_EQ(bytes[4], 4);
+  ASSERT_EQ(bytes[4], 5);
   ASSERT_FALSE(d.has_regression());  // 12 x 12 input cells: too few 7 x 7 neighbourhoods
   ASSERT_LT(d.spectral_scale, 0);    // too small to calibrate: no calibration block (flag bit 5)
   bytes[4] = 1;
@@ -344,9 +344,10 @@ TEST(AmplifyDictionary, VersionOneFilesStillLoad) {
   EXPECT_TRUE(e.low_norm.empty());
   EXPECT_EQ(e.neighbours, 1);  // its gain was calibrated for the nearest atom alone
   EXPECT_EQ(e.magnitude_weight, 0.f);
-  bytes[4] = 5;
-  std::ofstream(tmp.path("v5.tdic"), std::ios::binary) << bytes;
-  EXPECT_THROW(load_dictionary(tmp.path("v5.tdic")), Error);
+  EXPECT_FALSE(e.anisotropy);  // and for one detail correlation rho
+  bytes[4] = 6;
+  std::ofstream(tmp.path("v6.tdic"), std::ios::binary) << bytes;
+  EXPECT_THROW(load_dictionary(tmp.path("v6.tdic")), Error);
 }
 
 namespace {
@@ -441,7 +442,7 @@ TEST(AmplifyDictionary, VersionTwoFilesStillLoadWithoutRegression) {
   ASSERT_LT(d.spectral_scale, 0);
   save_dictionary(d, tmp.path("d.tdic"));
   std::string bytes = file_bytes(tmp.path("d.tdic"));
-  ASSERT_EQ(bytes[4], 4);
+  ASSERT_EQ(bytes[4], 5);
   bytes[4] = 2;
   rehash(bytes);
   std::ofstream(tmp.path("v2.tdic"), std::ios::binary) << bytes;

@@ -178,3 +178,27 @@ TEST(AmplifyCli, FaithfulModeWithAStoredRegression) {
   EXPECT_NE(c.out.find("n.tdic stores no faithful regression"), std::string::npos) << c.out;
   EXPECT_FALSE(std::filesystem::exists(f.tmp.path("c.tif")));
 }
+
+TEST(AmplifyCli, EvaluateAveragesThePeriodicTraceOverSeeds) {
+  // `dictionary evaluate --trace-seeds N`: pk S and pk f come from N seeds' curvature spectra, every
+  // other column from --seed's output alone.
+  const std::string dem = test::data_path("crops/presidential_utm30_192.tif");
+  auto row = [&](const std::string& extra) {
+    const auto r = test::run_cli("-q dictionary evaluate " + dem + " --factor 4 --max-patches 3000 " + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.out;
+    const size_t at = r.out.find("complete P16");
+    EXPECT_NE(at, std::string::npos) << r.out;
+    std::vector<std::string> cols;
+    std::string cell;
+    for (size_t i = at == std::string::npos ? 0 : at; i < r.out.size() && r.out[i] != '\n'; ++i)
+      if (r.out[i] == '|') cols.push_back(cell), cell.clear();
+      else cell += r.out[i];
+    return cols;  // method, RMSE, PSNR, HF, rough, slope, LR, pk S, pk f, D8
+  };
+  const auto one = row(""), two = row("--trace-seeds 2");
+  ASSERT_GE(one.size(), 9u);
+  ASSERT_EQ(one.size(), two.size());
+  for (size_t i = 1; i <= 6; ++i) EXPECT_EQ(one[i], two[i]) << "column " << i;
+  EXPECT_NE(one[7], two[7]) << "pk S over two seeds";
+  EXPECT_NE(test::run_cli("-q dictionary evaluate " + dem + " --trace-seeds 0").exit_code, 0);
+}

@@ -128,11 +128,38 @@ TEST(AmplifySpectral, FirstStepGainMatchesTheCombinedHfEstimate) {
   EXPECT_EQ(e.rmse_gain, d.rmse_gain);
   EXPECT_EQ(e.hf_target, d.hf_target);
   EXPECT_EQ(e.spectral_scale, d.spectral_scale);
+  EXPECT_TRUE(e.anisotropy);  // calibrated for the anisotropic detail correlation (flag bit 6)
   const Heightfield loaded = amplify(low, e, o);
   ASSERT_EQ(loaded.size(), out.size());
   EXPECT_EQ(std::memcmp(loaded.z.data(), out.z.data(), sizeof(float) * out.size()), 0);
   EXPECT_EQ(loaded.metadata.at("amplify_hf_calibration"), out.metadata.at("amplify_hf_calibration"));
   EXPECT_EQ(loaded.metadata.at("amplify_detail_gain"), out.metadata.at("amplify_detail_gain"));
+  EXPECT_EQ(loaded.metadata.at("amplify_detail_correlation"), out.metadata.at("amplify_detail_correlation"));
+  EXPECT_NE(out.metadata.at("amplify_detail_correlation").find("(x "), std::string::npos)
+      << out.metadata.at("amplify_detail_correlation");
+  // A version 4 file (the same bytes, flag bit 6 not read): its gain was calibrated for one rho,
+  // which amplify keeps with it.
+  {
+    std::string v4;
+    {
+      std::ifstream f(path, std::ios::binary);
+      v4.assign(std::istreambuf_iterator<char>(f), {});
+    }
+    ASSERT_EQ(v4[4], 5);
+    v4[4] = 4;
+    uint64_t h4 = 1469598103934665603ull;
+    for (size_t i = 0; i + 8 < v4.size(); ++i) h4 = (h4 ^ (unsigned char)v4[i]) * 1099511628211ull;
+    for (int i = 0; i < 8; ++i) v4[v4.size() - 8 + i] = char((h4 >> (8 * i)) & 0xff);
+    std::ofstream(tmp.path("v4.tdic"), std::ios::binary) << v4;
+    const Dictionary e4 = load_dictionary(tmp.path("v4.tdic"));
+    EXPECT_FALSE(e4.anisotropy);
+    EXPECT_EQ(e4.spectral_scale, d.spectral_scale);
+    AmplifyOptions one = o;
+    one.detail_anisotropy = false;
+    const Heightfield iso = amplify(low, d, one), old4 = amplify(low, e4, o);
+    EXPECT_EQ(old4.metadata.at("amplify_detail_correlation").find("(x "), std::string::npos);
+    EXPECT_EQ(std::memcmp(old4.z.data(), iso.z.data(), sizeof(float) * iso.size()), 0);
+  }
   // A version 3 file (the same bytes without the calibration, flag bit 5 clear): still read, the
   // per-input gain off and said so in the metadata.
   std::string bytes;
@@ -140,7 +167,7 @@ TEST(AmplifySpectral, FirstStepGainMatchesTheCombinedHfEstimate) {
     std::ifstream f(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(f), {});
   }
-  ASSERT_EQ(bytes[4], 4);
+  ASSERT_EQ(bytes[4], 5);
   int32_t flags = 0;
   std::memcpy(&flags, bytes.data() + 24, 4);
   ASSERT_NE(flags & 32, 0);

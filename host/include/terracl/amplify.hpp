@@ -123,6 +123,10 @@ struct Dictionary {
   /// The base the gain was calibrated for (AmplifyOptions::base): "bicubic", or "bandlimited" (flag
   /// bit 4, format version 3).
   std::string base = "bicubic";
+  /// Whether the gain was calibrated with the anisotropic detail correlation
+  /// (AmplifyOptions::detail_anisotropy; flag bit 6, format version 5). Files of versions 1-4 were
+  /// calibrated with one rho: false, and amplify keeps one rho with them.
+  bool anisotropy = true;
   /// Norm (m) of each atom's low-resolution patch before normalisation (the relief it was cut
   /// from), used by the magnitude term of the search; empty when unknown (K-SVD atoms).
   std::vector<float> low_norm;
@@ -173,6 +177,9 @@ struct LearnOptions {
   std::string calibration_blend = "detail";
   /// AmplifyOptions::base the gain is calibrated for (and amplify's default with this dictionary).
   std::string calibration_base = "bandlimited";
+  /// AmplifyOptions::detail_anisotropy of the amplification the gain is calibrated for (and what
+  /// amplify uses with this dictionary; Dictionary::anisotropy).
+  bool calibration_anisotropy = true;
   /// HF energy ratio the gain aims at on the held-out folds. Slightly above 1: the exemplar's own
   /// folds resemble each other more than the input's terrain (x4 on the bundled DEMs: the ratio
   /// against the truth is 1.16 / 0.67 of the held-out one; docs/amplify.md).
@@ -280,6 +287,12 @@ struct AmplifyOptions {
   /// normalisation sqrt((1 - rho) sum w^2 + rho (sum w)^2) assumes (0: independent, 1: the average);
   /// < 0: measured on the output's own patches (a first pass over the tiles).
   float detail_correlation = -1.f;
+  /// Detail blend with a measured rho: also measure the anisotropy delta (x-neighbour overlaps
+  /// correlated by rho + delta, y-neighbour ones by rho - delta), which removes the ripple with the
+  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md, issue 16 session 8). Only
+  /// with a dictionary whose gain was calibrated so (Dictionary::anisotropy; not .tdic files before
+  /// version 5): false, or such a dictionary, gives one rho.
+  bool detail_anisotropy = true;
   /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
   /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the
   /// dictionary's). The patches' details are taken relative to the same base.
@@ -430,6 +443,11 @@ struct PeriodicTrace {
   double peak = 0, ripple = 0;
 };
 PeriodicTrace periodic_trace(const Heightfield& h, int period);
+/// The same over several rasters of one size (e.g. one amplification at several seeds): the profiles'
+/// power spectra and folded profiles are averaged before the peak and ripple are read. A ripple the
+/// rasters share keeps its peak; the noise around it averages (no trace: a mean of n exponential
+/// variables, > 8 with probability ~1e-8 for n = 3 instead of 3e-4 for one).
+PeriodicTrace periodic_trace(const std::vector<const Heightfield*>& rasters, int period);
 
 /// Compression report (section 5.1): learn N atoms of P x P patches spaced P/2 on `h`, encode with
 /// sparsity s and reconstruct. rho = (K N + n (2 s + 2) + 1) / (w h).

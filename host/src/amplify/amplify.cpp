@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -61,6 +62,7 @@ AmplifyOptions resolved(AmplifyOptions o, const Dictionary& d) {
   if (o.magnitude_weight < 0) o.magnitude_weight = d.magnitude_weight;
   if (o.blend == "auto") o.blend = d.blend;
   if (o.base == "auto") o.base = d.base;
+  o.detail_anisotropy = o.detail_anisotropy && d.anisotropy;  // as the gain was calibrated
   return o;
 }
 
@@ -95,9 +97,12 @@ class StepEngine {
   bool detail_blend() const { return m_detail_blend; }
 
   // Sums of the blend over the local output cells [X0, X1) x [Y0, Y1): num, den (sum w^2 for the
-  // detail blend, else sum w) and den1 (sum w, detail blend only).
+  // detail blend, else sum w) and den1 (sum w, detail blend only); `uv` (detail blend with at most
+  // two patches per axis over a cell, anisotropic()): per cell, u = w00 - w11 and v = w10 - w01, the
+  // weights of its patches by the parity of their global column and row (a cell has at most one
+  // patch of each), so 2 u v = (x-neighbour products) - (y-neighbour products) of the weights.
   void blend(int X0, int Y0, int X1, int Y1, std::vector<float>& num, std::vector<float>& den,
-             std::vector<float>& den1) const {
+             std::vector<float>& den1, std::vector<float>* uv = nullptr) const {
     const int gx0 = m_ox + X0, gy0 = m_oy + Y0;
     const int kx0 = first(gx0), kx1 = last(m_ox + X1), ky0 = first(gy0), ky1 = last(m_oy + Y1);
     const int nx = kx1 - kx0, ny = ky1 - ky0;
@@ -106,6 +111,8 @@ class StepEngine {
     num.assign(size_t(tw) * th, 0.f);
     den.assign(num.size(), 0.f);
     den1.assign(m_detail_blend ? num.size() : 0, 0.f);
+    const bool with_uv = uv && anisotropic();
+    if (uv) uv->assign(with_uv ? 2 * num.size() : 0, 0.f);
     if (m == 0) return;
     std::vector<float> z(m);
     MatrixF q(p * p, Eigen::Index(m));
@@ -177,6 +184,10 @@ class StepEngine {
           for (int cx = 0; cx < nx; ++cx) {
             const size_t c = size_t(r) * nx + cx;
             const int px = (kx0 + cx) * S - Q - gx0, py = (ky0 + r) * S - Q - gy0;
+            // parity class of the patch: (0,0) +u, (1,1) -u, (1,0) +v, (0,1) -v
+            const int cls = ((kx0 + cx) & 1) + 2 * ((ky0 + r) & 1);
+            const int uv_off = cls == 0 || cls == 3 ? 0 : 1;
+            const float uv_sign = cls == 0 || cls == 1 ? 1.f : -1.f;
             // The patch (its atoms combined once), then its weighted blend.
             patch.setConstant(z[c]);
             for (int t = 0; t < s; ++t) {
@@ -203,6 +214,7 @@ class StepEngine {
                 num[o2] += w * src[k];
                 den[o2] += m_detail_blend ? w * w : w;
                 if (m_detail_blend) den1[o2] += w;
+                if (with_uv) (*uv)[2 * o2 + uv_off] += uv_sign * w;
               }
           }
         }
@@ -210,11 +222,20 @@ class StepEngine {
     }
   }
 
+  // Whether the blend can tell x- from y-neighbour overlaps (blend's uv): at most two patches per
+  // axis over a cell.
+  bool anisotropic() const { return m_detail_blend && P <= 2 * S; }
+
   // Detail blend: the correlation rho measured on the output cells [X0, X1) x [Y0, Y1) (local
   // coordinates of a window that holds them with their footprint): for candidate correlations, the
   // squared curvature of the blended detail per phase of the patch grid (the weights repeat with the
-  // spacing); rho makes it the same at every phase (the evaluation's periodic trace).
-  float measure_rho(int X0, int Y0, int X1, int Y1) const {
+  // spacing); rho makes it the same at every phase (the evaluation's periodic trace). Then, at that
+  // rho, the anisotropy delta (anisotropic() only, else 0): overlaps of x-neighbours are given the
+  // correlation rho + delta, of y-neighbours rho - delta (diagonal ones rho), |delta| <= min(rho, 1 -
+  // rho), chosen by the same flatness. Details of anisotropic terrain (the Front Range's north-south
+  // ridges) are correlated more along one axis than the other, which one rho cannot fit: its
+  // compromise left a ripple with the spacing along y (docs/amplify.md, issue 16 session 8).
+  std::pair<float, float> measure_rho(int X0, int Y0, int X1, int Y1) const {
     // Band-limited base: rho flattens the curvature of base + 2 detail per phase (2: a typical
     // calibrated gain, fixed so that the output stays affine in the gain, as the calibration needs). The
     // bicubic base's knots have a phase pattern of their own that the detail partly offsets; there
@@ -225,72 +246,90 @@ class StepEngine {
     // One cell of margin for the Laplacian, where the window has it.
     const int W = m_low.width * f, H = m_low.height * f;
     const int bx0 = std::max(0, X0 - 1), by0 = std::max(0, Y0 - 1), bx1 = std::min(W, X1 + 1), by1 = std::min(H, Y1 + 1);
-    std::vector<float> num, den, den1;
-    blend(bx0, by0, bx1, by1, num, den, den1);
+    std::vector<float> num, den, den1, uv;
+    blend(bx0, by0, bx1, by1, num, den, den1, &uv);
     const int tw = bx1 - bx0, th = by1 - by0;
-    std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
-    // One band of S rows in four (by the global row, every phase of the grid) is enough. Rows in
-    // parallel, each into its own sums, added in row order: rho does not depend on the threads.
-    std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
-    parallel_for(size_t(th), m_o.threads, [&](size_t b, size_t e) {
-      std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every rho
-      std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
-      for (size_t yy = b; yy < e; ++yy) {
-        const int y = int(yy), gy = m_oy + by0 + y;
-        if (y < 1 || y + 1 >= th || by0 + y < Y0 || by0 + y >= Y1 || (gy / S) % 4 != 0) continue;
-        if (gy % 64 == 0 || gy % 64 == 63) continue;
-        if (measure_output) upsample_window(m_low, f, m_o.base, bx0, by0 + y - 1, tw, 3, base_rows.data());
-        for (int dy = 0; dy < 3; ++dy)
-          for (int x = 0; x < tw; ++x) {
-            const size_t c = size_t(y - 1 + dy) * tw + x;
+    // The flatness (coefficient of variation over the S x S phases of the squared curvature) of the
+    // output for kRhos candidate normalisations: var(t, c) is the blend's variance at local cell c.
+    auto flatness = [&](const std::function<float(int, size_t)>& var) {
+      std::vector<double> phase_k2(size_t(kRhos) * S * S, 0.0), phase_n(size_t(S) * S, 0.0);
+      // One band of S rows in four (by the global row, every phase of the grid) is enough. Rows in
+      // parallel, each into its own sums, added in row order: rho does not depend on the threads.
+      std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
+      parallel_for(size_t(th), m_o.threads, [&](size_t b, size_t e) {
+        std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every candidate
+        std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
+        for (size_t yy = b; yy < e; ++yy) {
+          const int y = int(yy), gy = m_oy + by0 + y;
+          if (y < 1 || y + 1 >= th || by0 + y < Y0 || by0 + y >= Y1 || (gy / S) % 4 != 0) continue;
+          if (gy % 64 == 0 || gy % 64 == 63) continue;
+          if (measure_output) upsample_window(m_low, f, m_o.base, bx0, by0 + y - 1, tw, 3, base_rows.data());
+          for (int dy = 0; dy < 3; ++dy)
+            for (int x = 0; x < tw; ++x) {
+              const size_t c = size_t(y - 1 + dy) * tw + x;
+              for (int t = 0; t < kRhos; ++t) {
+                const double v = double(num[c]) / std::sqrt(var(t, c));
+                bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
+              }
+            }
+          double* k2 = &row_k2[size_t(y) * kRhos * S];
+          double* n = &row_n[size_t(y) * S];
+          for (int x = 1; x + 1 < tw; ++x) {
+            const int gx = m_ox + bx0 + x;
+            if (bx0 + x < X0 || bx0 + x >= X1 || gx % 64 == 0 || gx % 64 == 63) continue;
+            const int ph = gx % S;
+            n[ph] += 1;
             for (int t = 0; t < kRhos; ++t) {
-              const float r = float(t) / (kRhos - 1);
-              const double v = double(num[c]) / std::sqrt((1 - r) * den[c] + r * den1[c] * den1[c]);
-              bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
+              const double* r0 = &bl[(size_t(0) * kRhos + t) * tw];
+              const double* r1 = &bl[(size_t(1) * kRhos + t) * tw];
+              const double* r2 = &bl[(size_t(2) * kRhos + t) * tw];
+              const double lap = double(r1[x - 1]) + r1[x + 1] + r0[x] + r2[x] - 4.0 * r1[x];
+              k2[size_t(t) * S + ph] += lap * lap;
             }
           }
-        double* k2 = &row_k2[size_t(y) * kRhos * S];
-        double* n = &row_n[size_t(y) * S];
-        for (int x = 1; x + 1 < tw; ++x) {
-          const int gx = m_ox + bx0 + x;
-          if (bx0 + x < X0 || bx0 + x >= X1 || gx % 64 == 0 || gx % 64 == 63) continue;
-          const int ph = gx % S;
-          n[ph] += 1;
-          for (int t = 0; t < kRhos; ++t) {
-            const double* r0 = &bl[(size_t(0) * kRhos + t) * tw];
-            const double* r1 = &bl[(size_t(1) * kRhos + t) * tw];
-            const double* r2 = &bl[(size_t(2) * kRhos + t) * tw];
-            const double lap = double(r1[x - 1]) + r1[x + 1] + r0[x] + r2[x] - 4.0 * r1[x];
-            k2[size_t(t) * S + ph] += lap * lap;
-          }
+        }
+      });
+      for (int y = 0; y < th; ++y) {
+        const size_t py = size_t((m_oy + by0 + y) % S) * S;
+        for (int ph = 0; ph < S; ++ph) {
+          phase_n[py + ph] += row_n[size_t(y) * S + ph];
+          for (int t = 0; t < kRhos; ++t)
+            phase_k2[size_t(t) * phase_n.size() + py + ph] += row_k2[(size_t(y) * kRhos + t) * S + ph];
         }
       }
-    });
-    for (int y = 0; y < th; ++y) {
-      const size_t py = size_t((m_oy + by0 + y) % S) * S;
-      for (int ph = 0; ph < S; ++ph) {
-        phase_n[py + ph] += row_n[size_t(y) * S + ph];
-        for (int t = 0; t < kRhos; ++t)
-          phase_k2[size_t(t) * phase_n.size() + py + ph] += row_k2[(size_t(y) * kRhos + t) * S + ph];
+      std::vector<double> cv(kRhos, 0.0);
+      for (int t = 0; t < kRhos; ++t) {
+        double s = 0, s2 = 0, n = 0;
+        for (size_t k = 0; k < phase_n.size(); ++k) {
+          if (phase_n[k] == 0) continue;
+          const double e = phase_k2[size_t(t) * phase_n.size() + k] / phase_n[k];
+          s += e, s2 += e * e, n += 1;
+        }
+        cv[size_t(t)] = n > 1 && s > 0 ? (s2 / n - (s / n) * (s / n)) / ((s / n) * (s / n)) : 0;
       }
-    }
-    std::vector<double> cv(kRhos, 0.0);
-    for (int t = 0; t < kRhos; ++t) {
-      double s = 0, s2 = 0, n = 0;
-      for (size_t k = 0; k < phase_n.size(); ++k) {
-        if (phase_n[k] == 0) continue;
-        const double e = phase_k2[size_t(t) * phase_n.size() + k] / phase_n[k];
-        s += e, s2 += e * e, n += 1;
+      // The candidate with the flattest profile, refined by a parabola through it and its neighbours:
+      // its position t / (kRhos - 1) in [0, 1].
+      const int t = int(std::min_element(cv.begin(), cv.end()) - cv.begin());
+      double r = double(t) / (kRhos - 1);
+      if (t > 0 && t < kRhos - 1) {
+        const double a = cv[size_t(t - 1)], b = cv[size_t(t)], c = cv[size_t(t + 1)], dd = a - 2 * b + c;
+        if (dd > 0) r += std::clamp(0.5 * (a - c) / dd, -0.5, 0.5) / (kRhos - 1);
       }
-      cv[size_t(t)] = n > 1 && s > 0 ? (s2 / n - (s / n) * (s / n)) / ((s / n) * (s / n)) : 0;
-    }
-    const int t = int(std::min_element(cv.begin(), cv.end()) - cv.begin());
-    double r = double(t) / (kRhos - 1);
-    if (t > 0 && t < kRhos - 1) {  // parabola through the minimum and its neighbours
-      const double a = cv[size_t(t - 1)], b = cv[size_t(t)], c = cv[size_t(t + 1)], dd = a - 2 * b + c;
-      if (dd > 0) r += std::clamp(0.5 * (a - c) / dd, -0.5, 0.5) / (kRhos - 1);
-    }
-    return float(r);
+      return r;
+    };
+    const float rho = float(flatness([&](int t, size_t c) {
+      const float r = float(t) / (kRhos - 1);
+      return (1 - r) * den[c] + r * den1[c] * den1[c];
+    }));
+    const double span = std::min(rho, 1.f - rho);
+    if (!m_o.detail_anisotropy || !anisotropic() || !(span > 0)) return {rho, 0.f};
+    // delta = span (2 q - 1) for q = t / (kRhos - 1) in [0, 1]: from -span to +span, 0 in the middle.
+    auto delta_of = [&](double q) { return float(span * (2 * q - 1)); };
+    const float delta = delta_of(flatness([&](int t, size_t c) {
+      const float r = rho, d = delta_of(double(t) / (kRhos - 1));
+      return (1 - r) * den[c] + r * den1[c] * den1[c] + 2 * d * uv[2 * c] * uv[2 * c + 1];
+    }));
+    return {rho, delta};
   }
 
  private:
@@ -315,7 +354,7 @@ class StepEngine {
 // with the detail blend's correlation rho (detail blend only).
 // `input_gain` > 0: the gain chosen for this input (input_hf_gain) where the options leave it open;
 // `raw`: the blended detail only (no gain, base or bias correction), what input_hf_gain measures.
-Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float rho, const Dictionary& d,
+Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float rho, float delta, const Dictionary& d,
                          const AmplifyOptions& o, const AtomIndex* index, const Progress& progress,
                          float input_gain = -1, bool raw = false) {
   const int f = d.factor, S = o.spacing;
@@ -328,11 +367,12 @@ Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float
   // Work tiles bound the memory of codes and sums; no result depends on them.
   const int tile_unit = std::lcm(S, 64), tile = std::max(tile_unit, o.tile / tile_unit * tile_unit);
   const int tx = (W + tile - 1) / tile, ty = (H + tile - 1) / tile;
-  std::vector<float> num, den, den1;
+  std::vector<float> num, den, den1, uv;
+  const bool aniso = detail_blend && delta != 0.f && eng.anisotropic();
   for (int j = 0; j < ty; ++j)
     for (int i = 0; i < tx; ++i) {
       const int X0 = i * tile, X1 = std::min(W, X0 + tile), Y0 = j * tile, Y1 = std::min(H, Y0 + tile);
-      eng.blend(X0, Y0, X1, Y1, num, den, den1);
+      eng.blend(X0, Y0, X1, Y1, num, den, den1, aniso ? &uv : nullptr);
       const int tw = X1 - X0, th = Y1 - Y0;
       for (int y = 0; y < th; ++y)
         for (int x = 0; x < tw; ++x) {
@@ -344,13 +384,19 @@ Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float
           // rho = 1 only, halves the variance of uncorrelated details between two patch centres and
           // quarters it between four: a ripple with the spacing).
           const size_t c = size_t(y) * tw + x;
-          const float norm = detail_blend ? std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c]) : dn;
+          // Anisotropic details (delta != 0): x-neighbour overlaps correlate by rho + delta, y-neighbour
+          // ones by rho - delta (StepEngine::measure_rho).
+          const float norm = !detail_blend ? dn
+                             : aniso ? std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c] + 2 * delta * uv[2 * c] * uv[2 * c + 1])
+                                     : std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c]);
           out.at(X0 + x, Y0 + y) = num[c] / norm;
         }
       report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
     }
   if (raw) return out;
-  if (detail_blend) out.metadata["amplify_detail_correlation"] = fmt::format("{:.3f}", rho);
+  if (detail_blend)
+    out.metadata["amplify_detail_correlation"] =
+        aniso ? fmt::format("{:.3f} (x {:.3f}, y {:.3f})", rho, rho + delta, rho - delta) : fmt::format("{:.3f}", rho);
   const float gain = o.detail_gain >= 0 ? o.detail_gain : input_gain > 0 ? input_gain : d.detail_gain;
   out.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", gain);
   if (detail_blend) {
@@ -443,12 +489,13 @@ double input_hf_gain(const Heightfield& low, int lx0, int ly0, int cw, int ch, c
 // rho_region: the input of step k > 0 there is the previous steps' output over that region's
 // footprint, amplified from a window of the input with the rhos found so far. Then the gain per step
 // chosen for this input (input_hf_gain: the first step of a cascade only, `first_is_input`; -1 for
-// the dictionary's or the options' gain): the result holds `steps` rhos, then `steps` gains. A
-// function of the whole input only, so tiles and the untiled run use the same values.
+// the dictionary's or the options' gain), then the anisotropy delta per step (measure_rho; 0 with a
+// fixed rho): the result holds `steps` rhos, `steps` gains, `steps` deltas. A function of the whole
+// input only, so tiles and the untiled run use the same values.
 std::vector<float> step_correlations(const AmplifyWindowReader& read, int width, int height, int steps,
                                      const Dictionary& d, const AmplifyOptions& o, const AtomIndex* index,
                                      bool first_is_input = true) {
-  std::vector<float> rhos, gains(size_t(steps), -1.f);
+  std::vector<float> rhos, gains(size_t(steps), -1.f), deltas(size_t(steps), 0.f);
   if (o.blend != "detail") return rhos;
   const bool fixed_rho = o.detail_correlation >= 0;
   // Only the first step of a cascade sees measured terrain: later steps' inputs carry the previous
@@ -459,6 +506,7 @@ std::vector<float> step_correlations(const AmplifyWindowReader& read, int width,
   if (fixed_rho && !input_gain) {
     rhos.assign(size_t(steps), std::clamp(o.detail_correlation, 0.f, 1.f));
     rhos.insert(rhos.end(), gains.begin(), gains.end());
+    rhos.insert(rhos.end(), deltas.begin(), deltas.end());
     return rhos;
   }
   const int f = d.factor, halo = step_halo(d, o);
@@ -470,7 +518,8 @@ std::vector<float> step_correlations(const AmplifyWindowReader& read, int width,
     const int a0 = std::max(0, x0 / f - halo), b0 = std::max(0, y0 / f - halo);
     const int a1 = std::min(lw, (x1 + f - 1) / f + halo), b1 = std::min(lh, (y1 + f - 1) / f + halo);
     const Heightfield prev = input(k - 1, a0, b0, a1, b1);
-    const Heightfield up = amplify_step(prev, a0, b0, k - 1, rhos[size_t(k - 1)], d, o, index, {}, gains[size_t(k - 1)]);
+    const Heightfield up = amplify_step(prev, a0, b0, k - 1, rhos[size_t(k - 1)], deltas[size_t(k - 1)], d, o, index, {},
+                                        gains[size_t(k - 1)]);
     Heightfield w(x1 - x0, y1 - y0);
     for (int y = 0; y < w.height; ++y)
       for (int x = 0; x < w.width; ++x) w.at(x, y) = up.at(x0 - a0 * f + x, y0 - b0 * f + y);
@@ -489,15 +538,18 @@ std::vector<float> step_correlations(const AmplifyWindowReader& read, int width,
     const Heightfield win = input(k, a0, b0, a1, b1);
     require_finite(win, "amplify", "input");
     const StepEngine eng(win, a0, b0, k, d, o, index);
-    const float rho = fixed_rho ? std::clamp(o.detail_correlation, 0.f, 1.f)
-                                : eng.measure_rho((r.x0 - a0) * f, (r.y0 - b0) * f, (r.x1 - a0) * f, (r.y1 - b0) * f);
+    const auto [rho, delta] =
+        fixed_rho ? std::pair<float, float>{std::clamp(o.detail_correlation, 0.f, 1.f), 0.f}
+                  : eng.measure_rho((r.x0 - a0) * f, (r.y0 - b0) * f, (r.x1 - a0) * f, (r.y1 - b0) * f);
     rhos.push_back(rho);
+    deltas[size_t(k)] = delta;
     if (k == 0 && input_gain) {
-      const Heightfield detail = amplify_step(win, a0, b0, k, rho, d, o, index, {}, -1, true);
+      const Heightfield detail = amplify_step(win, a0, b0, k, rho, delta, d, o, index, {}, -1, true);
       gains[0] = float(input_hf_gain(win, r.x0 - a0, r.y0 - b0, r.x1 - r.x0, r.y1 - r.y0, detail, d, o.base));
     }
   }
   rhos.insert(rhos.end(), gains.begin(), gains.end());
+  rhos.insert(rhos.end(), deltas.begin(), deltas.end());
   return rhos;
 }
 
@@ -569,14 +621,17 @@ Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Diction
   }
   const AmplifyOptions r = resolved(o, d);
   const bool detail = r.blend == "detail";
-  if (detail && correlations.size() != 2 * size_t(steps))
+  // rhos, gains and (since issue 16 session 8) anisotropies per step; without the last, isotropic.
+  if (detail && correlations.size() != 2 * size_t(steps) && correlations.size() != 3 * size_t(steps))
     fail("amplify", "internal: {} detail correlations and gains for {} steps", correlations.size(), steps);
+  const bool with_delta = detail && correlations.size() == 3 * size_t(steps);
   const auto index = make_index(d, r);
   Heightfield cur = low;
   std::string gains;
   for (int k = 0, scale = 1; k < steps; ++k, scale *= d.factor) {
     const float input_gain = detail ? correlations[size_t(steps + k)] : -1.f;
-    cur = amplify_step(cur, x0 * scale, y0 * scale, k, detail ? correlations[size_t(k)] : 0.f, d, r, index.get(),
+    cur = amplify_step(cur, x0 * scale, y0 * scale, k, detail ? correlations[size_t(k)] : 0.f,
+                       with_delta ? correlations[size_t(2 * steps + k)] : 0.f, d, r, index.get(),
                        scaled_progress(progress, double(k) / steps, double(k + 1) / steps), input_gain);
     gains += (k ? "," : "") + cur.metadata["amplify_detail_gain"];
     if (input_gain > 0 && r.detail_gain < 0)
@@ -630,21 +685,26 @@ static std::string warp_command(const std::string& file, const Georef& g, double
 // The x16 target (1.3) less a margin for the transfer from the folds to other terrain: at 1.24 on the
 // folds the Front Range's east half came out at 1.324 (docs/amplify.md).
 constexpr double kCascadeRmseBudget = 1.2;
-double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, const AmplifyOptions& o1,
-                          const AmplifyOptions& o2, float g2, double hf_target) {
+// The chosen gain and, at it (interpolated like the gain), the folds' pooled HF energy ratio, RMSE over
+// bicubic's and mean-slope ratio (output over truth): what the calibration expects on the input.
+struct CascadeGain {
+  double gain = -1, hf = 0, rmse = 0, slope = 0;
+};
+CascadeGain cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, const AmplifyOptions& o1,
+                               const AmplifyOptions& o2, float g2, double hf_target) {
   const int f = learn.factor, F = f * f, P = learn.patch;
   const bool wide = ex.width >= ex.height;
   const int len = wide ? ex.width : ex.height, other = wide ? ex.height : ex.width;
   const int k = 2, fold = len / k;
-  if (fold / f < 4 * P || other / f < 4 * P) return -1;
+  if (fold / f < 4 * P || other / f < 4 * P) return {};
   auto crop = [&](int a0, int a1, int o0, int o1) { return fold_crop(ex, wide, a0, a1, o0, o1); };
   LearnOptions lo = learn;
   lo.calibrate = false;
   lo.faithful_radius = 0;
   lo.max_patches = learn.max_patches / 2;
   const std::vector<double> grid = {1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75};
-  std::vector<double> hf(grid.size(), 0), e2(grid.size(), 0);
-  double ht = 0, eb2 = 0;
+  std::vector<double> hf(grid.size(), 0), e2(grid.size(), 0), sl(grid.size(), 0);
+  double ht = 0, eb2 = 0, slt = 0;
   for (int i = 0; i < k; ++i) {
     const int a0 = i * fold, a1 = i == k - 1 ? len : a0 + fold;
     std::vector<Heightfield> train2, train1;
@@ -657,6 +717,7 @@ double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, cons
     const std::vector<float> bic = bicubic_upsample(low, F).z;
     for (size_t j = 0; j < bic.size(); ++j) eb2 += double(bic[j] - b.z[j]) * (bic[j] - b.z[j]);
     ht += energy_above(b, F);
+    slt += compute_stats(b).mean_slope_deg * double(b.size());
     AmplifyOptions a = o1, c = o2;
     a.factor = c.factor = f;
     c.detail_gain = g2;
@@ -664,20 +725,36 @@ double cascade_first_gain(const Heightfield& ex, const LearnOptions& learn, cons
       a.detail_gain = float(grid[q]);
       const Heightfield out = amplify(amplify(low, d1, a), d2, c);
       hf[q] += energy_above(out, F);
+      sl[q] += compute_stats(out).mean_slope_deg * double(out.size());
       for (size_t j = 0; j < out.z.size(); ++j) e2[q] += double(out.z[j] - b.z[j]) * (out.z[j] - b.z[j]);
     }
   }
-  if (!(ht > 0) || !(eb2 > 0)) return -1;
+  if (!(ht > 0) || !(eb2 > 0) || !(slt > 0)) return {};
   // The excess over each bound per grid gain (<= 0: within); the gain where the first one reaches 0.
   auto excess = [&](size_t q) {
     return std::max(hf[q] / ht - hf_target, std::sqrt(e2[q] / eb2) - kCascadeRmseBudget);
   };
-  if (excess(0) > 0) return grid[0];
-  for (size_t q = 1; q < grid.size(); ++q) {
-    const double x0 = excess(q - 1), x1 = excess(q);
-    if (x1 > 0) return grid[q - 1] + (grid[q] - grid[q - 1]) * (-x0) / std::max(1e-12, x1 - x0);
+  // Grid position q + t (t in [0, 1]) of the chosen gain, and the folds' figures there.
+  size_t q0 = 0;
+  double t = 0;
+  if (excess(0) <= 0) {
+    q0 = grid.size() - 1;
+    for (size_t q = 1; q < grid.size(); ++q) {
+      const double x0 = excess(q - 1), x1 = excess(q);
+      if (x1 > 0) {
+        q0 = q - 1, t = (-x0) / std::max(1e-12, x1 - x0);
+        break;
+      }
+    }
   }
-  return grid.back();
+  const size_t q1 = std::min(q0 + 1, grid.size() - 1);
+  auto at = [&](const std::vector<double>& v) { return v[q0] + t * (v[q1] - v[q0]); };
+  CascadeGain r;
+  r.gain = at(grid);
+  r.hf = at(hf) / ht;
+  r.rmse = std::sqrt(at(e2) / eb2);
+  r.slope = at(sl) / slt;
+  return r;
 }
 
 Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Heightfield>& exemplars,
@@ -692,12 +769,14 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
   std::unique_ptr<BlockRegression> reg;
   std::vector<std::string> gains, notes, hf_notes;
   double cascade_gain = -1;
+  CascadeGain cascade;
   LearnOptions lo = learn;  // calibrate the gain for the search used here
   if (o.neighbours > 0) lo.calibration_neighbours = o.neighbours;
   lo.calibration_candidates = o.candidates;
   if (o.magnitude_weight >= 0) lo.calibration_magnitude_weight = o.magnitude_weight;
   if (o.blend != "auto") lo.calibration_blend = o.blend;
   if (o.base != "auto") lo.calibration_base = o.base;
+  lo.calibration_anisotropy = o.detail_anisotropy;
   lo.faithful_radius = 0;  // detail mode here; faithful mode learns its own regression below
   for (int k = 0; k < steps; ++k) {
     const double tx = cur.georef.cell_x / learn.factor, ty = cur.georef.cell_y / learn.factor;
@@ -741,8 +820,9 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
           for (const auto& h : exemplars) ex2.push_back(r2 > 1 ? block_mean(h, r2) : h);
           next_dict = std::make_unique<Dictionary>(learn_dictionary(ex2, lo, scaled_progress(pk, 0.25, 0.5)));
           check_options(o, *next_dict);
-          cascade_gain = cascade_first_gain(ex2[0], lo, resolved(o, *dict), resolved(o, *next_dict),
-                                            next_dict->detail_gain, lo.calibration_hf_target);
+          cascade = cascade_first_gain(ex2[0], lo, resolved(o, *dict), resolved(o, *next_dict),
+                                       next_dict->detail_gain, lo.calibration_hf_target);
+          cascade_gain = cascade.gain;
         }
       }
     }
@@ -766,14 +846,15 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     AmplifyOptions rk = r;
     if (k == 0 && cascade_gain > 0) rk.detail_gain = float(cascade_gain);
     const auto rho = step_correlations(read, cur.width, cur.height, 1, *dict, rk, index.get(), k == 0);
-    const float input_gain = rho.size() == 2 ? rho[1] : -1.f;
-    cur = amplify_step(cur, 0, 0, k, rho.empty() ? 0.f : rho[0], *dict, rk, index.get(), scaled_progress(pk, 0.5, 1),
+    const float input_gain = rho.size() >= 2 ? rho[1] : -1.f;  // one step: rho, gain, delta
+    cur = amplify_step(cur, 0, 0, k, rho.empty() ? 0.f : rho[0], rho.size() >= 3 ? rho[2] : 0.f, *dict, rk, index.get(), scaled_progress(pk, 0.5, 1),
                        input_gain);
     gains.push_back(cur.metadata["amplify_detail_gain"]);
     if (k == 0 && cascade_gain > 0)
       hf_notes.push_back(fmt::format("step 1: gain {:.3f} (dictionary's {:.3f}) from both steps on the exemplar's held-out "
-                                     "folds (x16 HF target {:.2f}, RMSE budget {:.2f} x bicubic)", cascade_gain,
-                                     dict->detail_gain, lo.calibration_hf_target, kCascadeRmseBudget));
+                                     "folds (x16 HF target {:.2f}, RMSE budget {:.2f} x bicubic; there: HF {:.3f}, RMSE "
+                                     "{:.3f} x bicubic, slope {:.3f})", cascade_gain, dict->detail_gain,
+                                     lo.calibration_hf_target, kCascadeRmseBudget, cascade.hf, cascade.rmse, cascade.slope));
     if (input_gain > 0 && r.detail_gain < 0)
       hf_notes.push_back(fmt::format("step {}: gain {:.3f} (dictionary's {:.3f}) from the held-out folds and this "
                                      "input's own spectrum", k + 1, input_gain, dict->detail_gain));
@@ -825,6 +906,7 @@ GainCalibration calibrate_detail(const Heightfield& ex, const LearnOptions& o) {
   ao.magnitude_weight = o.calibration_magnitude_weight;
   ao.blend = o.calibration_blend;
   ao.base = o.calibration_base;
+  ao.detail_anisotropy = o.calibration_anisotropy;
   // Sums over every held-out fold (pooled cross-validation): the HF energy terms hb, hbd, hd, ht and
   // the RMSE terms e2, ed, d2, r2 defined below.
   double hb = 0, hbd = 0, hd = 0, ht = 0, e2 = 0, ed = 0, d2 = 0, r2 = 0, sp = 0, spt = 0;

@@ -21,10 +21,11 @@ namespace {
 constexpr char kMagic[4] = {'T', 'D', 'I', 'C'};
 // Version 2 added the atoms' low-resolution norms (flag bit 1), version 3 faithful mode's regression
 // (flag bit 3), version 4 the gain calibration amplify needs for the per-input HF gain (flag bit 5);
-// version 1 to 3 files still load (without it: the per-input HF gain is off).
-constexpr uint32_t kVersion = 4;
+// version 1 to 3 files still load (without it: the per-input HF gain is off); version 5 flag bit 6,
+// the gain calibrated for the anisotropic detail correlation (versions 1 to 4: for one rho).
+constexpr uint32_t kVersion = 5;
 constexpr int32_t kFlagConstrained = 1, kFlagNorms = 2, kFlagDetailBlend = 4, kFlagRegression = 8,
-                  kFlagBandlimitedBase = 16, kFlagCalibration = 32;
+                  kFlagBandlimitedBase = 16, kFlagCalibration = 32, kFlagAnisotropy = 64;
 constexpr size_t kCalibrationBytes = 4 * 8;
 
 // The four values of GainCalibration that Dictionary keeps (all > 0, or the dictionary has none).
@@ -113,7 +114,7 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   put<int32_t>(out, (d.constrained ? kFlagConstrained : 0) | (norms ? kFlagNorms : 0) |
                          (d.blend == "detail" ? kFlagDetailBlend : 0) | (reg ? kFlagRegression : 0) |
                          (d.base == "bandlimited" ? kFlagBandlimitedBase : 0) |
-                         (has_calibration(d) ? kFlagCalibration : 0));
+                         (has_calibration(d) ? kFlagCalibration : 0) | (d.anisotropy ? kFlagAnisotropy : 0));
   put<double>(out, d.cell_x);
   put<double>(out, d.cell_y);
   put<float>(out, d.detail_gain);
@@ -165,6 +166,7 @@ Dictionary load_dictionary(const std::string& path) {
   const bool reg = version >= 3 && (flags & kFlagRegression) != 0;
   const bool cal = version >= 4 && (flags & kFlagCalibration) != 0;
   d.base = version >= 3 && (flags & kFlagBandlimitedBase) != 0 ? "bandlimited" : "bicubic";
+  d.anisotropy = version >= 5 && (flags & kFlagAnisotropy) != 0;
   d.cell_x = r.get<double>("cell_x");
   d.cell_y = r.get<double>("cell_y");
   d.detail_gain = r.get<float>("detail gain");
@@ -338,6 +340,7 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   d.magnitude_weight = o.calibration_magnitude_weight;
   d.blend = o.calibration_blend;
   d.base = o.calibration_base;
+  d.anisotropy = o.calibration_anisotropy;
   std::vector<Eigen::Index> good;
   MatrixF L(p * p, H.cols());
   for (Eigen::Index j = 0; j < H.cols(); ++j) {

@@ -166,39 +166,54 @@ double d8_agreement(const Heightfield& out, const Heightfield& truth, double riv
   return 0.5 * (hit_t / n_t + hit_o / n_o);
 }
 
-PeriodicTrace periodic_trace(const Heightfield& h, int period) {
-  const int w = h.width, ht = h.height;
+PeriodicTrace periodic_trace(const Heightfield& h, int period) { return periodic_trace(std::vector<const Heightfield*>{&h}, period); }
+
+PeriodicTrace periodic_trace(const std::vector<const Heightfield*>& hs, int period) {
+  if (hs.empty() || !hs[0]) fail("eval", "periodic trace: no raster given");
+  const int w = hs[0]->width, ht = hs[0]->height;
+  for (const Heightfield* h : hs)
+    if (!h || h->width != w || h->height != ht)
+      fail("eval", "periodic trace: rasters of different sizes ({}x{} and {}x{})", w, ht, h ? h->width : 0,
+           h ? h->height : 0);
   if (period < 2 || w < 4 * period + 2 || ht < 4 * period + 2)
     fail("eval", "periodic trace: a {}x{} grid is too small for period {}", w, ht, period);
-  // Profiles of the squared curvature over whole periods of interior cells.
+  // Profiles of the squared curvature over whole periods of interior cells; their power spectra (and
+  // folded profiles) are averaged over the rasters before the peak is read, so independent
+  // realisations (seeds) average the noise around the peak and keep a ripple they share.
   const int nx = (w - 2) / period * period, ny = (ht - 2) / period * period;
-  std::vector<double> px(size_t(nx), 0.0), py(size_t(ny), 0.0);
-  for (int y = 1; y <= ny; ++y)
-    for (int x = 1; x <= nx; ++x) {
-      const double c = double(h.at(x - 1, y)) + h.at(x + 1, y) + h.at(x, y - 1) + h.at(x, y + 1) - 4.0 * h.at(x, y);
-      px[size_t(x - 1)] += c * c, py[size_t(y - 1)] += c * c;
-    }
   PeriodicTrace t;
-  for (std::vector<double>* prof : {&px, &py}) {
-    const int n = int(prof->size());
-    double mean = 0;
-    for (double v : *prof) mean += v;
-    mean /= n;
-    if (!(mean > 0)) continue;
-    std::vector<double> fold(size_t(period), 0.0);
-    for (int i = 0; i < n; ++i) fold[size_t(i % period)] += (*prof)[size_t(i)] / (n / period);
-    const auto [lo, hi] = std::minmax_element(fold.begin(), fold.end());
-    t.ripple = std::max(t.ripple, (*hi - *lo) / mean);
-    std::vector<std::complex<double>> in(prof->size()), out;
-    for (int i = 0; i < n; ++i) in[size_t(i)] = (*prof)[size_t(i)] - mean;
-    Eigen::FFT<double> fft;
-    fft.fwd(out, in);
+  for (int axis = 0; axis < 2; ++axis) {
+    const int n = axis == 0 ? nx : ny;
     const int bin = n / period;
+    std::vector<double> power(size_t(n / 2 + 1), 0.0), fold(size_t(period), 0.0);
+    double mean_all = 0;
+    for (const Heightfield* hp : hs) {
+      const Heightfield& h = *hp;
+      std::vector<double> prof(size_t(n), 0.0);
+      for (int y = 1; y <= ny; ++y)
+        for (int x = 1; x <= nx; ++x) {
+          const double c = double(h.at(x - 1, y)) + h.at(x + 1, y) + h.at(x, y - 1) + h.at(x, y + 1) - 4.0 * h.at(x, y);
+          prof[size_t(axis == 0 ? x - 1 : y - 1)] += c * c;
+        }
+      double mean = 0;
+      for (double v : prof) mean += v;
+      mean /= n;
+      mean_all += mean;
+      for (int i = 0; i < n; ++i) fold[size_t(i % period)] += prof[size_t(i)] / (n / period);
+      std::vector<std::complex<double>> in(prof.size()), out;
+      for (int i = 0; i < n; ++i) in[size_t(i)] = prof[size_t(i)] - mean;
+      Eigen::FFT<double> fft;
+      fft.fwd(out, in);
+      for (size_t k = 0; k < power.size(); ++k) power[k] += std::norm(out[k]);
+    }
+    if (!(mean_all > 0)) continue;
+    const auto [lo, hi] = std::minmax_element(fold.begin(), fold.end());
+    t.ripple = std::max(t.ripple, (*hi - *lo) / mean_all);
     double others = 0;
     int count = 0;
     for (int k = std::max(1, bin * 2 / 3); k <= std::min(n / 2, bin * 3 / 2); ++k)
-      if (k != bin) others += std::norm(out[size_t(k)]), ++count;
-    if (count > 0 && others > 0) t.peak = std::max(t.peak, std::norm(out[size_t(bin)]) / (others / count));
+      if (k != bin) others += power[size_t(k)], ++count;
+    if (count > 0 && others > 0) t.peak = std::max(t.peak, power[size_t(bin)] / (others / count));
   }
   return t;
 }
