@@ -150,8 +150,10 @@ def nearest(line, amp, px, py):
 
 side_ops, tributaries = [], []
 # (side, rim crossing y, length on the plateau, tilt from the rim's normal (deg), branches)
-for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8, 1), (-1, 3950, 560, 5, 0),
-                                     (1, 1500, 2100, -10, 1), (1, 3250, 1150, 14, 1), (1, 4500, 620, -4, 0)):
+# (Every side canyon's operations say so in their comments, "side canyon N: inner gorge ...",
+# "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
+for nsc, (side, y0, back, ang, nbranch) in enumerate( ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8, 1), (-1, 3950, 560, 5, 0),
+                                     (1, 1500, 2100, -10, 1), (1, 3250, 1150, 14, 0), (1, 4500, 620, -4, 0))):
     top = TOP if side < 0 else TOP + 10
     rim_f = west if side < 0 else east
     rx = rim_f(y0)
@@ -229,6 +231,8 @@ for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8,
         # rim and falls fast down the wall; a kink there (or where the gorge's share saturates)
         # drew a straight crease across the whole side canyon through that vertex (the profile's
         # gradient along the stroke jumps there).
+        # (An outer layer's depth counts as 0 before its start: smoothed from its start only, the
+        # layers' sum rose 7-12 m there, a sill across the floor.)
         sm = []
         for i, sa in enumerate(s):
             if amps[i] is None:
@@ -236,9 +240,9 @@ for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8,
                 continue
             num = den = 0.0
             for j, sb in enumerate(s):
-                if amps[j] is not None and abs(sb - sa) < 360:
+                if abs(sb - sa) < 360:
                     w = math.exp(-0.5 * ((sb - sa) / 120) ** 2)
-                    num, den = num + w * amps[j], den + w
+                    num, den = num + w * (amps[j] or 0.0), den + w
             sm.append(num / den)
         amps = sm
         # The gorge ends at 0.85 R down the main wall, the outer layers at 0.45 R, each exiting
@@ -250,7 +254,7 @@ for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8,
         pts = [(p, z) for p, z in list(zip(axis, amps))[:last + 1] if z is not None]
         floor = round(0.3 * width)
         trunk.append(([p for p, _ in pts], [z for _, z in pts], width, floor))
-        side_ops.append({"op": "ravine", "comment": ("side canyon: inner gorge, amphitheatre head" if li == 0 else f"side canyon: outer layer {li}") if not side_ops or li else None,
+        side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: " + ("inner gorge, amphitheatre head" if li == 0 else f"outer layer {li}"),
                          "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in pts], "smooth": True,
                          "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 40 if li == 0 else round(0.4 * R_CLIFF)})
 
@@ -266,7 +270,7 @@ for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8,
     # side and then the other.
     bside = rng.choice((-1, 1))
     for b in range(nbranch):
-        sj = rng.uniform(0.3, 0.55) * s[i_rim]
+        sj = rng.uniform(0.4, 0.6) * s[i_rim]
         ij = min(range(len(axis)), key=lambda i: abs(s[i] - sj))
         ux, uy = axis[max(ij - 1, 0)][0] - axis[ij + 1][0], axis[max(ij - 1, 0)][1] - axis[ij + 1][1]
         ul = math.hypot(ux, uy)
@@ -278,7 +282,14 @@ for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8,
         lb = 0.5 * trunk[1][2] + rng.uniform(450, 750)
         wb = round(rng.uniform(0.8, 0.95) * w0)
         jxb, jyb = axis[ij]
-        while not (200 < jxb + lb * bx < EXT - 200 and 200 < jyb + lb * by < EXT - 200):
+        # (Its head on the map and on the plateau, 600 m or more from either rim: else the other side.)
+        def head_ok(bx, by):
+            hx, hy = jxb + lb * bx, jyb + lb * by
+            return 200 < hx < EXT - 200 and 200 < hy < EXT - 200 and west(hy) - 600 > hx or hx > east(hy) + 600
+        if not head_ok(bx, by):
+            t = -t
+            bx, by = ux * math.cos(t) - uy * math.sin(t), ux * math.sin(t) + uy * math.cos(t)
+        while not head_ok(bx, by) and lb > 300:
             lb *= 0.9
         bw = rng.uniform(0.06, 0.12) * lb * rng.choice((-1, 1))
         bctl = []
@@ -294,7 +305,7 @@ for side, y0, back, ang, nbranch in ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8,
         for p, sa in zip(bline, bs):
             want = top - (fj + (zb_head - fj) * (1 - sa / bs[-1]) ** 1.2)
             bamp.append(max(0.0, want - trunk_depth(*p)))
-        side_ops.append({"op": "ravine", "comment": "a tributary of the side canyon, graded to its floor" if b == 0 and len(tributaries) == 0 else None,
+        side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: tributary, graded to its floor",
                          "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in zip(bline, bamp)], "smooth": True,
                          "width": wb, "profile": "u", "floor": round(0.3 * wb), "taper": 0, "exit": 0})
         bside = -bside
@@ -322,6 +333,6 @@ band = [[round(west(y) - 200, 1), y] for y in (0, 1280, 2560, 3840, 5120)] + \
        [[round(east(y) + 200, 1), y] for y in (5120, 3840, 2560, 1280, 0)]
 ops.append({"op": "noise", "comment": "gullies down the canyon walls: a band along the two rims", "polygon": band, "falloff": 300,
             "amplitude": 12, "wavelength": 250, "type": "ridged", "octaves": 3, "orient": {"angle": 0, "strength": 0.7}})
-doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 140-170 m deep), built of nested layers along one axis (an inner gorge, one or two wider outer layers whose depth grows from 0) so they widen and deepen towards the main canyon, four with tributaries of their own graded to their floor, cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
+doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 140-170 m deep), built of nested layers along one axis (an inner gorge, one or two wider outer layers whose depth grows from 0) so they widen and deepen towards the main canyon, three with tributaries of their own graded to their floor, cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
        "base": "flat:1025x1025@5", "units": "m", "seed": 11, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)
