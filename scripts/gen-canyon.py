@@ -152,8 +152,10 @@ side_ops, tributaries = [], []
 # (side, rim crossing y, length on the plateau, tilt from the rim's normal (deg), branches)
 # (Every side canyon's operations say so in their comments, "side canyon N: inner gorge ...",
 # "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
-for nsc, (side, y0, back, ang, nbranch) in enumerate( ((-1, 700, 1900, 12, 2), (-1, 2450, 950, -8, 1), (-1, 3950, 560, 5, 0),
-                                     (1, 1500, 2100, -10, 1), (1, 3250, 1150, 14, 0), (1, 4500, 620, -4, 0))):
+for nsc, (side, y0, back, ang, branches) in enumerate((
+        (-1, 700, 1900, 12, [(0.75, 550, 1700)]), (-1, 2450, 950, -8, [(0.8, 750, 3300)]),
+        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 3900, 2650)]),
+        (1, 4500, 620, -4, []))):
     top = TOP if side < 0 else TOP + 10
     rim_f = west if side < 0 else east
     rx = rim_f(y0)
@@ -165,7 +167,7 @@ for nsc, (side, y0, back, ang, nbranch) in enumerate( ((-1, 700, 1900, 12, 2), (
     while not (250 < rx + back * nx < EXT - 250 and 250 < y0 + back * ny < EXT - 250):
         back *= 0.9
     # The axis wanders: a sine across it (one to two bends over its length), nothing at the rim.
-    amp_w = rng.uniform(0.1, 0.16) * back * rng.choice((-1, 1))
+    amp_w = rng.uniform(0.08, 0.13) * back * rng.choice((-1, 1))
     lam, ph = rng.uniform(0.7, 1.2) * back, rng.uniform(0, 2 * math.pi)
     nctl = max(4, round(back / 300))
     ctl = []
@@ -208,25 +210,27 @@ for nsc, (side, y0, back, ang, nbranch) in enumerate( ((-1, 700, 1900, 12, 2), (
     # below G), layer 2 (longer side canyons) ramping in to a share of it further down.
     G = rng.uniform(140, 170)
     w0 = round(2 * 1.45 * G / 0.7)  # r - f = 1.45 G (f = 0.3 r): walls ~1.7 at their steepest
-    layers = [(w0, None), (round(w0 * rng.uniform(1.8, 2.0)), 0.0)]
+    layers = [(w0, None), (round(w0 * rng.uniform(1.8, 2.0)), rng.uniform(0.25, 0.4))]
     if back > 900:
-        layers.append((round(w0 * rng.uniform(2.6, 2.9)), rng.uniform(0.45, 0.65)))
+        layers.append((round(w0 * rng.uniform(2.6, 2.9)), rng.uniform(0.6, 0.7)))
     q2 = rng.uniform(0.4, 0.5)
-    ramp2 = rng.uniform(300, 500)
+    ramp1, ramp2 = rng.uniform(400, 600), rng.uniform(300, 500)
     trunk = []  # (points, amplitudes, width, floor) per layer, for the branches' depths
     for li, (width, h) in enumerate(layers):
         amps = []
         for i, sa in enumerate(s):
             D = depth(sa)
-            gorge = min(D, G * min(1.0, D / D_rim) if sa > s[i_rim] else G)
-            rest = D - gorge
+            rest = D - min(D, G * min(1.0, D / D_rim) if sa > s[i_rim] else G)
+            share1 = smoother((sa - layers[1][1] * s[i_rim]) / ramp1)
             share2 = q2 * smoother((sa - layers[2][1] * s[i_rim]) / ramp2) if len(layers) > 2 else 0.0
+            # (Upstream of layer 1 the gorge takes the whole depth: the side canyon is narrow there.)
+            l1, l2 = rest * share1 * (1 - share2), rest * share1 * share2
             if li == 0:
-                amps.append(gorge)
+                amps.append(D - l1 - l2)
             elif li == 1:
-                amps.append(rest * (1 - share2))
+                amps.append(l1 if sa >= h * s[i_rim] else None)
             else:
-                amps.append(rest * share2 if sa >= h * s[i_rim] else None)
+                amps.append(l2 if sa >= h * s[i_rim] else None)
         # Smoothed along the arc (a Gaussian of 120 m): the depth peaks where the axis crosses the
         # rim and falls fast down the wall; a kink there (or where the gorge's share saturates)
         # drew a straight crease across the whole side canyon through that vertex (the profile's
@@ -251,47 +255,44 @@ for nsc, (side, y0, back, ang, nbranch) in enumerate( ((-1, 700, 1900, 12, 2), (
         # bisector of the turn, a straight seam (the depths differ by hundreds of metres) 0.5-1 km
         # long beside the mouth.
         last = i_w2 if li == 0 else i_w1
-        pts = [(p, z) for p, z in list(zip(axis, amps))[:last + 1] if z is not None]
+        # The outer layers follow the axis smoothed (a Gaussian of 0.3 times their width along the
+        # arc): the gorge meanders within them. On the gorge's own axis, bends tighter than a wide
+        # layer's half-width folded its profile along the bends' bisectors (straight creases across
+        # the side canyon).
+        line = axis
+        if li:
+            line = []
+            for sa in s:
+                wsum = xs = ys = 0.0
+                for (px, py), sb in zip(axis, s):
+                    w = math.exp(-0.5 * ((sb - sa) / (0.3 * width)) ** 2)
+                    wsum, xs, ys = wsum + w, xs + w * px, ys + w * py
+                line.append((xs / wsum, ys / wsum))
+        pts = [(p, z) for p, z in list(zip(line, amps))[:last + 1] if z is not None]
         floor = round(0.3 * width)
         trunk.append(([p for p, _ in pts], [z for _, z in pts], width, floor))
         side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: " + ("inner gorge, amphitheatre head" if li == 0 else f"outer layer {li}"),
                          "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in pts], "smooth": True,
                          "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 40 if li == 0 else round(0.4 * R_CLIFF)})
 
-    def trunk_depth(px, py):
+    def trunk_depth(px, py, first=0):
         tot = 0.0
-        for line, amp, width, floor in trunk:
+        for line, amp, width, floor in trunk[first:]:
             d, a = nearest(line, amp, px, py)
             if d < 0.5 * width:
                 tot += a * u_profile(d, 0.5 * width, floor)
         return tot
 
-    # Tributaries of its own: from its upper half, heading off upstream at 55-80 degrees, to one
-    # side and then the other.
-    bside = rng.choice((-1, 1))
-    for b in range(nbranch):
-        sj = rng.uniform(0.4, 0.6) * s[i_rim]
+    # Tributaries of its own, placed by hand where the plateau has room (between the side canyons,
+    # on the map): a junction at a share of the way from the head to the rim and a head.
+    for sj_f, hx, hy in branches:
+        sj = sj_f * s[i_rim]
         ij = min(range(len(axis)), key=lambda i: abs(s[i] - sj))
-        ux, uy = axis[max(ij - 1, 0)][0] - axis[ij + 1][0], axis[max(ij - 1, 0)][1] - axis[ij + 1][1]
-        ul = math.hypot(ux, uy)
-        ux, uy = ux / ul, uy / ul  # upstream
-        t = math.radians(bside * rng.uniform(55, 80))
-        bx, by = ux * math.cos(t) - uy * math.sin(t), ux * math.sin(t) + uy * math.cos(t)
-        # (Long enough to leave the side canyon's outer walls: inside them the branch has nothing
-        # left to cut.)
-        lb = 0.5 * trunk[1][2] + rng.uniform(450, 750)
-        wb = round(rng.uniform(0.8, 0.95) * w0)
         jxb, jyb = axis[ij]
-        # (Its head on the map and on the plateau, 600 m or more from either rim: else the other side.)
-        def head_ok(bx, by):
-            hx, hy = jxb + lb * bx, jyb + lb * by
-            return 200 < hx < EXT - 200 and 200 < hy < EXT - 200 and west(hy) - 600 > hx or hx > east(hy) + 600
-        if not head_ok(bx, by):
-            t = -t
-            bx, by = ux * math.cos(t) - uy * math.sin(t), ux * math.sin(t) + uy * math.cos(t)
-        while not head_ok(bx, by) and lb > 300:
-            lb *= 0.9
-        bw = rng.uniform(0.06, 0.12) * lb * rng.choice((-1, 1))
+        lb = math.hypot(hx - jxb, hy - jyb)
+        bx, by = (hx - jxb) / lb, (hy - jyb) / lb
+        wb = round(rng.uniform(0.8, 0.95) * w0)
+        bw = rng.uniform(0.1, 0.16) * lb * rng.choice((-1, 1))
         bctl = []
         for k in range(5):
             d = lb * (1 - k / 4)
@@ -299,16 +300,24 @@ for nsc, (side, y0, back, ang, nbranch) in enumerate( ((-1, 700, 1900, 12, 2), (
             bctl.append((jxb + d * bx - off * by, jyb + d * by + off * bx))
         bline = catmull_rom(bctl, STEP)
         bs = arcs(bline)
-        fj = top - trunk_depth(jxb, jyb)
-        zb_head = top - rng.uniform(100, 130)
+        zb_head = top - rng.uniform(120, 150)
+        # A hanging valley: it ends at the gorge's edge, graded to the outer layers' floor there (a
+        # bench above the inner gorge, into which it pours off), its depth what its floor needs
+        # below the plateau minus what the outer layers cut. (Run on to the gorge's axis and graded
+        # to its floor, its depth less the script's estimate of the layers' cut, which falls short
+        # of the solver's by tens of metres under the strata, dug 45-90 m hollows at the junction.)
+        gl, ga, gw, gf = trunk[0]
+        end = next((i for i, p in enumerate(bline) if nearest(gl, ga, *p)[0] < 0.5 * gw), len(bline) - 1)
+        bline = bline[:end + 1]
+        d_end = trunk_depth(*bline[-1], first=1)
+        d_head = min(top - zb_head, 0.6 * d_end)
         bamp = []
         for p, sa in zip(bline, bs):
-            want = top - (fj + (zb_head - fj) * (1 - sa / bs[-1]) ** 1.2)
-            bamp.append(max(0.0, want - trunk_depth(*p)))
+            want = d_head + (d_end - d_head) * (1 - (1 - sa / bs[end]) ** 1.2)
+            bamp.append(max(0.0, want - trunk_depth(*p, first=1)))
         side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: tributary, graded to its floor",
                          "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in zip(bline, bamp)], "smooth": True,
                          "width": wb, "profile": "u", "floor": round(0.3 * wb), "taper": 0, "exit": 0})
-        bside = -bside
     i0 = min(range(len(axis)), key=lambda i: abs(s[i] - 0.6 * s[i_rim]))
     idx = list(range(i0, len(axis), 3))
     if idx[-1] != len(axis) - 1:
@@ -333,6 +342,6 @@ band = [[round(west(y) - 200, 1), y] for y in (0, 1280, 2560, 3840, 5120)] + \
        [[round(east(y) + 200, 1), y] for y in (5120, 3840, 2560, 1280, 0)]
 ops.append({"op": "noise", "comment": "gullies down the canyon walls: a band along the two rims", "polygon": band, "falloff": 300,
             "amplitude": 12, "wavelength": 250, "type": "ridged", "octaves": 3, "orient": {"angle": 0, "strength": 0.7}})
-doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 140-170 m deep), built of nested layers along one axis (an inner gorge, one or two wider outer layers whose depth grows from 0) so they widen and deepen towards the main canyon, three with tributaries of their own graded to their floor, cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
+doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 140-170 m deep), built of nested layers along one axis (an inner gorge, one or two wider outer layers whose depth grows from 0) so they widen and deepen towards the main canyon, four with tributaries of their own (hanging valleys graded to the bench above the inner gorge), cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
        "base": "flat:1025x1025@5", "units": "m", "seed": 11, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)
