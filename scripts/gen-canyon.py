@@ -154,7 +154,7 @@ side_ops, tributaries = [], []
 # "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
 for nsc, (side, y0, back, ang, branches) in enumerate((
         (-1, 700, 1900, 12, [(0.75, 550, 1700)]), (-1, 2450, 950, -8, [(0.8, 750, 3300)]),
-        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 3900, 2650)]),
+        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 3950, 2350)]),
         (1, 4500, 620, -4, []))):
     top = TOP if side < 0 else TOP + 10
     rim_f = west if side < 0 else east
@@ -210,9 +210,9 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
     # below G), layer 2 (longer side canyons) ramping in to a share of it further down.
     G = rng.uniform(140, 170)
     w0 = round(2 * 1.45 * G / 0.7)  # r - f = 1.45 G (f = 0.3 r): walls ~1.7 at their steepest
-    layers = [(w0, None), (round(w0 * rng.uniform(1.8, 2.0)), rng.uniform(0.25, 0.4))]
+    layers = [(w0, None), (round(w0 * rng.uniform(1.5, 1.7)), rng.uniform(0.25, 0.4))]
     if back > 900:
-        layers.append((round(w0 * rng.uniform(2.6, 2.9)), rng.uniform(0.6, 0.7)))
+        layers.append((round(w0 * rng.uniform(2.1, 2.3)), rng.uniform(0.6, 0.7)))
     q2 = rng.uniform(0.4, 0.5)
     ramp1, ramp2 = rng.uniform(400, 600), rng.uniform(300, 500)
     trunk = []  # (points, amplitudes, width, floor) per layer, for the branches' depths
