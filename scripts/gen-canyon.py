@@ -215,6 +215,9 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
         layers.append((round(w0 * rng.uniform(2.1, 2.3)), rng.uniform(0.6, 0.7)))
     q2 = rng.uniform(0.4, 0.5)
     ramp1, ramp2 = rng.uniform(400, 600), rng.uniform(300, 500)
+    # (On the short side canyons the first outer layer ramps in over at most half the way to the rim:
+    # over 400-600 m it had barely begun where they cross it.)
+    ramp1 = min(ramp1, 0.5 * s[i_rim])
     trunk = []  # (points, amplitudes, width, floor) per layer, for the branches' depths
     for li, (width, h) in enumerate(layers):
         amps = []
