@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 # Writes data/examples/canyon.json (issue 12 gallery, paper figure 1): a canyon cut into an 800 m
 # plateau whose two cliff rims wander independently (the canyon widens and narrows, promontories
-# and bays), a river meandering down its floor, side canyons of varied length that cut through the
-# rims and are graded down the wall to the river, layered rock (strata) in every steep wall, fBm,
+# and bays), a river meandering down its floor, wandering side canyons with amphitheatre heads that
+# widen and deepen towards the main canyon, some with tributaries of their own, cut through the rims
+# and graded down the wall to the river, layered rock (strata) in every steep wall, fBm,
 # oriented gullies on the walls.
 # Usage: python3 scripts/gen-canyon.py OUT.json
 import json, math, random, sys
@@ -12,7 +13,6 @@ EXT = 5120.0  # the map's extent (1025 cells of 5 m)
 R_CLIFF = 450.0  # the cliffs' half-width: the wall's foot is this far from the rim, into the canyon
 TOP = 800.0  # the plateau (the west rim; the east rim 10 m higher)
 DEPTH = TOP - 130.0  # from the rim to the river at its head
-HEAD = 150.0  # a side canyon's box head: its depth at the head
 
 
 def centre(y):
@@ -62,65 +62,273 @@ def river_nearest(px, py):
     return best[1:]
 
 
-# Side canyons: from the plateau (their heads 0.5-2.2 km back from the rim) through the rim down the
-# wall. Flat-floored (floor 110 m) with steep walls of their own (width 560-680 m), a box head 150 m
-# deep, 65-72 % of the main canyon's depth where they cross the rim. Their floor is graded: it falls
-# from the head to the main river along one concave curve (z = z_river + (z_head - z_river) (1 -
-# s/L)^1.3, s the arc length from the head), the ravine's depth on the plateau following it, and
-# from halfway to the rim on a tributary stream (a `river`, after the ravines) pins it down to the
-# main river: a ravine's depth alone could not follow the wall's benches (its floor rose 20-45 m
-# again on the wall). (Before: V troughs 440-560 m wide and ~130 m deep at the rim, half the main
-# canyon's depth, walls gentler than the plateau's noise: in the perspective view their floors,
-# rising towards the sun, read as light tongues lying on the plateau.)
-tributaries = []
-for side, y0, back, ang in ((-1, 700, 1900, 12), (-1, 2450, 900, -8), (-1, 3950, 520, 5), (1, 1500, 2200, -10),
-                            (1, 3250, 1100, 14), (1, 4500, 600, -4)):
+# Side canyons (canyon-country tributaries, Grand Canyon / Canyonlands): each wanders back from the
+# rim into the plateau and ends in an amphitheatre head (a ravine's round cap: no taper at its head,
+# so the head is a half-disc alcove, not a box cut square across the stroke). It is built of nested
+# layers along one axis (the same dense spline, so the layers share it): an inner gorge from the
+# head to the river, a wider layer starting a quarter to a half of the way down and, on the longer
+# ones, a third still wider from about two thirds of the way: each outer layer's depth grows from 0
+# (smootherstep over 300-500 m), so the canyon widens and deepens towards the main canyon without a
+# step in its floor, and the layers' walls stand at different distances (a broad upper bench). The
+# longer side canyons carry tributaries of their own, graded to their floor: a branch's depth is
+# what its graded floor needs below the plateau minus what the side canyon's layers already cut
+# there (the profiles' formula evaluated here), so it fades out across the side canyon's wall and
+# joins its floor without a pit. The floors are graded to the main river along one concave curve
+# (z = z_river + (z_head - z_river) (1 - s/L)^1.3, s the arc from the head); from 60 % of the way to
+# the rim a tributary stream (a `river`, after the ravines) pins it down the main wall to the main
+# river, as a ravine's depth alone could not follow the wall's benches (its floor rose 20-45 m on the
+# wall). (The former side canyons were single flat ravines 560-680 m wide, straight and parallel,
+# with box heads cut square 150 m deep: rectangular trenches.)
+STEP = 40.0  # the dense axis' spacing (m)
+
+
+def catmull_rom(pts, step):
+    """Centripetal Catmull-Rom through pts (mirrored end points), pieces <= step: the curve of
+    terracl's `smooth` (host/src/tensor.cpp), so the layers given these dense points share one axis."""
+    n = len(pts)
+
+    def at(i):
+        if i < 0:
+            return (2 * pts[0][0] - pts[1][0], 2 * pts[0][1] - pts[1][1])
+        if i >= n:
+            return (2 * pts[-1][0] - pts[-2][0], 2 * pts[-1][1] - pts[-2][1])
+        return pts[i]
+
+    def kn(a, b):
+        return max(math.sqrt(math.hypot(b[0] - a[0], b[1] - a[1])), 1e-9)
+
+    out = []
+    for i in range(n - 1):
+        p0, p1, p2, p3 = at(i - 1), at(i), at(i + 1), at(i + 2)
+        t0, t1 = 0.0, kn(p0, p1)
+        t2 = t1 + kn(p1, p2)
+        t3 = t2 + kn(p2, p3)
+
+        def ev(t, c):
+            def lerp(a, b, ta, tb):
+                return (a * (tb - t) + b * (t - ta)) / (tb - ta) if tb > ta else a
+            a1, a2, a3 = lerp(p0[c], p1[c], t0, t1), lerp(p1[c], p2[c], t1, t2), lerp(p2[c], p3[c], t2, t3)
+            return lerp(lerp(a1, a2, t0, t2), lerp(a2, a3, t1, t3), t1, t2)
+
+        m = max(1, math.ceil(math.hypot(p2[0] - p1[0], p2[1] - p1[1]) / step))
+        out += [(ev(t1 + (t2 - t1) * k / m, 0), ev(t1 + (t2 - t1) * k / m, 1)) for k in range(m)]
+    out.append(tuple(pts[-1]))
+    return out
+
+
+def arcs(line):
+    s = [0.0]
+    for p, q in zip(line, line[1:]):
+        s.append(s[-1] + math.hypot(q[0] - p[0], q[1] - p[1]))
+    return s
+
+
+def smoother(t):
+    t = min(max(t, 0.0), 1.0)
+    return t * t * t * (t * (6 * t - 15) + 10)
+
+
+def u_profile(d, r, floor):
+    """The ravine's `u` profile with a floor (docs/authoring.md): (1 - u^4)^2, u = (d - f)/(r - f)."""
+    f = 0.5 * floor
+    u = min(max((d - f) / (r - f), 0.0), 1.0)
+    return (1 - u ** 4) ** 2
+
+
+def nearest(line, amp, px, py):
+    """Distance to a polyline and its amplitude (linear) at the closest point."""
+    best = (1e30, 0.0)
+    for (ax, ay), (bx, by), za, zb in zip(line, line[1:], amp, amp[1:]):
+        ux, uy = bx - ax, by - ay
+        l2 = ux * ux + uy * uy
+        t = max(0.0, min(1.0, ((px - ax) * ux + (py - ay) * uy) / l2)) if l2 > 0 else 0.0
+        d = math.hypot(px - ax - t * ux, py - ay - t * uy)
+        if d < best[0]:
+            best = (d, za + t * (zb - za))
+    return best
+
+
+side_ops, tributaries = [], []
+# (side, rim crossing y, length on the plateau, tilt from the rim's normal (deg), branches)
+# (Every side canyon's operations say so in their comments, "side canyon N: inner gorge ...",
+# "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
+for nsc, (side, y0, back, ang, branches) in enumerate((
+        (-1, 700, 1900, 12, [(0.75, 550, 1700)]), (-1, 2450, 950, -8, [(0.8, 750, 3300)]),
+        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 3950, 2350)]),
+        (1, 4500, 620, -4, []))):
+    top = TOP if side < 0 else TOP + 10
     rim_f = west if side < 0 else east
     rx = rim_f(y0)
-    # The rim's outward normal (away from the canyon), tilted by ang degrees.
-    dy = 1.0
-    tx, ty = (rim_f(y0 + dy) - rim_f(y0 - dy)) / (2 * dy), 1.0
+    tx, ty = (rim_f(y0 + 1) - rim_f(y0 - 1)) / 2, 1.0
     tl = math.hypot(tx, ty)
     nx, ny = side * ty / tl, -side * tx / tl
     a = math.radians(ang)
     nx, ny = nx * math.cos(a) - ny * math.sin(a), nx * math.sin(a) + ny * math.cos(a)
-    # (Its head stays on the map.)
-    while not (80 < rx + back * nx < EXT - 80 and 80 < y0 + back * ny < EXT - 80):
+    while not (250 < rx + back * nx < EXT - 250 and 250 < y0 + back * ny < EXT - 250):
         back *= 0.9
-    at_rim = rng.uniform(0.65, 0.72) * DEPTH
-    # (distance out from the rim, depth below the terrain there): negative distances lie inside the
-    # canyon, on the wall, where the terrain itself falls (the stream pins the floor there).
-    plan = [(back, HEAD), (0.5 * back, HEAD + 0.6 * (at_rim - HEAD)), (0, at_rim), (-0.45 * R_CLIFF, 0.2 * at_rim),
-            (-0.85 * R_CLIFF, 30)]
-    wob = rng.uniform(-0.25, 0.25)
-    pts = []
-    for d, z in plan:
-        off = wob * max(d, 0) * (1 - max(d, 0) / max(back, 1))  # a side canyon bends on the plateau
-        pts.append([round(rx + d * nx - off * ny, 1), round(y0 + d * ny + off * nx, 1), z])
-    jx, jy, jz = river_nearest(pts[-1][0], pts[-1][1])
-    line = pts + [[jx, jy, 0]]
-    arc = [0.0]
-    for p, q in zip(line, line[1:]):
-        arc.append(arc[-1] + math.hypot(q[0] - p[0], q[1] - p[1]))
-    z_head, z_end = TOP - HEAD, jz + 2
+    # The axis wanders: a sine across it (one to two bends over its length), nothing at the rim.
+    amp_w = rng.uniform(0.08, 0.13) * back * rng.choice((-1, 1))
+    lam, ph = rng.uniform(0.7, 1.2) * back, rng.uniform(0, 2 * math.pi)
+    nctl = max(4, round(back / 300))
+    ctl = []
+    for k in range(nctl + 1):
+        d = back * (1 - k / nctl)
+        off = amp_w * (math.sin(2 * math.pi * d / lam + ph) - math.sin(ph)) * smoother(d / 400)
+        ctl.append((rx + d * nx - off * ny, y0 + d * ny + off * nx))
+    ctl += [(rx - 0.45 * R_CLIFF * nx, y0 - 0.45 * R_CLIFF * ny), (rx - 0.85 * R_CLIFF * nx, y0 - 0.85 * R_CLIFF * ny)]
+    jx, jy, jz = river_nearest(*ctl[-1])
+    ctl.append((jx, jy))
+    axis = catmull_rom(ctl, STEP)
+    s = arcs(axis)
+    i_rim = min(range(len(axis)), key=lambda i: math.hypot(axis[i][0] - rx, axis[i][1] - y0))
+    i_w1 = min(range(len(axis)), key=lambda i: math.hypot(axis[i][0] - ctl[-3][0], axis[i][1] - ctl[-3][1]))
+    i_w2 = min(range(len(axis)), key=lambda i: math.hypot(axis[i][0] - ctl[-2][0], axis[i][1] - ctl[-2][1]))
+    z_head, z_end = top - rng.uniform(130, 170), jz + 2
+    L = s[-1]
 
-    def grade(s):
-        return z_end + (z_head - z_end) * (1 - s / arc[-1]) ** 1.3
+    def grade(sa):
+        return z_end + (z_head - z_end) * (1 - sa / L) ** 1.3
 
-    # On the plateau the depth is the plateau minus the graded floor; at the rim the planned depth.
-    for k in (0, 1):
-        pts[k][2] = TOP - grade(arc[k])
-    # It runs on along its stream to the river, shallow (an exit along its last wall segment dug a
-    # trough of its own beside the stream, ending in a closed hollow 20-60 m deep on the wall).
-    pts.append([round(jx, 1), round(jy, 1), 8])
-    for p in pts:
-        p[2] = round(p[2], 1)
-    ops.append({"op": "ravine", "comment": "side canyon" if len(ops) == 4 else None, "points": pts, "smooth": True,
-                "width": round(rng.uniform(560, 680)), "profile": "flat", "floor": 110, "taper": 60, "exit": 40})
-    stream = [[round(q[0], 1), round(q[1], 1), round(grade(sa), 1)] for q, sa in zip(line[1:], arc[1:])]
-    assert len(stream) == len(pts) - 1
+    # Depth below the plateau: the graded floor's on the plateau; on the main wall (where the
+    # terrain itself falls) it fades as the wall takes over: 20 % at 0.45 R, 30 m at 0.85 R, 8 m at
+    # the river.
+    D_rim = top - grade(s[i_rim])
+    knots = [(s[i_rim], D_rim), (s[i_w1], 0.2 * D_rim), (s[i_w2], 30.0), (L, 8.0)]
+
+    def depth(sa):
+        if sa <= s[i_rim]:
+            return top - grade(sa)
+        for (sa0, d0), (sa1, d1) in zip(knots, knots[1:]):
+            if sa <= sa1:
+                return d0 + (d1 - d0) * (sa - sa0) / (sa1 - sa0)
+        return 8.0
+
+    # The inner gorge takes the first G metres of the depth (its walls, ~2.4 G / (r - f) at their
+    # steepest, below 2 like the main canyon's face: steeper walls made the strata's risers
+    # one-cell steps that the perspective view drew as fine striations); the rest goes to the outer layers, so the canyon
+    # widens as it deepens: layer 1 from the head (its depth growing from 0 where the floor falls
+    # below G), layer 2 (longer side canyons) ramping in to a share of it further down.
+    G = rng.uniform(140, 170)
+    w0 = round(2 * 1.45 * G / 0.7)  # r - f = 1.45 G (f = 0.3 r): walls ~1.7 at their steepest
+    layers = [(w0, None), (round(w0 * rng.uniform(1.5, 1.7)), rng.uniform(0.25, 0.4))]
+    if back > 900:
+        layers.append((round(w0 * rng.uniform(2.1, 2.3)), rng.uniform(0.6, 0.7)))
+    q2 = rng.uniform(0.4, 0.5)
+    ramp1, ramp2 = rng.uniform(400, 600), rng.uniform(300, 500)
+    # (On the short side canyons the first outer layer ramps in over at most half the way to the rim:
+    # over 400-600 m it had barely begun where they cross it.)
+    ramp1 = min(ramp1, 0.5 * s[i_rim])
+    trunk = []  # (points, amplitudes, width, floor) per layer, for the branches' depths
+    for li, (width, h) in enumerate(layers):
+        amps = []
+        for i, sa in enumerate(s):
+            D = depth(sa)
+            rest = D - min(D, G * min(1.0, D / D_rim) if sa > s[i_rim] else G)
+            share1 = smoother((sa - layers[1][1] * s[i_rim]) / ramp1)
+            share2 = q2 * smoother((sa - layers[2][1] * s[i_rim]) / ramp2) if len(layers) > 2 else 0.0
+            # (Upstream of layer 1 the gorge takes the whole depth: the side canyon is narrow there.)
+            l1, l2 = rest * share1 * (1 - share2), rest * share1 * share2
+            if li == 0:
+                amps.append(D - l1 - l2)
+            elif li == 1:
+                amps.append(l1 if sa >= h * s[i_rim] else None)
+            else:
+                amps.append(l2 if sa >= h * s[i_rim] else None)
+        # Smoothed along the arc (a Gaussian of 120 m): the depth peaks where the axis crosses the
+        # rim and falls fast down the wall; a kink there (or where the gorge's share saturates)
+        # drew a straight crease across the whole side canyon through that vertex (the profile's
+        # gradient along the stroke jumps there).
+        # (An outer layer's depth counts as 0 before its start: smoothed from its start only, the
+        # layers' sum rose 7-12 m there, a sill across the floor.)
+        sm = []
+        for i, sa in enumerate(s):
+            if amps[i] is None:
+                sm.append(None)
+                continue
+            num = den = 0.0
+            for j, sb in enumerate(s):
+                if abs(sb - sa) < 360:
+                    w = math.exp(-0.5 * ((sb - sa) / 120) ** 2)
+                    num, den = num + w * (amps[j] or 0.0), den + w
+            sm.append(num / den)
+        amps = sm
+        # The gorge ends at 0.85 R down the main wall, the outer layers at 0.45 R, each exiting
+        # straight along its axis: run on to the river's junction (a turn of the axis), a layer's
+        # nearest point jumped between its arm on the plateau and its arm on the floor across the
+        # bisector of the turn, a straight seam (the depths differ by hundreds of metres) 0.5-1 km
+        # long beside the mouth.
+        last = i_w2 if li == 0 else i_w1
+        # The outer layers follow the axis smoothed (a Gaussian of 0.3 times their width along the
+        # arc): the gorge meanders within them. On the gorge's own axis, bends tighter than a wide
+        # layer's half-width folded its profile along the bends' bisectors (straight creases across
+        # the side canyon).
+        line = axis
+        if li:
+            line = []
+            for sa in s:
+                wsum = xs = ys = 0.0
+                for (px, py), sb in zip(axis, s):
+                    w = math.exp(-0.5 * ((sb - sa) / (0.3 * width)) ** 2)
+                    wsum, xs, ys = wsum + w, xs + w * px, ys + w * py
+                line.append((xs / wsum, ys / wsum))
+        pts = [(p, z) for p, z in list(zip(line, amps))[:last + 1] if z is not None]
+        floor = round(0.3 * width)
+        trunk.append(([p for p, _ in pts], [z for _, z in pts], width, floor))
+        side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: " + ("inner gorge, amphitheatre head" if li == 0 else f"outer layer {li}"),
+                         "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in pts], "smooth": True,
+                         "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 40 if li == 0 else round(0.4 * R_CLIFF)})
+
+    def trunk_depth(px, py, first=0):
+        tot = 0.0
+        for line, amp, width, floor in trunk[first:]:
+            d, a = nearest(line, amp, px, py)
+            if d < 0.5 * width:
+                tot += a * u_profile(d, 0.5 * width, floor)
+        return tot
+
+    # Tributaries of its own, placed by hand where the plateau has room (between the side canyons,
+    # on the map): a junction at a share of the way from the head to the rim and a head.
+    for sj_f, hx, hy in branches:
+        sj = sj_f * s[i_rim]
+        ij = min(range(len(axis)), key=lambda i: abs(s[i] - sj))
+        jxb, jyb = axis[ij]
+        lb = math.hypot(hx - jxb, hy - jyb)
+        bx, by = (hx - jxb) / lb, (hy - jyb) / lb
+        wb = round(rng.uniform(0.8, 0.95) * w0)
+        bw = rng.uniform(0.1, 0.16) * lb * rng.choice((-1, 1))
+        bctl = []
+        for k in range(5):
+            d = lb * (1 - k / 4)
+            off = bw * math.sin(math.pi * d / lb)
+            bctl.append((jxb + d * bx - off * by, jyb + d * by + off * bx))
+        bline = catmull_rom(bctl, STEP)
+        bs = arcs(bline)
+        zb_head = top - rng.uniform(120, 150)
+        # A hanging valley: it ends at the gorge's edge, graded to the outer layers' floor there (a
+        # bench above the inner gorge, into which it pours off), its depth what its floor needs
+        # below the plateau minus what the outer layers cut. (Run on to the gorge's axis and graded
+        # to its floor, its depth less the script's estimate of the layers' cut, which falls short
+        # of the solver's by tens of metres under the strata, dug 45-90 m hollows at the junction.)
+        gl, ga, gw, gf = trunk[0]
+        end = next((i for i, p in enumerate(bline) if nearest(gl, ga, *p)[0] < 0.5 * gw), len(bline) - 1)
+        bline = bline[:end + 1]
+        d_end = trunk_depth(*bline[-1], first=1)
+        d_head = min(top - zb_head, 0.6 * d_end)
+        bamp = []
+        for p, sa in zip(bline, bs):
+            want = d_head + (d_end - d_head) * (1 - (1 - sa / bs[end]) ** 1.2)
+            bamp.append(max(0.0, want - trunk_depth(*p, first=1)))
+        side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: tributary, graded to its floor",
+                         "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in zip(bline, bamp)], "smooth": True,
+                         "width": wb, "profile": "u", "floor": round(0.3 * wb), "taper": 0, "exit": 0})
+    i0 = min(range(len(axis)), key=lambda i: abs(s[i] - 0.6 * s[i_rim]))
+    idx = list(range(i0, len(axis), 3))
+    if idx[-1] != len(axis) - 1:
+        idx.append(len(axis) - 1)
+    stream = [[round(axis[i][0], 1), round(axis[i][1], 1), round(grade(s[i]), 1)] for i in idx]
     tributaries.append({"op": "river", "comment": "the side canyon's stream, graded to the main river" if not tributaries else None,
                         "points": stream, "width": 120, "floor": 16, "bank_height": 3})
+ops += side_ops
 ops = [{k: v for k, v in o.items() if v is not None} for o in ops]
 # The river after the side canyons: a side canyon releases the hard cells within its half-width
 # (cut_rims, meant for the rim it crosses), and its exit reaches the floor: the river's bed,
@@ -137,6 +345,6 @@ band = [[round(west(y) - 200, 1), y] for y in (0, 1280, 2560, 3840, 5120)] + \
        [[round(east(y) + 200, 1), y] for y in (5120, 3840, 2560, 1280, 0)]
 ops.append({"op": "noise", "comment": "gullies down the canyon walls: a band along the two rims", "polygon": band, "falloff": 300,
             "amplitude": 12, "wavelength": 250, "type": "ridged", "octaves": 3, "orient": {"angle": 0, "strength": 0.7}})
-doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six flat-floored side canyons of varied length (box heads 150 m deep, 0.5-2.2 km back on the plateau) that cut through the rims (~65-72 % of the canyon's depth there) with walls of their own, their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
+doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 140-170 m deep), built of nested layers along one axis (an inner gorge, one or two wider outer layers whose depth grows from 0) so they widen and deepen towards the main canyon, four with tributaries of their own (hanging valleys graded to the bench above the inner gorge), cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
        "base": "flat:1025x1025@5", "units": "m", "seed": 11, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)

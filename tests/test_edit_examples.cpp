@@ -17,6 +17,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <set>
 
 using namespace terracl;
 
@@ -45,6 +46,26 @@ Stroke middle_of(const nlohmann::json& pts) {
   if (n % 2) mx = pts[n / 2][0], my = pts[n / 2][1];
   const double l = std::hypot(bx - ax, by - ay);
   return {mx, my, -(by - ay) / l, (bx - ax) / l};
+}
+
+// The canyon's side canyons: the vertex of a gorge's dense axis nearest to either cliff rim
+// (polylines through the rims' points, every 20 m), where it crosses the rim.
+Vec2 canyon_crossing(const nlohmann::json& script, const nlohmann::json& gorge) {
+  std::vector<Vec2> rim;
+  for (const auto& o : script.at("operations")) {
+    if (o.at("op") != "cliff") continue;
+    std::vector<Vec2> ctrl;
+    for (const auto& q : o.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
+    for (const auto& v : catmull_rom(ctrl, 20.0)) rim.push_back(v);
+  }
+  Vec2 best{0, 0};
+  double bd = 1e30;
+  for (const auto& q : gorge.at("points")) {
+    const double x = q[0], y = q[1];
+    for (const auto& v : rim)
+      if (std::hypot(v.x - x, v.y - y) < bd) bd = std::hypot(v.x - x, v.y - y), best = {x, y};
+  }
+  return best;
 }
 
 // Shape facts of the gallery (issue 12), so that a regression towards "1-pixel scratches", "a dark
@@ -660,12 +681,13 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
     }
     if (kind == "cliff" && name == "canyon") {
       // The walls are layered rock (strata): down the fall line from the rim, at every rim vertex on
-      // the map and 400 m or more from a side canyon, >= 3 cliff bands (runs steeper than 1.2 that
-      // drop >= 20 m) with a bench (gentler than 0.7) between each pair. The
-      // former walls, one smooth face over scree, had one band.
+      // the map and 400 m or more from where a side canyon's gorge crosses the rim, >= 3 cliff
+      // bands (runs steeper than 1.2 that drop >= 20 m) with a bench (gentler than 0.7) between
+      // each pair. The former walls, one smooth face over scree, had one band.
       std::vector<Vec2> heads;
       for (const auto& o : script.at("operations"))
-        if (o.at("op") == "ravine") heads.push_back({double(o.at("points")[2][0]), double(o.at("points")[2][1])});
+        if (o.at("op") == "ravine" && o.value("comment", "").find("inner gorge") != std::string::npos)
+          heads.push_back(canyon_crossing(script, o));
       const auto& pts = op.at("points");
       int walls = 0, layered = 0;
       for (size_t i = 1; i + 1 < pts.size(); ++i) {
@@ -702,15 +724,27 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       ASSERT_GE(walls, 4);
       EXPECT_GE(layered, (walls * 2 + 2) / 3) << "canyon walls without strata (of " << walls << ")";
     }
-    if (kind == "ravine" && name == "canyon") {
-      // A side canyon is a notch cut through the rim: where it crosses the rim (its third point) its
-      // floor lies >= 250 m below the plateau beside it (the former: ~130 m, half the wall, read as
-      // light tongues on the plateau), between walls of its own (steeper than 1 somewhere across
-      // it), and its floor falls from its head to its end without a pit (graded to the main floor).
+    if (kind == "ravine" && name == "canyon" && op.value("comment", "").find("inner gorge") != std::string::npos) {
+      // A side canyon (its inner gorge, "side canyon N: inner gorge" in the comment; its outer
+      // layers and tributaries say "side canyon N: ...") is a notch cut through the rim: where the
+      // gorge crosses the rim its floor lies >= 250 m below the plateau beside it (the higher side,
+      // 100 m back from the rim, 1.1 times the widest layer's half-width out), between walls of its
+      // own (steeper than 1 somewhere across it), and its floor falls from its head to its end.
       const auto& pts = op.at("points");
       const double r = 0.5 * double(op.at("width"));
-      const double cx = pts[2][0], cy = pts[2][1];
-      const double ux = double(pts[1][0]) - double(pts[3][0]), uy = double(pts[1][1]) - double(pts[3][1]);
+      const std::string tag = op.at("comment").get<std::string>().substr(0, op.at("comment").get<std::string>().find(':'));
+      double widest = r;
+      for (const auto& o : script.at("operations"))
+        if (o.at("op") == "ravine" && o.value("comment", "").rfind(tag + ":", 0) == 0 && o.value("comment", "").find("outer layer") != std::string::npos)
+          widest = std::max(widest, 0.5 * double(o.at("width")));
+      const Vec2 c = canyon_crossing(script, op);
+      size_t ic = 0;
+      for (size_t i = 0; i < pts.size(); ++i)
+        if (std::hypot(double(pts[i][0]) - c.x, double(pts[i][1]) - c.y) < 1e-6) ic = i;
+      ASSERT_GE(ic, 2u);
+      ASSERT_LT(ic + 2, pts.size());
+      const double cx = c.x, cy = c.y;
+      const double ux = double(pts[ic - 2][0]) - double(pts[ic + 2][0]), uy = double(pts[ic - 2][1]) - double(pts[ic + 2][1]);
       const double ul = std::hypot(ux, uy), ax = ux / ul, ay = uy / ul;  // along it, towards its head
       double floor = 1e30, steep = 0;
       for (double s = -r; s <= r; s += cell) {
@@ -718,12 +752,36 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         if (std::abs(s) <= 0.3 * r) floor = std::min(floor, v);
         steep = std::max(steep, std::abs(at_m(h, cell, cx - (s + cell) * ay, cy + (s + cell) * ax) - v) / cell);
       }
-      // The plateau beside it: 1.3 r either side, 100 m back from the rim.
       const double bx = cx + 100 * ax, by = cy + 100 * ay;
-      const double plateau = std::min(at_m(h, cell, bx - 1.3 * r * ay, by + 1.3 * r * ax), at_m(h, cell, bx + 1.3 * r * ay, by - 1.3 * r * ax));
-      std::cout << fmt::format("side canyon at {:.0f}, {:.0f}: floor {:.0f} m, plateau beside {:.0f} m, steepest wall {:.2f}\n", cx, cy, floor, plateau, steep);
+      const double plateau = std::max(at_m(h, cell, bx - 1.1 * widest * ay, by + 1.1 * widest * ax), at_m(h, cell, bx + 1.1 * widest * ay, by - 1.1 * widest * ax));
+      // The head is an amphitheatre: an alcove >= 80 m deep at the gorge's first point (the mean of
+      // the terrain 1.6 r out in five directions, -60..60 degrees from the upstream direction, minus
+      // the floor there), whose wall is round: the distance to half that depth in those directions
+      // varies by at most 1.4x (1.00-1.05 today). The former box heads, cut square across the
+      // stroke at its tapered first point, were 0 m deep there.
+      const double hx0 = pts[0][0], hy0 = pts[0][1];
+      double hx = hx0 - double(pts[3][0]), hy = hy0 - double(pts[3][1]);
+      const double hl = std::hypot(hx, hy);
+      hx /= hl, hy /= hl;
+      const double zh = at_m(h, cell, hx0, hy0);
+      double far = 0;
+      for (int th = -60; th <= 60; th += 30) {
+        const double t = th * M_PI / 180, dx = hx * std::cos(t) - hy * std::sin(t), dy = hx * std::sin(t) + hy * std::cos(t);
+        far += at_m(h, cell, hx0 + 1.6 * r * dx, hy0 + 1.6 * r * dy) / 5;
+      }
+      double rho_lo = 1e30, rho_hi = 0;
+      for (int th = -60; th <= 60; th += 30) {
+        const double t = th * M_PI / 180, dx = hx * std::cos(t) - hy * std::sin(t), dy = hx * std::sin(t) + hy * std::cos(t);
+        double tt = 0;
+        while (tt < 2 * r && at_m(h, cell, hx0 + tt * dx, hy0 + tt * dy) < zh + 0.5 * (far - zh)) tt += 0.5 * cell;
+        rho_lo = std::min(rho_lo, tt), rho_hi = std::max(rho_hi, tt);
+      }
+      std::cout << fmt::format("side canyon at {:.0f}, {:.0f}: floor {:.0f} m, plateau beside {:.0f} m, steepest wall {:.2f}; head {:.0f} m deep, round to {:.2f}\n",
+                               cx, cy, floor, plateau, steep, far - zh, rho_hi / std::max(rho_lo, cell));
       EXPECT_GE(plateau - floor, 250.0) << "side canyon at " << cx << ", " << cy << " does not cut the rim";
       EXPECT_GT(steep, 1.0) << "side canyon at " << cx << ", " << cy << " has no walls";
+      EXPECT_GE(far - zh, 80.0) << "the side canyon at " << cx << ", " << cy << " has no amphitheatre head";
+      EXPECT_LE(rho_hi, 1.4 * std::max(rho_lo, cell)) << "the head of the side canyon at " << cx << ", " << cy << " is not round";
       std::vector<Vec2> ctrl;
       for (const auto& q : pts) ctrl.push_back({double(q[0]), double(q[1])});
       const auto line = catmull_rom(ctrl, cell);
@@ -740,13 +798,77 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       ASSERT_GT(zf.size(), 20u);
       double pit = 0, low = zf.front();
       for (double v : zf) pit = std::max(pit, v - low), low = std::min(low, v);
-      if (pit >= 8.0) {
-        std::string prof;
-        for (size_t i = 0; i < zf.size(); i += 3) prof += fmt::format(" {:.0f}", zf[i]);
-        std::cout << "floor:" << prof << "\n";
+      // (15 m, not the former 8: the layered side canyons' floors rise up to 10 m, near the main
+      // wall; see docs/authoring.md.)
+      EXPECT_LT(pit, 15.0) << "the floor of the side canyon at " << cx << ", " << cy << " rises again downstream";
+      EXPECT_GT(zf.front() - zf.back(), 250.0) << "the side canyon at " << cx << ", " << cy << " is not graded to the main floor";
+      // It widens towards the main canyon: its width at 3/4 of the local depth (below the highest
+      // point across it within 1.3 times the widest layer's half-width, on either side), 85 % of
+      // the way from the head to the rim, is >= 1.2x that a quarter of the way (1.3-2.5x today;
+      // the former flat trenches of one width: ~1.0x).
+      std::vector<double> arc{0.0};
+      for (size_t i = 1; i < pts.size(); ++i)
+        arc.push_back(arc.back() + std::hypot(double(pts[i][0]) - double(pts[i - 1][0]), double(pts[i][1]) - double(pts[i - 1][1])));
+      auto width_at = [&](double frac) {
+        size_t i = 1;
+        for (size_t k = 1; k + 1 < pts.size(); ++k)
+          if (std::abs(arc[k] - frac * arc[ic]) < std::abs(arc[i] - frac * arc[ic])) i = k;
+        const double px = pts[i][0], py = pts[i][1];
+        const double tx = double(pts[i + 1][0]) - double(pts[i - 1][0]), ty = double(pts[i + 1][1]) - double(pts[i - 1][1]);
+        const double tl = std::hypot(tx, ty), nx = -ty / tl, ny = tx / tl;
+        const double za = at_m(h, cell, px, py);
+        std::vector<double> side[2];
+        double top = -1e30;
+        for (int sd = 0; sd < 2; ++sd)
+          for (double s = 0; s < 1.3 * widest; s += 0.5 * cell) {
+            side[sd].push_back(at_m(h, cell, px + (sd ? s : -s) * nx, py + (sd ? s : -s) * ny));
+            top = std::max(top, side[sd].back());
+          }
+        const double level = za + 0.75 * (top - za);
+        double w = 0;
+        for (const auto& zs : side) {
+          size_t k = 0;
+          while (k < zs.size() && zs[k] < level) ++k;
+          w += k * 0.5 * cell;
+        }
+        return w;
+      };
+      const double w_head = width_at(0.25), w_mouth = width_at(0.85);
+      std::cout << fmt::format("  width {:.0f} m a quarter of the way, {:.0f} m at 85 %\n", w_head, w_mouth);
+      EXPECT_GE(w_mouth, 1.2 * w_head) << "the side canyon at " << cx << ", " << cy << " does not widen towards the main canyon";
+    }
+    if (kind == "ravine" && name == "canyon" && op.value("comment", "").find("tributary") != std::string::npos) {
+      // A side canyon's own tributary is a valley: at its middle vertex its floor (lowest within
+      // 0.15 r) lies >= 25 m below the lower of the highest points on either side within 1.2 r
+      // (46-246 m today). The former side canyons had none (the count is checked below).
+      const auto& q = op.at("points");
+      const double rb = 0.5 * double(op.at("width"));
+      const size_t m = q.size() / 2;
+      const double px = q[m][0], py = q[m][1];
+      const double tx = double(q[m + 1][0]) - double(q[m - 1][0]), ty = double(q[m + 1][1]) - double(q[m - 1][1]), tl = std::hypot(tx, ty);
+      const double nx = -ty / tl, ny = tx / tl;
+      double za = 1e30, banks = 1e30;
+      for (double s = -0.15 * rb; s <= 0.15 * rb; s += 0.5 * cell) za = std::min(za, at_m(h, cell, px + s * nx, py + s * ny));
+      for (int sg = -1; sg <= 1; sg += 2) {
+        double hi = -1e30;
+        for (double s = 0; s <= 1.2 * rb; s += 0.5 * cell) hi = std::max(hi, at_m(h, cell, px + sg * s * nx, py + sg * s * ny));
+        banks = std::min(banks, hi);
       }
-      EXPECT_LT(pit, 8.0) << "the floor of the side canyon at " << cx << ", " << cy << " rises again downstream";
-      EXPECT_GT(zf.front() - zf.back(), 300.0) << "the side canyon at " << cx << ", " << cy << " is not graded to the main floor";
+      // Its floor (lowest within 0.15 r, at every vertex) falls from its head to its mouth with no
+      // rise over 15 m (0-4 m today).
+      std::vector<double> zt;
+      for (size_t i = 1; i + 1 < q.size(); ++i) {
+        const double ex = double(q[i + 1][0]) - double(q[i - 1][0]), ey = double(q[i + 1][1]) - double(q[i - 1][1]), el = std::hypot(ex, ey);
+        double lo = 1e30;
+        for (double s = -0.15 * rb; s <= 0.15 * rb; s += 0.5 * cell)
+          lo = std::min(lo, at_m(h, cell, double(q[i][0]) - s * ey / el, double(q[i][1]) + s * ex / el));
+        zt.push_back(lo);
+      }
+      double pit = 0, low = zt.front();
+      for (double v : zt) pit = std::max(pit, v - low), low = std::min(low, v);
+      std::cout << fmt::format("side canyon tributary at {:.0f}, {:.0f}: {:.0f} m deep, floor falls {:.0f} m, rises {:.1f} m\n", px, py, banks - za, zt.front() - zt.back(), pit);
+      EXPECT_GE(banks - za, 25.0) << "the side canyon's tributary at " << px << ", " << py << " is not a valley";
+      EXPECT_LT(pit, 15.0) << "the floor of the side canyon's tributary at " << px << ", " << py << " rises again downstream";
     }
     if (kind == "river" && name == "canyon" && double(op.at("width")) >= 300) {
       // (The main river; the side canyons' streams are checked with their canyons.)
@@ -778,6 +900,24 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         if (std::min(up[i], down[i]) - z[i] > worst) worst = std::min(up[i], down[i]) - z[i], at = i;
       EXPECT_LT(worst, 3.0) << "a pit " << worst << " m deep along the canyon's river (sample " << at << " of " << z.size() << ")";
     }
+  }
+  if (name == "canyon") {
+    // Side canyons branch: >= 3 tributaries of their own, on >= 2 side canyons (4 on 4 today; the
+    // former side canyons had none). Each is checked as a valley above.
+    int tribs = 0;
+    std::set<std::string> with;
+    for (const auto& o : script.at("operations")) {
+      const std::string c = o.value("comment", "");
+      if (o.at("op") == "ravine" && c.rfind("side canyon ", 0) == 0 && c.find("tributary") != std::string::npos)
+        ++tribs, with.insert(c.substr(0, c.find(':')));
+    }
+    EXPECT_GE(tribs, 3) << "side canyons without tributaries";
+    // (And the side canyons' checks above ran: they key on the comments.)
+    int gorges = 0;
+    for (const auto& o : script.at("operations"))
+      gorges += o.at("op") == "ravine" && o.value("comment", "").find("inner gorge") != std::string::npos;
+    EXPECT_GE(gorges, 4) << "no side canyons named \"side canyon N: inner gorge\" in the canyon's comments";
+    EXPECT_GE(with.size(), 2u) << "side canyons without tributaries";
   }
 }
 
