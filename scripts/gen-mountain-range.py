@@ -18,7 +18,7 @@ from polyline import arc_lengths, catmull  # noqa: E402
 # line bends gently (radius of curvature >= 5 km, twice the half-width): a bend tighter than the
 # half-width folds the flank on its inner side (a crease where the two legs' profiles meet).
 XZ = [(1200, 380), (2200, 520), (3200, 1150), (4150, 930), (5100, 1500), (6050, 1050), (7000, 1300), (8000, 1000),
-      (9000, 1800), (10100, 1150), (11200, 1450), (11950, 1120), (12700, 1550), (13400, 760), (14100, 600)]
+      (9000, 1800), (10100, 1200), (11200, 1450), (11950, 1120), (12700, 1550), (13400, 760), (14100, 600)]
 crest = [[x, round(7200 - 0.16 * (x - 7650) + 350 * math.sin(2 * math.pi * (x - 1200) / 9000), 1), z] for x, z in XZ]
 HALF = 2000.0  # the stroke's half-width r (m)
 MASSIF = 3600.0  # the massif's half-width (m)
@@ -76,7 +76,7 @@ SHIFT = 700.0
 massif = [[p[0], p[1] + SHIFT, round(260 + 0.05 * p[2] + rng.uniform(-15, 15))] for p in crest]
 ops = [{"op": "free_crest", "comment": "the massif", "points": massif, "smooth": True, "width": 2 * MASSIF, "profile": "round"},
        {"op": "mountain_range", "points": crest, "smooth": True, "width": 2 * HALF, "profile": "sharp",
-        "noise": {"amplitude": 150, "wavelength": 700, "octaves": 5, "type": "ridged", "orient_strength": 0.85}}]
+        "noise": {"amplitude": 100, "wavelength": 700, "octaves": 5, "type": "ridged", "orient_strength": 0.85}}]
 
 # Spurs radiate from the summits (2-3 per flank, fanned over +-40 degrees about the normal, rooted
 # within 350 m of the summit) and from some shoulders between a summit and a col (one, leaning
@@ -118,7 +118,7 @@ for side, s, fan in sorted(cand):
     # over 500-1100 m: spurs of one fan diverge below the summit, then run side by side (fans of
     # two summits that kept their lean converged below the col between them and dammed the valley).
     L = rng.uniform(0.55, 1.25) * HALF if side < 0 else rng.uniform(0.8, 1.9) * HALF
-    h = rng.uniform(0.16, 0.26) * z
+    h = rng.uniform(0.2, 0.3) * z
     ell = rng.uniform(500, 1100)
     drift = rng.uniform(-0.12, 0.12)  # a residual lean at the foot
     path, px, py, t = [(x, y)], x, y, 0.0
@@ -142,10 +142,10 @@ for side, s, fan in sorted(cand):
     # flank from a third of its length down (or crosses it) is left out.
     if any(min(dist_to(q, o["pts"]) for q in pts[2:]) < 450 for o in spurs[side]):
         continue
-    spurs[side].append({"pts": pts, "L": L, "h": h, "u": (ux, uy), "s": s, "z": z})
-    ridge_lines.append(pts)
     width = round(min(1400, 750 + 0.18 * L))
     prof = net.choice(("sharp", "sharp", "v", "v", "round"))
+    spurs[side].append({"pts": pts, "L": L, "h": h, "u": (ux, uy), "s": s, "z": z, "width": width, "profile": prof})
+    ridge_lines.append(pts)
     ops.append({"op": "free_crest", "points": pts, "smooth": True, "width": width, "profile": prof})
 # Second-order spurs: the long spurs fork at a third of their length, 25-40 degrees off, on the
 # side where the fork's foot stays within 30 % of the way to the next spur (the ravine between them
@@ -210,10 +210,10 @@ def branch(x0, y0, L, dx, dy, ex, ey, a, k, dmain, rm, heads):
         return
     bend = net.uniform(-0.1, 0.1) * lat
     # About half the main ravine's depth where it joins (deeper, or kept to the axis, it ends in a pit).
-    dt = net.uniform(0.62, 0.7) * dmain(a)
+    dt = net.uniform(0.42, 0.5) * dmain(a)
     # It deepens down to the main ravine's wall (0.6 rm from its axis) and fades out across the
     # wall, to nothing 0.1 rm from the axis: the main ravine's V wall falls towards its axis at
-    # 12 u (1 - u)^2 dm / rm (u = distance / rm), and the branch's depth (at most 0.7 dm) fades
+    # 12 u (1 - u)^2 dm / rm (u = distance / rm), and the branch's depth (at most 0.5 dm) fades
     # slower than that between u = 0.6 and 0.1, so its floor keeps falling into the main ravine.
     # (A branch deepest in its middle, a spoon, held water where it crossed the slope; one that
     # kept its depth to the axis dug a pit at the junction, where the main floor is flat across.)
@@ -255,7 +255,21 @@ def tributaries(main, rm):
     L = math.hypot(x1 - x0, y1 - y0)
     dx, dy = (x1 - x0) / L, (y1 - y0) / L
     ex, ey = -dy, dx
-    fr = [((q[0] - x0) * dx + (q[1] - y0) * dy) / L for q in main]
+    # The main ravine bends (it follows the midline between its spurs): stations are taken along
+    # its polyline, each branch in the frame of the main ravine's segment there (on the chord, a
+    # junction stood up to a few hundred metres off the axis, on the wall, and the branch's end
+    # held water: a 63-71 m pit).
+    seg = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(main, main[1:])]
+    L = sum(seg)
+    fr = [sum(seg[:i]) / L for i in range(len(main))]
+
+    def frame(t):
+        """The point at t of the main ravine's length, and its segment's unit direction there."""
+        for i in range(len(seg)):
+            if t <= fr[i + 1] or i == len(seg) - 1:
+                u = (t - fr[i]) * L / seg[i]
+                (ax, ay, _), (bx, by, _) = main[i], main[i + 1]
+                return (ax + u * (bx - ax), ay + u * (by - ay)), ((bx - ax) / seg[i], (by - ay) / seg[i])
 
     def dmain(t):
         """The main ravine's depth at t of its length (linear between its vertices)."""
@@ -267,12 +281,13 @@ def tributaries(main, rm):
     heads = {1: [], -1: []}
     # From a third of the way down: above that the main ravine is shallow and hemmed in by the
     # spurs' roots, and branches there ran into them (pits).
-    a = net.uniform(0.25, 0.3)
+    a = net.uniform(0.2, 0.25)
     k = net.choice((-1, 1))
-    while a < 0.78:  # (not where the main ravine shallows towards its exit)
-        for side in (k, -k) if net.random() < 0.5 else (k,):
-            branch(x0, y0, L, dx, dy, ex, ey, a, side, dmain, rm, heads)
-        a += net.uniform(0.06, 0.09)
+    while a < 0.8:  # (not where the main ravine shallows towards its exit)
+        for side in (k, -k) if net.random() < 0.65 else (k,):
+            (jx, jy), (tx, ty) = frame(a)
+            branch(jx - a * L * tx, jy - a * L * ty, L, tx, ty, -ty, tx, a, side, dmain, rm, heads)
+        a += net.uniform(0.05, 0.08)
         k = -k if net.random() < 0.8 else k
     for side, hs in heads.items():
         for (hx0, hy0, jx0, jy0, lat0, d0), (hx1, hy1, jx1, jy1, lat1, d1) in zip(hs, hs[1:]):
@@ -281,13 +296,15 @@ def tributaries(main, rm):
             tx, ty = 0.5 * (hx0 + hx1), 0.5 * (hy0 + hy1)
             fx, fy = 0.5 * (jx0 + jx1), 0.5 * (jy0 + jy1)
             tx, ty = tx + side * 0.15 * lat0 * ex, ty + side * 0.15 * lat0 * ey
-            # (At least 0.75 rm from the main axis: a sub-spur whose foot reached a narrow main
-            # ravine's floor dammed it, a 130 m pit.)
-            fo = max(0.3 * lat1, 0.75 * rm)
-            fx, fy = fx + side * fo * ex, fy + side * fo * ey
+            # (Its end at least half the main half-width plus its own half-width from the main
+            # axis: a sub-spur whose foot reached a narrow main ravine's floor dammed it, pits of
+            # 12-130 m.)
             hz = net.uniform(0.5, 0.7) * max(d0, d1)
+            sw = round(net.uniform(320, 450))
+            fo = max(0.3 * lat1, 0.5 * rm + 0.5 * sw)
+            fx, fy = fx + side * fo * ex, fy + side * fo * ey
             ops.append({"op": "free_crest", "points": [[r1(tx), r1(ty), r1(0.5 * hz)], [r1(0.55 * tx + 0.45 * fx), r1(0.55 * ty + 0.45 * fy), r1(hz)], [r1(fx), r1(fy), 0.0]],
-                        "smooth": True, "width": round(net.uniform(320, 450)), "profile": net.choice(("sharp", "round"))})
+                        "smooth": True, "width": sw, "profile": net.choice(("sharp", "round"))})
 
 
 # A main ravine on the midline between each pair of neighbouring spurs of a flank (points at the
@@ -299,14 +316,40 @@ def tributaries(main, rm):
 mains = []
 
 
-def ground(q):
+def smooth(t):
+    """Smootherstep on [0, 1] (the strokes' taper)."""
+    t = max(0.0, min(1.0, t))
+    return t * t * t * (t * (6 * t - 15) + 10)
+
+
+def spur_at(sp, q):
+    """A spur's relief at q: its profile at q's distance from its line times its height there
+    (linear between its vertices; no crest rounding or taper)."""
+    best, z = 1e30, 0.0
+    for a, b in zip(sp["pts"], sp["pts"][1:]):
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        t = max(0.0, min(1.0, ((q[0] - a[0]) * dx + (q[1] - a[1]) * dy) / (dx * dx + dy * dy)))
+        d = math.hypot(q[0] - a[0] - t * dx, q[1] - a[1] - t * dy)
+        if d < best:
+            best, z = d, a[2] + t * (b[2] - a[2])
+    u = min(1.0, best / (0.5 * sp["width"]))
+    return z * {"sharp": (1 - u) ** 3, "v": (1 - u) ** 3 * (1 + 3 * u), "round": max(0.0, 1 - u * u) ** 3}[sp["profile"]]
+
+
+def ground(q, beside=()):
     """The ground before the ravines at q: the massif and the stroke's sharp flank at q's distance
-    from the crest line (the spurs stand beside a ravine, not under it)."""
+    from the crest line, and the spurs `beside` (a ravine between two spurs runs on their flanks
+    where they stand close, and the spurs rise from their roots to their first knob: a ground
+    without them fell faster than the terrain below the heads, and the floor held water)."""
     k = min(range(0, len(line), 4), key=lambda k: math.hypot(line[k][0] - q[0], line[k][1] - q[1]))
     d = dist_to(q, line[max(0, k - 8):k + 9])
     zc = line[k][2]
     dm = dist_to((q[0], q[1] - SHIFT), line[max(0, k - 8):k + 9])
-    return (260 + 0.05 * zc) * max(0.0, 1 - (dm / MASSIF) ** 2) ** 3 + zc * max(0.0, 1 - d / HALF) ** 3
+    # (Both strokes taper over their half-width of arc at either end: near the range's ends the
+    # ground falls along the range as well as across it, and a ravine depth that ignored it left
+    # 20-26 m hollows in its floor.)
+    end = min(arc[k], arc[-1] - arc[k])
+    return sum(spur_at(sp, q) for sp in beside) + (260 + 0.05 * zc) * smooth(end / MASSIF) * max(0.0, 1 - (dm / MASSIF) ** 2) ** 3 + zc * smooth(end / HALF) * max(0.0, 1 - d / HALF) ** 3
 
 
 for side in (1, -1):
@@ -324,26 +367,52 @@ for side in (1, -1):
             continue
         # (On the massif's upper three quarters: further out it flattens, and a ravine's exit there
         # held water.)
-        te = min(lo, 0.85 * MASSIF + side * SHIFT) * rng.uniform(0.85, 1.0)
+        te = min(lo, 0.6 * MASSIF + side * SHIFT) * rng.uniform(0.85, 1.0)
         if te - th < 800:
             continue
         # Its depth follows the ground it cuts (the massif and the stroke's flank, which falls
-        # steeply under the crest and gently on the massif): 0.65 of the ground's height over the
-        # exit's end, at five points (at most 0.3 of the crest's relief at the roots). A depth drawn
-        # from the crest's relief alone ran the floor below the massif's foot at mid-flank: a pit
-        # 100-180 m deep along the ravine's lower half.
+        # steeply under the crest and gently on the massif; a depth drawn from the crest's relief
+        # alone ran the floor below the massif's foot at mid-flank: a pit 100-180 m deep along the
+        # ravine's lower half).
         exx, exy = mid(te)[0][0] + 700 * (mid(te)[0][0] - mid(te - 50)[0][0]) / 50, mid(te)[0][1] + 700 * (mid(te)[0][1] - mid(te - 50)[0][1]) / 50
-        ge = ground((exx, exy))
+        ge = ground((exx, exy), (A, B))
         zr = min(A["z"], B["z"])
         (mx, my), gap = mid(th + 0.5 * (te - th))
         width = round(max(600, min(1100, 0.8 * gap)))
         # (And at most 0.45 of its width: deeper, a narrow ravine under a summit was a slot whose
         # floor the spurs' and sub-spurs' feet dammed.)
+        # The floor: 0.4 of the way from the exit's end up to the ground (a depth of 0.6 of the
+        # ground's height over the exit's end), but falling by at least 9 % and 0.35 of the
+        # ground's own fall everywhere (taken from the exit's end upstream, never above the ground;
+        # the crest's ridged noise, 150 m, is not in the model and under the crest a 9 % floor still
+        # held 12-15 m of water): on the massif's gentle lower flank a
+        # share of the ground's height left floors flatter than the plain's rolling fBm (60 m,
+        # 3.2 km), which dug 15-26 m hollows in them. The depth is at most 0.34 of the crest's
+        # relief, 0.45 of the width and 0.14 of the crest's relief at the head, taken in the same
+        # pass (capping the depths afterwards raised floors below lower ones upstream: 20 m
+        # hollows). Depths at seven points.
+        (ex0, ey0), _ = mid(te)
+        (ex1, ey1), _ = mid(te - 50)
+        ux, uy = (ex0 - ex1) / 50, (ey0 - ey1) / 50
+        n_s = int((te - th + 700) / 50)
+        floor = [0.0] * (n_s + 1)
+        gz = [0.0] * (n_s + 1)
+        for j in range(n_s, -1, -1):
+            t = th + j * 50
+            q = mid(t)[0] if t <= te else (ex0 + (t - te) * ux, ey0 + (t - te) * uy)
+            gz[j] = ground(q, (A, B))
+            cap = min(0.45 * max(0.0, gz[j] - ge), 0.34 * zr, 0.45 * width, 0.14 * zr if j == 0 else 1e9)
+            fz = gz[j] - cap
+            if j < n_s:
+                fz = max(fz, floor[j + 1] + max(0.09, 0.35 * (gz[j] - gz[j + 1]) / 50) * 50)
+            floor[j] = min(fz, gz[j])
         pts = []
-        for f in (0.0, 0.25, 0.5, 0.75, 1.0):
+        for i in range(7):
+            f = i / 6
+            j = min(n_s, round(f * (te - th) / 50))
             (qx, qy), _ = mid(th + f * (te - th))
-            dq = 0.72 * max(0.0, ground((qx, qy)) - ge)
-            pts.append([r1(qx), r1(qy), r1(min(dq, (0.14 if f == 0 else 0.34) * zr, 0.45 * width))])
+            dq = gz[j] - floor[j]
+            pts.append([r1(qx), r1(qy), r1(dq)])
         ops.append({"op": "ravine", "points": pts, "smooth": True, "width": width, "profile": "v", "exit": 700,
                     "taper": round(0.25 * width)})
         mains.append((side, pts, width))
@@ -378,9 +447,23 @@ for side in (1, -1):
                     "width": round(rng.uniform(1200, 1500)), "profile": "sharp"})
 ops.append({"op": "river", "points": [[-100, 14400, 140], [3500, 13300, 136], [7500, 14500, 130], [11000, 13600, 125],
                                       [15500, 14200, 120]], "smooth": True, "width": 1800, "floor": 40, "bank_height": 40})
-# The plain rolls: broad swells (60 m, 3.2 km) and a finer fBm (12 m, 1.2 km).
-ops.append({"op": "noise", "comment": "rolling relief on the plain", "amplitude": 60, "wavelength": 3200, "octaves": 4, "seed": 8000073})
-ops.append({"op": "noise", "amplitude": 12, "wavelength": 1200, "octaves": 4, "seed": 8000074})
+# The plain rolls: broad swells (60 m, 3.2 km) and a finer fBm (12 m, 1.2 km), on the plain only:
+# a region that is the whole map less the massif's upper part (a hole 2.4 km north and 3.5 km
+# south of the crest, cut through a slit), fading in over 1.5 km. Over the range their slopes
+# (up to ~12 % and 6 %) outdid the floors of the main ravines on the massif's gentle lower flank
+# and left 10-26 m hollows in them.
+hole = []
+for side, off in ((1, 3500.0), (-1, 2400.0)):
+    ring = []
+    for s in range(0, int(arc[-1]) + 1, 500):
+        (x, y, _), (nx, ny) = at(min(s, arc[-1] - 1))
+        ring.append([r1(x + side * off * nx), r1(y + side * off * ny)])
+    hole += ring if side == 1 else ring[::-1]
+outer = [[-3000, -3000], [18360, -3000], [18360, 18360], [-3000, 18360], [-3000, -3000]]
+plain = outer + hole[::-1] + [hole[-1], [-3000, -3000]]
+ops.append({"op": "noise", "comment": "rolling relief on the plain", "polygon": plain, "falloff": 1500, "amplitude": 60, "wavelength": 3200,
+            "octaves": 4, "seed": 8000073})
+ops.append({"op": "noise", "polygon": plain, "falloff": 1500, "amplitude": 12, "wavelength": 1200, "octaves": 4, "seed": 8000074})
 # Ridged noise on the range and its foothills (a band 2.3 km past the massif's edge, fading over
 # 1.2 km): sharp little crests and gullies on the flanks and the foothills, none on the plain.
 band = []
@@ -392,19 +475,7 @@ for side in (1, -1):
     band += ring if side == 1 else ring[::-1]
 ops.append({"op": "noise", "comment": "ridged texture on the range and foothills", "polygon": band, "falloff": 1200,
             "amplitude": 15, "wavelength": 650, "octaves": 3, "type": "ridged", "seed": 31})
-# Gullies down the flanks (paper figure 8: downslope-oriented noise imitating erosion): ridged
-# noise (35 m, 450 m) over the massif, its features drawn out north-south (across the range's
-# east-west line) by the directional tensor.
-flank = []
-for side in (1, -1):
-    ring = []
-    for s in range(0, int(arc[-1]) + 1, 500):
-        (x, y, _), (nx, ny) = at(min(s, arc[-1] - 1))
-        ring.append([r1(x + side * 0.8 * MASSIF * nx), r1(y + side * 0.8 * MASSIF * ny)])
-    flank += ring if side == 1 else ring[::-1]
-ops.append({"op": "noise", "comment": "gullies down the flanks", "polygon": flank, "falloff": 900, "amplitude": 35,
-            "wavelength": 450, "octaves": 3, "type": "ridged", "seed": 47, "orient": {"angle": 0, "strength": 0.8}})
 ops = [{k: v for k, v in o.items() if v is not None} for o in ops]
-doc = {"description": "A mountain range (paper figures 1, 8 and 11), written by scripts/gen-mountain-range.py: a massif (round free_crest 7.2 km wide, 260-370 m, 700 m south of the crest: an asymmetric range, steeper north flank) under one gently bending smoothed mountain_range stroke 4 km wide through summits (1150-1800 m over the massif) and cols at ~0.8 of the lower summit beside them, ridged noise (150 m, 700 m) dragged across it; spurs (free_crest, 16-26 % of the crest's height) radiating from the summits (2-3 per flank fanned over +-40 degrees, swinging to the fall line over 0.5-1.1 km) and from shoulders, 1.1-2.5 km long on the north flank and 1.6-3.8 km on the south, wandering and stepping down in knobs; the long ones fork (second-order spurs, once or twice); a main ravine on the midline between each pair of neighbouring spurs of a flank, as wide as the gap allows (600-1100 m), its depth 0.72 of the ground's height over its exit (at most 0.34 of the crest's relief and 0.45 of its width), with a dendritic network: second-order ravines (300-420 m wide, 0.62-0.7 of the main depth where they join), third-order gullies, sub-spurs between branches; the spurs that reach the massif's lower flank run on as hogback foothill ridges (sharp, 120-200 m); ridged noise oriented down the flanks (35 m, 450 m) and over the range and foothills (15 m, 650 m), rolling fBm on the plain (60 m, 3.2 km); a river meandering across the plain.",
+doc = {"description": "A mountain range (paper figures 1, 8 and 11), written by scripts/gen-mountain-range.py: a massif (round free_crest 7.2 km wide, 260-370 m, 700 m south of the crest: an asymmetric range, steeper north flank) under one gently bending smoothed mountain_range stroke 4 km wide through summits (1150-1800 m over the massif) and cols at ~0.8 of the lower summit beside them, ridged noise (150 m, 700 m) dragged across it; spurs (free_crest, 16-26 % of the crest's height) radiating from the summits (2-3 per flank fanned over +-40 degrees, swinging to the fall line over 0.5-1.1 km) and from shoulders, 1.1-2.5 km long on the north flank and 1.6-3.8 km on the south, wandering and stepping down in knobs; the long ones fork (second-order spurs, once or twice); a main ravine on the midline between each pair of neighbouring spurs of a flank, as wide as the gap allows (600-1100 m), its depth 0.72 of the ground's height over its exit (at most 0.34 of the crest's relief and 0.45 of its width), with a dendritic network: second-order ravines (300-420 m wide, 0.62-0.7 of the main depth where they join), third-order gullies, sub-spurs between branches; the spurs that reach the massif's lower flank run on as hogback foothill ridges (sharp, 120-200 m); ridged noise over the range and foothills (15 m, 650 m), rolling fBm on the plain (60 m, 3.2 km); a river meandering across the plain.",
        "base": "flat:1025x1025@15", "units": "m", "seed": 8, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)
