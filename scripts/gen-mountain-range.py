@@ -5,8 +5,9 @@
 # lines of a peak, of varied length, the long ones forking (second-order spurs) and running out
 # onto the plain as low hogback ridges (the foothills); a main ravine on the midline between each
 # pair of neighbouring spurs of a flank, as wide as the gap allows, with its dendritic network
-# (second-order branches, third-order gullies, sub-spurs between them); shallow valleys carrying
-# the drainage across a rolling plain to a river. Usage: python3 scripts/gen-mountain-range.py OUT.json
+# (second-order branches, third-order gullies, sub-spurs between them), its floor falling evenly
+# to its exit; a rolling plain (fBm kept off the range) with a river. Usage: python3
+# scripts/gen-mountain-range.py OUT.json
 import json, math, os, random, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -81,9 +82,9 @@ ops = [{"op": "free_crest", "comment": "the massif", "points": massif, "smooth":
 # Spurs radiate from the summits (2-3 per flank, fanned over +-40 degrees about the normal, rooted
 # within 350 m of the summit) and from some shoulders between a summit and a col (one, leaning
 # away from the summit): the valleys between them head below the cols, as on a real range, and
-# the flank is not a comb of parallel teeth. Lengths 0.6-1.7 r, heights 28-42 % of the crest's
-# relief at the root: comparable to the stroke's own flank there, so the flanks are ribbed, not
-# a smooth sausage.
+# the flank is not a comb of parallel teeth. Lengths 0.55-1.25 r on the north flank, 0.8-1.9 r on
+# the south, heights 20-30 % of the crest's relief at the root: comparable to the stroke's own
+# flank there, so the flanks are ribbed, not a smooth sausage.
 summit_arcs = []
 for c in crest:
     k = min(range(len(line)), key=lambda k: math.hypot(line[k][0] - c[0], line[k][1] - c[1]))
@@ -381,16 +382,14 @@ for side in (1, -1):
         width = round(max(600, min(1100, 0.8 * gap)))
         # (And at most 0.45 of its width: deeper, a narrow ravine under a summit was a slot whose
         # floor the spurs' and sub-spurs' feet dammed.)
-        # The floor: 0.4 of the way from the exit's end up to the ground (a depth of 0.6 of the
-        # ground's height over the exit's end), but falling by at least 9 % and 0.35 of the
-        # ground's own fall everywhere (taken from the exit's end upstream, never above the ground;
-        # the crest's ridged noise, 150 m, is not in the model and under the crest a 9 % floor still
-        # held 12-15 m of water): on the massif's gentle lower flank a
-        # share of the ground's height left floors flatter than the plain's rolling fBm (60 m,
-        # 3.2 km), which dug 15-26 m hollows in them. The depth is at most 0.34 of the crest's
-        # relief, 0.45 of the width and 0.14 of the crest's relief at the head, taken in the same
-        # pass (capping the depths afterwards raised floors below lower ones upstream: 20 m
-        # hollows). Depths at seven points.
+        # The floor is built from the exit's end upstream: 0.55 of the way from the exit's end up
+        # to the modelled ground (a depth of at most 0.45 of the ground's height over the exit's
+        # end), but falling by at least 9 % and 0.35 of the ground's own fall, never above the
+        # ground. The depth is at most 0.34 of the crest's relief, 0.45 of the width and 0.14 of
+        # the crest's relief at the head, taken in the same pass (capping the depths afterwards
+        # raised floors below lower ones upstream: 20 m hollows). Depths at seven points. (A depth
+        # as a share of the crest's relief, or of a ground model without the strokes' tapers and
+        # the spurs, left 10-26 m hollows in the floors, which the branches joined.)
         (ex0, ey0), _ = mid(te)
         (ex1, ey1), _ = mid(te - 50)
         ux, uy = (ex0 - ex1) / 50, (ey0 - ey1) / 50
@@ -476,6 +475,6 @@ for side in (1, -1):
 ops.append({"op": "noise", "comment": "ridged texture on the range and foothills", "polygon": band, "falloff": 1200,
             "amplitude": 15, "wavelength": 650, "octaves": 3, "type": "ridged", "seed": 31})
 ops = [{k: v for k, v in o.items() if v is not None} for o in ops]
-doc = {"description": "A mountain range (paper figures 1, 8 and 11), written by scripts/gen-mountain-range.py: a massif (round free_crest 7.2 km wide, 260-370 m, 700 m south of the crest: an asymmetric range, steeper north flank) under one gently bending smoothed mountain_range stroke 4 km wide through summits (1150-1800 m over the massif) and cols at ~0.8 of the lower summit beside them, ridged noise (150 m, 700 m) dragged across it; spurs (free_crest, 16-26 % of the crest's height) radiating from the summits (2-3 per flank fanned over +-40 degrees, swinging to the fall line over 0.5-1.1 km) and from shoulders, 1.1-2.5 km long on the north flank and 1.6-3.8 km on the south, wandering and stepping down in knobs; the long ones fork (second-order spurs, once or twice); a main ravine on the midline between each pair of neighbouring spurs of a flank, as wide as the gap allows (600-1100 m), its depth 0.72 of the ground's height over its exit (at most 0.34 of the crest's relief and 0.45 of its width), with a dendritic network: second-order ravines (300-420 m wide, 0.62-0.7 of the main depth where they join), third-order gullies, sub-spurs between branches; the spurs that reach the massif's lower flank run on as hogback foothill ridges (sharp, 120-200 m); ridged noise over the range and foothills (15 m, 650 m), rolling fBm on the plain (60 m, 3.2 km); a river meandering across the plain.",
+doc = {"description": "A mountain range (paper figures 1, 8 and 11), written by scripts/gen-mountain-range.py: a massif (round free_crest 7.2 km wide, 260-370 m, 700 m south of the crest: an asymmetric range, steeper north flank) under one gently bending smoothed mountain_range stroke 4 km wide through summits (1150-1800 m over the massif) and cols at ~0.8 of the lower summit beside them, ridged noise (100 m, 700 m) dragged across it; spurs (free_crest, 20-30 % of the crest's height) radiating from the summits (2-3 per flank fanned over +-40 degrees, swinging to the fall line over 0.5-1.1 km) and from shoulders, 1.1-2.5 km long on the north flank and 1.6-3.8 km on the south, wandering and stepping down in knobs; the long ones fork (second-order spurs, once or twice); a main ravine on the midline between each pair of neighbouring spurs of a flank, as wide as the gap allows (600-1100 m), its floor falling evenly from its head to its exit's end (at most 0.45 of the modelled ground's height over the exit's end, 0.34 of the crest's relief and 0.45 of its width), with a dendritic network: second-order ravines (300-420 m wide, 0.42-0.5 of the main depth where they join), third-order gullies, sub-spurs between branches; the spurs that reach the massif's lower flank run on as hogback foothill ridges (sharp, 120-200 m); ridged noise over the range and foothills (15 m, 650 m), rolling fBm on the plain only (60 m, 3.2 km); a river meandering across the plain.",
        "base": "flat:1025x1025@15", "units": "m", "seed": 8, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)
