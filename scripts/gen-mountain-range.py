@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
 # Writes data/examples/mountain_range.json (issue 12 gallery, paper figures 1, 8 and 11): a massif
-# (a wide round free_crest) carrying one mountain_range stroke over summits and cols, spurs
-# (free_crest) of varied length and spacing descending from the crest on both flanks, the long ones
-# branching, a ravine between each pair of neighbouring spurs of a flank with its dendritic network
-# (second-order branches, third-order gullies, sub-spurs between them), foothills on the plain, a
-# river. Usage: python3 scripts/gen-mountain-range.py OUT.json
+# (a wide round free_crest) carrying one mountain_range stroke over summits and cols; spurs
+# (free_crest) that radiate from the summits and shoulders down both flanks, fanned like the fall
+# lines of a peak, of varied length, the long ones forking (second-order spurs) and running out
+# onto the plain as low hogback ridges (the foothills); a main ravine on the midline between each
+# pair of neighbouring spurs of a flank, as wide as the gap allows, with its dendritic network
+# (second-order branches, third-order gullies, sub-spurs between them), its floor falling evenly
+# to its exit; a rolling plain (fBm kept off the range) with a river. Usage: python3
+# scripts/gen-mountain-range.py OUT.json
 import json, math, os, random, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -16,10 +19,10 @@ from polyline import arc_lengths, catmull  # noqa: E402
 # line bends gently (radius of curvature >= 5 km, twice the half-width): a bend tighter than the
 # half-width folds the flank on its inner side (a crease where the two legs' profiles meet).
 XZ = [(1200, 380), (2200, 520), (3200, 1150), (4150, 930), (5100, 1500), (6050, 1050), (7000, 1300), (8000, 1000),
-      (9000, 1800), (10100, 1150), (11200, 1450), (11950, 1120), (12700, 1550), (13400, 760), (14100, 600)]
+      (9000, 1800), (10100, 1200), (11200, 1450), (11950, 1120), (12700, 1550), (13400, 760), (14100, 600)]
 crest = [[x, round(7200 - 0.16 * (x - 7650) + 350 * math.sin(2 * math.pi * (x - 1200) / 9000), 1), z] for x, z in XZ]
-HALF = 2400.0  # the stroke's half-width r (m)
-MASSIF = 4300.0  # the massif's half-width (m)
+HALF = 2000.0  # the stroke's half-width r (m)
+MASSIF = 3600.0  # the massif's half-width (m)
 
 
 line = catmull(crest, 24)
@@ -33,13 +36,6 @@ def at(s):
     tx, ty = b[0] - a[0], b[1] - a[1]
     l = math.hypot(tx, ty)
     return line[i], (-ty / l, tx / l)
-
-
-def fall(s):
-    """Lean of the fall line off the normal: the flank falls away from the summits beside it."""
-    (_, _, za), _ = at(s - 300)
-    (_, _, zb), _ = at(s + 300)
-    return max(-0.35, min(0.35, -0.6 * (zb - za) / 600))
 
 
 def r1(v):
@@ -56,80 +52,133 @@ def dist_to(p, pts):
     return best
 
 
+def along(pts, t):
+    """The point at arc length t along the polyline pts (clamped to its ends)."""
+    for a, b in zip(pts, pts[1:]):
+        l = math.hypot(b[0] - a[0], b[1] - a[1])
+        if t <= l or b is pts[-1]:
+            f = max(0.0, min(1.0, t / l if l else 0.0))
+            return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]))
+        t -= l
+
+
+def length(pts):
+    return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(pts, pts[1:]))
+
+
 rng = random.Random(12)  # fixed: the script writes the same file every time
-# The drainage network's own draws (tributaries, gullies, sub-spurs, profiles): the main layout keeps
-# its draws from rng.
-net = random.Random(1212)
-# The massif under the crest: its relief varies slowly (350-480 m), so the range stands on a
+net = random.Random(1212)  # the drainage network's own draws
+# The massif under the crest: its relief varies slowly (260-370 m), so the range stands on a
 # continuous body and the spurs and ravines fall across it down to the foothills.
-massif = [[p[0], p[1], round(350 + 0.07 * p[2] + rng.uniform(-20, 20))] for p in crest]
+# It lies 700 m south of the crest line: the range is asymmetric, a steeper north flank with
+# shorter spurs and a longer south flank whose spurs run out onto the plain (a symmetric body with
+# legs of one length on both sides read as a caterpillar).
+SHIFT = 700.0
+massif = [[p[0], p[1] + SHIFT, round(260 + 0.05 * p[2] + rng.uniform(-15, 15))] for p in crest]
 ops = [{"op": "free_crest", "comment": "the massif", "points": massif, "smooth": True, "width": 2 * MASSIF, "profile": "round"},
        {"op": "mountain_range", "points": crest, "smooth": True, "width": 2 * HALF, "profile": "sharp",
-        "noise": {"amplitude": 140, "wavelength": 800, "octaves": 5, "type": "ridged", "orient_strength": 0.85}}]
-# Spurs on each flank on their own: spacing 550-750 or 1100-1700 m, lengths 0.5-1.3 r (the long ones run out
-# onto the massif and branch), heights 12-25 % of the crest's, each bending a little.
-roots = {1: [], -1: []}
-spurs = []
-ridge_lines = []  # every spur and fork: the branches of the ravines keep off them
+        "noise": {"amplitude": 100, "wavelength": 700, "octaves": 5, "type": "ridged", "orient_strength": 0.85}}]
+
+# Spurs radiate from the summits (2-3 per flank, fanned over +-40 degrees about the normal, rooted
+# within 350 m of the summit) and from some shoulders between a summit and a col (one, leaning
+# away from the summit): the valleys between them head below the cols, as on a real range, and
+# the flank is not a comb of parallel teeth. Lengths 0.55-1.25 r on the north flank, 0.8-1.9 r on
+# the south, heights 20-30 % of the crest's relief at the root: comparable to the stroke's own
+# flank there, so the flanks are ribbed, not a smooth sausage.
+summit_arcs = []
+for c in crest:
+    k = min(range(len(line)), key=lambda k: math.hypot(line[k][0] - c[0], line[k][1] - c[1]))
+    summit_arcs.append(arc[k])
+cand = []  # (side, root arc, lean angle in radians towards increasing arc)
 for side in (1, -1):
-    s = rng.uniform(1200, 1800)
-    while s < arc[-1] - 1300:
-        (x, y, z), (nx, ny) = at(s)
-        if z > 650:
-            nx, ny = side * nx, side * ny
-            lean = -side * fall(s) + rng.uniform(-0.1, 0.1)
-            tx, ty = -ny * lean, nx * lean
-            ux, uy = nx + tx, ny + ty
-            ul = math.hypot(ux, uy)
-            ux, uy = ux / ul, uy / ul
-            L = rng.uniform(0.5, 1.3) * HALF
-            h = rng.uniform(0.12, 0.25) * z
-            bend = rng.uniform(-0.08, 0.08)  # sideways drift at the foot, as a share of L
-            pts = []
-            # A spur wanders (a sine across it, growing downstream) and steps down in knobs and
-            # shoulders, not one smooth arc (net's draws: the layout keeps rng's).
-            wig, ph = net.uniform(0.025, 0.06) * L, net.uniform(0, 2 * math.pi)
-            steps = ((0.04, 0.45), (0.2, net.uniform(0.75, 0.9)), (0.35, 1.0), (0.52, net.uniform(0.7, 0.95)),
-                     (0.7, net.uniform(0.5, 0.65)), (0.85, net.uniform(0.25, 0.4)), (1.0, 0.0))
-            for f, hf in steps:
-                off = bend * L * f * f + wig * f * math.sin(2 * math.pi * 1.3 * f + ph)
-                pts.append([r1(x + f * L * ux - off * uy), r1(y + f * L * uy + off * ux), r1(hf * h)])
-            last = roots[side][-1] if roots[side] else None
-            # Fall lines converge towards a col: a spur that comes within 600 m of the previous one
-            # of its flank below their roots (or crosses it) is left out.
-            if last is None or min(dist_to(q, last[5]) for q in pts[1:]) > 600:
-                width = round(min(1300, 700 + 0.15 * L))
-                prof = net.choice(("sharp", "sharp", "sharp", "v", "v", "round"))
-                ops.append({"op": "free_crest", "points": pts, "smooth": True, "width": width, "profile": prof})
-                roots[side].append((s, z, lean, pts[-1], L, pts))
-                spurs.append((pts, L, h, ux, uy))
-                ridge_lines.append(pts)
-        # Uneven: short and long gaps mixed (a uniform draw read as comb teeth).
-        s += rng.uniform(550, 750) if rng.random() < 0.5 else rng.uniform(1100, 1700)
-# Branches: the long spurs fork at a third of their length, 25-40 degrees off, on the side where
-# the fork's foot stays within 30 % of the way to the next spur (the ravine between them runs on
-# the middle line and must keep its floor).
-for pts, L, h, ux, uy in spurs:
-    if L <= 0.95 * HALF:
+    for i in range(2, len(crest) - 2, 2):
+        sa = summit_arcs[i]
+        n = rng.choice((2, 3, 3))
+        offs = sorted(rng.uniform(-350, 350) for _ in range(n))
+        for j, o in enumerate(offs):
+            fan = (j - (n - 1) / 2) / max(1, (n - 1) / 2) * rng.uniform(0.45, 0.7) + rng.uniform(-0.1, 0.1)
+            cand.append((side, sa + o, fan))
+        # A shoulder spur, half-way to each col, leaning away from the summit.
+        for sgn, ca in ((-1, summit_arcs[i - 1]), (1, summit_arcs[i + 1])):
+            if rng.random() < 0.55:
+                cand.append((side, sa + sgn * rng.uniform(0.45, 0.6) * abs(ca - sa), sgn * rng.uniform(0.15, 0.4)))
+spurs = {1: [], -1: []}
+ridge_lines = []  # every spur and fork: the branches of the ravines keep off them
+for side, s, fan in sorted(cand):
+    if s < 1300 or s > arc[-1] - 1300:
         continue
-    b = pts[1]
-    bl = rng.uniform(0.3, 0.45) * L
-    hb = 0.55 * h
-    others = [q for q, *_ in spurs if q is not pts]
-    for deg in (40, 32, 25):
-        for sgn in rng.sample((-1, 1), 2):
-            a = sgn * math.radians(deg)
-            bx, by = ux * math.cos(a) - uy * math.sin(a), ux * math.sin(a) + uy * math.cos(a)
-            end = (b[0] + bl * bx, b[1] + bl * by)
-            own = bl * math.sin(math.radians(deg))
-            if all(dist_to(end, q) > own / 0.3 - own for q in others):
-                break
+    (x, y, z), (nx, ny) = at(s)
+    if z < 650:
+        continue
+    nx, ny = side * nx, side * ny
+    (xa, ya, _), _ = at(s - 50)
+    (xb, yb, _), _ = at(s + 50)
+    tl = math.hypot(xb - xa, yb - ya)
+    tx, ty = (xb - xa) / tl, (yb - ya) / tl
+    # The spur leaves the summit fanned and swings towards the fall line of the flank (the normal)
+    # over 500-1100 m: spurs of one fan diverge below the summit, then run side by side (fans of
+    # two summits that kept their lean converged below the col between them and dammed the valley).
+    L = rng.uniform(0.55, 1.25) * HALF if side < 0 else rng.uniform(0.8, 1.9) * HALF
+    h = rng.uniform(0.2, 0.3) * z
+    ell = rng.uniform(500, 1100)
+    drift = rng.uniform(-0.12, 0.12)  # a residual lean at the foot
+    path, px, py, t = [(x, y)], x, y, 0.0
+    while t < L:
+        th = fan * math.exp(-t / ell) + drift * (1 - math.exp(-t / ell))
+        px, py, t = px + 25 * (nx * math.cos(th) + tx * math.sin(th)), py + 25 * (ny * math.cos(th) + ty * math.sin(th)), t + 25
+        path.append((px, py))
+    ux, uy = (path[-1][0] - path[-9][0]) / 200, (path[-1][1] - path[-9][1]) / 200  # the direction at the foot
+    wig, ph = net.uniform(0.04, 0.08) * L, net.uniform(0, 2 * math.pi)
+    steps = ((0.04, 0.5), (0.2, net.uniform(0.8, 0.92)), (0.35, 1.0), (0.52, net.uniform(0.7, 0.92)),
+             (0.7, net.uniform(0.48, 0.62)), (0.85, net.uniform(0.25, 0.38)), (1.0, 0.0))
+    pts = []
+    for f, hf in steps:
+        k = min(len(path) - 2, int(f * (len(path) - 1)))
+        qx, qy = path[k]
+        dx, dy = path[k + 1][0] - qx, path[k + 1][1] - qy
+        dl = math.hypot(dx, dy)
+        off = wig * f * math.sin(2 * math.pi * 1.3 * f + ph)
+        pts.append([r1(qx - off * dy / dl), r1(qy + off * dx / dl), r1(hf * h)])
+    # Neighbours on a flank keep apart: a spur that comes within 450 m of the previous one of its
+    # flank from a third of its length down (or crosses it) is left out.
+    if any(min(dist_to(q, o["pts"]) for q in pts[2:]) < 450 for o in spurs[side]):
+        continue
+    width = round(min(1400, 750 + 0.18 * L))
+    prof = net.choice(("sharp", "sharp", "v", "v", "round"))
+    spurs[side].append({"pts": pts, "L": L, "h": h, "u": (ux, uy), "s": s, "z": z, "width": width, "profile": prof})
+    ridge_lines.append(pts)
+    ops.append({"op": "free_crest", "points": pts, "smooth": True, "width": width, "profile": prof})
+# Second-order spurs: the long spurs fork at a third of their length, 25-40 degrees off, on the
+# side where the fork's foot stays within 30 % of the way to the next spur (the ravine between them
+# runs on the middle line and must keep its floor); the longest fork twice.
+all_spurs = spurs[1] + spurs[-1]
+for sp in all_spurs:
+    pts, L, h, (ux, uy) = sp["pts"], sp["L"], sp["h"], sp["u"]
+    if L <= 1.0 * HALF:
+        continue
+    others = [q["pts"] for q in all_spurs if q is not sp]
+    for b, bl, hb in ((pts[2], rng.uniform(0.3, 0.45) * L, pts[2][2]), (pts[4], rng.uniform(0.25, 0.35) * L, pts[4][2])):
+        if b is pts[4] and L < 1.35 * HALF:
+            continue
+        for deg in (40, 32, 25):
+            for sgn in rng.sample((-1, 1), 2):
+                a = sgn * math.radians(deg)
+                bx, by = ux * math.cos(a) - uy * math.sin(a), ux * math.sin(a) + uy * math.cos(a)
+                end = (b[0] + bl * bx, b[1] + bl * by)
+                own = bl * math.sin(math.radians(deg))
+                if all(dist_to(end, q) > own / 0.3 - own for q in others):
+                    break
+            else:
+                continue
+            break
         else:
             continue
-        bp = [[r1(b[0] + f * bl * bx), r1(b[1] + f * bl * by), r1(hz)] for f, hz in ((0.1, 0.7 * hb), (0.45, hb), (1.0, 0.0))]
-        ops.append({"op": "free_crest", "points": bp, "smooth": True, "width": 700, "profile": "sharp"})
+        # The fork leaves the spur at the spur's height there (hb): its own relief starts low (the
+        # spur carries the junction) and rises as it leaves the spur's flank (a fork at full height
+        # from the junction stacked on the spur: a knob at every fork).
+        bp = [[r1(b[0] + f * bl * bx), r1(b[1] + f * bl * by), r1(hz * hb)] for f, hz in ((0.0, 0.2), (0.25, 0.8), (0.55, 0.6), (1.0, 0.0))]
+        ops.append({"op": "free_crest", "points": bp, "smooth": True, "width": round(min(900, 500 + 0.25 * bl)), "profile": "v"})
         ridge_lines.append(bp)
-        break
 def branch(x0, y0, L, dx, dy, ex, ey, a, k, dmain, rm, heads):
     """One tributary of the main ravine (x0, y0) + t (dx, dy), t in [0, L] (depth dmain(a) at a L,
     half-width rm), joining at a L on side k."""
@@ -161,15 +210,15 @@ def branch(x0, y0, L, dx, dy, ex, ey, a, k, dmain, rm, heads):
     else:
         return
     bend = net.uniform(-0.1, 0.1) * lat
-    # Well under the main ravine's depth where it joins (a deeper branch ends in a pit).
-    dt = net.uniform(0.38, 0.45) * dmain(a)
+    # About half the main ravine's depth where it joins (deeper, or kept to the axis, it ends in a pit).
+    dt = net.uniform(0.42, 0.5) * dmain(a)
     # It deepens down to the main ravine's wall (0.6 rm from its axis) and fades out across the
     # wall, to nothing 0.1 rm from the axis: the main ravine's V wall falls towards its axis at
-    # 12 u (1 - u)^2 dm / rm (u = distance / rm), and the branch's depth (at most 0.45 dm) fades
+    # 12 u (1 - u)^2 dm / rm (u = distance / rm), and the branch's depth (at most 0.5 dm) fades
     # slower than that between u = 0.6 and 0.1, so its floor keeps falling into the main ravine.
     # (A branch deepest in its middle, a spoon, held water where it crossed the slope; one that
     # kept its depth to the axis dug a pit at the junction, where the main floor is flat across.)
-    w = round(net.uniform(200, 300))
+    w = round(net.uniform(300, 420))
     o1 = min(0.6 * rm, 0.7 * lat)
     pts4 = []
     for out, fz in ((lat, 0.4), (0.5 * (lat + o1), 0.8), (o1, 1.0), (0.1 * rm, 0.05)):
@@ -190,8 +239,8 @@ def branch(x0, y0, L, dx, dy, ex, ey, a, k, dmain, rm, heads):
         gl = net.uniform(0.35, 0.45) * tl
         sx, sy = gx - gl * cx, gy - gl * cy
         # Fading out across the branch's wall as the branch does across the main ravine's.
-        gd = net.uniform(0.35, 0.45) * dt
-        gw = round(net.uniform(160, 200))
+        gd = net.uniform(0.45, 0.55) * dt
+        gw = round(net.uniform(200, 260))
         ops.append({"op": "ravine", "points": [[r1(sx + f * (gx - sx)), r1(sy + f * (gy - sy)), r1(fz * gd)]
                                                for f, fz in ((0, 0.4), (0.45, 0.85), (0.75, 1.0), (0.93, 0.05))],
                     "smooth": True, "width": gw, "profile": "v", "exit": 0})
@@ -207,7 +256,21 @@ def tributaries(main, rm):
     L = math.hypot(x1 - x0, y1 - y0)
     dx, dy = (x1 - x0) / L, (y1 - y0) / L
     ex, ey = -dy, dx
-    fr = [((q[0] - x0) * dx + (q[1] - y0) * dy) / L for q in main]
+    # The main ravine bends (it follows the midline between its spurs): stations are taken along
+    # its polyline, each branch in the frame of the main ravine's segment there (on the chord, a
+    # junction stood up to a few hundred metres off the axis, on the wall, and the branch's end
+    # held water: a 63-71 m pit).
+    seg = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(main, main[1:])]
+    L = sum(seg)
+    fr = [sum(seg[:i]) / L for i in range(len(main))]
+
+    def frame(t):
+        """The point at t of the main ravine's length, and its segment's unit direction there."""
+        for i in range(len(seg)):
+            if t <= fr[i + 1] or i == len(seg) - 1:
+                u = (t - fr[i]) * L / seg[i]
+                (ax, ay, _), (bx, by, _) = main[i], main[i + 1]
+                return (ax + u * (bx - ax), ay + u * (by - ay)), ((bx - ax) / seg[i], (by - ay) / seg[i])
 
     def dmain(t):
         """The main ravine's depth at t of its length (linear between its vertices)."""
@@ -219,12 +282,13 @@ def tributaries(main, rm):
     heads = {1: [], -1: []}
     # From a third of the way down: above that the main ravine is shallow and hemmed in by the
     # spurs' roots, and branches there ran into them (pits).
-    a = net.uniform(0.25, 0.3)
+    a = net.uniform(0.2, 0.25)
     k = net.choice((-1, 1))
-    while a < 0.78:  # (not where the main ravine shallows towards its exit)
-        for side in (k, -k) if net.random() < 0.5 else (k,):
-            branch(x0, y0, L, dx, dy, ex, ey, a, side, dmain, rm, heads)
-        a += net.uniform(0.06, 0.09)
+    while a < 0.8:  # (not where the main ravine shallows towards its exit)
+        for side in (k, -k) if net.random() < 0.65 else (k,):
+            (jx, jy), (tx, ty) = frame(a)
+            branch(jx - a * L * tx, jy - a * L * ty, L, tx, ty, -ty, tx, a, side, dmain, rm, heads)
+        a += net.uniform(0.05, 0.08)
         k = -k if net.random() < 0.8 else k
     for side, hs in heads.items():
         for (hx0, hy0, jx0, jy0, lat0, d0), (hx1, hy1, jx1, jy1, lat1, d1) in zip(hs, hs[1:]):
@@ -233,60 +297,172 @@ def tributaries(main, rm):
             tx, ty = 0.5 * (hx0 + hx1), 0.5 * (hy0 + hy1)
             fx, fy = 0.5 * (jx0 + jx1), 0.5 * (jy0 + jy1)
             tx, ty = tx + side * 0.15 * lat0 * ex, ty + side * 0.15 * lat0 * ey
-            fx, fy = fx + side * 0.3 * lat1 * ex, fy + side * 0.3 * lat1 * ey
-            hz = net.uniform(0.35, 0.55) * max(d0, d1)
+            # (Its end at least half the main half-width plus its own half-width from the main
+            # axis: a sub-spur whose foot reached a narrow main ravine's floor dammed it, pits of
+            # 12-130 m.)
+            hz = net.uniform(0.5, 0.7) * max(d0, d1)
+            sw = round(net.uniform(320, 450))
+            fo = max(0.3 * lat1, 0.5 * rm + 0.5 * sw)
+            fx, fy = fx + side * fo * ex, fy + side * fo * ey
             ops.append({"op": "free_crest", "points": [[r1(tx), r1(ty), r1(0.5 * hz)], [r1(0.55 * tx + 0.45 * fx), r1(0.55 * ty + 0.45 * fy), r1(hz)], [r1(fx), r1(fy), 0.0]],
-                        "smooth": True, "width": round(net.uniform(320, 450)), "profile": net.choice(("sharp", "round"))})
+                        "smooth": True, "width": sw, "profile": net.choice(("sharp", "round"))})
 
 
-summit_arcs = [min(range(len(line)), key=lambda k: math.hypot(line[k][0] - c[0], line[k][1] - c[1])) for c in crest[0::2]]
-summit_arcs = [arc[k] for k in summit_arcs]
+# A main ravine on the midline between each pair of neighbouring spurs of a flank (points at the
+# same distance down either spur, averaged): it heads where the two spurs are 500 m apart (below
+# the col between two summits' fans, or between two spurs of one fan a few hundred metres below
+# their summit), runs as far as the shorter spur and a little past, onto the massif's lower flank
+# where the ground still falls (a ravine ending on the plain leaves a hollow), and is as wide as
+# the gap allows (a ravine wider than the gap between its spurs was filled by their flanks).
+mains = []
+
+
+def smooth(t):
+    """Smootherstep on [0, 1] (the strokes' taper)."""
+    t = max(0.0, min(1.0, t))
+    return t * t * t * (t * (6 * t - 15) + 10)
+
+
+def spur_at(sp, q):
+    """A spur's relief at q: its profile at q's distance from its line times its height there
+    (linear between its vertices; no crest rounding or taper)."""
+    best, z = 1e30, 0.0
+    for a, b in zip(sp["pts"], sp["pts"][1:]):
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        t = max(0.0, min(1.0, ((q[0] - a[0]) * dx + (q[1] - a[1]) * dy) / (dx * dx + dy * dy)))
+        d = math.hypot(q[0] - a[0] - t * dx, q[1] - a[1] - t * dy)
+        if d < best:
+            best, z = d, a[2] + t * (b[2] - a[2])
+    u = min(1.0, best / (0.5 * sp["width"]))
+    return z * {"sharp": (1 - u) ** 3, "v": (1 - u) ** 3 * (1 + 3 * u), "round": max(0.0, 1 - u * u) ** 3}[sp["profile"]]
+
+
+def ground(q, beside=()):
+    """The ground before the ravines at q: the massif and the stroke's sharp flank at q's distance
+    from the crest line, and the spurs `beside` (a ravine between two spurs runs on their flanks
+    where they stand close, and the spurs rise from their roots to their first knob: a ground
+    without them fell faster than the terrain below the heads, and the floor held water)."""
+    k = min(range(0, len(line), 4), key=lambda k: math.hypot(line[k][0] - q[0], line[k][1] - q[1]))
+    d = dist_to(q, line[max(0, k - 8):k + 9])
+    zc = line[k][2]
+    dm = dist_to((q[0], q[1] - SHIFT), line[max(0, k - 8):k + 9])
+    # (Both strokes taper over their half-width of arc at either end: near the range's ends the
+    # ground falls along the range as well as across it, and a ravine depth that ignored it left
+    # 20-26 m hollows in its floor.)
+    end = min(arc[k], arc[-1] - arc[k])
+    return sum(spur_at(sp, q) for sp in beside) + (260 + 0.05 * zc) * smooth(end / MASSIF) * max(0.0, 1 - (dm / MASSIF) ** 2) ** 3 + zc * smooth(end / HALF) * max(0.0, 1 - d / HALF) ** 3
+
+
 for side in (1, -1):
-    rs = roots[side]
-    for (s0, z0, l0, _, L0, _), (s1, z1, l1, _, L1, _) in zip(rs, rs[1:]):
-        sm = 0.5 * (s0 + s1)
-        # Below a summit a ravine heads mid-slope: one heading on the summit ran down the convex
-        # nose of its cone, whose cross-fall filled it (a 40 m notch for 190 m).
-        f0 = 0.3 if any(abs(sm - a) < 450 for a in summit_arcs) else 0.08
-        (x, y, z), (nx, ny) = at(sm)
-        nx, ny = side * nx, side * ny
-        lean = 0.5 * (l0 + l1)  # parallel to the spurs on either side
-        tx, ty = -ny * lean, nx * lean
-        d = rng.uniform(0.2, 0.26) * min(z0, z1)
-        # It runs as far as the shorter spur beside it and a little past: onto the massif's lower
-        # flank, where the ground still falls (a ravine ending on the plain leaves a hollow).
-        L = max(0.65 * HALF, min(1.15 * HALF, min(L0, L1) * rng.uniform(0.8, 0.95)))
+    sp = spurs[side]
+    for A, B in zip(sp, sp[1:]):
+        LA, LB = length(A["pts"]), length(B["pts"])
+        lo = min(LA, LB)
+
+        def mid(t):
+            a, b = along(A["pts"], t), along(B["pts"], t)
+            return ((a[0] + b[0]) / 2, (a[1] + b[1]) / 2), math.hypot(a[0] - b[0], a[1] - b[1])
+
+        th = next((t for t in range(200, int(lo), 50) if mid(t)[1] >= 500 and dist_to(mid(t)[0], line) >= 300), None)
+        if th is None:
+            continue
+        # (On the massif's upper three quarters: further out it flattens, and a ravine's exit there
+        # held water.)
+        te = min(lo, 0.6 * MASSIF + side * SHIFT) * rng.uniform(0.85, 1.0)
+        if te - th < 800:
+            continue
+        # Its depth follows the ground it cuts (the massif and the stroke's flank, which falls
+        # steeply under the crest and gently on the massif; a depth drawn from the crest's relief
+        # alone ran the floor below the massif's foot at mid-flank: a pit 100-180 m deep along the
+        # ravine's lower half).
+        exx, exy = mid(te)[0][0] + 700 * (mid(te)[0][0] - mid(te - 50)[0][0]) / 50, mid(te)[0][1] + 700 * (mid(te)[0][1] - mid(te - 50)[0][1]) / 50
+        ge = ground((exx, exy), (A, B))
+        zr = min(A["z"], B["z"])
+        (mx, my), gap = mid(th + 0.5 * (te - th))
+        width = round(max(600, min(1100, 0.8 * gap)))
+        # (And at most 0.45 of its width: deeper, a narrow ravine under a summit was a slot whose
+        # floor the spurs' and sub-spurs' feet dammed.)
+        # The floor is built from the exit's end upstream: 0.55 of the way from the exit's end up
+        # to the modelled ground (a depth of at most 0.45 of the ground's height over the exit's
+        # end), but falling by at least 9 % and 0.35 of the ground's own fall, never above the
+        # ground. The depth is at most 0.34 of the crest's relief, 0.45 of the width and 0.14 of
+        # the crest's relief at the head, taken in the same pass (capping the depths afterwards
+        # raised floors below lower ones upstream: 20 m hollows). Depths at seven points. (A depth
+        # as a share of the crest's relief, or of a ground model without the strokes' tapers and
+        # the spurs, left 10-26 m hollows in the floors, which the branches joined.)
+        (ex0, ey0), _ = mid(te)
+        (ex1, ey1), _ = mid(te - 50)
+        ux, uy = (ex0 - ex1) / 50, (ey0 - ey1) / 50
+        n_s = int((te - th + 700) / 50)
+        floor = [0.0] * (n_s + 1)
+        gz = [0.0] * (n_s + 1)
+        for j in range(n_s, -1, -1):
+            t = th + j * 50
+            q = mid(t)[0] if t <= te else (ex0 + (t - te) * ux, ey0 + (t - te) * uy)
+            gz[j] = ground(q, (A, B))
+            cap = min(0.45 * max(0.0, gz[j] - ge), 0.34 * zr, 0.45 * width, 0.14 * zr if j == 0 else 1e9)
+            fz = gz[j] - cap
+            if j < n_s:
+                fz = max(fz, floor[j + 1] + max(0.09, 0.35 * (gz[j] - gz[j + 1]) / 50) * 50)
+            floor[j] = min(fz, gz[j])
         pts = []
-        for f, dz in ((f0, 0.3 * d), (0.5 * (f0 + 1) - 0.09, d), (1.0, 0.35 * d)):
-            pts.append([r1(x + f * L * (nx + tx)), r1(y + f * L * (ny + ty)), r1(dz)])
-        # As wide as the gap between the spurs allows (a 950 m ravine between spurs 600 m apart was
-        # filled by their flanks).
-        width = round(max(600, min(rng.uniform(900, 1000), 0.85 * (s1 - s0))))
-        ops.append({"op": "ravine", "points": pts, "smooth": True, "width": width, "profile": "v", "exit": 500,
+        for i in range(7):
+            f = i / 6
+            j = min(n_s, round(f * (te - th) / 50))
+            (qx, qy), _ = mid(th + f * (te - th))
+            dq = gz[j] - floor[j]
+            pts.append([r1(qx), r1(qy), r1(dq)])
+        ops.append({"op": "ravine", "points": pts, "smooth": True, "width": width, "profile": "v", "exit": 700,
                     "taper": round(0.25 * width)})
+        mains.append((side, pts, width))
         tributaries(pts, 0.5 * width)
-# Foothills: low round ridges roughly along the range on the plain, north and south of the massif.
-for k in range(9):
-    south = k % 2 == 0
-    x = rng.uniform(1500, 13800)
-    base = 7200 - 0.16 * (x - 7650) + 350 * math.sin(2 * math.pi * (x - 1200) / 9000)
-    y = base + (1 if south else -1) * rng.uniform(MASSIF + 800, MASSIF + 1900)
-    a = math.radians(rng.uniform(-25, 25) - 9)
-    L = rng.uniform(2500, 4500)
-    h = rng.uniform(60, 150)
-    pts = [[r1(x + f * L * math.cos(a)), r1(y + f * L * math.sin(a) + 250 * math.sin(3 * f)), r1(hz)] for f, hz in ((-0.5, 0.3 * h), (0, h), (0.5, 0.4 * h))]
-    # Narrower than drawn (0.7) with the v profile (steep flanks, a rounded top): the round
-    # 1.4-2.2 km ones read as soft swells, sharp ones as scratches on the plain.
-    width = round(0.7 * rng.uniform(1400, 2200))
-    ops.append({"op": "free_crest", "comment": "foothill" if k == 0 else None, "points": pts, "smooth": True, "width": width,
-                "profile": "v"})
-ops = [{k: v for k, v in o.items() if v is not None} for o in ops]
+# Foothills: the spurs that reach the massif's lower flank run on past it as low hogback ridges
+# (120-200 m, sharp, 1.2-1.5 km wide) that start on the spur 700 m above its foot and swing 0-8
+# degrees off it (swung 5-20 degrees, one closed the mouth of the valley beside it: a 90 m pit),
+# so the foothills hang off the range as the lower ends of its spurs, not as blobs
+# (or, detached from the spur, dashes) on the plain.
+hogs = []
+for side in (1, -1):
+    for sp in spurs[side]:
+        pts, (ux, uy) = sp["pts"], sp["u"]
+        if dist_to(pts[-1], line) < 0.6 * MASSIF + side * SHIFT:
+            continue
+        ul = math.hypot(ux, uy)
+        ux, uy = ux / ul, uy / ul
+        sw = math.radians(rng.uniform(0, 8)) * rng.choice((-1, 1))
+        vx, vy = ux * math.cos(sw) - uy * math.sin(sw), ux * math.sin(sw) + uy * math.cos(sw)
+        L = rng.uniform(1800, 2800)
+        h = rng.uniform(120, 200)
+        b = (pts[-1][0] - 700 * ux, pts[-1][1] - 700 * uy)
+        # It rises from nothing on the spur (a hogback at full height where the spur's last
+        # shoulder stands doubled it there: a knob at every spur's end).
+        hp = [[r1(b[0] + f * L * vx), r1(b[1] + f * L * vy), r1(hz * h)] for f, hz in ((0.0, 0.0), (0.3, 0.9), (0.5, 1.0), (0.75, 0.6), (1.0, 0.0))]
+        # Apart from the other foothills and spurs (two converging ones closed the valley between
+        # them below a ravine's exit: a 94 m pit).
+        if any(dist_to(q, o) < 1000 for q in hp[1:] for o in hogs + [s["pts"] for s in spurs[side] if s is not sp]):
+            continue
+        hogs.append(hp)
+        ops.append({"op": "free_crest", "comment": "hogback foothill", "points": hp, "smooth": True,
+                    "width": round(rng.uniform(1200, 1500)), "profile": "sharp"})
 ops.append({"op": "river", "points": [[-100, 14400, 140], [3500, 13300, 136], [7500, 14500, 130], [11000, 13600, 125],
                                       [15500, 14200, 120]], "smooth": True, "width": 1800, "floor": 40, "bank_height": 40})
-# Seeds pinned to those of the 51-operation script before the drainage network (8 * 1000003 + index):
-# the plain keeps its relief whatever is added above.
-ops.append({"op": "noise", "comment": "rolling relief on the plain", "amplitude": 45, "wavelength": 2600, "octaves": 4, "seed": 8000073})
-ops.append({"op": "noise", "amplitude": 10, "wavelength": 1200, "octaves": 4, "seed": 8000074})
+# The plain rolls: broad swells (60 m, 3.2 km) and a finer fBm (12 m, 1.2 km), on the plain only:
+# a region that is the whole map less the massif's upper part (a hole 2.4 km north and 3.5 km
+# south of the crest, cut through a slit), fading in over 1.5 km. Over the range their slopes
+# (up to ~12 % and 6 %) outdid the floors of the main ravines on the massif's gentle lower flank
+# and left 10-26 m hollows in them.
+hole = []
+for side, off in ((1, 3500.0), (-1, 2400.0)):
+    ring = []
+    for s in range(0, int(arc[-1]) + 1, 500):
+        (x, y, _), (nx, ny) = at(min(s, arc[-1] - 1))
+        ring.append([r1(x + side * off * nx), r1(y + side * off * ny)])
+    hole += ring if side == 1 else ring[::-1]
+outer = [[-3000, -3000], [18360, -3000], [18360, 18360], [-3000, 18360], [-3000, -3000]]
+plain = outer + hole[::-1] + [hole[-1], [-3000, -3000]]
+ops.append({"op": "noise", "comment": "rolling relief on the plain", "polygon": plain, "falloff": 1500, "amplitude": 60, "wavelength": 3200,
+            "octaves": 4, "seed": 8000073})
+ops.append({"op": "noise", "polygon": plain, "falloff": 1500, "amplitude": 12, "wavelength": 1200, "octaves": 4, "seed": 8000074})
 # Ridged noise on the range and its foothills (a band 2.3 km past the massif's edge, fading over
 # 1.2 km): sharp little crests and gullies on the flanks and the foothills, none on the plain.
 band = []
@@ -298,6 +474,7 @@ for side in (1, -1):
     band += ring if side == 1 else ring[::-1]
 ops.append({"op": "noise", "comment": "ridged texture on the range and foothills", "polygon": band, "falloff": 1200,
             "amplitude": 15, "wavelength": 650, "octaves": 3, "type": "ridged", "seed": 31})
-doc = {"description": "A mountain range (paper figures 1, 8 and 11), written by scripts/gen-mountain-range.py: a massif (round free_crest 8.6 km wide, 350-480 m) under one gently bending smoothed mountain_range stroke 4.8 km wide through summits (1150-1800 m over the massif) and cols at ~0.8 of the lower summit beside them, ridged noise (140 m, 800 m) dragged across it; spurs (free_crest, sharp, v or round, 12-25 % of the crest's height) of 1.2-3.1 km descending along the flank's fall line every 550-750 or 1100-1700 m on each flank, wandering and stepping down in knobs and shoulders, the long ones branching; a main ravine (v, deepening downstream, exiting over 500 m on the massif's lower flank) between each pair of neighbouring spurs, with a dendritic network: second-order ravines (200-300 m wide, 0.38-0.45 of the main depth) joining it at 22-48 degrees pointing downstream, heading on the spurs' flanks and fading out across the main ravine's wall, third-order gullies into the long ones, sub-spurs between the branches of one side; low v-profile foothill ridges, ridged noise (15 m, 650 m) over the range and foothills and rolling fBm (45 m, 2.6 km) on the plain; a river meandering across the plain.",
+ops = [{k: v for k, v in o.items() if v is not None} for o in ops]
+doc = {"description": "A mountain range (paper figures 1, 8 and 11), written by scripts/gen-mountain-range.py: a massif (round free_crest 7.2 km wide, 260-370 m, 700 m south of the crest: an asymmetric range, steeper north flank) under one gently bending smoothed mountain_range stroke 4 km wide through summits (1150-1800 m over the massif) and cols at ~0.8 of the lower summit beside them, ridged noise (100 m, 700 m) dragged across it; spurs (free_crest, 20-30 % of the crest's height) radiating from the summits (2-3 per flank fanned over +-40 degrees, swinging to the fall line over 0.5-1.1 km) and from shoulders, 1.1-2.5 km long on the north flank and 1.6-3.8 km on the south, wandering and stepping down in knobs; the long ones fork (second-order spurs, once or twice); a main ravine on the midline between each pair of neighbouring spurs of a flank, as wide as the gap allows (600-1100 m), its floor falling evenly from its head to its exit's end (at most 0.45 of the modelled ground's height over the exit's end, 0.34 of the crest's relief and 0.45 of its width), with a dendritic network: second-order ravines (300-420 m wide, 0.42-0.5 of the main depth where they join), third-order gullies, sub-spurs between branches; the spurs that reach the massif's lower flank run on as hogback foothill ridges (sharp, 120-200 m); ridged noise over the range and foothills (15 m, 650 m), rolling fBm on the plain only (60 m, 3.2 km); a river meandering across the plain.",
        "base": "flat:1025x1025@15", "units": "m", "seed": 8, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)

@@ -652,6 +652,11 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       std::vector<double> lens, arc_at(line.size(), 0.0);
       for (size_t i = 1; i < line.size(); ++i) arc_at[i] = arc_at[i - 1] + std::hypot(line[i].x - line[i - 1].x, line[i].y - line[i - 1].y);
       std::vector<double> roots[2];
+      struct SpurLine {
+        std::vector<Vec2> pts;
+        double crest_z;  // the crest's relief at its root (the stroke's per-vertex z)
+      };
+      std::vector<SpurLine> spur_lines;
       for (const auto& o : script.at("operations")) {
         if (o.at("op") != "free_crest" || double(o.at("width")) >= 2 * r || double(o.at("width")) < 600) continue;  // (not the sub-spurs)
         const auto& q = o.at("points");
@@ -664,6 +669,9 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         double len = 0;
         for (size_t j = 1; j < q.size(); ++j) len += std::hypot(double(q[j][0]) - double(q[j - 1][0]), double(q[j][1]) - double(q[j - 1][1]));
         lens.push_back(len);
+        SpurLine sl{{}, zs[k]};
+        for (const auto& p : q) sl.pts.push_back({double(p[0]), double(p[1])});
+        spur_lines.push_back(sl);
         const size_t k0 = k ? k - 1 : k, k1 = std::min(k + 1, line.size() - 1);
         const double cross = (line[k1].x - line[k0].x) * (double(q.back()[1]) - qy) - (line[k1].y - line[k0].y) * (double(q.back()[0]) - qx);
         roots[cross > 0].push_back(arc_at[k]);
@@ -678,6 +686,78 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
         for (size_t i = 1; i < rs.size(); ++i) v += (rs[i] - rs[i - 1] - m) * (rs[i] - rs[i - 1] - m) / (rs.size() - 1);
         EXPECT_GE(std::sqrt(v) / m, 0.4) << "spurs evenly spaced along a flank (comb teeth): " << std::sqrt(v) / m;
       }
+      // The flanks are ribbed, not a smooth sausage with scratches (range4 round): across the middle
+      // of each spur, its top (within 150 m of its line) stands above the valleys on both sides (the
+      // higher of the lowest points within 1 km either side) by >= 0.1 of the crest's relief at its
+      // root (0.12 today, median 0.24; the former range: 0.04, median 0.21, its weakest spur a
+      // shoulder on the smooth flank).
+      std::vector<double> rel;
+      for (const auto& sp : spur_lines) {
+        const auto pl = catmull_rom(sp.pts, 20.0);
+        double tot = 0, acc = 0;
+        for (size_t i = 1; i < pl.size(); ++i) tot += std::hypot(pl[i].x - pl[i - 1].x, pl[i].y - pl[i - 1].y);
+        size_t k = 1;
+        for (; k + 2 < pl.size() && acc < 0.5 * tot; ++k) acc += std::hypot(pl[k].x - pl[k - 1].x, pl[k].y - pl[k - 1].y);
+        const double tx = pl[k + 1].x - pl[k - 1].x, ty = pl[k + 1].y - pl[k - 1].y, l = std::hypot(tx, ty);
+        const double nx = -ty / l, ny = tx / l;
+        double top = -1e30, lo[2] = {1e30, 1e30};
+        for (double s = -150; s <= 150; s += 0.5 * cell) top = std::max(top, at_m(h, cell, pl[k].x + s * nx, pl[k].y + s * ny));
+        for (int sg = 0; sg < 2; ++sg)
+          for (double s = 0; s <= 1000; s += 0.5 * cell)
+            lo[sg] = std::min(lo[sg], at_m(h, cell, pl[k].x + (sg ? -s : s) * nx, pl[k].y + (sg ? -s : s) * ny));
+        rel.push_back((top - std::max(lo[0], lo[1])) / sp.crest_z);
+      }
+      std::sort(rel.begin(), rel.end());
+      EXPECT_GE(rel.front(), 0.1) << "a spur that does not stand out of the flank";
+      // The foothills hang off the range (range4 round): every other ridge of >= 600 m (forks and
+      // foothills: free_crests narrower than the stroke not rooted on the crest line) starts within
+      // 400 m of a spur, and its crest (the highest point within 90 m across) from its start to its
+      // highest vertex dips nowhere more than 40 m below the lower of the two (no saddle cutting it
+      // off: 22 m today). The former foothills stood alone on the plain, 2.5-4.6 km from any spur.
+      int foothills = 0;
+      double worst_gap = 0, worst_dip = 0;
+      for (const auto& o : script.at("operations")) {
+        if (o.at("op") != "free_crest" || double(o.at("width")) >= 2 * r || double(o.at("width")) < 600) continue;
+        const auto& q = o.at("points");
+        const Vec2 q0{double(q[0][0]), double(q[0][1])};
+        double d = 1e30;
+        for (const auto& p : line) d = std::min(d, std::hypot(p.x - q0.x, p.y - q0.y));
+        if (d <= 0.15 * r) continue;  // a spur
+        ++foothills;
+        double gap = 1e30;
+        for (const auto& sp : spur_lines)
+          for (size_t j = 1; j < sp.pts.size(); ++j) {
+            const Vec2 a = sp.pts[j - 1], b = sp.pts[j];
+            const double dx = b.x - a.x, dy = b.y - a.y;
+            const double t = std::clamp(((q0.x - a.x) * dx + (q0.y - a.y) * dy) / (dx * dx + dy * dy + 1e-9), 0.0, 1.0);
+            gap = std::min(gap, std::hypot(q0.x - a.x - t * dx, q0.y - a.y - t * dy));
+          }
+        worst_gap = std::max(worst_gap, gap);
+        EXPECT_LE(gap, 400.0) << "a foothill or fork standing alone, " << gap << " m from the nearest spur, at " << q0.x << ", " << q0.y;
+        std::vector<Vec2> ctrl_q;
+        size_t top_i = 0;
+        for (size_t j = 0; j < q.size(); ++j) {
+          ctrl_q.push_back({double(q[j][0]), double(q[j][1])});
+          if (double(q[j][2]) > double(q[top_i][2])) top_i = j;
+        }
+        const auto pl = catmull_rom(ctrl_q, 30.0);
+        std::vector<double> prof;
+        for (size_t k = 1; k + 1 < pl.size(); ++k) {
+          const double tx = pl[k + 1].x - pl[k - 1].x, ty = pl[k + 1].y - pl[k - 1].y, l = std::hypot(tx, ty);
+          double top = -1e30;
+          for (double s = -90; s <= 90; s += 0.5 * cell) top = std::max(top, at_m(h, cell, pl[k].x - s * ty / l, pl[k].y + s * tx / l));
+          prof.push_back(top);
+          if (std::hypot(pl[k].x - ctrl_q[top_i].x, pl[k].y - ctrl_q[top_i].y) < 30) break;
+        }
+        if (prof.size() < 3) continue;
+        const double dip = std::min(prof.front(), prof.back()) - *std::min_element(prof.begin(), prof.end());
+        worst_dip = std::max(worst_dip, dip);
+        EXPECT_LE(dip, 40.0) << "a saddle cuts the foothill or fork at " << q0.x << ", " << q0.y << " off its spur";
+      }
+      EXPECT_GE(foothills, 6) << "the range has forks and foothills";
+      std::cout << fmt::format("mountain range spurs: relief / crest relief {:.2f} (least) {:.2f} (median) of {}; {} forks and foothills, "
+                               "farthest {:.0f} m from a spur, deepest saddle {:.1f} m\n",
+                               rel.front(), rel[rel.size() / 2], rel.size(), foothills, worst_gap, worst_dip);
     }
     if (kind == "cliff" && name == "canyon") {
       // The walls are layered rock (strata): down the fall line from the rim, at every rim vertex on
