@@ -202,7 +202,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   res.cycle = o.cycle;
   res.smoother = o.smoother;
   res.hard_cells = hard;
-  const uint64_t baseline = d.allocated_bytes();
+  AllocationScope scope;  // this solve's own buffers (the peak figure)
   uint64_t peak = 0;
   mg::Problem p;
   p.width = W;
@@ -234,7 +234,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     clk.mark(d, "device init");
     make_rhs(d, p.g, clk, bufs);
     clk.mark(d, "device init");
-    peak = std::max<uint64_t>(peak, d.allocated_since(baseline));
+    peak = std::max<uint64_t>(peak, scope.live());
     if (hard) {
       cl::Buffer bi = bufs.take("hard index", hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
       cl::Buffer bv = bufs.take("hard value", hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
@@ -245,7 +245,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
       cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
       set_args(sc, p.u, p.g, bi, bv, int(hard), chunk, float(m));
       launch_rows(d, sc, (hard + chunk - 1) / chunk);
-      peak = std::max<uint64_t>(peak, d.allocated_since(baseline));
+      peak = std::max<uint64_t>(peak, scope.live());
     }
     q.finish();  // the gradient and hard-list buffers go back to the (releasable) cache
     bufs.put_back_all_but("u", "g");
@@ -271,7 +271,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     if (std::getenv("TERRACL_MG_PROFILE"))
       std::fprintf(stderr, "host constraints %.1f ms, upload+divergence+init %.1f ms\n", t_vals - t0, now_ms() - t_vals);
     p.phases = clk.on();
-    mg::SolveStats st = mg::solve(d, p, o, baseline);
+    mg::SolveStats st = mg::solve(d, p, o, scope);
     const double t_solved = now_ms();
     clk.add("hierarchy", st.setup_ms);
     clk.add("cycles", st.cycles_ms);

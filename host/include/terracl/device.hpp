@@ -72,9 +72,6 @@ class Device {
   /// Bytes currently allocated through buffer() on this physical device (by every Device object
   /// opened on it) and not yet released (approximate accounting).
   uint64_t allocated_bytes() const;
-  /// allocated_bytes() above `baseline`, 0 when below: a release of an earlier stage's buffer can
-  /// land (driver callback) after the baseline was read, and a difference must not wrap around.
-  uint64_t allocated_since(uint64_t baseline) const;
   /// Enqueues `count` floats of `value` into `buf` from float offset `offset` (no wait). A kernel
   /// writes them, not clEnqueueFillBuffer: strict devices (oclgrind) do not count a fill as an
   /// initialisation, and then flag every later read of the buffer.

@@ -4,6 +4,7 @@
 #include <terracl/error.hpp>
 #include <terracl/stage_memory.hpp>
 
+#include "alloc_scope.hpp"
 #include "workspace.hpp"
 
 #include <algorithm>
@@ -127,9 +128,11 @@ Entry choose(const std::string& spec) {
 }
 
 // Live device-buffer bytes, decremented by OpenCL's destructor callback when a buffer is freed.
+// `scopes`: the AllocationScopes open on the allocating thread.
 struct AllocRecord {
   std::shared_ptr<std::atomic<int64_t>> counter;
   int64_t bytes;
+  std::vector<std::shared_ptr<std::atomic<int64_t>>> scopes;
 };
 // One counter per physical device: devices have their own memory, and Device objects opened on
 // the same device share it.
@@ -145,6 +148,7 @@ std::shared_ptr<std::atomic<int64_t>> allocation_counter(cl_device_id id) {
 void CL_CALLBACK on_release(cl_mem, void* user) {
   auto* r = static_cast<AllocRecord*>(user);
   r->counter->fetch_sub(r->bytes);
+  for (auto& s : r->scopes) s->fetch_sub(r->bytes);
   delete r;
 }
 
@@ -199,10 +203,12 @@ cl::Buffer Device::buffer(size_t bytes, cl_mem_flags flags, const std::string& w
   try {
     cl::Buffer b(m_context, flags, bytes);
     m_allocated->fetch_add(int64_t(bytes));
-    auto* rec = new AllocRecord{m_allocated, int64_t(bytes)};
+    auto* rec = new AllocRecord{m_allocated, int64_t(bytes), open_allocation_scopes()};
     if (clSetMemObjectDestructorCallback(b(), on_release, rec) != CL_SUCCESS) {
       m_allocated->fetch_sub(int64_t(bytes));
       delete rec;
+    } else {
+      for (auto& s : rec->scopes) s->fetch_add(int64_t(bytes));
     }
     return b;
   } catch (const cl::Error& err) {
@@ -222,10 +228,5 @@ void Device::fill(const cl::Buffer& buf, float value, size_t offset, size_t coun
 }
 
 uint64_t Device::allocated_bytes() const { return uint64_t(std::max<int64_t>(0, m_allocated->load())); }
-
-uint64_t Device::allocated_since(uint64_t baseline) const {
-  const uint64_t now = allocated_bytes();
-  return now > baseline ? now - baseline : 0;
-}
 
 }  // namespace terracl

@@ -81,8 +81,8 @@ double now_ms() {
 
 class Solver {
  public:
-  Solver(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline)
-      : m_d(d), m_q(d.queue()), m_p(p), m_o(o), m_baseline(baseline), m_ws(d, p.width, p.height) {
+  Solver(Device& d, Problem& p, const SolverOptions& o, const AllocationScope& scope)
+      : m_d(d), m_q(d.queue()), m_p(p), m_o(o), m_scope(scope), m_ws(d, p.width, p.height) {
     profile().clear();
     m_wx = float(1.0 / (p.cell_x * p.cell_x));
     m_wy = float(1.0 / (p.cell_y * p.cell_y));
@@ -104,7 +104,7 @@ class Solver {
 
   // Buffers reused from the workspace were allocated before the solve: added back.
   void track() {
-    m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_d.allocated_since(m_baseline) + m_ws.reused());
+    m_stats.peak_bytes = std::max<uint64_t>(m_stats.peak_bytes, m_scope.live() + m_ws.reused());
   }
   /// The hierarchy's buffers (cached between solves of one grid size, cl/workspace.hpp); the
   /// refinement takes its vectors from the same.
@@ -493,7 +493,7 @@ class Solver {
   cl::CommandQueue& m_q;
   Problem& m_p;
   const SolverOptions& m_o;
-  uint64_t m_baseline;
+  const AllocationScope& m_scope;
   WorkspaceBuffers m_ws;
   float m_wx = 1, m_wy = 1;
   std::vector<Level> m_levels;
@@ -510,9 +510,9 @@ class Solver {
 
 }  // namespace
 
-SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline) {
+SolveStats solve(Device& d, Problem& p, const SolverOptions& o, const AllocationScope& scope) {
   const double t0 = now_ms();
-  Solver s(d, p, o, baseline);
+  Solver s(d, p, o, scope);
   s.track();
   if (o.cycle == Cycle::Cascade) return s.cascade();
   s.build();
@@ -523,7 +523,7 @@ SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baselin
   if (p.phases) d.queue().finish();
   const double t_cycled = now_ms();
   st.cycles_ms = t_cycled - t_built;
-  refine(d, p, o, st, baseline, s.buffers(), [&] { s.fine_cycle(); });
+  refine(d, p, o, st, scope, s.buffers(), [&] { s.fine_cycle(); });
   if (p.phases) d.queue().finish();
   st.refine_ms = now_ms() - t_cycled;
   if (profiling()) {

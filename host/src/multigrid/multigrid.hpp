@@ -4,6 +4,8 @@
 #include <terracl/device.hpp>
 #include <terracl/reconstruct.hpp>
 
+#include "cl/alloc_scope.hpp"
+
 #include <vector>
 
 namespace terracl::mg {
@@ -33,8 +35,8 @@ struct SolveStats {
   std::vector<double> refine_residuals;
 };
 
-/// Runs the solve in place on p.u. `baseline` is the device allocation before the solve started
-/// (for the peak memory figure).
-SolveStats solve(Device& d, Problem& p, const SolverOptions& o, uint64_t baseline);
+/// Runs the solve in place on p.u. `scope` counts the solve's own device buffers (for the peak
+/// memory figure).
+SolveStats solve(Device& d, Problem& p, const SolverOptions& o, const AllocationScope& scope);
 
 }  // namespace terracl::mg

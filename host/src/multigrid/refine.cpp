@@ -84,7 +84,7 @@ void loop(const Path& path, const SolverOptions& o, SolveStats& st, const std::f
 
 }  // namespace
 
-void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint64_t baseline, WorkspaceBuffers& ws,
+void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, const AllocationScope& scope, WorkspaceBuffers& ws,
             const std::function<void()>& fine_cycle) {
   if (o.refine == Refinement::Off) return;
   const bool fp64 = has_fp64(d);
@@ -100,7 +100,7 @@ void refine(Device& d, Problem& p, const SolverOptions& o, SolveStats& st, uint6
   // The vectors come from the workspace (cached between solves of one grid size: on a GPU the
   // creation and first touch of ~32 bytes per cell cost more than the refinement's kernels);
   // the reused ones were allocated before the solve and are added back.
-  auto track = [&] { st.peak_bytes = std::max<uint64_t>(st.peak_bytes, d.allocated_since(baseline) + ws.reused()); };
+  auto track = [&] { st.peak_bytes = std::max<uint64_t>(st.peak_bytes, scope.live() + ws.reused()); };
   // The correction problem gets its own right-hand side buffer (same NaN pattern, so the coarse
   // operators already built stay valid); the original g comes back at the end.
   cl::Buffer g0 = p.g;
