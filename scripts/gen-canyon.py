@@ -47,7 +47,7 @@ ops = [
 ]
 # The river: on the floor between the two walls' feet, meandering within it.
 river = []
-for k, y in enumerate([-630 + k * 580 for k in range(12)]):
+for k, y in [(k, -50 + k * 580) for k in range(-1, 11)]:  # (k = -1 and 10: past the map's edges)
     lo, hi = west(y) + R_CLIFF + 230, east(y) - R_CLIFF - 230
     x = 0.5 * (lo + hi) + 0.5 * (hi - lo) * 0.6 * math.sin(1.3 * k + 0.5) if hi > lo else 0.5 * (lo + hi)
     river.append([round(x, 1), round(y, 1), round(130 - 60 * y / 5170, 1)])
@@ -168,7 +168,7 @@ side_ops, tributaries = [], []
 # "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
 for nsc, (side, y0, back, ang, branches) in enumerate((
         (-1, 700, 1900, 12, [(0.75, 550, 1700)]), (-1, 2450, 950, -8, [(0.8, 750, 3300)]),
-        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 3950, 2350)]),
+        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.85, 3950, 2350)]),
         (1, 4500, 620, -4, []))):
     wf = (1.0, 0.72, 0.8, 1.08, 0.86, 0.7)[nsc]  # width factor: some side canyons narrow, some broad
     top = TOP if side < 0 else TOP + 10
@@ -213,16 +213,26 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
         return z_end + (z_head - z_end) * (1 - sa / L) ** 1.3
 
     # Depth below the plateau: the graded floor's on the plateau; on the main wall (where the
-    # terrain itself falls) what the graded floor needs below the wall's own profile (WALL_DROP),
-    # at least 8 m. (Faded by fixed knots, 20 % at 0.45 R, the depth fell faster than the wall:
-    # beside the stream, which pins only its bed, the mouth's floor rose towards the main canyon,
-    # closed hollows 19-39 m deep at the wall's foot.)
+    # terrain itself falls) a quarter of what the graded floor needs below the wall's own profile
+    # (WALL_DROP, at least 8 m) and three quarters of the former fixed fade (20 % at 0.45 R, 30 m at
+    # 0.85 R, 8 m at the river). The fixed fade alone fell faster than the wall: beside the stream,
+    # which pins only its bed, the mouths' floors rose towards the main canyon, closed hollows
+    # 19-39 m deep at the wall's foot; the wall's profile alone left 5-19 m there, but the deeper
+    # layers ran into the main river's banks by the narrowest part of the floor (an 11 m pit in
+    # its thalweg). The layers run down the wall until the depth is 8 m.
+    BLEND = 0.25
     D_rim = top - grade(s[i_rim])
 
     def depth(sa):
         if sa <= s[i_rim]:
             return top - grade(sa)
-        return max(8.0, min(D_rim, top - wall_drop(sa - s[i_rim]) - grade(sa)))
+        wall = max(8.0, min(D_rim, top - wall_drop(sa - s[i_rim]) - grade(sa)))
+        knots = [(s[i_rim], D_rim), (s[i_w1], 0.2 * D_rim), (s[i_w2], 30.0), (L, 8.0)]
+        fixed = 8.0
+        for (sa0, d0), (sa1, d1) in zip(knots, knots[1:]):
+            if sa0 <= sa <= sa1:
+                fixed = d0 + (d1 - d0) * (sa - sa0) / (sa1 - sa0)
+        return BLEND * wall + (1 - BLEND) * fixed
 
     # The inner gorge takes the first G metres of the depth (its walls, ~2.4 G / (r - f) at their
     # steepest, below 2 like the main canyon's face: steeper walls made the strata's risers
@@ -297,7 +307,7 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
             # gorge's rim and the layer's is wide on one wall where it narrows on the other (on
             # one axis they ran as concentric offsets of the planform, ribbons of one width).
             lam_b, ph_b = rng.uniform(1300, 1800), rng.uniform(0, 2 * math.pi)
-            a_b = min(0.75 * 0.5 * (width - w0), 0.002 * (lam_b / (2 * math.pi)) ** 2)
+            a_b = min(0.75 * 0.5 * (width - w0), (lam_b / (2 * math.pi)) ** 2 / (0.4 * width))
             sw = []
             for i, (p, sa) in enumerate(zip(line, s)):
                 q0, q1 = line[max(i - 1, 0)], line[min(i + 1, len(line) - 1)]
@@ -305,7 +315,7 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
                 tl = math.hypot(tx, ty)
                 # (Faded out over the last 500 m before the rim: swung off the gorge at the mouth,
                 # a layer's end dug a hollow 40-120 m deep beside it at the foot of the main wall.)
-                off = a_b * math.sin(2 * math.pi * sa / lam_b + ph_b) * (1 - smoother((sa - s[i_rim] + 600) / 500))
+                off = a_b * math.sin(2 * math.pi * sa / lam_b + ph_b) * (1 - smoother((sa - s[i_rim] + 350) / 300))
                 sw.append((p[0] - off * ty / tl, p[1] + off * tx / tl))
             line = sw
         head_op = None
@@ -326,7 +336,7 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
         trunk.append(([p for p, _ in pts], [z for _, z in pts], width, floor))
         side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: " + ("inner gorge, amphitheatre head" if li == 0 else f"outer layer {li}"),
                          "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in pts], "smooth": True,
-                         "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 150 if li == 0 else round(0.8 * R_CLIFF)})
+                         "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 100 if li == 0 else round(0.8 * R_CLIFF)})
         if head_op:
             side_ops.append(head_op)
             # A shallow wash on the plateau that feeds the head (canyon heads sit at the end of a
