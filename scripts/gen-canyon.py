@@ -168,7 +168,7 @@ side_ops, tributaries = [], []
 # "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
 for nsc, (side, y0, back, ang, branches) in enumerate((
         (-1, 700, 1900, 12, [(0.75, 550, 1700)]), (-1, 2450, 950, -8, [(0.8, 750, 3300)]),
-        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.85, 3950, 2350)]),
+        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 4100, 2550)]),
         (1, 4500, 620, -4, []))):
     wf = (1.0, 0.72, 0.8, 1.08, 0.86, 0.7)[nsc]  # width factor: some side canyons narrow, some broad
     top = TOP if side < 0 else TOP + 10
