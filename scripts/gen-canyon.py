@@ -283,11 +283,12 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
                     num, den = num + w * (amps[j] or 0.0), den + w
             sm.append(num / den)
         amps = sm
-        # The gorge ends at 0.85 R down the main wall, the outer layers at 0.45 R, each exiting
-        # straight along its axis: run on to the river's junction (a turn of the axis), a layer's
-        # nearest point jumped between its arm on the plateau and its arm on the floor across the
-        # bisector of the turn, a straight seam (the depths differ by hundreds of metres) 0.5-1 km
-        # long beside the mouth.
+        # Every layer runs down the main wall until the depth is 8 m (round 2 ended the gorge at
+        # 0.85 R and the outer layers at 0.45 R, where they still cut 100 m: hollows at the wall's
+        # foot), exiting straight along its axis. (Round 2's note: run on to the river's junction
+        # past a turn of the axis, a layer's nearest point jumped between its arm on the plateau
+        # and its arm on the floor across the bisector of the turn, a straight seam 0.5-1 km long
+        # beside the mouth; the stream now runs straight on to the river, so there is no turn.)
         last = next((i for i in range(i_rim, len(s)) if depth(s[i]) <= 8.0), len(s) - 1)
         # The outer layers follow the axis smoothed (a Gaussian of 0.3 times their width along the
         # arc): the gorge meanders within them. On the gorge's own axis, bends tighter than a wide
