@@ -966,9 +966,9 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
     EXPECT_GE(swing / layers, 0.3) << "the side canyons' benches run as concentric offsets of the planform";
     // No deep closed hollow at the mouths: within 400 m of a gorge's axis more than 200 m past
     // where it crosses the rim (the main wall's lower part and its foot), the priority-flood fill
-    // raises no cell by more than 28 m (3.0-24.8 m since canyon round 3, three mouths of six
+    // raises no cell by more than 28 m (3.0-24.7 m since canyon round 3, three mouths of six
     // <= 10 m, the deepest beside the east mouth where the axis bends at the rim; the former side
-    // canyons 19.3-38.5 m, two of them above 28 m). The brief's 10 m is not reached.
+    // canyons 19.3-38.5 m, two of them above 28 m). The goal, 10 m, is not reached at three mouths.
     const Heightfield filled = analysis::priority_flood_fill(h).filled;
     for (const auto& o : script.at("operations")) {
       if (o.at("op") != "ravine" || o.value("comment", "").find("inner gorge") == std::string::npos) continue;
