@@ -35,9 +35,11 @@ def rim(f, ys):
     return [[round(f(y), 1), round(y, 1)] for y in ys]
 
 
-ys = [-100 + k * 445 for k in range(13)]  # -100 .. 5240
+ys = [-990 + k * 445 for k in range(17)]  # -990 .. 6130: the rims run on 1 km past both edges
 ops = [
     {"op": "noise", "amplitude": 8, "wavelength": 600, "octaves": 5},
+    {"op": "noise", "comment": "broad swells on the plateau (the fBm alone read as one uniform texture)", "amplitude": 22,
+     "wavelength": 2600, "octaves": 2, "seed": 3},
     {"op": "cliff", "comment": "west rim: the canyon lies to the east, the left of a southward stroke", "points": rim(west, ys),
      "smooth": True, "elevation": TOP, "height": 330, "width": 2 * R_CLIFF, "side": "left", "face": 0.45, "scree": 0.3},
     {"op": "cliff", "comment": "east rim", "points": rim(east, ys), "smooth": True, "elevation": TOP + 10, "height": 340,
@@ -45,10 +47,10 @@ ops = [
 ]
 # The river: on the floor between the two walls' feet, meandering within it.
 river = []
-for k, y in enumerate([-50 + k * 580 for k in range(10)]):
+for k, y in [(k, -50 + k * 580) for k in range(-1, 11)]:  # (k = -1 and 10: past the map's edges)
     lo, hi = west(y) + R_CLIFF + 230, east(y) - R_CLIFF - 230
     x = 0.5 * (lo + hi) + 0.5 * (hi - lo) * 0.6 * math.sin(1.3 * k + 0.5) if hi > lo else 0.5 * (lo + hi)
-    river.append([round(x, 1), round(min(y, 5170), 1), round(130 - 60 * min(y, 5170) / 5170, 1)])
+    river.append([round(x, 1), round(y, 1), round(130 - 60 * y / 5170, 1)])
 def river_nearest(px, py):
     """The nearest point of the river's polyline to (px, py) and the river's elevation there."""
     best = None
@@ -80,6 +82,18 @@ def river_nearest(px, py):
 # wall). (The former side canyons were single flat ravines 560-680 m wide, straight and parallel,
 # with box heads cut square 150 m deep: rectangular trenches.)
 STEP = 40.0  # the dense axis' spacing (m)
+# The main wall's drop below the rim (m) every 50 m out from the rim, measured on this script's
+# terrain without the side canyons (1025^2; the same within 10 m at y = 533 and 2450 m on the
+# west wall); it goes on falling ~0.25 past 600 m.
+WALL_DROP = [0, 35, 110, 220, 290, 343, 396, 442, 474, 502, 522, 540, 553]
+
+
+def wall_drop(d):
+    k = d / 50.0
+    if k >= len(WALL_DROP) - 1:
+        return WALL_DROP[-1] + 0.25 * (d - 50.0 * (len(WALL_DROP) - 1))
+    i = int(k)
+    return WALL_DROP[i] + (WALL_DROP[i + 1] - WALL_DROP[i]) * (k - i)
 
 
 def catmull_rom(pts, step):
@@ -154,8 +168,9 @@ side_ops, tributaries = [], []
 # "... outer layer K", "... tributary": tests/test_edit_examples.cpp reads them.)
 for nsc, (side, y0, back, ang, branches) in enumerate((
         (-1, 700, 1900, 12, [(0.75, 550, 1700)]), (-1, 2450, 950, -8, [(0.8, 750, 3300)]),
-        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 3950, 2350)]),
+        (-1, 3950, 560, 5, []), (1, 1500, 2100, -10, [(0.7, 4300, 2200)]), (1, 3250, 1150, 14, [(0.75, 4100, 2550)]),
         (1, 4500, 620, -4, []))):
+    wf = (1.0, 0.72, 0.8, 1.08, 0.86, 0.7)[nsc]  # width factor: some side canyons narrow, some broad
     top = TOP if side < 0 else TOP + 10
     rim_f = west if side < 0 else east
     rx = rim_f(y0)
@@ -176,7 +191,15 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
         off = amp_w * (math.sin(2 * math.pi * d / lam + ph) - math.sin(ph)) * smoother(d / 400)
         ctl.append((rx + d * nx - off * ny, y0 + d * ny + off * nx))
     ctl += [(rx - 0.45 * R_CLIFF * nx, y0 - 0.45 * R_CLIFF * ny), (rx - 0.85 * R_CLIFF * nx, y0 - 0.85 * R_CLIFF * ny)]
-    jx, jy, jz = river_nearest(*ctl[-1])
+    # The stream goes on straight down the wall to the river (to the river's nearest point it
+    # could turn at the wall's foot, where the layers now run on to).
+    ex, ey = ctl[-1][0] - ctl[-2][0], ctl[-1][1] - ctl[-2][1]
+    el = math.hypot(ex, ey)
+    t = 0.0
+    while t < 1500 and math.hypot(ctl[-1][0] + t * ex / el - river_nearest(ctl[-1][0] + t * ex / el, ctl[-1][1] + t * ey / el)[0],
+                                  ctl[-1][1] + t * ey / el - river_nearest(ctl[-1][0] + t * ex / el, ctl[-1][1] + t * ey / el)[1]) > 40:
+        t += 20.0
+    jx, jy, jz = river_nearest(ctl[-1][0] + t * ex / el, ctl[-1][1] + t * ey / el)
     ctl.append((jx, jy))
     axis = catmull_rom(ctl, STEP)
     s = arcs(axis)
@@ -190,25 +213,33 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
         return z_end + (z_head - z_end) * (1 - sa / L) ** 1.3
 
     # Depth below the plateau: the graded floor's on the plateau; on the main wall (where the
-    # terrain itself falls) it fades as the wall takes over: 20 % at 0.45 R, 30 m at 0.85 R, 8 m at
-    # the river.
+    # terrain itself falls) a quarter of what the graded floor needs below the wall's own profile
+    # (WALL_DROP, at least 8 m) and three quarters of the former fixed fade (20 % at 0.45 R, 30 m at
+    # 0.85 R, 8 m at the river). The fixed fade alone fell faster than the wall: beside the stream,
+    # which pins only its bed, the mouths' floors rose towards the main canyon, closed hollows
+    # 19-39 m deep at the wall's foot; the wall's profile alone left 5-19 m there, but the deeper
+    # layers ran into the main river's banks by the narrowest part of the floor (an 11 m pit in
+    # its thalweg). The layers run down the wall until the depth is 8 m.
+    BLEND = 0.25
     D_rim = top - grade(s[i_rim])
-    knots = [(s[i_rim], D_rim), (s[i_w1], 0.2 * D_rim), (s[i_w2], 30.0), (L, 8.0)]
 
     def depth(sa):
         if sa <= s[i_rim]:
             return top - grade(sa)
+        wall = max(8.0, min(D_rim, top - wall_drop(sa - s[i_rim]) - grade(sa)))
+        knots = [(s[i_rim], D_rim), (s[i_w1], 0.2 * D_rim), (s[i_w2], 30.0), (L, 8.0)]
+        fixed = 8.0
         for (sa0, d0), (sa1, d1) in zip(knots, knots[1:]):
-            if sa <= sa1:
-                return d0 + (d1 - d0) * (sa - sa0) / (sa1 - sa0)
-        return 8.0
+            if sa0 <= sa <= sa1:
+                fixed = d0 + (d1 - d0) * (sa - sa0) / (sa1 - sa0)
+        return BLEND * wall + (1 - BLEND) * fixed
 
     # The inner gorge takes the first G metres of the depth (its walls, ~2.4 G / (r - f) at their
     # steepest, below 2 like the main canyon's face: steeper walls made the strata's risers
     # one-cell steps that the perspective view drew as fine striations); the rest goes to the outer layers, so the canyon
     # widens as it deepens: layer 1 from the head (its depth growing from 0 where the floor falls
     # below G), layer 2 (longer side canyons) ramping in to a share of it further down.
-    G = rng.uniform(140, 170)
+    G = rng.uniform(140, 170) * wf
     w0 = round(2 * 1.45 * G / 0.7)  # r - f = 1.45 G (f = 0.3 r): walls ~1.7 at their steepest
     layers = [(w0, None), (round(w0 * rng.uniform(1.5, 1.7)), rng.uniform(0.25, 0.4))]
     if back > 900:
@@ -252,12 +283,13 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
                     num, den = num + w * (amps[j] or 0.0), den + w
             sm.append(num / den)
         amps = sm
-        # The gorge ends at 0.85 R down the main wall, the outer layers at 0.45 R, each exiting
-        # straight along its axis: run on to the river's junction (a turn of the axis), a layer's
-        # nearest point jumped between its arm on the plateau and its arm on the floor across the
-        # bisector of the turn, a straight seam (the depths differ by hundreds of metres) 0.5-1 km
-        # long beside the mouth.
-        last = i_w2 if li == 0 else i_w1
+        # Every layer runs down the main wall until the depth is 8 m (round 2 ended the gorge at
+        # 0.85 R and the outer layers at 0.45 R, where they still cut 100 m: hollows at the wall's
+        # foot), exiting straight along its axis. (Round 2's note: run on to the river's junction
+        # past a turn of the axis, a layer's nearest point jumped between its arm on the plateau
+        # and its arm on the floor across the bisector of the turn, a straight seam 0.5-1 km long
+        # beside the mouth; the stream now runs straight on to the river, so there is no turn.)
+        last = next((i for i in range(i_rim, len(s)) if depth(s[i]) <= 8.0), len(s) - 1)
         # The outer layers follow the axis smoothed (a Gaussian of 0.3 times their width along the
         # arc): the gorge meanders within them. On the gorge's own axis, bends tighter than a wide
         # layer's half-width folded its profile along the bends' bisectors (straight creases across
@@ -271,12 +303,61 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
                     w = math.exp(-0.5 * ((sb - sa) / (0.3 * width)) ** 2)
                     wsum, xs, ys = wsum + w, xs + w * px, ys + w * py
                 line.append((xs / wsum, ys / wsum))
+            # Benches that pinch out and widen: the layer's axis swings across the gorge's (a sine
+            # of 1.3-1.8 km, 0.75 of the half-width they differ by), so the bench between the
+            # gorge's rim and the layer's is wide on one wall where it narrows on the other (on
+            # one axis they ran as concentric offsets of the planform, ribbons of one width).
+            lam_b, ph_b = rng.uniform(1300, 1800), rng.uniform(0, 2 * math.pi)
+            a_b = min(0.75 * 0.5 * (width - w0), (lam_b / (2 * math.pi)) ** 2 / (0.4 * width))
+            sw = []
+            for i, (p, sa) in enumerate(zip(line, s)):
+                q0, q1 = line[max(i - 1, 0)], line[min(i + 1, len(line) - 1)]
+                tx, ty = q1[0] - q0[0], q1[1] - q0[1]
+                tl = math.hypot(tx, ty)
+                # (Faded out over the last 500 m before the rim: swung off the gorge at the mouth,
+                # a layer's end dug a hollow 40-120 m deep beside it at the foot of the main wall.)
+                off = a_b * math.sin(2 * math.pi * sa / lam_b + ph_b) * (1 - smoother((sa - s[i_rim] + 350) / 300))
+                sw.append((p[0] - off * ty / tl, p[1] + off * tx / tl))
+            line = sw
+        head_op = None
+        if li == 0:
+            # The head is narrower than the canyon below it (an alcove, not a balloon): a narrow
+            # ravine (0.68 of the gorge's width, round cap) takes the gorge's depth at the head and
+            # hands it over to the gorge (whose depth grows from 0 at the head) from 10 % to
+            # 10 + 35 % of the way to the rim.
+            wh = round(0.68 * width)
+            hs = [1 - smoother((sa - 0.1 * s[i_rim]) / (0.35 * s[i_rim])) for sa in s]
+            nh = next(i for i, v in enumerate(hs) if v < 0.005) + 1
+            head_op = {"op": "ravine", "comment": f"side canyon {nsc}: head alcove",
+                       "points": [[round(p[0], 1), round(p[1], 1), round(z * v, 1)] for p, z, v in list(zip(line, amps, hs))[:nh]],
+                       "smooth": True, "width": wh, "profile": "u", "floor": round(0.3 * wh), "taper": 0, "exit": 0}
+            amps = [z * (1 - v) for z, v in zip(amps, hs)]
         pts = [(p, z) for p, z in list(zip(line, amps))[:last + 1] if z is not None]
         floor = round(0.3 * width)
         trunk.append(([p for p, _ in pts], [z for _, z in pts], width, floor))
         side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: " + ("inner gorge, amphitheatre head" if li == 0 else f"outer layer {li}"),
                          "points": [[round(p[0], 1), round(p[1], 1), round(z, 1)] for p, z in pts], "smooth": True,
-                         "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 40 if li == 0 else round(0.4 * R_CLIFF)})
+                         "width": width, "profile": "u", "floor": floor, "taper": 0, "exit": 100 if li == 0 else round(0.8 * R_CLIFF)})
+        if head_op:
+            side_ops.append(head_op)
+            # A shallow wash on the plateau that feeds the head (canyon heads sit at the end of a
+            # plateau drainage: a pour-off notch in the alcove's lip): 0.6-1 km back along the
+            # head's direction, bending, 14-22 m deep at the lip, a round swale 380 m wide (240 m and v: scratches).
+            ux, uy = axis[0][0] - axis[3][0], axis[0][1] - axis[3][1]
+            ul = math.hypot(ux, uy)
+            ux, uy = ux / ul, uy / ul
+            wr = random.Random(40 + nsc)  # its own draws: the side canyons keep theirs
+            lw, bw, dw = wr.uniform(600, 1000), wr.uniform(-0.2, 0.2), wr.uniform(14, 22)
+            wpts = []
+            for k in range(6, -1, -1):
+                t = k / 6
+                d = -0.25 * wh + t * (lw + 0.25 * wh)
+                px = axis[0][0] + d * ux - bw * lw * t * t * uy
+                py = axis[0][1] + d * uy + bw * lw * t * t * ux
+                if 30 < px < EXT - 30 and 30 < py < EXT - 30:
+                    wpts.append([round(px, 1), round(py, 1), round(dw * smoother(1 - t + 0.15), 1)])
+            side_ops.append({"op": "ravine", "comment": f"side canyon {nsc}: wash above the head", "points": wpts, "smooth": True,
+                             "width": 380, "profile": "round", "taper": 0, "exit": 0})
 
     def trunk_depth(px, py, first=0):
         tot = 0.0
@@ -345,6 +426,6 @@ band = [[round(west(y) - 200, 1), y] for y in (0, 1280, 2560, 3840, 5120)] + \
        [[round(east(y) + 200, 1), y] for y in (5120, 3840, 2560, 1280, 0)]
 ops.append({"op": "noise", "comment": "gullies down the canyon walls: a band along the two rims", "polygon": band, "falloff": 300,
             "amplitude": 12, "wavelength": 250, "type": "ridged", "octaves": 3, "orient": {"angle": 0, "strength": 0.7}})
-doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m), six side canyons that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 140-170 m deep), built of nested layers along one axis (an inner gorge, one or two wider outer layers whose depth grows from 0) so they widen and deepen towards the main canyon, four with tributaries of their own (hanging valleys graded to the bench above the inner gorge), cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
+doc = {"description": "Canyon with rims and side canyons (paper figure 1), written by scripts/gen-canyon.py: two smoothed cliff rims (face + scree) on an 800 m plateau that wander independently (the canyon 1.6-2.6 km wide at the top, promontories and bays), a river meandering down the floor between the walls' feet (130 -> 70 m; rims and river run on past the map's edges), broad swells on the plateau, six side canyons of different widths that wander back 0.5-2.1 km into the plateau from amphitheatre heads (round alcoves 130-170 m deep, narrower than the canyon below them, fed by a shallow wash), built of nested layers along one axis (a head alcove, an inner gorge, one or two wider outer layers whose depth grows from 0 and which swing across the gorge, so the benches pinch out and widen) so they widen and deepen towards the main canyon, four with tributaries of their own (hanging valleys graded to the bench above the inner gorge), cutting through the rims with their floors graded to the main river by a tributary stream, layered rock (strata: 4-5 hard beds over soft ones under a caprock) in every steep wall, fBm, oriented gullies on the walls.",
        "base": "flat:1025x1025@5", "units": "m", "seed": 11, "operations": ops}
 json.dump(doc, open(sys.argv[1], "w"), indent=1)
