@@ -6,7 +6,10 @@
 # and graded down the wall to the river, layered rock (strata) in every steep wall, fBm,
 # oriented gullies on the walls.
 # Usage: python3 scripts/gen-canyon.py OUT.json
-import json, math, random, sys
+import json, math, os, random, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from polyline import arc_lengths  # noqa: E402
 
 rng = random.Random(7)  # fixed: the script writes the same file every time
 EXT = 5120.0  # the map's extent (1025 cells of 5 m)
@@ -130,13 +133,6 @@ def catmull_rom(pts, step):
     return out
 
 
-def arcs(line):
-    s = [0.0]
-    for p, q in zip(line, line[1:]):
-        s.append(s[-1] + math.hypot(q[0] - p[0], q[1] - p[1]))
-    return s
-
-
 def smoother(t):
     t = min(max(t, 0.0), 1.0)
     return t * t * t * (t * (6 * t - 15) + 10)
@@ -202,7 +198,7 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
     jx, jy, jz = river_nearest(ctl[-1][0] + t * ex / el, ctl[-1][1] + t * ey / el)
     ctl.append((jx, jy))
     axis = catmull_rom(ctl, STEP)
-    s = arcs(axis)
+    s = arc_lengths(axis)
     i_rim = min(range(len(axis)), key=lambda i: math.hypot(axis[i][0] - rx, axis[i][1] - y0))
     i_w1 = min(range(len(axis)), key=lambda i: math.hypot(axis[i][0] - ctl[-3][0], axis[i][1] - ctl[-3][1]))
     i_w2 = min(range(len(axis)), key=lambda i: math.hypot(axis[i][0] - ctl[-2][0], axis[i][1] - ctl[-2][1]))
@@ -383,7 +379,7 @@ for nsc, (side, y0, back, ang, branches) in enumerate((
             off = bw * math.sin(math.pi * d / lb)
             bctl.append((jxb + d * bx - off * by, jyb + d * by + off * bx))
         bline = catmull_rom(bctl, STEP)
-        bs = arcs(bline)
+        bs = arc_lengths(bline)
         zb_head = top - rng.uniform(120, 150)
         # A hanging valley: it ends at the gorge's edge, graded to the outer layers' floor there (a
         # bench above the inner gorge, into which it pours off), its depth what its floor needs
