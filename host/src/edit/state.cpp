@@ -441,6 +441,7 @@ const std::vector<OpSpec>& operations() {
     add_erode_ops(v);
     add_amplify_ops(v);
     add_strata_ops(v);
+    add_drainage_ops(v);
     return v;
   }();
   return ops;

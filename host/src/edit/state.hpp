@@ -141,6 +141,7 @@ void add_paste_ops(std::vector<OpSpec>& ops);      // ops_paste.cpp
 void add_fit_ops(std::vector<OpSpec>& ops);        // ops_fit.cpp
 void add_amplify_ops(std::vector<OpSpec>& ops);    // ops_amplify.cpp
 void add_strata_ops(std::vector<OpSpec>& ops);     // ops_strata.cpp
+void add_drainage_ops(std::vector<OpSpec>& ops);   // ops_drainage.cpp
 
 // ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
 

@@ -1,0 +1,223 @@
+// Drainage: stream-power channel incision (issue 12, dendritic valleys carved from the terrain).
+//
+// On the current terrain h (a solve when stale): fill its depressions (Priority-Flood+epsilon,
+// analysis/fill.cpp) and route D8 flow on the filled surface (analysis/flow.cpp), over the whole
+// grid so that a region's channels see the area draining into them from outside. Every cell whose
+// contributing area A (cells x cell area) reaches `threshold` and lies in the region is a channel
+// cell; its incision is the stream-power law
+//     e = depth * (A / reference_area)^m * S^n       (capped at max_depth)
+// S the D8 slope to its receiver on the filled surface. Each channel cell spreads its incision over
+// a cross-section of half-width r = clamp(width * (A / reference_area)^width_exponent, 1.5 cells,
+// max_width) with the smooth kernel (1 - (d / r)^2)^2 (the incision at a cell is the largest of its
+// channels' kernels), the field is smoothed `smooth` times with a 3x3 binomial filter and weighted
+// by the region (soft edge `falloff`).
+//
+// Drainage is kept by construction: the carved surface c = h - w e is re-filled (Priority-Flood,
+// no epsilon) and the result is min(h, fill(c)): wherever the incision made a closed hollow (a
+// channel bed that rises downstream where the slope drops faster than the area grows, or where two
+// kernels overlap) the hollow is raised to its spill level, so the bed descends monotonically (or
+// stays flat) along every flow path; min with h keeps the operation a pure incision (nothing is
+// raised above the terrain, and the depressions h already had are left as they were).
+//
+// The change dz = result - h goes into the field like strata's: each face's gradient gains
+// (dz_b - dz_a) / d; faces whose two cells did not change keep their bits, so the local solve and
+// its locality work unchanged.
+#include "edit/state.hpp"
+
+#include <terracl/analysis.hpp>
+#include <terracl/error.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+namespace terracl::edit {
+namespace {
+
+struct DrainageParams {
+  double depth = 0, a_ref = 0, a_min = 0, m = 0.5, n = 1.0;
+  double width = 0, width_exp = 0.5, max_width = 0, max_depth = 0;
+  int smooth = 1;
+};
+
+Operation parse_drainage(Params& p) {
+  const Region r = parse_region(p, true);
+  const Grid& grid = p.grid();
+  const double cell = std::max(grid.cell_x, grid.cell_y), area = grid.cell_x * grid.cell_y;
+  const double falloff = p.hlength("falloff", 4 * cell);
+  DrainageParams dp;
+  dp.depth = p.vlength("depth", 8 * cell);
+  if (!(dp.depth > 0)) param_error(p.where("depth"), fmt::format("expected a depth > 0 m, got {:g}", dp.depth));
+  dp.a_ref = p.number("reference_area", 1000 * area, 1e-300, 1e300);
+  if (!(dp.a_ref > 0)) param_error(p.where("reference_area"), "expected an area > 0 m^2");
+  dp.a_min = p.number("threshold", 100 * area, 0.0, 1e300);
+  dp.m = p.number("m", 0.5, 0.0, 3.0);
+  dp.n = p.number("n", 1.0, 0.0, 3.0);
+  dp.width = p.hlength("channel_width", 2 * cell, 0, true);
+  dp.width_exp = p.number("width_exponent", 0.5, 0.0, 1.0);
+  dp.max_width = p.hlength("max_width", 10 * cell, 0, true);
+  if (dp.max_width < 1.5 * cell)
+    param_error(p.where("max_width"), fmt::format("expected at least 1.5 cells ({:g} m), got {:g}", 1.5 * cell, dp.max_width));
+  dp.max_depth = p.vlength("max_depth", 4 * dp.depth);
+  if (!(dp.max_depth > 0)) param_error(p.where("max_depth"), fmt::format("expected a depth > 0 m, got {:g}", dp.max_depth));
+  dp.smooth = p.integer("smooth", 1, 0, 20);
+  // The half-width reach of the widest channel: the support grows by it beyond the region.
+  p.note_reach(dp.max_width);
+
+  return [=](EditState& s) {
+    Device& d = s.device();
+    GradientBuffers& b = s.buffers();
+    const Primitive region = region_primitive(r, s.grid(), falloff);
+    const Box box = primitives_box({region}, b.width, b.height, b.cell_x, b.cell_y);
+    if (box.empty()) return;
+    const Heightfield& h = s.height();
+    const auto t_start = std::chrono::steady_clock::now();
+    primitive_weight(d, b, {region}, box, false);
+    std::vector<float> wr(size_t(box.w) * box.h);
+    {
+      const std::array<size_t, 3> origin{size_t(box.x0) * sizeof(float), size_t(box.y0), 0}, host{0, 0, 0};
+      const std::array<size_t, 3> extent{size_t(box.w) * sizeof(float), size_t(box.h), 1};
+      d.queue().enqueueReadBufferRect(b.mask, CL_TRUE, origin, host, extent, size_t(b.width) * sizeof(float), 0,
+                                      size_t(box.w) * sizeof(float), 0, wr.data());
+    }
+    const int W = b.width, H = b.height;
+    const size_t N = size_t(W) * H;
+    const double cx = b.cell_x, cy = b.cell_y, cell_area = cx * cy;
+    auto in_box = [&](int x, int y) { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; };
+    auto w_region = [&](int x, int y) { return in_box(x, y) ? double(wr[size_t(y - box.y0) * box.w + (x - box.x0)]) : 0.0; };
+
+    // Flow on the filled terrain (whole grid).
+    Heightfield hz = h;
+    hz.georef.cell_x = cx, hz.georef.cell_y = cy;
+    const analysis::FillResult filled = analysis::priority_flood_fill(hz, true);
+    const analysis::D8Result flow = analysis::d8_flow(filled.filled);
+    const std::vector<float>& zf = filled.filled.z;
+    double dist[8];
+    for (int k = 0; k < 8; ++k)
+      dist[k] = (analysis::kDx[k] != 0 && analysis::kDy[k] != 0) ? std::hypot(cx, cy) : (analysis::kDx[k] != 0 ? cx : cy);
+
+    // Channel cells and their incision and half-width.
+    std::vector<float> inc(N, 0.f);
+    size_t channels = 0;
+    double deepest = 0, widest = 0;
+    const int rx_max = int(std::ceil(dp.max_width / cx)), ry_max = int(std::ceil(dp.max_width / cy));
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t i = size_t(y) * W + x;
+        const double A = flow.cells[i] * cell_area;
+        if (!(A >= dp.a_min) || A <= 0 || w_region(x, y) <= 0) continue;
+        const uint8_t k = flow.dir[i];
+        if (k == analysis::kNoFlow) continue;
+        double S = 0;
+        if (k < 8) {
+          const size_t j = size_t(ptrdiff_t(i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
+          S = std::max(0.0, (double(zf[i]) - double(zf[j])) / dist[k]);
+        } else {
+          // An outlet (the grid's edge): the slope from its largest donor, so the channel is cut
+          // through the edge instead of ending at a dam that the re-fill would flood back.
+          double best = -1;
+          for (int q = 0; q < 8; ++q) {
+            const int u = x + analysis::kDx[q], v = y + analysis::kDy[q];
+            if (u < 0 || v < 0 || u >= W || v >= H) continue;
+            const size_t j = size_t(v) * W + u;
+            const uint8_t kj = flow.dir[j];
+            if (kj >= 8 || u + analysis::kDx[kj] != x || v + analysis::kDy[kj] != y) continue;
+            if (flow.cells[j] > best) best = flow.cells[j], S = std::max(0.0, (double(zf[j]) - double(zf[i])) / dist[q]);
+          }
+        }
+        double e = dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n));
+        e = std::min(e, dp.max_depth);
+        if (!(e > 0)) continue;
+        ++channels;
+        deepest = std::max(deepest, e);
+        const double rw = std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), 1.5 * std::max(cx, cy), dp.max_width);
+        widest = std::max(widest, rw);
+        const int rx = std::min(rx_max, int(std::ceil(rw / cx))), ry = std::min(ry_max, int(std::ceil(rw / cy)));
+        for (int v = std::max(0, y - ry); v <= std::min(H - 1, y + ry); ++v)
+          for (int u = std::max(0, x - rx); u <= std::min(W - 1, x + rx); ++u) {
+            const double t2 = (std::pow((u - x) * cx, 2) + std::pow((v - y) * cy, 2)) / (rw * rw);
+            if (t2 >= 1) continue;
+            const float ek = float(e * (1 - t2) * (1 - t2));
+            float& c = inc[size_t(v) * W + u];
+            c = std::max(c, ek);
+          }
+      }
+    // Smoothing (3x3 binomial), then the region's weight.
+    std::vector<float> tmp(N);
+    for (int pass = 0; pass < dp.smooth; ++pass) {
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          const int xa = std::max(0, x - 1), xb = std::min(W - 1, x + 1);
+          const size_t r0 = size_t(y) * W;
+          tmp[r0 + x] = 0.25f * inc[r0 + xa] + 0.5f * inc[r0 + x] + 0.25f * inc[r0 + xb];
+        }
+      for (int y = 0; y < H; ++y) {
+        const int ya = std::max(0, y - 1), yb = std::min(H - 1, y + 1);
+        for (int x = 0; x < W; ++x)
+          inc[size_t(y) * W + x] = 0.25f * tmp[size_t(ya) * W + x] + 0.5f * tmp[size_t(y) * W + x] + 0.25f * tmp[size_t(yb) * W + x];
+      }
+    }
+    Heightfield carved = hz;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t i = size_t(y) * W + x;
+        const double w = w_region(x, y);
+        if (w > 0 && inc[i] > 0) carved.z[i] = float(double(hz.z[i]) - w * double(inc[i]));
+      }
+    // Keep every channel draining: re-fill the carved surface, never above the terrain.
+    const analysis::FillResult refill = analysis::priority_flood_fill(carved, false);
+    std::vector<double> dz(N, 0.0);
+    double raised = 0;
+    for (size_t i = 0; i < N; ++i) {
+      const float z = std::min(h.z[i], refill.filled.z[i]);
+      dz[i] = double(z) - double(h.z[i]);
+      raised = std::max(raised, double(refill.filled.z[i]) - double(carved.z[i]));
+    }
+    GradientField g = s.download();
+    size_t touched = 0;
+    double max_cut = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t i = size_t(y) * W + x;
+        max_cut = std::max(max_cut, -dz[i]);
+        if (x + 1 < W && (dz[i] != 0 || dz[i + 1] != 0)) {
+          g.gx[i] = float(g.gx[i] + (dz[i + 1] - dz[i]) / cx);
+          ++touched;
+        }
+        if (y + 1 < H && (dz[i] != 0 || dz[i + W] != 0)) {
+          g.gy[i] = float(g.gy[i] + (dz[i + W] - dz[i]) / cy);
+          ++touched;
+        }
+      }
+    s.upload(g);
+    // The solve keeps the field's mean elevation when no cell is hard (a global solve): the mean
+    // follows the incision, or the whole terrain would rise by the mean cut.
+    double mean = 0;
+    for (size_t i = 0; i < N; ++i) mean += double(h.z[i]) + dz[i];
+    s.set_mean(mean / double(N));
+    auto& log = s.log().back();
+    log["channel_cells"] = channels;
+    log["deepest_channel_m"] = deepest;
+    log["widest_half_width_m"] = widest;
+    log["max_incision_m"] = max_cut;
+    log["refill_max_m"] = raised;
+    log["faces"] = touched;
+    log["drainage_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start).count();
+    s.changed();
+  };
+}
+
+}  // namespace
+
+void add_drainage_ops(std::vector<OpSpec>& ops) {
+  ops.push_back({"drainage",
+                 "stream-power channel incision: carves a dendritic network of gullies and valleys along the terrain's own "
+                 "drainage, deeper and wider where more area drains",
+                 parse_drainage});
+}
+
+}  // namespace terracl::edit
