@@ -83,6 +83,10 @@ TEST(EditDrainage, CarvesABranchingNetworkDeeperAndWiderDownstream) {
   const Heightfield& h = s.height();
   const json& log = s.log()[0];
   EXPECT_GT(log["channel_cells"].get<int>(), 100) << log.dump();
+  // Grading lowered beds that rose downstream (12 m at most here); what the re-fill still had to
+  // raise (overlapping cross-sections) is under a metre (8.2 m without the grading).
+  EXPECT_GT(log["graded_max_m"].get<double>(), 1.0) << log.dump();
+  EXPECT_LT(log["refill_max_m"].get<double>(), 1.0) << log.dump();
   // The network after the carve (channels: 100 cells, the default threshold).
   const Network n = network(h, 100);
   EXPECT_GE(n.heads, 4) << "channel heads";
@@ -192,6 +196,7 @@ TEST(EditDrainage, PlanarVValleyMatchesTheStreamPowerLaw) {
   // One channel, along the axis: rows 0..115 (A >= 200 m^2).
   EXPECT_EQ(s.log()[0]["channel_cells"].get<int>(), 116) << s.log()[0].dump();
   EXPECT_LT(s.log()[0]["refill_max_m"].get<double>(), 1e-3) << "the bed descends along the axis: nothing to re-fill";
+  EXPECT_EQ(s.log()[0]["graded_max_m"].get<double>(), 0.0) << "nor to grade";
   double worst_axis = 0, worst_side = 0;
   for (int y = 10; y < H - 15; ++y) {
     const double A = 41.0 * (H - y);

@@ -102,8 +102,11 @@ Operation parse_drainage(Params& p) {
 
     // Channel cells and their incision and half-width.
     std::vector<float> inc(N, 0.f);
-    size_t channels = 0;
-    double deepest = 0, widest = 0;
+    struct Channel {
+      size_t i;
+      double e, r;  // incision (m), half-width (m)
+    };
+    std::vector<Channel> ch;
     const int rx_max = int(std::ceil(dp.max_width / cx)), ry_max = int(std::ceil(dp.max_width / cy));
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
@@ -129,23 +132,45 @@ Operation parse_drainage(Params& p) {
             if (flow.cells[j] > best) best = flow.cells[j], S = std::max(0.0, (double(zf[j]) - double(zf[i])) / dist[q]);
           }
         }
-        double e = dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n));
-        e = std::min(e, dp.max_depth);
+        const double e = std::min(dp.max_depth, dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n)));
         if (!(e > 0)) continue;
-        ++channels;
-        deepest = std::max(deepest, e);
-        const double rw = std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), 1.5 * std::max(cx, cy), dp.max_width);
-        widest = std::max(widest, rw);
-        const int rx = std::min(rx_max, int(std::ceil(rw / cx))), ry = std::min(ry_max, int(std::ceil(rw / cy)));
-        for (int v = std::max(0, y - ry); v <= std::min(H - 1, y + ry); ++v)
-          for (int u = std::max(0, x - rx); u <= std::min(W - 1, x + rx); ++u) {
-            const double t2 = (std::pow((u - x) * cx, 2) + std::pow((v - y) * cy, 2)) / (rw * rw);
-            if (t2 >= 1) continue;
-            const float ek = float(e * (1 - t2) * (1 - t2));
-            float& c = inc[size_t(v) * W + u];
-            c = std::max(c, ek);
-          }
+        ch.push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), 1.5 * std::max(cx, cy), dp.max_width)});
       }
+    // Grading: downstream, a channel's bed zf - e is at least kGrade x the distance below its
+    // donors' (the filled terrain's order is a topological order of the flow: every receiver is
+    // strictly lower), so the cut never leaves a bed rising downstream where the slope drops
+    // faster than the area grows (which the re-fill below would otherwise flood into a level reach).
+    constexpr double kGrade = 1e-3;
+    std::sort(ch.begin(), ch.end(), [&](const Channel& a, const Channel& c) { return zf[a.i] > zf[c.i] || (zf[a.i] == zf[c.i] && a.i < c.i); });
+    std::vector<int32_t> slot(N, -1);
+    for (size_t q = 0; q < ch.size(); ++q) slot[ch[q].i] = int32_t(q);
+    double graded = 0;
+    for (Channel& c : ch) {
+      const uint8_t k = flow.dir[c.i];
+      if (k >= 8) continue;
+      const size_t j = size_t(ptrdiff_t(c.i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
+      if (slot[j] < 0) continue;
+      Channel& r = ch[size_t(slot[j])];
+      const double need = double(zf[j]) - (double(zf[c.i]) - c.e) + kGrade * dist[k];
+      if (need > r.e) graded = std::max(graded, std::min(need, dp.max_depth) - r.e), r.e = std::min(need, dp.max_depth);
+    }
+    const size_t channels = ch.size();
+    double deepest = 0, widest = 0;
+    for (const Channel& c : ch) {
+      const int x = int(c.i % size_t(W)), y = int(c.i / size_t(W));
+      const double e = c.e, rw = c.r;
+      deepest = std::max(deepest, e);
+      widest = std::max(widest, rw);
+      const int rx = std::min(rx_max, int(std::ceil(rw / cx))), ry = std::min(ry_max, int(std::ceil(rw / cy)));
+      for (int v = std::max(0, y - ry); v <= std::min(H - 1, y + ry); ++v)
+        for (int u = std::max(0, x - rx); u <= std::min(W - 1, x + rx); ++u) {
+          const double t2 = (std::pow((u - x) * cx, 2) + std::pow((v - y) * cy, 2)) / (rw * rw);
+          if (t2 >= 1) continue;
+          const float ek = float(e * (1 - t2) * (1 - t2));
+          float& cc = inc[size_t(v) * W + u];
+          cc = std::max(cc, ek);
+        }
+    }
     // Smoothing (3x3 binomial), then the region's weight.
     std::vector<float> tmp(N);
     for (int pass = 0; pass < dp.smooth; ++pass) {
@@ -204,6 +229,7 @@ Operation parse_drainage(Params& p) {
     log["deepest_channel_m"] = deepest;
     log["widest_half_width_m"] = widest;
     log["max_incision_m"] = max_cut;
+    log["graded_max_m"] = graded;
     log["refill_max_m"] = raised;
     log["faces"] = touched;
     log["drainage_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start).count();
