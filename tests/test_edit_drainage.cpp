@@ -83,8 +83,8 @@ TEST(EditDrainage, CarvesABranchingNetworkDeeperAndWiderDownstream) {
   const Heightfield& h = s.height();
   const json& log = s.log()[0];
   EXPECT_GT(log["channel_cells"].get<int>(), 100) << log.dump();
-  // Grading lowered beds that rose downstream (12 m at most here); what the re-fill still had to
-  // raise (overlapping cross-sections) is under a metre (8.2 m without the grading).
+  // Grading capped cuts whose bed would rise downstream (by 12 m at most here); the re-fill then
+  // has nothing left to raise (0 m; 8.2 m without the grading: level reaches).
   EXPECT_GT(log["graded_max_m"].get<double>(), 1.0) << log.dump();
   EXPECT_LT(log["refill_max_m"].get<double>(), 1.0) << log.dump();
   // The network after the carve (channels: 100 cells, the default threshold).

@@ -12,11 +12,12 @@
 // channels' kernels), the field is smoothed `smooth` times with a 3x3 binomial filter and weighted
 // by the region (soft edge `falloff`).
 //
-// Drainage is kept by construction: the carved surface c = h - w e is re-filled (Priority-Flood,
-// no epsilon) and the result is min(h, fill(c)): wherever the incision made a closed hollow (a
-// channel bed that rises downstream where the slope drops faster than the area grows, or where two
-// kernels overlap) the hollow is raised to its spill level, so the bed descends monotonically (or
-// stays flat) along every flow path; min with h keeps the operation a pure incision (nothing is
+// Drainage is kept by construction, in two steps. Grading: visited downstream first, each channel
+// cell's cut is capped so that its bed stays at least 0.001 x the distance above its receiver's
+// bed (cuts weighted by the region), so no bed rises downstream and a channel leaving the region
+// is graded to the level where it leaves. Re-fill (the safety net, for overlapping
+// cross-sections): the carved surface c = h - w e is filled again (Priority-Flood, no epsilon)
+// and the result is min(h, fill(c)); min with h keeps the operation a pure incision (nothing is
 // raised above the terrain, and the depressions h already had are left as they were).
 //
 // The change dz = result - h goes into the field like strata's: each face's gradient gains
@@ -136,29 +137,35 @@ Operation parse_drainage(Params& p) {
         if (!(e > 0)) continue;
         ch.push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), 1.5 * std::max(cx, cy), dp.max_width)});
       }
-    // Grading: downstream, a channel's bed zf - e is at least kGrade x the distance below its
-    // donors' (the filled terrain's order is a topological order of the flow: every receiver is
-    // strictly lower), so the cut never leaves a bed rising downstream where the slope drops
-    // faster than the area grows (which the re-fill below would otherwise flood into a level reach).
+    // Grading to base level: visited downstream first (the filled terrain's ascending order, a
+    // topological order of the flow: every receiver is strictly lower), each channel cell's cut is
+    // capped so that its bed lies at least kGrade x the distance above its receiver's bed, the
+    // cuts weighted by the region (a receiver outside it, or not a channel, is not cut). So a bed
+    // never rises downstream (where the slope drops faster than the area grows, or where the
+    // region's soft edge crosses a channel), and the cut tapers to the level of the outflow
+    // instead of being re-filled into a level reach.
     constexpr double kGrade = 1e-3;
-    std::sort(ch.begin(), ch.end(), [&](const Channel& a, const Channel& c) { return zf[a.i] > zf[c.i] || (zf[a.i] == zf[c.i] && a.i < c.i); });
+    std::sort(ch.begin(), ch.end(), [&](const Channel& a, const Channel& c) { return zf[a.i] < zf[c.i] || (zf[a.i] == zf[c.i] && a.i < c.i); });
     std::vector<int32_t> slot(N, -1);
     for (size_t q = 0; q < ch.size(); ++q) slot[ch[q].i] = int32_t(q);
+    auto w_at = [&](size_t i) { return w_region(int(i % size_t(W)), int(i / size_t(W))); };
     double graded = 0;
     for (Channel& c : ch) {
       const uint8_t k = flow.dir[c.i];
       if (k >= 8) continue;
       const size_t j = size_t(ptrdiff_t(c.i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
-      if (slot[j] < 0) continue;
-      Channel& r = ch[size_t(slot[j])];
-      const double need = double(zf[j]) - (double(zf[c.i]) - c.e) + kGrade * dist[k];
-      if (need > r.e) graded = std::max(graded, std::min(need, dp.max_depth) - r.e), r.e = std::min(need, dp.max_depth);
+      const double cut_j = slot[j] >= 0 ? w_at(j) * ch[size_t(slot[j])].e : 0.0;
+      const double wi = w_at(c.i);
+      const double cap = (cut_j + (double(zf[c.i]) - double(zf[j])) - kGrade * dist[k]) / wi;
+      if (c.e > cap) graded = std::max(graded, c.e - std::max(0.0, cap)), c.e = std::max(0.0, cap);
     }
-    const size_t channels = ch.size();
+    size_t channels = 0;
+    for (const Channel& c : ch) channels += c.e > 0;
     double deepest = 0, widest = 0;
     for (const Channel& c : ch) {
       const int x = int(c.i % size_t(W)), y = int(c.i / size_t(W));
       const double e = c.e, rw = c.r;
+      if (!(e > 0)) continue;
       deepest = std::max(deepest, e);
       widest = std::max(widest, rw);
       const int rx = std::min(rx_max, int(std::ceil(rw / cx))), ry = std::min(ry_max, int(std::ceil(rw / cy)));
