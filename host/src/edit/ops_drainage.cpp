@@ -77,14 +77,7 @@ Operation parse_drainage(Params& p) {
     if (box.empty()) return;
     const Heightfield& h = s.height();
     const auto t_start = std::chrono::steady_clock::now();
-    primitive_weight(d, b, {region}, box, false);
-    std::vector<float> wr(size_t(box.w) * box.h);
-    {
-      const std::array<size_t, 3> origin{size_t(box.x0) * sizeof(float), size_t(box.y0), 0}, host{0, 0, 0};
-      const std::array<size_t, 3> extent{size_t(box.w) * sizeof(float), size_t(box.h), 1};
-      d.queue().enqueueReadBufferRect(b.mask, CL_TRUE, origin, host, extent, size_t(b.width) * sizeof(float), 0,
-                                      size_t(box.w) * sizeof(float), 0, wr.data());
-    }
+    const std::vector<float> wr = region_weight_on_host(d, b, region, box);
     const int W = b.width, H = b.height;
     const size_t N = size_t(W) * H;
     const double cx = b.cell_x, cy = b.cell_y, cell_area = cx * cy;

@@ -151,14 +151,7 @@ Operation parse_strata(Params& p) {
     if (box.empty()) return;
     const Heightfield& h = s.height();  // the elevations the layers are read at (a solve when stale)
     const auto t_start = std::chrono::steady_clock::now();
-    primitive_weight(d, b, {region}, box, false);
-    std::vector<float> wr(size_t(box.w) * box.h);
-    {
-      const std::array<size_t, 3> origin{size_t(box.x0) * sizeof(float), size_t(box.y0), 0}, host{0, 0, 0};
-      const std::array<size_t, 3> extent{size_t(box.w) * sizeof(float), size_t(box.h), 1};
-      d.queue().enqueueReadBufferRect(b.mask, CL_TRUE, origin, host, extent, size_t(b.width) * sizeof(float), 0,
-                                      size_t(box.w) * sizeof(float), 0, wr.data());
-    }
+    const std::vector<float> wr = region_weight_on_host(d, b, region, box);
     const int W = b.width, H = b.height;
     float zmin = INFINITY;
     for (int y = 0; y < box.h; ++y)

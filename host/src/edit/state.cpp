@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -315,6 +316,16 @@ Region parse_region(Params& p, bool allow_everywhere) {
     param_error(p.path(), "needs a region: center + radius (a disc) or polygon");
   }
   return r;
+}
+
+std::vector<float> region_weight_on_host(Device& d, GradientBuffers& b, const Primitive& region, const Box& box) {
+  primitive_weight(d, b, {region}, box, false);
+  std::vector<float> w(size_t(box.w) * box.h);
+  const std::array<size_t, 3> origin{size_t(box.x0) * sizeof(float), size_t(box.y0), 0}, host{0, 0, 0};
+  const std::array<size_t, 3> extent{size_t(box.w) * sizeof(float), size_t(box.h), 1};
+  d.queue().enqueueReadBufferRect(b.mask, CL_TRUE, origin, host, extent, size_t(b.width) * sizeof(float), 0,
+                                  size_t(box.w) * sizeof(float), 0, w.data());
+  return w;
 }
 
 Primitive region_primitive(const Region& r, const Grid& g, double falloff) {

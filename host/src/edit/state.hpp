@@ -157,6 +157,9 @@ Region parse_region(Params& p, bool allow_everywhere);
 /// The region as a skeleton primitive (falloff `falloff` metres beyond it); Everywhere: a polygon
 /// around the grid.
 Primitive region_primitive(const Region& r, const Grid& g, double falloff);
+/// The region's weight (1 inside, fading over its falloff) over `box`, read back to the host row by
+/// row (box.w x box.h floats); operations that work on the host (strata, drainage) read it once.
+std::vector<float> region_weight_on_host(Device& d, GradientBuffers& b, const Primitive& region, const Box& box);
 /// Indices of the cells whose centre lies inside the region.
 std::vector<size_t> region_cells(const Region& r, const Grid& g);
 
