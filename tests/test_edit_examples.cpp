@@ -1073,34 +1073,75 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
   }
 }
 
-// The river valley opens onto the plains flush with them: in the valley's outer bank zone (0.5 r to
-// 1.5 r from the smoothed river) wherever the base DEM is below 1700 m (the plains and the mountain
-// front's foot), no cell stands more than 10 m above the unedited DEM. The former example's 280 m
-// banks, above a river that runs 10-40 m below the plain there, lifted that zone by up to 214 m: a
-// raised lobe on the plain.
+// Bilinear elevation at a fractional cell (clamped to the grid).
+double bilinear_at(const Heightfield& h, double x, double y) {
+  const int x0 = std::clamp(int(std::floor(x)), 0, h.width - 2), y0 = std::clamp(int(std::floor(y)), 0, h.height - 2);
+  const double tx = std::clamp(x - x0, 0.0, 1.0), ty = std::clamp(y - y0, 0.0, 1.0);
+  return (1 - ty) * ((1 - tx) * h.at(x0, y0) + tx * h.at(x0 + 1, y0)) + ty * ((1 - tx) * h.at(x0, y0 + 1) + tx * h.at(x0 + 1, y0 + 1));
+}
+
+// The river valley (scripts/gen-river-valley.py; its widest `river` is the valley, a narrow one the
+// channel in its floor):
+// - it opens onto the plains flush with them: in the valley's outer bank zone (0.5 r to 1.5 r from the
+//   smoothed river) wherever the base DEM is below 1700 m, no cell stands more than 10 m above the
+//   unedited DEM (the former 280 m banks lifted that zone by up to 214 m: a raised lobe on the plain);
+// - its floor is a flood plain: across +-6 cells of the path in the mountains (west of x = 600) the
+//   median range of elevations is under 0.3 of the DEM's there (0.18; the former example, whose
+//   floor kept the DEM's own ridges crossing it and read as a trench, 0.54);
+// - the floor falls downstream: along the path, no rise over 10 cells of more than 5 m.
 void check_river_valley(const nlohmann::json& script, const Heightfield& h) {
   const Heightfield base = read_heightfield(test::data_path("dem/frontrange_srtm3_758.asc"));
   ASSERT_EQ(base.size(), h.size());
-  for (const auto& op : script.at("operations")) {
-    if (op.at("op") != "river") continue;
-    std::vector<Vec2> ctrl;
-    for (const auto& q : op.at("points")) ctrl.push_back({double(q[0]), double(q[1])});
-    const auto line = catmull_rom(ctrl, 1.0);
-    const double r = 0.5 * double(op.at("width"));
-    double worst = -1e30;
-    size_t n = 0;
-    for (int y = 0; y < h.height; ++y)
-      for (int x = 0; x < h.width; ++x) {
-        if (!(base.at(x, y) < 1700.0f)) continue;
-        double d = 1e30;
-        for (const auto& q : line) d = std::min(d, std::hypot(q.x - x, q.y - y));
-        if (d < 0.5 * r || d > 1.5 * r) continue;
-        ++n, worst = std::max(worst, double(h.at(x, y)) - base.at(x, y));
-      }
-    EXPECT_GT(n, 2000u) << "the river should reach the plains";
-    EXPECT_LE(worst, 10.0) << "the river valley's banks stand as a raised lobe on the plain";
-    std::cout << fmt::format("river valley: {} cells of the outer bank zone on the plains, highest {:.1f} m above the DEM\n", n, worst);
+  const nlohmann::json* valley = nullptr;
+  for (const auto& op : script.at("operations"))
+    if (op.at("op") == "river" && (!valley || double(op.at("width")) > double(valley->at("width")))) valley = &op;
+  ASSERT_NE(valley, nullptr);
+  std::vector<Vec2> ctrl;
+  for (const auto& q : valley->at("points")) ctrl.push_back({double(q[0]), double(q[1])});
+  const auto line = catmull_rom(ctrl, 1.0);
+  const double r = 0.5 * double(valley->at("width"));
+  double worst = -1e30;
+  size_t n = 0;
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      if (!(base.at(x, y) < 1700.0f)) continue;
+      double d = 1e30;
+      for (const auto& q : line) d = std::min(d, std::hypot(q.x - x, q.y - y));
+      if (d < 0.5 * r || d > 1.5 * r) continue;
+      ++n, worst = std::max(worst, double(h.at(x, y)) - base.at(x, y));
+    }
+  EXPECT_GT(n, 2000u) << "the river should reach the plains";
+  EXPECT_LE(worst, 10.0) << "the river valley's banks stand as a raised lobe on the plain";
+
+  std::vector<double> across_after, across_base, floor_z;
+  for (size_t k = 1; k + 1 < line.size(); ++k) {
+    const Vec2 p = line[k];
+    if (p.x > h.width - 1.0) break;
+    floor_z.push_back(bilinear_at(h, p.x, p.y));
+    if (p.x > 600) continue;
+    const double tx = line[k + 1].x - line[k - 1].x, ty = line[k + 1].y - line[k - 1].y, l = std::hypot(tx, ty);
+    const double nx = -ty / l, ny = tx / l;
+    double lo_a = 1e30, hi_a = -1e30, lo_b = 1e30, hi_b = -1e30;
+    for (int o = -6; o <= 6; ++o) {
+      const double za = bilinear_at(h, p.x + o * nx, p.y + o * ny), zb = bilinear_at(base, p.x + o * nx, p.y + o * ny);
+      lo_a = std::min(lo_a, za), hi_a = std::max(hi_a, za), lo_b = std::min(lo_b, zb), hi_b = std::max(hi_b, zb);
+    }
+    across_after.push_back(hi_a - lo_a), across_base.push_back(hi_b - lo_b);
   }
+  ASSERT_GT(across_after.size(), 200u);
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double flat_after = median(across_after), flat_base = median(across_base);
+  EXPECT_LT(flat_after, 0.3 * flat_base) << "the valley floor should be a flood plain, not the DEM's ridges";
+  double rise = -1e30;
+  for (size_t k = 0; k + 10 < floor_z.size(); k += 10) rise = std::max(rise, floor_z[k + 10] - floor_z[k]);
+  EXPECT_LE(rise, 5.0) << "the valley floor should fall downstream";
+  std::cout << fmt::format(
+      "river valley: {} cells of the outer bank zone on the plains, highest {:.1f} m above the DEM; floor across "
+      "+-6 cells {:.1f} m (DEM {:.1f} m, median); largest rise downstream over 10 cells {:.1f} m\n",
+      n, worst, flat_after, flat_base, rise);
 }
 
 }  // namespace
