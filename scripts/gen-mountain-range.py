@@ -436,7 +436,15 @@ for side in (1, -1):
         b = (pts[-1][0] - 700 * ux, pts[-1][1] - 700 * uy)
         # It rises from nothing on the spur (a hogback at full height where the spur's last
         # shoulder stands doubled it there: a knob at every spur's end).
-        hp = [[r1(b[0] + f * L * vx), r1(b[1] + f * L * vy), r1(hz * h)] for f, hz in ((0.0, 0.0), (0.3, 0.9), (0.5, 1.0), (0.75, 0.6), (1.0, 0.0))]
+        # Bowed and wandering, not ruled: a lateral offset of 150-300 m (a sine arch plus a
+        # shorter wave) from its own generator, so the layout's other draws stay as they were (a
+        # straight 2.6 km hogback read as a drawn line in hillshade).
+        wr = random.Random(7919 * len(hogs) + (side > 0))
+        bow, wig, ph = wr.uniform(150, 300) * wr.choice((-1, 1)), wr.uniform(40, 90), wr.uniform(0, 2 * math.pi)
+        def lat(f):
+            return bow * math.sin(math.pi * f) + wig * math.sin(3 * math.pi * f + ph) * math.sin(math.pi * f)
+        hp = [[r1(b[0] + f * L * vx - lat(f) * vy), r1(b[1] + f * L * vy + lat(f) * vx), r1(hz * h)]
+              for f, hz in ((0.0, 0.0), (0.15, 0.55), (0.3, 0.9), (0.5, 1.0), (0.62, 0.85), (0.75, 0.6), (0.88, 0.3), (1.0, 0.0))]
         # Apart from the other foothills and spurs (two converging ones closed the valley between
         # them below a ravine's exit: a 94 m pit).
         if any(dist_to(q, o) < 1000 for q in hp[1:] for o in hogs + [s["pts"] for s in spurs[side] if s is not sp]):
