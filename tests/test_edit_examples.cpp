@@ -392,8 +392,12 @@ void check_shapes(const std::string& name, const nlohmann::json& script, const H
       for (size_t i = 0; i < t.size(); ++i)
         if (std::abs(t[i]) <= 0.25 * r) floor = std::min(floor, z[i]);
       const double depth = std::min(z.front(), z.back()) - floor;
+      // The width below half the depth, the depth counted at most as the nominal one: a gully
+      // carved along the ravine's floor (the island's drainage operation) deepens its floor, not
+      // the valley, and would otherwise measure the notch's width instead of the ravine's.
+      const double half_level = std::min(z.front(), z.back()) - 0.5 * std::min(depth, want);
       double below = 0;
-      for (double v : z) below += v <= floor + 0.5 * depth ? 0.5 * cell : 0;
+      for (double v : z) below += v <= half_level ? 0.5 * cell : 0;
       EXPECT_GT(depth, 0.5 * want) << name << " ravine at " << m.mx << ", " << m.my;
       EXPECT_GE(below, (name == "volcanic_island" ? 10 : 6) * cell) << name << " ravine at " << m.mx << ", " << m.my << ": a scratch, not a valley";
       if (name == "volcanic_island") {

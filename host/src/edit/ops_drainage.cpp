@@ -1,12 +1,17 @@
 // Drainage: stream-power channel incision (issue 12, dendritic valleys carved from the terrain).
 //
 // On the current terrain h (a solve when stale): fill its depressions (Priority-Flood+epsilon,
-// analysis/fill.cpp) and route D8 flow on the filled surface (analysis/flow.cpp), over the whole
-// grid so that a region's channels see the area draining into them from outside. Every cell whose
+// analysis/fill.cpp) and route flow on the filled surface (analysis/flow.cpp), over the whole grid
+// so that a region's channels see the area draining into them from outside. `routing` "dinf" (the
+// default) is Tarboton's D-infinity: the flow leaves each cell along its steepest facet, split
+// between two neighbours, so channels follow the fall line in any direction; "d8" sends it all to
+// one of the 8 neighbours, which on smooth slopes draws channels as straight runs along the axes
+// and diagonals joined by kinks (a circuit-board pattern on a volcanic cone). Every cell whose
 // contributing area A (cells x cell area) reaches `threshold` and lies in the region is a channel
 // cell; its incision is the stream-power law
 //     e = depth * (A / reference_area)^m * S^n       (capped at max_depth)
-// S the D8 slope to its receiver on the filled surface. Each channel cell spreads its incision over
+// S the slope to its receiver on the filled surface (D-infinity: the neighbour that takes the
+// larger share). Each channel cell spreads its incision over
 // a cross-section of half-width r = clamp(width * (A / reference_area)^width_exponent, 1.5 cells,
 // max_width) with the smooth kernel (1 - (d / r)^2)^2 (the incision at a cell is the largest of its
 // channels' kernels), the field is smoothed `smooth` times with a 3x3 binomial filter and weighted
@@ -43,6 +48,7 @@ struct DrainageParams {
   double depth = 0, a_ref = 0, a_min = 0, m = 0.5, n = 1.0;
   double width = 0, width_exp = 0.5, max_width = 0, max_depth = 0;
   int smooth = 1;
+  bool dinf = true;  // D-infinity routing, else D8
 };
 
 Operation parse_drainage(Params& p) {
@@ -66,6 +72,7 @@ Operation parse_drainage(Params& p) {
   dp.max_depth = p.vlength("max_depth", 4 * dp.depth);
   if (!(dp.max_depth > 0)) param_error(p.where("max_depth"), fmt::format("expected a depth > 0 m, got {:g}", dp.max_depth));
   dp.smooth = p.integer("smooth", 1, 0, 20);
+  dp.dinf = p.choice("routing", std::string("dinf"), {"dinf", "d8"}) == "dinf";
   // The half-width reach of the widest channel: the support grows by it beyond the region.
   p.note_reach(dp.max_width);
 
@@ -88,7 +95,22 @@ Operation parse_drainage(Params& p) {
     Heightfield hz = h;
     hz.georef.cell_x = cx, hz.georef.cell_y = cy;
     const analysis::FillResult filled = analysis::priority_flood_fill(hz, true);
-    const analysis::D8Result flow = analysis::d8_flow(filled.filled);
+    // D8 or D-infinity on the filled surface: every receiver is strictly lower, so the ascending
+    // order of zf below is a topological order of either. `recv` is the neighbour (0..7) a cell
+    // drains to (D-infinity: the one taking the larger share), or kOutlet / kNoFlow.
+    std::vector<uint8_t> recv;
+    std::vector<double> acc;
+    if (dp.dinf) {
+      analysis::DinfResult f = analysis::dinf_flow(filled.filled);
+      recv.resize(N);
+      for (size_t i = 0; i < N; ++i)
+        recv[i] = (f.k2[i] < 8 && f.share1[i] < 0.5f) ? f.k2[i] : f.k1[i];
+      acc = std::move(f.cells);
+    } else {
+      analysis::D8Result f = analysis::d8_flow(filled.filled);
+      recv = std::move(f.dir);
+      acc = std::move(f.cells);
+    }
     const std::vector<float>& zf = filled.filled.z;
     double dist[8];
     for (int k = 0; k < 8; ++k)
@@ -105,9 +127,9 @@ Operation parse_drainage(Params& p) {
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
         const size_t i = size_t(y) * W + x;
-        const double A = flow.cells[i] * cell_area;
+        const double A = acc[i] * cell_area;
         if (!(A >= dp.a_min) || A <= 0 || w_region(x, y) <= 0) continue;
-        const uint8_t k = flow.dir[i];
+        const uint8_t k = recv[i];
         if (k == analysis::kNoFlow) continue;
         double S = 0;
         if (k < 8) {
@@ -121,9 +143,9 @@ Operation parse_drainage(Params& p) {
             const int u = x + analysis::kDx[q], v = y + analysis::kDy[q];
             if (u < 0 || v < 0 || u >= W || v >= H) continue;
             const size_t j = size_t(v) * W + u;
-            const uint8_t kj = flow.dir[j];
+            const uint8_t kj = recv[j];
             if (kj >= 8 || u + analysis::kDx[kj] != x || v + analysis::kDy[kj] != y) continue;
-            if (flow.cells[j] > best) best = flow.cells[j], S = std::max(0.0, (double(zf[j]) - double(zf[i])) / dist[q]);
+            if (acc[j] > best) best = acc[j], S = std::max(0.0, (double(zf[j]) - double(zf[i])) / dist[q]);
           }
         }
         const double e = std::min(dp.max_depth, dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n)));
@@ -144,7 +166,7 @@ Operation parse_drainage(Params& p) {
     auto w_at = [&](size_t i) { return w_region(int(i % size_t(W)), int(i / size_t(W))); };
     double graded = 0;
     for (Channel& c : ch) {
-      const uint8_t k = flow.dir[c.i];
+      const uint8_t k = recv[c.i];
       if (k >= 8) continue;
       const size_t j = size_t(ptrdiff_t(c.i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
       const double cut_j = slot[j] >= 0 ? w_at(j) * ch[size_t(slot[j])].e : 0.0;
