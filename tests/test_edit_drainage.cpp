@@ -206,7 +206,7 @@ TEST(EditDrainage, PlanarVValleyMatchesTheStreamPowerLaw) {
   for (int y = 10; y < H - 15; ++y) {
     const double A = 41.0 * (H - y);
     const double e = depth * std::sqrt(A / a_ref) * 0.1;
-    const double r = std::max(1.5, width * std::sqrt(A / a_ref));
+    const double r = std::max(2.0, width * std::sqrt(A / a_ref));
     worst_axis = std::max(worst_axis, std::abs((base.at(20, y) - h.at(20, y)) - e) / e);
     for (int k = 1; k < r; ++k) {
       const double t2 = k * k / (r * r), want = e * (1 - t2) * (1 - t2);

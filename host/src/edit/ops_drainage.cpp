@@ -12,7 +12,7 @@
 //     e = depth * (A / reference_area)^m * S^n       (capped at max_depth)
 // S the slope to its receiver on the filled surface (D-infinity: the neighbour that takes the
 // larger share). Each channel cell spreads its incision over
-// a cross-section of half-width r = clamp(width * (A / reference_area)^width_exponent, 1.5 cells,
+// a cross-section of half-width r = clamp(width * (A / reference_area)^width_exponent, 2 cells,
 // max_width) with the smooth kernel (1 - (d / r)^2)^2 (the incision at a cell is the largest of its
 // channels' kernels), the field is smoothed `smooth` times with a 3x3 binomial filter and weighted
 // by the region (soft edge `falloff`).
@@ -44,6 +44,11 @@
 namespace terracl::edit {
 namespace {
 
+// The smallest half-width of a channel's cross-section. The kernel (1 - (d / r)^2)^2 is deeper than
+// half the cut for d < 0.54 r: at r = 1.5 cells only the centre cell, so the smallest channels were
+// 1-cell hairlines; at 2 cells the cells beside it too (3 cells, issue 12's narrowest feature).
+constexpr double kMinHalfWidthCells = 2.0;
+
 struct DrainageParams {
   double depth = 0, a_ref = 0, a_min = 0, m = 0.5, n = 1.0;
   double width = 0, width_exp = 0.5, max_width = 0, max_depth = 0;
@@ -64,11 +69,12 @@ Operation parse_drainage(Params& p) {
   dp.a_min = p.number("threshold", 100 * area, 0.0, 1e300);
   dp.m = p.number("m", 0.5, 0.0, 3.0);
   dp.n = p.number("n", 1.0, 0.0, 3.0);
-  dp.width = p.hlength("channel_width", 2 * cell, 0, true);
+  dp.width = p.hlength("channel_width", 3 * cell, 0, true);
   dp.width_exp = p.number("width_exponent", 0.5, 0.0, 1.0);
   dp.max_width = p.hlength("max_width", 10 * cell, 0, true);
-  if (dp.max_width < 1.5 * cell)
-    param_error(p.where("max_width"), fmt::format("expected at least 1.5 cells ({:g} m), got {:g}", 1.5 * cell, dp.max_width));
+  if (dp.max_width < kMinHalfWidthCells * cell)
+    param_error(p.where("max_width"),
+                fmt::format("expected at least {:g} cells ({:g} m), got {:g}", kMinHalfWidthCells, kMinHalfWidthCells * cell, dp.max_width));
   dp.max_depth = p.vlength("max_depth", 4 * dp.depth);
   if (!(dp.max_depth > 0)) param_error(p.where("max_depth"), fmt::format("expected a depth > 0 m, got {:g}", dp.max_depth));
   dp.smooth = p.integer("smooth", 1, 0, 20);
@@ -150,7 +156,7 @@ Operation parse_drainage(Params& p) {
         }
         const double e = std::min(dp.max_depth, dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n)));
         if (!(e > 0)) continue;
-        ch.push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), 1.5 * std::max(cx, cy), dp.max_width)});
+        ch.push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), kMinHalfWidthCells * std::max(cx, cy), dp.max_width)});
       }
     // Grading to base level: visited downstream first (the filled terrain's ascending order, a
     // topological order of the flow: every receiver is strictly lower), each channel cell's cut is
