@@ -260,5 +260,33 @@ TEST(StudioApi, LiveErosionBecomesAnErodeOperationThatReplays) {
   EXPECT_EQ(a.z, b.z);
 }
 
+// The page's drainage and layered-rock tools post these operations (apps/web/studio.js: a dragged
+// disc or the whole map, and a clicked disc whose caprock is the highest preview cell in it); the
+// session applies them and the terrain changes where they act.
+TEST(StudioApi, DrainageAndLayeredRockToolsEditTheTerrain) {
+  Studio s;
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", {{"op", "mountain_range"}, {"points", {{200, 480}, {1080, 400}}}, {"height", 300}, {"radius", 300}}}});
+  post(c, "/api/operations", {{"op", {{"op", "noise"}, {"amplitude", 20}, {"wavelength", 150}}}});
+  const std::vector<float> t0 = terrain(c);
+  json st = post(c, "/api/operations",
+                 {{"op", {{"op", "drainage"}, {"depth", 60}, {"max_depth", 40}, {"threshold", 1000}, {"channel_width", 30}}}});
+  EXPECT_EQ(st["operations"].size(), 3u);
+  const std::vector<float> t1 = terrain(c);
+  ASSERT_EQ(t0.size(), t1.size());
+  double cut = 0;
+  for (size_t i = 0; i < t0.size(); ++i) cut = std::max(cut, double(t0[i]) - double(t1[i]));
+  EXPECT_GT(cut, 1.0) << "the drainage tool carves channels";
+  float top = -1e30f;
+  for (float v : t1) top = std::max(top, v);
+  st = post(c, "/api/operations", {{"op", {{"op", "strata"}, {"center", {640, 440}}, {"radius", 500}, {"falloff", 25}, {"top", top},
+                                            {"thickness", 25}, {"soft_thickness", 12}, {"min_slope", 25}}}});
+  EXPECT_EQ(st["operations"].size(), 4u);
+  const std::vector<float> t2 = terrain(c);
+  size_t changed = 0;
+  for (size_t i = 0; i < t1.size(); ++i) changed += std::abs(t2[i] - t1[i]) > 0.5f;
+  EXPECT_GT(changed, 20u) << "the layered-rock tool steps the steep flanks";
+}
+
 }  // namespace
 }  // namespace terracl

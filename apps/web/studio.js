@@ -33,17 +33,24 @@ const TOOLS = {
   copy_paste: { rotate: 0, height_scale: 1 },
   erode: { radius: 0.1, falloff: 0.03 },
   amplify: { exemplar: '', factor: 4, strength: 1, falloff: 0.03 },
+  drainage: { depth: 60, max_depth: 40, threshold: 0.0008, channel_width: 0.006, falloff: 0.03 },
+  strata: { radius: 0.1, thickness: 25, soft_thickness: 12, min_slope: 25, falloff: 0.02 },
 };
-const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength']);
+const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength', 'channel_width']);
+// Areas (m^2) given as a share of the terrain's area: scaled by it on the first load.
+const AREAS = new Set(['threshold']);
 let scaled = false;
 
 function scaleTools() {
   const ext = state.width * state.cell_x;
   // Amplification borrows the base DEM's own texture unless another exemplar is typed in.
   if (!state.base.startsWith('flat:')) TOOLS.amplify.exemplar = state.base;
+  const area = ext * state.height * state.cell_y;
   for (const t of Object.values(TOOLS))
-    for (const k of Object.keys(t))
+    for (const k of Object.keys(t)) {
       if (LENGTHS.has(k) && t[k] > 0) t[k] = Math.round(t[k] * ext);
+      if (AREAS.has(k) && t[k] > 0) t[k] = Math.round(t[k] * area);
+    }
   scaled = true;
 }
 
@@ -230,7 +237,7 @@ function simplify(pts, eps) {
 }
 
 const CURVES = new Set(['crest', 'river', 'ravine', 'cliff', 'fault', 'free_crest', 'mountain_range']);
-const REGIONS = new Set(['copy_paste', 'erode', 'amplify']);
+const REGIONS = new Set(['copy_paste', 'erode', 'amplify', 'drainage']);
 
 function num(k, v) { return Number.isFinite(v) ? v : undefined; }
 
@@ -252,6 +259,14 @@ function brushOp(tool, px, py) {
     case 'freeze': return { op: tool, center: c, radius: L(p.radius) };
     case 'tensor': return { op: tool, primitives: [{ shape: 'disc', center: c, disc_radius: L(p.radius / 2), radius: L(p.radius),
                                                      tensor: 'directional', angle: p.angle, strength: p.strength }] };
+    case 'strata': {
+      // Layered rock on the steep ground of the disc; the caprock's top is the highest elevation of
+      // the preview terrain within the disc, so the beds stack down from there.
+      const top = highestWithin(px, py, p.radius);
+      if (top === undefined) return null;
+      return { op: tool, center: c, radius: L(p.radius), falloff: L(p.falloff), top: round1(top),
+               thickness: p.thickness, soft_thickness: p.soft_thickness, min_slope: p.min_slope };
+    }
     case 'point': return { op: 'crest', points: [[c[0], c[1], p.elevation], [round1(c[0] + L(state.cell_x)), c[1], p.elevation]], radius: L(p.radius) };
   }
   return null;
@@ -290,6 +305,7 @@ map.addEventListener('mouseup', async (e) => {
       if (tool === 'copy_paste') await copyRect(r);
       else if (tool === 'erode') await erodeBrush(r);
       else if (tool === 'amplify') await amplifyRegion(r);
+      else if (tool === 'drainage') await drainageRegion(r);
     } else if (tool === 'copy_paste' && clip) {
       const p = TOOLS.copy_paste;
       const op = { op: 'copy_paste', source: clip.source, from: clip.from, to: toMetres(x, y), rotate: p.rotate, height_scale: p.height_scale };
@@ -325,6 +341,33 @@ async function amplifyRegion(r) {
   const op = { op: 'amplify', exemplar: p.exemplar, factor: p.factor, strength: p.strength };
   if (radius > 2 * state.cell_x) Object.assign(op, { center: [round1((x0 + x1) / 2), round1((y0 + y1) / 2)], radius: round1(radius), falloff: L(p.falloff) });
   status('amplify: learning the dictionary on first use...');
+  await change('POST', '/api/operations', { op });
+}
+
+// The highest elevation of the preview terrain within radius_m metres of canvas pixel (px, py).
+function highestWithin(px, py, radius_m) {
+  if (!terr) return undefined;
+  const fx = (px - view.ox) / view.sw, fy = (py - view.oy) / view.sh;
+  const gx = fx * terr.w - 0.5, gy = fy * terr.h - 0.5;
+  const rx = radius_m / (state.width * state.cell_x) * terr.w, ry = radius_m / (state.height * state.cell_y) * terr.h;
+  let best;
+  for (let y = Math.max(0, Math.floor(gy - ry)); y <= Math.min(terr.h - 1, Math.ceil(gy + ry)); ++y)
+    for (let x = Math.max(0, Math.floor(gx - rx)); x <= Math.min(terr.w - 1, Math.ceil(gx + rx)); ++x) {
+      if (((x - gx) / rx) ** 2 + ((y - gy) / ry) ** 2 > 1) continue;
+      const z = terr.z[y * terr.w + x];
+      if (Number.isFinite(z) && (best === undefined || z > best)) best = z;
+    }
+  return best;
+}
+
+// Stream-power drainage over the dragged disc (or the whole terrain for a click): gullies and
+// valleys carved along the terrain's own flow (docs/authoring.md "Drainage").
+async function drainageRegion(r) {
+  const p = TOOLS.drainage;
+  const [x0, y0] = toMetres(r.x0, r.y0), [x1, y1] = toMetres(r.x1, r.y1);
+  const radius = Math.hypot(x1 - x0, y1 - y0) / 2;
+  const op = { op: 'drainage', depth: p.depth, max_depth: p.max_depth, threshold: p.threshold, channel_width: L(p.channel_width) };
+  if (radius > 2 * state.cell_x) Object.assign(op, { center: [round1((x0 + x1) / 2), round1((y0 + y1) / 2)], radius: round1(radius), falloff: L(p.falloff) });
   await change('POST', '/api/operations', { op });
 }
 
