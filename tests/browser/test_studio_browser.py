@@ -146,6 +146,19 @@ def main():
         check(len(ops) == 2 and ops[1]["op"] == "amplify" and ops[1]["exemplar"] == EXEMPLAR and "radius" in ops[1],
               f"the drag posted an amplify operation of a region ({ops[-1]})")
 
+        # Drainage over the whole map (a click) and layered rock on the crest (a click): their
+        # operations go into the saved script, so the replay below covers them too.
+        for tool, dx, dy in (("drainage", 0, 0), ("strata", 0, 20)):
+            Select(driver.find_element(By.ID, "tool")).select_by_value(tool)
+            v = driver.execute_script("return document.body.dataset.version")
+            ActionChains(driver).move_to_element_with_offset(canvas, dx, dy).click().perform()
+            wait_version(driver, v)
+        ops = get_json(url + "api/state")["operations"]
+        check(len(ops) == 4 and ops[2]["op"] == "drainage" and "radius" not in ops[2],
+              f"the click posted a drainage operation of the whole map ({ops[2:]})")
+        check(ops[3]["op"] == "strata" and 100.0 < ops[3]["top"] < 160.0,
+              f"the click posted a strata operation whose top is the highest cell in its disc ({ops[3:]})")
+
         name = driver.find_element(By.ID, "file")
         name.clear()
         name.send_keys("sketch.json")
