@@ -155,6 +155,21 @@ TEST(EditDrainage, CreatesNoClosedDepression) {
   }
 }
 
+// The base's own closed hollows are not the carve's doing: the re-fill leaves them as they were and
+// `refill_max_m` does not count them (a 40 m Gaussian pit outside the op's disc was reported as
+// re-filled by 21 m, its depth below its spill).
+TEST(EditDrainage, RefillReportLeavesOutTheBasesOwnHollows) {
+  Heightfield base = tilted_noisy_plane();
+  for (int y = 0; y < kN; ++y)
+    for (int x = 0; x < kN; ++x) base.at(x, y) -= float(40.0 * std::exp(-(std::pow(x - 70.0, 2) + std::pow(y - 70.0, 2)) / 50.0));
+  EditSession s(test::device(), base);
+  s.apply({{"operations", {{{"op", "drainage"}, {"center", {250, 300}}, {"radius", 200}}}}});
+  const json& log = s.log()[0];
+  EXPECT_GT(log["channel_cells"].get<int>(), 10) << log.dump();
+  EXPECT_LT(log["refill_max_m"].get<double>(), 1.0) << log.dump();
+  EXPECT_EQ(s.height().at(70, 70), base.at(70, 70)) << "the hollow is left as it was, not filled";
+}
+
 TEST(EditDrainage, OutsideTheRegionKeepsItsBits) {
   Heightfield base = test::smooth_terrain(160, 160, kCell, 25.0, 3);
   for (int y = 0; y < 160; ++y)

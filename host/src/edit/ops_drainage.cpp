@@ -228,7 +228,10 @@ Operation parse_drainage(Params& p) {
     for (size_t i = 0; i < N; ++i) {
       const float z = std::min(h.z[i], refill.filled.z[i]);
       dz[i] = double(z) - double(h.z[i]);
-      raised = std::max(raised, double(refill.filled.z[i]) - double(carved.z[i]));
+      // What the re-fill raised above the carved surface, less what the base's own hollows needed
+      // (zf, the terrain filled before the carve): those are left as they were and are not the
+      // carve's doing (the report counted them, e.g. a closed basin under a mountain range's col).
+      raised = std::max(raised, double(refill.filled.z[i]) - std::max(double(carved.z[i]), double(zf[i])));
     }
     GradientField g = s.download();
     size_t touched = 0;
