@@ -13,6 +13,10 @@
 # every channel draining more than `threshold` down to a bed graded to the main canyon's floor, with
 # a flat floor and walls at `wall_slope`: a network that branches the way water runs, with
 # tributaries where the noise gathers them, widths that follow the depth and amphitheatre heads.
+# (m = 1: the depth grows with the area, so the smallest channels, from 0.04 km^2, are gullies 18 m
+# deep that taper into the plateau; with channels from 0.12 km^2 every branch began 54 m deep, a
+# round-ended tube. path_smooth 100 m: the sections follow the flow lines' mean direction; D8's
+# 0/45/90-degree zig-zags drew right-angled gullies.)
 # Usage: python3 scripts/gen-canyon.py OUT.json
 import json
 import math
@@ -79,7 +83,8 @@ poly += [[round(west(y) + FOOT, 1), y] for y in reversed(yr) if y < EXT + 250]
 ops.append({"op": "drainage", "comment": "side canyons: the plateau's drainage cut down to beds graded to the main canyon's floor, "
             "flat floors between walls at 1.4",
             "polygon": poly, "falloff": 60, "profile": "canyon", "n": 0, "m": 1.0, "depth": 450, "reference_area": 1.0e6,
-            "threshold": 1.2e5, "max_depth": 600, "channel_width": 50, "max_width": 90, "wall_slope": 1.4, "smooth": 2})
+            "threshold": 4.0e4, "max_depth": 600, "channel_width": 50, "max_width": 90, "wall_slope": 1.4, "path_smooth": 100,
+            "smooth": 2})
 # Layered rock: hard beds form cliff bands, soft ones benches, under a caprock.
 ops.append({"op": "strata", "comment": "layered rock in every steep wall (main and side canyons, the inner gorge)",
             "polygon": [[0, 0], [EXT, 0], [EXT, EXT], [0, EXT]], "falloff": 0, "top": TOP + 12, "bottom": 60,

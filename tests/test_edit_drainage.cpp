@@ -142,7 +142,8 @@ TEST(EditDrainage, CreatesNoClosedDepression) {
   const Heightfield base = tilted_noisy_plane();
   for (const json& op : {json{{"op", "drainage"}}, json{{"op", "drainage"}, {"depth", 300}, {"smooth", 0}},
                          json{{"op", "drainage"}, {"center", {480, 480}}, {"radius", 250}, {"falloff", 60}, {"depth", 200}},
-                         json{{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 40}, {"threshold", 30000}}}) {
+                         json{{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 40}, {"threshold", 30000}},
+                         json{{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 40}, {"threshold", 30000}, {"path_smooth", 60}}}) {
     EditSession s(test::device(), base);
     s.apply({{"operations", {op}}});
     const Heightfield h = as_metric(s.height(), kCell);
@@ -316,4 +317,5 @@ TEST(EditDrainage, BadInputNamesTheJsonPath) {
   EXPECT_NE(message({{"op", "drainage"}, {"dept", 5}}).find("/operations/0/dept: unknown parameter"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"profile", "slot"}}).find("/operations/0/profile"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"wall_slope", 0}}).find("/operations/0/wall_slope"), std::string::npos);
+  EXPECT_NE(message({{"op", "drainage"}, {"path_smooth", -5}}).find("/operations/0/path_smooth"), std::string::npos);
 }

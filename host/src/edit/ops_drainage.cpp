@@ -46,6 +46,7 @@ struct DrainageParams {
   bool canyon = false;     // profile "canyon": a flat floor at the bed between walls of wall_slope
   double wall_slope = 1.5;  // (m per m)
   bool cut_rims = true;     // hard cells in the cut move down with it (else they stay: fins)
+  double path_smooth = 0;   // canyon: channel centres averaged along the flow over +- this (m)
 };
 
 // The "canyon" cross-section: the carved surface is the lowest of the channels' sections, each a
@@ -114,6 +115,7 @@ Operation parse_drainage(Params& p) {
   dp.canyon = p.choice("profile", std::string("bowl"), {"bowl", "canyon"}) == "canyon";
   dp.wall_slope = p.number("wall_slope", 1.5, 0.05, 20.0);
   dp.cut_rims = p.boolean("cut_rims", true);
+  dp.path_smooth = p.hlength("path_smooth", 0.0);
   // The half-width reach of the widest channel: the support grows by it beyond the region (a
   // canyon's section reaches its floor plus its deepest wall).
   p.note_reach(dp.canyon ? dp.max_width + dp.max_depth / dp.wall_slope : dp.max_width);
@@ -209,17 +211,48 @@ Operation parse_drainage(Params& p) {
       // its half-width, the lowest winning; then the walls (carve_canyon_sections).
       constexpr float kHigh = 1e30f;
       std::vector<float> floor_z(N, kHigh), t;
+      // Path smoothing: a channel's section is centred on the mean position of the cells within
+      // +- path_smooth along its flow line (downstream by the receivers, upstream by the donor that
+      // drains most), so D8's 0/45/90-degree zig-zags become the line's mean direction.
+      const int k_path = int(std::lround(dp.path_smooth / std::max(cx, cy)));
+      std::vector<size_t> main_donor;
+      if (k_path > 0) {
+        main_donor.assign(N, N);
+        for (size_t i = 0; i < N; ++i) {
+          const uint8_t k = flow.dir[i];
+          if (k >= 8) continue;
+          const size_t j = size_t(ptrdiff_t(i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
+          if (main_donor[j] == N || flow.cells[i] > flow.cells[main_donor[j]] || (flow.cells[i] == flow.cells[main_donor[j]] && i < main_donor[j]))
+            main_donor[j] = i;
+        }
+      }
       for (const Channel& c : ch) {
         if (!(c.e > 0)) continue;
-        const int x = int(c.i % size_t(W)), y = int(c.i / size_t(W));
+        double x = double(c.i % size_t(W)), y = double(c.i / size_t(W));
+        if (k_path > 0) {
+          double sx = x, sy = y;
+          int n = 1;
+          size_t q = c.i;
+          for (int k = 0; k < k_path && flow.dir[q] < 8; ++k, ++n) {
+            q = size_t(ptrdiff_t(q) + ptrdiff_t(analysis::kDy[flow.dir[q]]) * W + analysis::kDx[flow.dir[q]]);
+            sx += double(q % size_t(W)), sy += double(q / size_t(W));
+          }
+          q = c.i;
+          for (int k = 0; k < k_path && main_donor[q] != N; ++k, ++n) {
+            q = main_donor[q];
+            sx += double(q % size_t(W)), sy += double(q / size_t(W));
+          }
+          x = sx / n, y = sy / n;
+        }
         deepest = std::max(deepest, c.e);
         widest = std::max(widest, c.r);
         const double bed = double(zf[c.i]) - w_at(c.i) * c.e;
         // (Stamped exactly, walls included, out to 2 cells past the floor's edge: seeded from the
         // floor's cells alone, the walls stood up to one cell x wall_slope too high, 1.2 m in the test.)
         const int rx = int(std::ceil(c.r / cx)) + 2, ry = int(std::ceil(c.r / cy)) + 2;
-        for (int v = std::max(0, y - ry); v <= std::min(H - 1, y + ry); ++v)
-          for (int u = std::max(0, x - rx); u <= std::min(W - 1, x + rx); ++u) {
+        const int xc = int(std::lround(x)), yc = int(std::lround(y));
+        for (int v = std::max(0, yc - ry); v <= std::min(H - 1, yc + ry); ++v)
+          for (int u = std::max(0, xc - rx); u <= std::min(W - 1, xc + rx); ++u) {
             const double d = std::hypot((u - x) * cx, (v - y) * cy);
             float& f = floor_z[size_t(v) * W + u];
             f = std::fmin(f, float(bed + dp.wall_slope * std::max(0.0, d - c.r)));
