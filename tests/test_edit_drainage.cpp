@@ -144,7 +144,9 @@ TEST(EditDrainage, CarvesABranchingNetworkDeeperAndWiderDownstream) {
 TEST(EditDrainage, CreatesNoClosedDepression) {
   const Heightfield base = tilted_noisy_plane();
   for (const json& op : {json{{"op", "drainage"}}, json{{"op", "drainage"}, {"depth", 300}, {"smooth", 0}},
-                         json{{"op", "drainage"}, {"center", {480, 480}}, {"radius", 250}, {"falloff", 60}, {"depth", 200}}}) {
+                         json{{"op", "drainage"}, {"center", {480, 480}}, {"radius", 250}, {"falloff", 60}, {"depth", 200}},
+                         json{{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 40}, {"threshold", 30000}},
+                         json{{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 40}, {"threshold", 30000}, {"path_smooth", 60}}}) {
     EditSession s(test::device(), base);
     s.apply({{"operations", {op}}});
     const Heightfield h = as_metric(s.height(), kCell);
@@ -282,6 +284,86 @@ TEST(EditDrainage, DinfChannelsFollowTheFallLineNotTheLattice) {
   EXPECT_EQ(s.height().z, sd.height().z);
 }
 
+TEST(EditDrainage, CanyonSectionIsAFlatFloorBetweenWallsAtWallSlope) {
+  // The V-valley z = 0.5 |x - 30| + 0.1 y (61 x 120 @ 1 m) with the canyon section and n = 0: the
+  // axis cell of row y has its bed at b = z - e, e = depth (A / A_ref)^0.5, A = 61 (120 - y) m^2, and
+  // a floor half-width r = channel_width (A / A_ref)^0.5 (>= 1.5 cells; D8 routing, as the area assumes); the result is
+  // min(z, min over the axis cells c of b_c + wall_slope max(0, |p - c| - r_c)), checked against
+  // that formula evaluated here. So the section is as deep as the bed lies below the terrain, and
+  // its top is wider where it is deeper.
+  const int W = 61, H = 120;
+  Heightfield base(W, H);
+  base.georef.cell_x = base.georef.cell_y = 1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) base.at(x, y) = float(0.5 * std::abs(x - 30) + 0.1 * y);
+  const double depth = 4, a_ref = 1000, width = 2, slope = 1.5;
+  const json op = {{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", depth}, {"reference_area", a_ref},
+                   {"threshold", 200}, {"channel_width", width}, {"wall_slope", slope}, {"smooth", 0}, {"routing", "d8"}};
+  EditSession s(test::device(), base);
+  s.apply({{"operations", {op}}});
+  const Heightfield& h = s.height();
+  EXPECT_LT(s.log()[0]["refill_max_m"].get<double>(), 1e-3) << s.log()[0].dump();
+  std::vector<double> bed(H), r(H);
+  for (int y = 0; y < H; ++y) {
+    const double A = 61.0 * (H - y);
+    bed[y] = base.at(30, y) - depth * std::sqrt(A / a_ref);
+    r[y] = std::max(1.5, width * std::sqrt(A / a_ref));
+  }
+  double worst = 0, worst_axis = 0;
+  int top_lo = 0, top_hi = 0;
+  for (int y = 10; y < H - 15; ++y) {
+    const double e = base.at(30, y) - bed[y];
+    worst_axis = std::max(worst_axis, std::abs((base.at(30, y) - h.at(30, y)) - e) / e);
+    int top = 0;
+    for (int k = 0; k < 30; ++k) {
+      double want = base.at(30 + k, y);
+      for (int c = 0; c < H - 3; ++c) want = std::min(want, bed[c] + slope * std::max(0.0, std::hypot(k, c - y) - r[c]));
+      worst = std::max(worst, std::abs(h.at(30 + k, y) - want) / e);
+      if (h.at(30 + k, y) < base.at(30 + k, y) - 0.01) top = k;
+    }
+    EXPECT_NEAR(h.at(0, y), base.at(0, y), 0.01);
+    if (y == 20) top_hi = top;
+    if (y == 95) top_lo = top;
+  }
+  // (1.7 % of e: the chamfer walls are within 2 % of the Euclidean distance. With the walls seeded
+  // from the floors' cells alone: 31 %, one cell x wall_slope.)
+  EXPECT_LT(worst, 0.03) << "the section against min(z, b + wall_slope max(0, d - r))";
+  // (11 %: the floors downstream within r are lower.)
+  EXPECT_LT(worst_axis, 0.15) << "the axis about depth (A / A_ref)^m below the terrain";
+  EXPECT_GT(top_hi, top_lo + 2) << "a deeper section is wider at the top: " << top_hi << " vs " << top_lo << " cells";
+  // The bowl section (the default) is unchanged by the new parameters' presence.
+  json bowl = op;
+  bowl["profile"] = "bowl";
+  bowl.erase("wall_slope");
+  EditSession s1(test::device(), base), s2(test::device(), base);
+  s1.apply({{"operations", {bowl}}});
+  bowl.erase("profile");
+  s2.apply({{"operations", {bowl}}});
+  EXPECT_EQ(s1.height().z, s2.height().z);
+}
+
+TEST(EditDrainage, HardCellsInTheCutMoveDownWithIt) {
+  // A river pins the V-valley's axis (hard cells at the terrain's elevation). With cut_rims (the
+  // default) the drainage cut moves the pins down with it; with "cut_rims": false they stay, and the
+  // axis keeps its elevation between cut banks (the fins a cliff's rim left across a side canyon).
+  const int W = 41, H = 120;
+  Heightfield base(W, H);
+  base.georef.cell_x = base.georef.cell_y = 1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) base.at(x, y) = float(0.5 * std::abs(x - 20) + 0.1 * y);
+  const json river = {{"op", "river"}, {"points", {{20, 40, 4.0}, {20, 80, 8.0}}}, {"width", 6}, {"floor", 1}, {"bank_height", 0}};
+  json op = {{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 4}, {"reference_area", 1000}, {"threshold", 200},
+             {"smooth", 0}};
+  EditSession cut(test::device(), base), kept(test::device(), base);
+  cut.apply({{"operations", {river, op}}});
+  op["cut_rims"] = false;
+  kept.apply({{"operations", {river, op}}});
+  EXPECT_GT(cut.log()[1]["hard_cells_moved"].get<int>(), 30) << cut.log()[1].dump();
+  EXPECT_EQ(kept.log()[1]["hard_cells_moved"].get<int>(), 0);
+  EXPECT_NEAR(kept.height().at(20, 60), 6.0, 0.05) << "pinned";
+  EXPECT_LT(cut.height().at(20, 60), 6.0 - 3.0) << "moved down with the cut";
+}
+
 TEST(EditDrainage, BadInputNamesTheJsonPath) {
   EXPECT_EQ(message({{"op", "drainage"}}), "");
   EXPECT_NE(message({{"op", "drainage"}, {"depth", -3}}).find("/operations/0/depth"), std::string::npos);
@@ -294,4 +376,7 @@ TEST(EditDrainage, BadInputNamesTheJsonPath) {
   EXPECT_NE(message({{"op", "drainage"}, {"smooth", 50}}).find("/operations/0/smooth"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"routing", "d4"}}).find("/operations/0/routing"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"dept", 5}}).find("/operations/0/dept: unknown parameter"), std::string::npos);
+  EXPECT_NE(message({{"op", "drainage"}, {"profile", "slot"}}).find("/operations/0/profile"), std::string::npos);
+  EXPECT_NE(message({{"op", "drainage"}, {"wall_slope", 0}}).find("/operations/0/wall_slope"), std::string::npos);
+  EXPECT_NE(message({{"op", "drainage"}, {"path_smooth", -5}}).find("/operations/0/path_smooth"), std::string::npos);
 }

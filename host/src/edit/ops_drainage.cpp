@@ -44,17 +44,65 @@
 namespace terracl::edit {
 namespace {
 
-// The smallest half-width of a channel's cross-section. The kernel (1 - (d / r)^2)^2 is deeper than
-// half the cut for d < 0.54 r: at r = 1.5 cells only the centre cell, so the smallest channels were
-// 1-cell hairlines; at 2 cells the cells beside it too (3 cells, issue 12's narrowest feature).
-constexpr double kMinHalfWidthCells = 2.0;
+// The smallest half-width of a channel's cross-section. The bowl kernel (1 - (d / r)^2)^2 is deeper
+// than half the cut for d < 0.54 r: at r = 1.5 cells only the centre cell, so the smallest channels
+// were 1-cell hairlines; at 2 cells the cells beside it too (3 cells, issue 12's narrowest feature).
+// The canyon section's floor keeps 1.5 cells: its walls widen it by 2 x depth / wall_slope anyway
+// (and 2 cells there widened the canyon example's small side canyons onto its wall stations).
+constexpr double kMinHalfWidthCells = 2.0, kMinCanyonFloorCells = 1.5;
 
 struct DrainageParams {
   double depth = 0, a_ref = 0, a_min = 0, m = 0.5, n = 1.0;
   double width = 0, width_exp = 0.5, max_width = 0, max_depth = 0;
   int smooth = 1;
   bool dinf = true;  // D-infinity routing, else D8
+  bool canyon = false;     // profile "canyon": a flat floor at the bed between walls of wall_slope
+  double wall_slope = 1.5;  // (m per m)
+  bool cut_rims = true;     // hard cells in the cut move down with it (else they stay: fins)
+  double path_smooth = 0;   // canyon: channel centres averaged along the flow over +- this (m)
 };
+
+// The "canyon" cross-section: the carved surface is the lowest of the channels' sections, each a
+// flat floor at its bed b_c (half-width r_c) with walls rising at `slope` beyond it:
+//     T(p) = min_c ( b_c + slope * max(0, |p - c| - r_c) ),   result min(h, T).
+// So a section's depth comes from the terrain (deep where the bed lies far below it, through a
+// rim down a wall to the floor), its top width from its depth (floor + 2 depth / slope): a deep
+// channel is a wide canyon, a shallow one a gully, and a head is a round amphitheatre. The floors
+// are stamped as discs (the lowest bed wins); the walls are a weighted distance transform: two
+// raster passes of a 5x5 chamfer mask (steps 1, sqrt 2, sqrt 5; within 2 % of the Euclidean cone,
+// where a 3x3 mask's octagon, 8 % off, drew straight facets in the walls).
+void carve_canyon_sections(const std::vector<float>& bed_field, int W, int H, double cx, double cy, double slope, std::vector<float>& t) {
+  t = bed_field;
+  struct Step {
+    int dx, dy;
+    float cost;
+  };
+  std::vector<Step> fwd;
+  for (int dy = -2; dy <= 0; ++dy)
+    for (int dx = -2; dx <= 2; ++dx) {
+      if (dy == 0 && dx >= 0) continue;
+      const int ax = std::abs(dx), ay = std::abs(dy);
+      if ((ax == 2 && ay != 1) || (ay == 2 && ax != 1)) continue;  // (2,0), (2,2): sums of smaller steps
+      fwd.push_back({dx, dy, float(slope * std::hypot(dx * cx, dy * cy))});
+    }
+  auto pass = [&](int sign) {
+    for (int yy = 0; yy < H; ++yy) {
+      const int y = sign > 0 ? yy : H - 1 - yy;
+      for (int xx = 0; xx < W; ++xx) {
+        const int x = sign > 0 ? xx : W - 1 - xx;
+        float best = t[size_t(y) * W + x];
+        for (const Step& s : fwd) {
+          const int u = x + sign * s.dx, v = y + sign * s.dy;
+          if (u < 0 || v < 0 || u >= W || v >= H) continue;
+          best = std::fmin(best, t[size_t(v) * W + u] + s.cost);
+        }
+        t[size_t(y) * W + x] = best;
+      }
+    }
+  };
+  pass(1);
+  pass(-1);
+}
 
 Operation parse_drainage(Params& p) {
   const Region r = parse_region(p, true);
@@ -79,8 +127,13 @@ Operation parse_drainage(Params& p) {
   if (!(dp.max_depth > 0)) param_error(p.where("max_depth"), fmt::format("expected a depth > 0 m, got {:g}", dp.max_depth));
   dp.smooth = p.integer("smooth", 1, 0, 20);
   dp.dinf = p.choice("routing", std::string("dinf"), {"dinf", "d8"}) == "dinf";
-  // The half-width reach of the widest channel: the support grows by it beyond the region.
-  p.note_reach(dp.max_width);
+  dp.canyon = p.choice("profile", std::string("bowl"), {"bowl", "canyon"}) == "canyon";
+  dp.wall_slope = p.number("wall_slope", 1.5, 0.05, 20.0);
+  dp.cut_rims = p.boolean("cut_rims", true);
+  dp.path_smooth = p.hlength("path_smooth", 0.0);
+  // The half-width reach of the widest channel: the support grows by it beyond the region (a
+  // canyon's section reaches its floor plus its deepest wall).
+  p.note_reach(dp.canyon ? dp.max_width + dp.max_depth / dp.wall_slope : dp.max_width);
 
   return [=](EditState& s) {
     Device& d = s.device();
@@ -129,6 +182,7 @@ Operation parse_drainage(Params& p) {
       double e, r;  // incision (m), half-width (m)
     };
     std::vector<Channel> ch;
+    const double min_half_width = (dp.canyon ? kMinCanyonFloorCells : kMinHalfWidthCells) * std::max(cx, cy);
     const int rx_max = int(std::ceil(dp.max_width / cx)), ry_max = int(std::ceil(dp.max_width / cy));
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
@@ -156,7 +210,7 @@ Operation parse_drainage(Params& p) {
         }
         const double e = std::min(dp.max_depth, dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n)));
         if (!(e > 0)) continue;
-        ch.push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), kMinHalfWidthCells * std::max(cx, cy), dp.max_width)});
+        ch.push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), min_half_width, dp.max_width)});
       }
     // Grading to base level: visited downstream first (the filled terrain's ascending order, a
     // topological order of the flow: every receiver is strictly lower), each channel cell's cut is
@@ -183,21 +237,78 @@ Operation parse_drainage(Params& p) {
     size_t channels = 0;
     for (const Channel& c : ch) channels += c.e > 0;
     double deepest = 0, widest = 0;
-    for (const Channel& c : ch) {
-      const int x = int(c.i % size_t(W)), y = int(c.i / size_t(W));
-      const double e = c.e, rw = c.r;
-      if (!(e > 0)) continue;
-      deepest = std::max(deepest, e);
-      widest = std::max(widest, rw);
-      const int rx = std::min(rx_max, int(std::ceil(rw / cx))), ry = std::min(ry_max, int(std::ceil(rw / cy)));
-      for (int v = std::max(0, y - ry); v <= std::min(H - 1, y + ry); ++v)
-        for (int u = std::max(0, x - rx); u <= std::min(W - 1, x + rx); ++u) {
-          const double t2 = (std::pow((u - x) * cx, 2) + std::pow((v - y) * cy, 2)) / (rw * rw);
-          if (t2 >= 1) continue;
-          const float ek = float(e * (1 - t2) * (1 - t2));
-          float& cc = inc[size_t(v) * W + u];
-          cc = std::max(cc, ek);
+    if (dp.canyon) {
+      // Floors: each channel's bed (its graded cut, weighted by the region) stamped over a disc of
+      // its half-width, the lowest winning; then the walls (carve_canyon_sections).
+      constexpr float kHigh = 1e30f;
+      std::vector<float> floor_z(N, kHigh), t;
+      // Path smoothing: a channel's section is centred on the mean position of the cells within
+      // +- path_smooth along its flow line (downstream by the receivers, upstream by the donor that
+      // drains most), so the routing's steps between neighbours (D8's 0/45/90-degree zig-zags, the
+      // receivers D-infinity picks) become the line's mean direction.
+      const int k_path = int(std::lround(dp.path_smooth / std::max(cx, cy)));
+      std::vector<size_t> main_donor;
+      if (k_path > 0) {
+        main_donor.assign(N, N);
+        for (size_t i = 0; i < N; ++i) {
+          const uint8_t k = recv[i];
+          if (k >= 8) continue;
+          const size_t j = size_t(ptrdiff_t(i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
+          if (main_donor[j] == N || acc[i] > acc[main_donor[j]] || (acc[i] == acc[main_donor[j]] && i < main_donor[j]))
+            main_donor[j] = i;
         }
+      }
+      for (const Channel& c : ch) {
+        if (!(c.e > 0)) continue;
+        double x = double(c.i % size_t(W)), y = double(c.i / size_t(W));
+        if (k_path > 0) {
+          double sx = x, sy = y;
+          int n = 1;
+          size_t q = c.i;
+          for (int k = 0; k < k_path && recv[q] < 8; ++k, ++n) {
+            q = size_t(ptrdiff_t(q) + ptrdiff_t(analysis::kDy[recv[q]]) * W + analysis::kDx[recv[q]]);
+            sx += double(q % size_t(W)), sy += double(q / size_t(W));
+          }
+          q = c.i;
+          for (int k = 0; k < k_path && main_donor[q] != N; ++k, ++n) {
+            q = main_donor[q];
+            sx += double(q % size_t(W)), sy += double(q / size_t(W));
+          }
+          x = sx / n, y = sy / n;
+        }
+        deepest = std::max(deepest, c.e);
+        widest = std::max(widest, c.r);
+        const double bed = double(zf[c.i]) - w_at(c.i) * c.e;
+        // (Stamped exactly, walls included, out to 2 cells past the floor's edge: seeded from the
+        // floor's cells alone, the walls stood up to one cell x wall_slope too high, 1.2 m in the test.)
+        const int rx = int(std::ceil(c.r / cx)) + 2, ry = int(std::ceil(c.r / cy)) + 2;
+        const int xc = int(std::lround(x)), yc = int(std::lround(y));
+        for (int v = std::max(0, yc - ry); v <= std::min(H - 1, yc + ry); ++v)
+          for (int u = std::max(0, xc - rx); u <= std::min(W - 1, xc + rx); ++u) {
+            const double d = std::hypot((u - x) * cx, (v - y) * cy);
+            float& f = floor_z[size_t(v) * W + u];
+            f = std::fmin(f, float(bed + dp.wall_slope * std::max(0.0, d - c.r)));
+          }
+      }
+      carve_canyon_sections(floor_z, W, H, cx, cy, dp.wall_slope, t);
+      for (size_t i = 0; i < N; ++i) inc[i] = std::fmax(0.f, h.z[i] - t[i]);
+    } else {
+      for (const Channel& c : ch) {
+        const int x = int(c.i % size_t(W)), y = int(c.i / size_t(W));
+        const double e = c.e, rw = c.r;
+        if (!(e > 0)) continue;
+        deepest = std::max(deepest, e);
+        widest = std::max(widest, rw);
+        const int rx = std::min(rx_max, int(std::ceil(rw / cx))), ry = std::min(ry_max, int(std::ceil(rw / cy)));
+        for (int v = std::max(0, y - ry); v <= std::min(H - 1, y + ry); ++v)
+          for (int u = std::max(0, x - rx); u <= std::min(W - 1, x + rx); ++u) {
+            const double t2 = (std::pow((u - x) * cx, 2) + std::pow((v - y) * cy, 2)) / (rw * rw);
+            if (t2 >= 1) continue;
+            const float ek = float(e * (1 - t2) * (1 - t2));
+            float& cc = inc[size_t(v) * W + u];
+            cc = std::max(cc, ek);
+          }
+      }
     }
     // Smoothing (3x3 binomial), then the region's weight.
     std::vector<float> tmp(N);
@@ -250,6 +361,15 @@ Operation parse_drainage(Params& p) {
         }
       }
     s.upload(g);
+    // Hard cells (a cliff's rim, a river's bed) that the cut reaches move down with it, as a
+    // ravine's `cut_rims` releases them: pinned at their old elevation, a rim line left standing
+    // across a side canyon's mouth is a fin (the solve holds it against the field's cut).
+    size_t moved = 0;
+    if (dp.cut_rims) {
+      std::vector<float>& hard = s.hard();
+      for (size_t i = 0; i < N; ++i)
+        if (dz[i] != 0 && !std::isnan(hard[i])) hard[i] = float(double(hard[i]) + dz[i]), ++moved;
+    }
     // The solve keeps the field's mean elevation when no cell is hard (a global solve): the mean
     // follows the incision, or the whole terrain would rise by the mean cut.
     double mean = 0;
@@ -263,6 +383,7 @@ Operation parse_drainage(Params& p) {
     log["graded_max_m"] = graded;
     log["refill_max_m"] = raised;
     log["faces"] = touched;
+    log["hard_cells_moved"] = moved;
     log["drainage_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start).count();
     s.changed();
   };
