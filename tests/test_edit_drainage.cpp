@@ -65,6 +65,16 @@ Network network(const Heightfield& h, double min_cells) {
   return n;
 }
 
+// The planar V-valley z = 0.5 |x - axis| + 0.1 y on 1 m cells, its axis the middle column: every
+// off-axis cell drains sideways to the axis, which falls towards y = 0.
+Heightfield v_valley(int W, int H) {
+  Heightfield h(W, H);
+  h.georef.cell_x = h.georef.cell_y = 1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) h.at(x, y) = float(0.5 * std::abs(x - (W - 1) / 2) + 0.1 * y);
+  return h;
+}
+
 std::string message(const json& op) {
   EditSession s(test::device(), tilted_noisy_plane());
   try {
@@ -203,10 +213,7 @@ TEST(EditDrainage, PlanarVValleyMatchesTheStreamPowerLaw) {
   // z = 0.5 |x - 20| + 0.1 y on 1 m cells, 41 x 120: every off-axis cell drains sideways to the
   // axis, so the axis cell of row y drains A = 41 (120 - y) m^2 at slope S = 0.1.
   const int W = 41, H = 120;
-  Heightfield base(W, H);
-  base.georef.cell_x = base.georef.cell_y = 1;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) base.at(x, y) = float(0.5 * std::abs(x - 20) + 0.1 * y);
+  const Heightfield base = v_valley(W, H);
   const double depth = 20, a_ref = 1000, width = 2;
   // D8 routing (the area above is D8's: D-infinity sends the flanks' flow obliquely down to the
   // axis, so it reaches the axis a few rows further down).
@@ -292,10 +299,7 @@ TEST(EditDrainage, CanyonSectionIsAFlatFloorBetweenWallsAtWallSlope) {
   // that formula evaluated here. So the section is as deep as the bed lies below the terrain, and
   // its top is wider where it is deeper.
   const int W = 61, H = 120;
-  Heightfield base(W, H);
-  base.georef.cell_x = base.georef.cell_y = 1;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) base.at(x, y) = float(0.5 * std::abs(x - 30) + 0.1 * y);
+  const Heightfield base = v_valley(W, H);
   const double depth = 4, a_ref = 1000, width = 2, slope = 1.5;
   const json op = {{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", depth}, {"reference_area", a_ref},
                    {"threshold", 200}, {"channel_width", width}, {"wall_slope", slope}, {"smooth", 0}, {"routing", "d8"}};
@@ -347,10 +351,7 @@ TEST(EditDrainage, HardCellsInTheCutMoveDownWithIt) {
   // default) the drainage cut moves the pins down with it; with "cut_rims": false they stay, and the
   // axis keeps its elevation between cut banks (the fins a cliff's rim left across a side canyon).
   const int W = 41, H = 120;
-  Heightfield base(W, H);
-  base.georef.cell_x = base.georef.cell_y = 1;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) base.at(x, y) = float(0.5 * std::abs(x - 20) + 0.1 * y);
+  const Heightfield base = v_valley(W, H);
   const json river = {{"op", "river"}, {"points", {{20, 40, 4.0}, {20, 80, 8.0}}}, {"width", 6}, {"floor", 1}, {"bank_height", 0}};
   json op = {{"op", "drainage"}, {"profile", "canyon"}, {"n", 0}, {"depth", 4}, {"reference_area", 1000}, {"threshold", 200},
              {"smooth", 0}};
