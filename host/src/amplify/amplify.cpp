@@ -400,6 +400,9 @@ class StepEngine {
   float m_relief_b = 0.f, m_qref = 0.f;
 };
 
+// Bounds of the relief scale of a later cascade step (amplify_step).
+constexpr float kMinReliefScale = 0.5f, kMaxReliefScale = 2.f;
+
 // The output of one step over the window `low` (first cell: the step input's global cell ox, oy),
 // with the detail blend's correlation rho (detail blend only).
 // `input_gain` > 0: the gain chosen for this input (input_hf_gain) where the options leave it open;
@@ -447,15 +450,17 @@ Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float
   if (detail_blend)
     out.metadata["amplify_detail_correlation"] =
         aniso ? fmt::format("{:.3f} (x {:.3f}, y {:.3f})", rho, rho + delta, rho - delta) : fmt::format("{:.3f}", rho);
-  // A later cascade step's relief scale (StepEngine::relief_scale) multiplies whichever gain applies.
-  const float gain = (o.detail_gain >= 0 ? o.detail_gain : input_gain > 0 ? input_gain : d.detail_gain) *
-                     (detail_blend && relief > 0 ? relief : 1.f);
+  // A later cascade step's relief scale (StepEngine::relief_scale) multiplies whichever gain applies,
+  // within [1/2, 2]: a mostly flat input (a painted sketch's plateaus) has a median footprint near 0.
+  const float applied = detail_blend && relief > 0 ? std::clamp(relief, kMinReliefScale, kMaxReliefScale) : 1.f;
+  const float gain = (o.detail_gain >= 0 ? o.detail_gain : input_gain > 0 ? input_gain : d.detail_gain) * applied;
   out.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", gain);
   if (detail_blend && relief > 0 && relief != 1.f && eng.relief_exponent() > 0) {
     const float b = eng.relief_exponent(), qref = eng.relief_reference();
     std::string& note = out.metadata["amplify_relief_scale"];
-    note += fmt::format("{}step {}: detail x {:.3f} = (q_ref {:.1f} m / median footprint {:.1f} m)^{:.3f}{}",
-                        note.empty() ? "" : " | ", std::max(step + 1, o.later_cascade_step ? 2 : 1), relief, qref,
+    note += fmt::format("{}step {}: detail x {:.3f}{} = (q_ref {:.1f} m / median footprint {:.1f} m)^{:.3f}{}",
+                        note.empty() ? "" : " | ", std::max(step + 1, o.later_cascade_step ? 2 : 1), applied,
+                        applied != relief ? fmt::format(" (clamped from {:.3f})", relief) : "", qref,
                         qref * std::pow(relief, -1.f / b), b,
                         o.cascade_relief_exponent > 0 ? "" : " (b from the dictionary's atoms)");
   }
