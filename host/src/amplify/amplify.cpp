@@ -117,9 +117,9 @@ class StepEngine {
   // [Y0, Y1) (local coordinates of a window that holds their footprints), at least 5 % of q_ref.
   // The atom search ties each patch's detail to its own footprint's relief as the exemplar's
   // patches do (detail ~ relief^(1 - b)); across terrains the fine relief follows the relief less,
-  // so an input gentler than the exemplar gets more detail per footprint, a rougher one less.
-  // `median`: q_med is written there.
-  float relief_scale(int X0, int Y0, int X1, int Y1, float* median = nullptr) const {
+  // so an input gentler than the exemplar gets more detail per footprint, a rougher one less. The
+  // footprints are blend()'s (the same disc mask, mean and clamping).
+  float relief_scale(int X0, int Y0, int X1, int Y1) const {
     if (!(m_relief_b > 0)) return 1.f;
     const int kx0 = first(m_ox + X0), kx1 = last(m_ox + X1), ky0 = first(m_oy + Y0), ky1 = last(m_oy + Y1);
     std::vector<float> norms;
@@ -141,7 +141,6 @@ class StepEngine {
     if (norms.empty()) return 1.f;
     std::nth_element(norms.begin(), norms.begin() + long(norms.size() / 2), norms.end());
     const float q = std::max(norms[norms.size() / 2], 0.05f * m_qref);
-    if (median) *median = norms[norms.size() / 2];
     return std::pow(m_qref / q, m_relief_b);
   }
 
