@@ -198,6 +198,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--detail-correlation", va->amp.detail_correlation, "Detail blend: assumed correlation of overlapping details")->capture_default_str();
   ev->add_flag("--no-detail-anisotropy{false}", va->amp.detail_anisotropy,
               "Detail blend: one measured rho for all overlaps (before issue 16 session 8)");
+  ev->add_option("--cascade-relief-exponent", va->amp.cascade_relief_exponent,
+                 "Detail blend, x16: the second step's gain times (q_ref / q_med)^b, the relief of the dictionary's atoms over its input's footprints (-1: b from the dictionary; 0: off)")
+      ->capture_default_str();
   ev->add_option("--base", va->amp.base, "bicubic | bandlimited | auto (see amplify --base)")->capture_default_str();
   ev->add_option("--blend", va->amp.blend, "detail | average | auto (see amplify --blend)")->capture_default_str();
   ev->add_option("--detail-gain", va->amp.detail_gain, "Gain on the synthesized detail (-1: calibrated)")->capture_default_str();
@@ -260,7 +263,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       write_heightfield(bic, va->save + "_bicubic.tif");
       write_heightfield(out, va->save + "_out.tif");
     }
-    for (const char* key : {"amplify_detail_gain", "amplify_calibration", "amplify_hf_calibration"})
+    for (const char* key : {"amplify_detail_gain", "amplify_calibration", "amplify_hf_calibration", "amplify_relief_scale"})
       if (out.metadata.count(key)) fmt::print("# {} x{} {}: {}\n", name, f, key, out.metadata.at(key));
     if (o.mode == "faithful") return;
     if (va->no_corr) {

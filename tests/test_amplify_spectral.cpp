@@ -236,12 +236,19 @@ TEST(AmplifySpectral, CascadeCalibrationChoosesTheFirstStepGainThroughBothSteps)
   std::printf("cascade: HF %.3f RMSE %.3f x bicubic slope %.3f; step gains: HF %.3f RMSE %.3f slope %.3f (%s | %s)\n",
               m.hf_ratio, m.rmse / b.rmse, m.slope_ratio, m0.hf_ratio, m0.rmse / b.rmse, m0.slope_ratio,
               out.metadata.at("amplify_detail_gain").c_str(), old.metadata.at("amplify_detail_gain").c_str());
-  // Measured: HF 0.881 against 0.749, RMSE 1.305 against 1.257 x bicubic, slope 0.929 / 0.885. The folds'
-  // budget (1.2) transfers to this small crop with a 0.1 margin; on the eval's whole east half 1.278.
+  // Measured: HF 0.946 against 0.825, RMSE 1.326 against 1.282 x bicubic, slope 1.058 / 1.022 (before the
+  // second step's relief scale, issue 16 session 10: HF 0.881 / 0.749, RMSE 1.305 / 1.257, slope 0.929 /
+  // 0.885). The folds' budget (1.2) transfers to this small crop with a 0.13 margin; on the eval's whole
+  // east half 1.287.
   EXPECT_GT(m.hf_ratio, m0.hf_ratio * 1.1);
   EXPECT_LT(m.rmse / b.rmse, 1.35);
   EXPECT_LT(m.lr_consistency, 1e-2);
-  // The second step is the same dictionary's (learned once, ahead of the first step).
-  EXPECT_EQ(out.metadata.at("amplify_detail_gain").substr(out.metadata.at("amplify_detail_gain").find(',')),
-            old.metadata.at("amplify_detail_gain").substr(old.metadata.at("amplify_detail_gain").find(',')));
+  // The second step is the same dictionary's (learned once, ahead of the first step): its gain over the
+  // relief scale (which follows the first step's output) is the same.
+  auto second_gain = [](const Heightfield& h) {
+    const std::string& g = h.metadata.at("amplify_detail_gain");
+    const std::string& r = h.metadata.at("amplify_relief_scale");
+    return std::stod(g.substr(g.find(',') + 1)) / std::stod(r.substr(r.find("detail x ") + 9));
+  };
+  EXPECT_NEAR(second_gain(out), second_gain(old), 2e-3);
 }

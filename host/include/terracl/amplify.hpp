@@ -293,6 +293,19 @@ struct AmplifyOptions {
   /// with a dictionary whose gain was calibrated so (Dictionary::anisotropy; not .tdic files before
   /// version 5): false, or such a dictionary, gives one rho.
   bool detail_anisotropy = true;
+  /// Detail blend, steps after the first of a cascade (x16 and beyond): the step's detail gain is
+  /// multiplied by (q_ref / q_med)^b, q_med the median relief of the step's patch footprints (the norm
+  /// the magnitude term uses, over the step's measured region, like rho), q_ref the dictionary's median
+  /// atom footprint norm (complete and constrained dictionaries only; K-SVD atoms have none). The atom
+  /// search ties each patch's detail to its footprint's relief as the exemplar's patches do (detail ~
+  /// relief^(1 - b)); across terrains the fine relief follows the relief less, and a later step's
+  /// footprints are the previous step's RMSE-capped synthesis (docs/amplify.md, issue 16 session 10).
+  /// < 0: b = 1 - that exponent fitted on the dictionary's atoms (detail_relief_exponent); 0: off
+  /// (before session 10); > 0: this b. Applies whatever the gain's source (also an explicit detail_gain).
+  float cascade_relief_exponent = -1.f;
+  /// Internal (amplify_from_exemplars, the cascade calibration): this call's first step is a later
+  /// step of a cascade whose steps run as separate calls.
+  bool later_cascade_step = false;
   /// Detail mode's base, the part the input's block means determine (upsample()): "bicubic",
   /// "bandlimited" (no knots: no curvature peak at the input cells' centres) or "auto" (the
   /// dictionary's). The patches' details are taken relative to the same base.
@@ -305,6 +318,13 @@ struct AmplifyOptions {
   int faithful_radius = 3;  ///< faithful: neighbourhood radius of the regression (input cells)
   int threads = 0;
 };
+
+/// The exponent b of AmplifyOptions::cascade_relief_exponent learned from a dictionary: 1 minus the
+/// least-squares slope of log |detail| against log |L| over its atoms (at most 4096, evenly spaced),
+/// detail = the atom's source patch minus its smooth part (smooth_part_operator with `base`), |L| the
+/// norm of its low-resolution footprint (Dictionary::low_norm); clamped to [0, 1]. -1 without atom
+/// norms (K-SVD) or with too few atoms.
+double detail_relief_exponent(const Dictionary& d, const std::string& base);
 
 /// One or more x4 steps with the dictionary (the same one at every step). The output is
 /// georeferenced at the finer cell size and its f x f block means equal the input (correction).

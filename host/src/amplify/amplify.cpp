@@ -92,9 +92,57 @@ class StepEngine {
     // dictionary serves a coarser step).
     const Georef g = low.georef.resampled(f);
     m_qscale = d.cell_x > 0 && g.cell_x > 0 ? float(d.cell_x / g.cell_x) : 1.f;
+    // A later step of a cascade: its detail scaled by the relief of the exemplar's footprints over
+    // this input's (relief_scale; AmplifyOptions::cascade_relief_exponent, docs/amplify.md, issue 16
+    // session 10).
+    if (m_detail_blend && (step > 0 || o.later_cascade_step) && o.cascade_relief_exponent != 0.f &&
+        !d.low_norm.empty()) {
+      const double b = o.cascade_relief_exponent > 0 ? o.cascade_relief_exponent : detail_relief_exponent(d, o.base);
+      if (b > 0) {
+        std::vector<float> n = d.low_norm;
+        std::nth_element(n.begin(), n.begin() + long(n.size() / 2), n.end());
+        m_qref = n[n.size() / 2];
+        if (m_qref > 0) m_relief_b = float(b);
+      }
+    }
   }
 
   bool detail_blend() const { return m_detail_blend; }
+  // The exponent b and reference norm q_ref of the relief scaling (0: off).
+  float relief_exponent() const { return m_relief_b; }
+  float relief_reference() const { return m_qref; }
+
+  // The relief scale of a later cascade step, (q_ref / q_med)^b (1 when off): q_med the median
+  // footprint norm (as the magnitude term scales it) of the patches over the output cells [X0, X1) x
+  // [Y0, Y1) (local coordinates of a window that holds their footprints), at least 5 % of q_ref.
+  // The atom search ties each patch's detail to its own footprint's relief as the exemplar's
+  // patches do (detail ~ relief^(1 - b)); across terrains the fine relief follows the relief less,
+  // so an input gentler than the exemplar gets more detail per footprint, a rougher one less. The
+  // footprints are blend()'s (the same disc mask, mean and clamping).
+  float relief_scale(int X0, int Y0, int X1, int Y1) const {
+    if (!(m_relief_b > 0)) return 1.f;
+    const int kx0 = first(m_ox + X0), kx1 = last(m_ox + X1), ky0 = first(m_oy + Y0), ky1 = last(m_oy + Y1);
+    std::vector<float> norms;
+    for (int ky = ky0; ky < ky1; ++ky)
+      for (int kx = kx0; kx < kx1; ++kx) {
+        const int lx = (kx * S - Q) / f - m_ox / f, ly = (ky * S - Q) / f - m_oy / f;
+        double s = 0, s2 = 0;
+        for (int v = 0; v < p; ++v)
+          for (int u = 0; u < p; ++u)
+            s += m_lmask[v * p + u] * m_low.at(clampi(lx + u, m_low.width), clampi(ly + v, m_low.height));
+        const double mean = s / m_lmsum;
+        for (int v = 0; v < p; ++v)
+          for (int u = 0; u < p; ++u) {
+            const double e = m_lmask[v * p + u] * (m_low.at(clampi(lx + u, m_low.width), clampi(ly + v, m_low.height)) - mean);
+            s2 += e * e;
+          }
+        norms.push_back(float(std::sqrt(s2)) * m_qscale);
+      }
+    if (norms.empty()) return 1.f;
+    std::nth_element(norms.begin(), norms.begin() + long(norms.size() / 2), norms.end());
+    const float q = std::max(norms[norms.size() / 2], 0.05f * m_qref);
+    return std::pow(m_qref / q, m_relief_b);
+  }
 
   // Sums of the blend over the local output cells [X0, X1) x [Y0, Y1): num, den (sum w^2 for the
   // detail blend, else sum w) and den1 (sum w, detail blend only); `uv` (detail blend with at most
@@ -348,7 +396,11 @@ class StepEngine {
   bool m_use_omp = false, m_detail_blend = false;
   MatrixF m_bmat, m_umat;
   float m_qscale = 1.f;
+  float m_relief_b = 0.f, m_qref = 0.f;
 };
+
+// Bounds of the relief scale of a later cascade step (amplify_step).
+constexpr float kMinReliefScale = 0.5f, kMaxReliefScale = 2.f;
 
 // The output of one step over the window `low` (first cell: the step input's global cell ox, oy),
 // with the detail blend's correlation rho (detail blend only).
@@ -356,7 +408,7 @@ class StepEngine {
 // `raw`: the blended detail only (no gain, base or bias correction), what input_hf_gain measures.
 Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float rho, float delta, const Dictionary& d,
                          const AmplifyOptions& o, const AtomIndex* index, const Progress& progress,
-                         float input_gain = -1, bool raw = false) {
+                         float input_gain = -1, float relief = 1, bool raw = false) {
   const int f = d.factor, S = o.spacing;
   const int W = low.width * f, H = low.height * f;
   Heightfield out(W, H);
@@ -397,8 +449,20 @@ Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float
   if (detail_blend)
     out.metadata["amplify_detail_correlation"] =
         aniso ? fmt::format("{:.3f} (x {:.3f}, y {:.3f})", rho, rho + delta, rho - delta) : fmt::format("{:.3f}", rho);
-  const float gain = o.detail_gain >= 0 ? o.detail_gain : input_gain > 0 ? input_gain : d.detail_gain;
+  // A later cascade step's relief scale (StepEngine::relief_scale) multiplies whichever gain applies,
+  // within [1/2, 2]: a mostly flat input (a painted sketch's plateaus) has a median footprint near 0.
+  const float applied = detail_blend && relief > 0 ? std::clamp(relief, kMinReliefScale, kMaxReliefScale) : 1.f;
+  const float gain = (o.detail_gain >= 0 ? o.detail_gain : input_gain > 0 ? input_gain : d.detail_gain) * applied;
   out.metadata["amplify_detail_gain"] = fmt::format("{:.3f}", gain);
+  if (detail_blend && relief > 0 && relief != 1.f && eng.relief_exponent() > 0) {
+    const float b = eng.relief_exponent(), qref = eng.relief_reference();
+    std::string& note = out.metadata["amplify_relief_scale"];
+    note += fmt::format("{}step {}: detail x {:.3f}{} = (q_ref {:.1f} m / median footprint {:.1f} m)^{:.3f}{}",
+                        note.empty() ? "" : " | ", std::max(step + 1, o.later_cascade_step ? 2 : 1), applied,
+                        applied != relief ? fmt::format(" (clamped from {:.3f})", relief) : "", qref,
+                        qref * std::pow(relief, -1.f / b), b,
+                        o.cascade_relief_exponent > 0 ? "" : " (b from the dictionary's atoms)");
+  }
   if (detail_blend) {
     // out = bicubic + gain detail
     if (gain != 1.f)
@@ -495,18 +559,22 @@ double input_hf_gain(const Heightfield& low, int lx0, int ly0, int cw, int ch, c
 std::vector<float> step_correlations(const AmplifyWindowReader& read, int width, int height, int steps,
                                      const Dictionary& d, const AmplifyOptions& o, const AtomIndex* index,
                                      bool first_is_input = true) {
-  std::vector<float> rhos, gains(size_t(steps), -1.f), deltas(size_t(steps), 0.f);
+  std::vector<float> rhos, gains(size_t(steps), -1.f), deltas(size_t(steps), 0.f), reliefs(size_t(steps), 1.f);
   if (o.blend != "detail") return rhos;
+  // Later steps of a cascade get a relief scale (StepEngine::relief_scale).
+  auto later = [&](int k) { return k > 0 || o.later_cascade_step; };
+  const bool relief = o.cascade_relief_exponent != 0.f && !d.low_norm.empty() && (steps > 1 || o.later_cascade_step);
   const bool fixed_rho = o.detail_correlation >= 0;
   // Only the first step of a cascade sees measured terrain: later steps' inputs carry the previous
   // step's synthesized spectrum (at x16 on the Front Range its RMSE-capped gain made the second
   // step's estimate 0.55 x the held-out one and the HF fell from 0.66 to 0.31; docs/amplify.md).
   const bool input_gain = first_is_input && o.detail_gain < 0 && o.hf_from_input && o.bias_correction &&
                           d.spectral_scale > 0;
-  if (fixed_rho && !input_gain) {
+  if (fixed_rho && !input_gain && !relief) {
     rhos.assign(size_t(steps), std::clamp(o.detail_correlation, 0.f, 1.f));
     rhos.insert(rhos.end(), gains.begin(), gains.end());
     rhos.insert(rhos.end(), deltas.begin(), deltas.end());
+    rhos.insert(rhos.end(), reliefs.begin(), reliefs.end());
     return rhos;
   }
   const int f = d.factor, halo = step_halo(d, o);
@@ -519,7 +587,7 @@ std::vector<float> step_correlations(const AmplifyWindowReader& read, int width,
     const int a1 = std::min(lw, (x1 + f - 1) / f + halo), b1 = std::min(lh, (y1 + f - 1) / f + halo);
     const Heightfield prev = input(k - 1, a0, b0, a1, b1);
     const Heightfield up = amplify_step(prev, a0, b0, k - 1, rhos[size_t(k - 1)], deltas[size_t(k - 1)], d, o, index, {},
-                                        gains[size_t(k - 1)]);
+                                        gains[size_t(k - 1)], reliefs[size_t(k - 1)]);
     Heightfield w(x1 - x0, y1 - y0);
     for (int y = 0; y < w.height; ++y)
       for (int x = 0; x < w.width; ++x) w.at(x, y) = up.at(x0 - a0 * f + x, y0 - b0 * f + y);
@@ -531,25 +599,32 @@ std::vector<float> step_correlations(const AmplifyWindowReader& read, int width,
     const Rect r = rho_region(w, h);
     const int a0 = std::max(0, r.x0 - halo), b0 = std::max(0, r.y0 - halo);
     const int a1 = std::min(w, r.x1 + halo), b1 = std::min(h, r.y1 + halo);
-    if (fixed_rho && k > 0) {  // only the first step's gain needed measuring
+    if (fixed_rho && k > 0 && !relief) {  // only the first step's gain needed measuring
       rhos.push_back(std::clamp(o.detail_correlation, 0.f, 1.f));
       continue;
     }
     const Heightfield win = input(k, a0, b0, a1, b1);
     require_finite(win, "amplify", "input");
     const StepEngine eng(win, a0, b0, k, d, o, index);
+    if (relief && later(k))
+      reliefs[size_t(k)] = eng.relief_scale((r.x0 - a0) * f, (r.y0 - b0) * f, (r.x1 - a0) * f, (r.y1 - b0) * f);
+    if (fixed_rho && k > 0) {
+      rhos.push_back(std::clamp(o.detail_correlation, 0.f, 1.f));
+      continue;
+    }
     const auto [rho, delta] =
         fixed_rho ? std::pair<float, float>{std::clamp(o.detail_correlation, 0.f, 1.f), 0.f}
                   : eng.measure_rho((r.x0 - a0) * f, (r.y0 - b0) * f, (r.x1 - a0) * f, (r.y1 - b0) * f);
     rhos.push_back(rho);
     deltas[size_t(k)] = delta;
     if (k == 0 && input_gain) {
-      const Heightfield detail = amplify_step(win, a0, b0, k, rho, delta, d, o, index, {}, -1, true);
+      const Heightfield detail = amplify_step(win, a0, b0, k, rho, delta, d, o, index, {}, -1, 1, true);
       gains[0] = float(input_hf_gain(win, r.x0 - a0, r.y0 - b0, r.x1 - r.x0, r.y1 - r.y0, detail, d, o.base));
     }
   }
   rhos.insert(rhos.end(), gains.begin(), gains.end());
   rhos.insert(rhos.end(), deltas.begin(), deltas.end());
+  rhos.insert(rhos.end(), reliefs.begin(), reliefs.end());
   return rhos;
 }
 
@@ -574,6 +649,29 @@ Heightfield fold_crop(const Heightfield& ex, bool wide, int a0, int a1, int o0, 
 
 }  // namespace
 
+double detail_relief_exponent(const Dictionary& d, const std::string& base) {
+  const int n = d.atoms(), P = d.patch;
+  if (d.low_norm.size() != size_t(n) || n < 16 || d.factor < 2) return -1;
+  const MatrixF M = smooth_part_operator(P, d.factor, base);
+  const int step = std::max(1, n / 4096);
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, cnt = 0;
+  MatrixF detail(P, P);
+  for (int j = 0; j < n; j += step) {
+    const float norm = d.low_norm[size_t(j)];
+    if (!(norm > 0)) continue;
+    // The atom is its source patch over norm: |detail of the source| = |detail of the atom| norm.
+    const Eigen::Map<const MatrixF> h(d.high.col(j).data(), P, P);
+    detail.noalias() = h - M * h * M.transpose();
+    const double dn = double(detail.norm()) * norm;
+    if (!(dn > 0)) continue;
+    const double x = std::log(double(norm)), y = std::log(dn);
+    sx += x, sy += y, sxx += x * x, sxy += x * y, cnt += 1;
+  }
+  const double var = sxx - sx * sx / std::max(1.0, cnt);
+  if (cnt < 16 || !(var > 0)) return -1;
+  const double slope = (sxy - sx * sy / cnt) / var;
+  return std::clamp(1.0 - slope, 0.0, 1.0);
+}
 
 int amplify_halo(const Dictionary& d, const AmplifyOptions& o) {
   const AmplifyOptions r = resolved(o, d);
@@ -621,10 +719,12 @@ Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Diction
   }
   const AmplifyOptions r = resolved(o, d);
   const bool detail = r.blend == "detail";
-  // rhos, gains and (since issue 16 session 8) anisotropies per step; without the last, isotropic.
-  if (detail && correlations.size() != 2 * size_t(steps) && correlations.size() != 3 * size_t(steps))
+  // rhos, gains, (since issue 16 session 8) anisotropies and (session 10) relief scales per step;
+  // without the last ones, isotropic and unscaled.
+  const size_t blocks = steps > 0 ? correlations.size() / size_t(steps) : 0;
+  if (detail && (correlations.size() % size_t(steps) != 0 || blocks < 2 || blocks > 4))
     fail("amplify", "internal: {} detail correlations and gains for {} steps", correlations.size(), steps);
-  const bool with_delta = detail && correlations.size() == 3 * size_t(steps);
+  const bool with_delta = detail && blocks >= 3, with_relief = detail && blocks >= 4;
   const auto index = make_index(d, r);
   Heightfield cur = low;
   std::string gains;
@@ -632,7 +732,8 @@ Heightfield amplify_window(const Heightfield& low, int x0, int y0, const Diction
     const float input_gain = detail ? correlations[size_t(steps + k)] : -1.f;
     cur = amplify_step(cur, x0 * scale, y0 * scale, k, detail ? correlations[size_t(k)] : 0.f,
                        with_delta ? correlations[size_t(2 * steps + k)] : 0.f, d, r, index.get(),
-                       scaled_progress(progress, double(k) / steps, double(k + 1) / steps), input_gain);
+                       scaled_progress(progress, double(k) / steps, double(k + 1) / steps), input_gain,
+                       with_relief ? correlations[size_t(3 * steps + k)] : 1.f);
     gains += (k ? "," : "") + cur.metadata["amplify_detail_gain"];
     if (input_gain > 0 && r.detail_gain < 0)
       cur.metadata["amplify_hf_calibration"] = fmt::format(
@@ -721,6 +822,7 @@ CascadeGain cascade_first_gain(const Heightfield& ex, const LearnOptions& learn,
     AmplifyOptions a = o1, c = o2;
     a.factor = c.factor = f;
     c.detail_gain = g2;
+    c.later_cascade_step = true;
     for (size_t q = 0; q < grid.size(); ++q) {
       a.detail_gain = float(grid[q]);
       const Heightfield out = amplify(amplify(low, d1, a), d2, c);
@@ -845,10 +947,11 @@ Heightfield amplify_from_exemplars(const Heightfield& low, const std::vector<Hei
     };
     AmplifyOptions rk = r;
     if (k == 0 && cascade_gain > 0) rk.detail_gain = float(cascade_gain);
+    rk.later_cascade_step = k > 0;  // steps run one call each here
     const auto rho = step_correlations(read, cur.width, cur.height, 1, *dict, rk, index.get(), k == 0);
-    const float input_gain = rho.size() >= 2 ? rho[1] : -1.f;  // one step: rho, gain, delta
+    const float input_gain = rho.size() >= 2 ? rho[1] : -1.f;  // one step: rho, gain, delta, relief scale
     cur = amplify_step(cur, 0, 0, k, rho.empty() ? 0.f : rho[0], rho.size() >= 3 ? rho[2] : 0.f, *dict, rk, index.get(), scaled_progress(pk, 0.5, 1),
-                       input_gain);
+                       input_gain, rho.size() >= 4 ? rho[3] : 1.f);
     gains.push_back(cur.metadata["amplify_detail_gain"]);
     if (k == 0 && cascade_gain > 0)
       hf_notes.push_back(fmt::format("step 1: gain {:.3f} (dictionary's {:.3f}) from both steps on the exemplar's held-out "

@@ -55,6 +55,7 @@ AmplifyOptions amplify_options(const json& options) {
   o.blend = options.at("blend").get<std::string>();
   o.mode = options.at("mode").get<std::string>();
   o.base = options.at("base").get<std::string>();
+  o.cascade_relief_exponent = float(options.at("cascade_relief_exponent").get<double>());
   return o;
 }
 
@@ -171,6 +172,7 @@ void register_amplify_stages(StageRegistry& r) {
              {"mode", OptionType::Enum, "detail", "", "detail: plausible relief from the exemplar's patches; faithful: the estimate closest to the truth (a regression learned on the exemplar, or the one a version 3 dictionary stores)", {"detail", "faithful"}},
              {"blend", OptionType::Enum, "auto", "", "Patch blend: detail (bicubic + variance-preserving blend of the patches' details, no patch-grid trace), average (the paper's weighted mean of the patches) or auto (the dictionary's; detail when learned now)", {"auto", "detail", "average"}},
              {"base", OptionType::Enum, "auto", "", "Detail mode's base (what the input's block means determine; details are taken relative to it): bicubic, bandlimited (a consistent band-limited kernel: no curvature peak at the input cells' centres) or auto (the dictionary's; bandlimited when learned now, bicubic for dictionaries older than format version 3)", {"auto", "bicubic", "bandlimited"}},
+             OptionSpec{"cascade_relief_exponent", OptionType::Float, -1.0, "", "Detail blend, x16 and beyond: steps after the first multiply their detail gain by (q_ref / q_med)^b, q_med the median relief of the step's patch footprints, q_ref the dictionary's atoms' (-1: b from the dictionary's atoms; 0: off)", {}}.range(-1, 4),
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
              {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
              OptionSpec{"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}}.range(0, 1000),
