@@ -87,6 +87,45 @@ TEST(EditStrata, RampBecomesStaircaseAtTheLayerBoundaries) {
   EXPECT_NEAR(h.at(205, 8), 185.0, 0.05);
 }
 
+// Dipping beds: with "dip" 20 degrees towards the south (dip_direction -90: counter-clockwise from
+// east), the beds at row y sit tan(20) y metres lower, so on the ramp every row is the staircase
+// read at h + tan(20) y and shifted back: S(h - o) + o, o = -tan(20) y. The risers move down the
+// ramp from row to row (the bands cross the ramp's contours).
+TEST(EditStrata, DippingBedsAreTheStaircaseShiftedPerRow) {
+  const Heightfield base = ramp_base();
+  json op = strata_op();
+  op["dip"] = 20;
+  op["dip_direction"] = -90;
+  EditSession s(test::device(), base);
+  s.apply({{"operations", {op}}});
+  const Heightfield& h = s.height();
+  const double t = std::tan(20 * M_PI / 180);
+  double worst = 0, shift = 0;
+  for (int y = 3; y <= 12; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      const double o = -t * y;
+      const double want = staircase(base.at(x, y) - o, 170, 30, 20, 10, 6) + o;
+      worst = std::max(worst, std::abs(h.at(x, y) - want));
+      shift = std::max(shift, double(std::abs(h.at(x, y) - h.at(x, 3))));
+    }
+  EXPECT_LT(worst, 0.1) << "each row is the staircase of beds offset by -tan(dip) y";
+  EXPECT_GT(shift, 5.0) << "the rows differ: the bands are not level";
+  // Undulating beds move the bands too, and a level stack (dip 0, undulation 0) is the former one.
+  op.erase("dip"), op.erase("dip_direction");
+  op["undulation"] = 4;
+  op["undulation_wavelength"] = 40;
+  EditSession u(test::device(), base), l(test::device(), base);
+  u.apply({{"operations", {op}}});
+  op["undulation"] = 0;
+  l.apply({{"operations", {op}}});
+  EditSession plain(test::device(), base);
+  plain.apply({{"operations", {strata_op()}}});
+  EXPECT_EQ(l.height().z, plain.height().z);
+  double moved = 0;
+  for (size_t i = 0; i < base.z.size(); ++i) moved = std::max(moved, double(std::abs(u.height().z[i] - plain.height().z[i])));
+  EXPECT_GT(moved, 1.0);
+}
+
 TEST(EditStrata, GradientFormMatchesTheRemapWhereBothApplyFully) {
   const Heightfield base = ramp_base();
   json op = strata_op();
@@ -197,4 +236,6 @@ TEST(EditStrata, BadInputNamesTheJsonPath) {
   op = strata_op();
   op["contrast"] = 0.5;
   EXPECT_NE(message(op).find("/operations/0/contrast"), std::string::npos);
+  EXPECT_NE(message({{"op", "strata"}, {"polygon", {{0, 0}, {100, 0}, {100, 10}}}, {"top", 100}, {"thickness", 10}, {"dip", 60}}).find("/operations/0/dip"), std::string::npos);
+  EXPECT_NE(message({{"op", "strata"}, {"polygon", {{0, 0}, {100, 0}, {100, 10}}}, {"top", 100}, {"thickness", 10}, {"undulation", -2}}).find("/operations/0/undulation"), std::string::npos);
 }

@@ -15,6 +15,11 @@
 // from the terrain h (the current reconstruction), not from the field's own gradient: on a canyon
 // wall between a pinned rim and a pinned river the field explains only part of the drop (the solve
 // adds the rest as a harmonic correction), and scaling the field alone diluted the steps ~3x.
+// Dip and undulation: the beds need not be level. At a cell p the stack is read at h - o(p) and
+// shifted back, S_o(h) = S(h - o) + o, with o(p) = -tan(dip) (p . u) + undulation n(p): a plane
+// falling towards `dip_direction` plus a smooth seeded wave field n (three plane waves, |n| <= 1).
+// Level beds ring every wall at one elevation like a contour model; real beds dip a little and
+// warp, so the bands climb and fall along a wall and cross its contours.
 // Remap form ("form": "remap", kept for comparison): g += grad(w (S(h) - h)), the elevation remap
 // blended by the weight: the same where w is constant, plus (S(h) - h) grad(w), which draws bumps
 // along the weight's contours (the foot and brink of every wall): why it is not the default.
@@ -57,6 +62,25 @@ struct StrataParams {
   double hard = 0, soft = 0;  // mean thicknesses (m) of the hard and soft layers in the result
   double jitter = 0, contrast = 1;
   unsigned seed = 1;
+  double dip_tan = 0, dip_ux = 1, dip_uy = 0;  // tan(dip); the dip direction in the grid frame
+  double undulation = 0, wavelength = 1;     // amplitude (m) and wavelength (m) of the wave field
+  /// o(p): the beds' elevation offset at (x, y) metres.
+  double offset(double x, double y) const {
+    double o = -dip_tan * (x * dip_ux + y * dip_uy);
+    if (undulation > 0) {
+      double n = 0;
+      static constexpr double kScale[3] = {1.0, 0.62, 0.38}, kAmp[3] = {1.0, 0.5, 0.25};
+      for (int k = 0; k < 3; ++k) {
+        const double a = 3.14159265358979323846 * (1 + jitter_unit(seed ^ 0x5eedu, uint64_t(3 * k)));
+        const double ph = 3.14159265358979323846 * jitter_unit(seed ^ 0x5eedu, uint64_t(3 * k + 1));
+        const double kw = 2 * 3.14159265358979323846 / (wavelength * kScale[k]);
+        n += kAmp[k] * std::sin(kw * (x * std::cos(a) + y * std::sin(a)) + ph);
+      }
+      o += undulation * n / 1.75;
+    }
+    return o;
+  }
+  bool level() const { return dip_tan == 0 && undulation == 0; }
 };
 
 struct Pair {
@@ -141,6 +165,14 @@ Operation parse_strata(Params& p) {
   if (!(min_slope >= 0 && min_slope < 0.5 * kPi)) param_error(p.where("min_slope"), "expected an angle in [0, 90) degrees");
   if (!(ramp >= 0)) param_error(p.where("slope_ramp"), "expected an angle >= 0 degrees");
   const bool remap = p.choice("form", "gradient", {"gradient", "remap"}) == "remap";
+  const double dip = p.angle("dip", 0.0);
+  if (!(dip >= 0 && dip < 0.25 * kPi)) param_error(p.where("dip"), "expected an angle in [0, 45) degrees");
+  sp.dip_tan = std::tan(dip);
+  const double dip_dir = grid_angle(p.angle("dip_direction", 0.0));
+  sp.dip_ux = std::cos(dip_dir), sp.dip_uy = std::sin(dip_dir);
+  sp.undulation = p.vlength("undulation", 0.0);
+  if (!(sp.undulation >= 0)) param_error(p.where("undulation"), fmt::format("expected an amplitude >= 0 m, got {:g}", sp.undulation));
+  sp.wavelength = p.hlength("undulation_wavelength", 2000.0);
   const double t0 = std::tan(min_slope), t1 = std::tan(std::min(min_slope + ramp, 0.4999 * kPi));
 
   return [=](EditState& s) {
@@ -153,10 +185,16 @@ Operation parse_strata(Params& p) {
     const auto t_start = std::chrono::steady_clock::now();
     const std::vector<float> wr = region_weight_on_host(d, b, region, box);
     const int W = b.width, H = b.height;
-    float zmin = INFINITY;
+    // The beds' offset at each cell of the box (0 for level beds), and the lowest h - o the stack
+    // must reach.
+    std::vector<double> off(size_t(box.w) * box.h, 0.0);
+    if (!sp.level())
+      for (int y = 0; y < box.h; ++y)
+        for (int x = 0; x < box.w; ++x) off[size_t(y) * box.w + x] = sp.offset((box.x0 + x) * b.cell_x, (box.y0 + y) * b.cell_y);
+    double zmin = INFINITY;
     for (int y = 0; y < box.h; ++y)
       for (int x = 0; x < box.w; ++x)
-        if (wr[size_t(y) * box.w + x] > 0) zmin = std::min(zmin, h.z[size_t(box.y0 + y) * W + box.x0 + x]);
+        if (wr[size_t(y) * box.w + x] > 0) zmin = std::min(zmin, double(h.z[size_t(box.y0 + y) * W + box.x0 + x]) - off[size_t(y) * box.w + x]);
     const Stack stack(sp, std::isfinite(zmin) ? double(zmin) - 1.0 : sp.top);
     GradientField g = s.download();
     auto in_box = [&](int x, int y) { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; };
@@ -166,6 +204,12 @@ Operation parse_strata(Params& p) {
     // border): the slope the layers meet, whatever the field holds (hard constraints may have bent
     // the reconstruction away from it).
     auto z = [&](int x, int y) { return double(h.z[size_t(y) * W + x]); };
+    // S_o at a cell of the box: the stack read at h - o and shifted back.
+    auto layered = [&](int x, int y) {
+      const double o = in_box(x, y) ? off[size_t(y - box.y0) * box.w + (x - box.x0)]
+                                    : (sp.level() ? 0.0 : sp.offset(x * b.cell_x, y * b.cell_y));
+      return stack.map(z(x, y) - o) + o;
+    };
     std::vector<double> cs(size_t(box.w) * box.h);
     for (int y = box.y0; y < box.y0 + box.h; ++y)
       for (int x = box.x0; x < box.x0 + box.w; ++x) {
@@ -189,7 +233,7 @@ Operation parse_strata(Params& p) {
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           const double w = cell_w(x, y);
-          if (w > 0) dz[size_t(y - y0) * box.w + (x - x0)] = w * (stack.map(z(x, y)) - z(x, y));
+          if (w > 0) dz[size_t(y - y0) * box.w + (x - x0)] = w * (layered(x, y) - z(x, y));
         }
     }
     auto dz_at = [&](int x, int y) { return in_box(x, y) ? dz[size_t(y - y0) * box.w + (x - x0)] : 0.0; };
@@ -207,7 +251,7 @@ Operation parse_strata(Params& p) {
             const double w = 0.5 * (cell_w(x, y) + cell_w(bx, by));
             if (!(w > 0)) continue;  // untouched: gentle ground and the outside keep their bits
             const double za = z(x, y), zb = z(bx, by);
-            delta = w * ((stack.map(zb) - stack.map(za)) - (zb - za));
+            delta = w * ((layered(bx, by) - layered(x, y)) - (zb - za));
           }
           const size_t i = size_t(y) * W + x;
           float& v = xface ? g.gx[i] : g.gy[i];
