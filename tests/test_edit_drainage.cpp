@@ -372,7 +372,15 @@ TEST(EditDrainage, BadInputNamesTheJsonPath) {
   EXPECT_NE(message({{"op", "drainage"}, {"threshold", -1}}).find("/operations/0/threshold"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"m", 7}}).find("/operations/0/m"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"channel_width", 0}}).find("/operations/0/channel_width"), std::string::npos);
-  EXPECT_NE(message({{"op", "drainage"}, {"max_width", 5}}).find("/operations/0/max_width"), std::string::npos);
+  // A max_width under the smallest half-width (2 cells: 20 m here) is raised to it with a warning, so
+  // a script written for finer cells still runs on a coarser grid.
+  EXPECT_EQ(message({{"op", "drainage"}, {"max_width", 5}}), "");
+  {
+    EditSession s(test::device(), tilted_noisy_plane());
+    const auto w = s.check({{"operations", {{{"op", "drainage"}, {"max_width", 5}}}}});
+    ASSERT_EQ(w.size(), 1u);
+    EXPECT_EQ(w[0].rfind("/operations/0/max_width: 5 m is less than the smallest channel half-width", 0), 0u) << w[0];
+  }
   EXPECT_NE(message({{"op", "drainage"}, {"center", {10, 10}}, {"radius", 0}}).find("/operations/0/radius"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"smooth", 50}}).find("/operations/0/smooth"), std::string::npos);
   EXPECT_NE(message({{"op", "drainage"}, {"routing", "d4"}}).find("/operations/0/routing"), std::string::npos);

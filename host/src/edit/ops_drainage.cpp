@@ -120,9 +120,6 @@ Operation parse_drainage(Params& p) {
   dp.width = p.hlength("channel_width", 3 * cell, 0, true);
   dp.width_exp = p.number("width_exponent", 0.5, 0.0, 1.0);
   dp.max_width = p.hlength("max_width", 10 * cell, 0, true);
-  if (dp.max_width < kMinHalfWidthCells * cell)
-    param_error(p.where("max_width"),
-                fmt::format("expected at least {:g} cells ({:g} m), got {:g}", kMinHalfWidthCells, kMinHalfWidthCells * cell, dp.max_width));
   dp.max_depth = p.vlength("max_depth", 4 * dp.depth);
   if (!(dp.max_depth > 0)) param_error(p.where("max_depth"), fmt::format("expected a depth > 0 m, got {:g}", dp.max_depth));
   dp.smooth = p.integer("smooth", 1, 0, 20);
@@ -131,6 +128,17 @@ Operation parse_drainage(Params& p) {
   dp.wall_slope = p.number("wall_slope", 1.5, 0.05, 20.0);
   dp.cut_rims = p.boolean("cut_rims", true);
   dp.path_smooth = p.hlength("path_smooth", 0.0);
+  // A max_width under the smallest half-width is raised to it, with a warning: a script in metres
+  // written for fine cells must still run on a coarser grid (a preview, the oclgrind check's 80 m
+  // cells), where refusing it made the whole script fail.
+  const double min_half_width = (dp.canyon ? kMinCanyonFloorCells : kMinHalfWidthCells) * cell;
+  if (dp.max_width < min_half_width) {
+    if (p.grid().trace)
+      p.grid().trace->warnings.push_back(fmt::format("{}: {:g} m is less than the smallest channel half-width here ({:g} cells, "
+                                                     "{:g} m): channels are that wide",
+                                                     p.where("max_width"), dp.max_width, min_half_width / cell, min_half_width));
+    dp.max_width = min_half_width;
+  }
   // The half-width reach of the widest channel: the support grows by it beyond the region (a
   // canyon's section reaches its floor plus its deepest wall).
   p.note_reach(dp.canyon ? dp.max_width + dp.max_depth / dp.wall_slope : dp.max_width);
