@@ -144,19 +144,15 @@ Operation parse_drainage(Params& p) {
   p.note_reach(dp.canyon ? dp.max_width + dp.max_depth / dp.wall_slope : dp.max_width);
 
   return [=](EditState& s) {
-    Device& d = s.device();
     GradientBuffers& b = s.buffers();
-    const Primitive region = region_primitive(r, s.grid(), falloff);
-    const Box box = primitives_box({region}, b.width, b.height, b.cell_x, b.cell_y);
-    if (box.empty()) return;
     const Heightfield& h = s.height();
     const auto t_start = std::chrono::steady_clock::now();
-    const std::vector<float> wr = region_weight_on_host(d, b, region, box);
+    const HostRegion reg = region_on_host(s, r, falloff);
+    if (reg.box.empty()) return;
     const int W = b.width, H = b.height;
     const size_t N = size_t(W) * H;
     const double cx = b.cell_x, cy = b.cell_y, cell_area = cx * cy;
-    auto in_box = [&](int x, int y) { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; };
-    auto w_region = [&](int x, int y) { return in_box(x, y) ? double(wr[size_t(y - box.y0) * box.w + (x - box.x0)]) : 0.0; };
+    auto w_region = [&](int x, int y) { return reg.weight(x, y); };
 
     // Flow on the filled terrain (whole grid).
     Heightfield hz = h;

@@ -176,14 +176,13 @@ Operation parse_strata(Params& p) {
   const double t0 = std::tan(min_slope), t1 = std::tan(std::min(min_slope + ramp, 0.4999 * kPi));
 
   return [=](EditState& s) {
-    Device& d = s.device();
     GradientBuffers& b = s.buffers();
-    const Primitive region = region_primitive(r, s.grid(), falloff);
-    const Box box = primitives_box({region}, b.width, b.height, b.cell_x, b.cell_y);
-    if (box.empty()) return;
     const Heightfield& h = s.height();  // the elevations the layers are read at (a solve when stale)
     const auto t_start = std::chrono::steady_clock::now();
-    const std::vector<float> wr = region_weight_on_host(d, b, region, box);
+    const HostRegion reg = region_on_host(s, r, falloff);
+    if (reg.box.empty()) return;
+    const Box& box = reg.box;
+    const std::vector<float>& wr = reg.w;
     const int W = b.width, H = b.height;
     // The beds' offset at each cell of the box (0 for level beds), and the lowest h - o the stack
     // must reach.
@@ -197,8 +196,8 @@ Operation parse_strata(Params& p) {
         if (wr[size_t(y) * box.w + x] > 0) zmin = std::min(zmin, double(h.z[size_t(box.y0 + y) * W + box.x0 + x]) - off[size_t(y) * box.w + x]);
     const Stack stack(sp, std::isfinite(zmin) ? double(zmin) - 1.0 : sp.top);
     GradientField g = s.download();
-    auto in_box = [&](int x, int y) { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; };
-    auto w_region = [&](int x, int y) { return in_box(x, y) ? double(wr[size_t(y - box.y0) * box.w + (x - box.x0)]) : 0.0; };
+    auto in_box = [&](int x, int y) { return reg.contains(x, y); };
+    auto w_region = [&](int x, int y) { return reg.weight(x, y); };
     auto w_slope = [&](double slope) { return t1 > t0 ? smoother01((slope - t0) / (t1 - t0)) : (slope >= t0 ? 1.0 : 0.0); };
     // The terrain's slope at each cell of the box (central differences, one-sided at the map's
     // border): the slope the layers meet, whatever the field holds (hard constraints may have bent

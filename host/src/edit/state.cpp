@@ -318,14 +318,20 @@ Region parse_region(Params& p, bool allow_everywhere) {
   return r;
 }
 
-std::vector<float> region_weight_on_host(Device& d, GradientBuffers& b, const Primitive& region, const Box& box) {
-  primitive_weight(d, b, {region}, box, false);
-  std::vector<float> w(size_t(box.w) * box.h);
+HostRegion region_on_host(EditState& s, const Region& r, double falloff) {
+  GradientBuffers& b = s.buffers();
+  const Primitive region = region_primitive(r, s.grid(), falloff);
+  HostRegion hr;
+  hr.box = primitives_box({region}, b.width, b.height, b.cell_x, b.cell_y);
+  if (hr.box.empty()) return hr;
+  const Box& box = hr.box;
+  primitive_weight(s.device(), b, {region}, box, false);
+  hr.w.resize(size_t(box.w) * box.h);
   const std::array<size_t, 3> origin{size_t(box.x0) * sizeof(float), size_t(box.y0), 0}, host{0, 0, 0};
   const std::array<size_t, 3> extent{size_t(box.w) * sizeof(float), size_t(box.h), 1};
-  d.queue().enqueueReadBufferRect(b.mask, CL_TRUE, origin, host, extent, size_t(b.width) * sizeof(float), 0,
-                                  size_t(box.w) * sizeof(float), 0, w.data());
-  return w;
+  s.device().queue().enqueueReadBufferRect(b.mask, CL_TRUE, origin, host, extent, size_t(b.width) * sizeof(float), 0,
+                                           size_t(box.w) * sizeof(float), 0, hr.w.data());
+  return hr;
 }
 
 Primitive region_primitive(const Region& r, const Grid& g, double falloff) {

@@ -157,9 +157,20 @@ Region parse_region(Params& p, bool allow_everywhere);
 /// The region as a skeleton primitive (falloff `falloff` metres beyond it); Everywhere: a polygon
 /// around the grid.
 Primitive region_primitive(const Region& r, const Grid& g, double falloff);
-/// The region's weight (1 inside, fading over its falloff) over `box`, read back to the host row by
-/// row (box.w x box.h floats); operations that work on the host (strata, drainage) read it once.
-std::vector<float> region_weight_on_host(Device& d, GradientBuffers& b, const Primitive& region, const Box& box);
+/// A region's weight (1 inside, fading over its falloff) on the host, over the box of cells it
+/// touches: what operations that work on the host (strata, drainage) read once.
+struct HostRegion {
+  Box box;
+  std::vector<float> w;  ///< box.w x box.h, row by row
+  bool contains(int x, int y) const { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; }
+  /// Index into box-sized arrays (the cell must be in the box).
+  size_t at(int x, int y) const { return size_t(y - box.y0) * box.w + (x - box.x0); }
+  /// The weight at a grid cell, 0 outside the box.
+  double weight(int x, int y) const { return contains(x, y) ? double(w[at(x, y)]) : 0.0; }
+};
+/// The region (falloff `falloff` metres) evaluated on the device and read back; an empty box (and
+/// no weights) when it touches no cell.
+HostRegion region_on_host(EditState& s, const Region& r, double falloff);
 /// Indices of the cells whose centre lies inside the region.
 std::vector<size_t> region_cells(const Region& r, const Grid& g);
 
