@@ -2,7 +2,7 @@
 // network from the terrain's own flow, deeper and wider where more area drains, creates no closed
 // depression, leaves the outside of its region bit for bit, and matches the stream-power formula
 // on a planar V-valley.
-#include "test_helpers.hpp"
+#include "edit_helpers.hpp"
 
 #include <terracl/analysis.hpp>
 #include <terracl/edit.hpp>
@@ -75,15 +75,7 @@ Heightfield v_valley(int W, int H) {
   return h;
 }
 
-std::string message(const json& op) {
-  EditSession s(test::device(), tilted_noisy_plane());
-  try {
-    s.validate({{"operations", {op}}});
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+std::string message(const json& op) { return test::edit_op_error(tilted_noisy_plane(), op); }
 
 }  // namespace
 

@@ -1,7 +1,7 @@
 // The "strata" edit operation (issue 12): layered rock turns a steep ramp into a staircase whose
 // risers and treads lie at the layer boundaries, leaves gentle ground and the outside of its
 // region untouched, and rejects bad layers with the JSON path.
-#include "test_helpers.hpp"
+#include "edit_helpers.hpp"
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
@@ -44,15 +44,7 @@ json strata_op() {
           {"jitter", 0},      {"contrast", 6}};
 }
 
-std::string message(const json& op) {
-  EditSession s(test::device(), ramp_base());
-  try {
-    s.validate({{"operations", {op}}});
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+std::string message(const json& op) { return test::edit_op_error(ramp_base(), op); }
 
 }  // namespace
 
