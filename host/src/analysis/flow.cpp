@@ -80,9 +80,13 @@ D8Result d8_flow(const Heightfield& h, const Progress& progress) {
 DinfResult dinf_flow(const Heightfield& h, const Progress& progress) {
   const char* stage = "dinf";
   require_indexable(h, stage);
-  const FillResult f = priority_flood_fill(h, true, scaled_progress(progress, 0.0, 0.5));
-  const std::vector<float>& z = f.filled.z;
   const Grid g(h);
+  // As in d8_flow: a surface that already drains (the drainage edit operation passes its own
+  // epsilon fill) is routed as it is, without a second flood.
+  const bool as_is = surface_drains(h.z.data(), h.width, h.height, g.off) == kAllDrain;
+  FillResult f;
+  if (!as_is) f = priority_flood_fill(h, true, scaled_progress(progress, 0.0, 0.5));
+  const std::vector<float>& z = as_is ? h.z : f.filled.z;
   const double cx = h.georef.cell_x, cy = h.georef.cell_y;
   const size_t n = z.size();
   DinfResult r;
