@@ -3,7 +3,7 @@
 #include <terracl/gradient.hpp>
 
 #include <terracl/launch.hpp>
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 
 namespace terracl {
 namespace {

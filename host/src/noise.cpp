@@ -2,7 +2,7 @@
 #include <terracl/error.hpp>
 #include <terracl/noise.hpp>
 
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -4,7 +4,7 @@
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>
 
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 #include <terracl/reconstruct.hpp>
 
 #include "cl/workspace.hpp"

@@ -9,7 +9,7 @@
 #include <terracl/tensor.hpp>
 
 #include <terracl/launch.hpp>
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 
 #include <algorithm>
 #include <cmath>

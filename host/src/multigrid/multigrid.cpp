@@ -3,7 +3,7 @@
 #include "multigrid/multigrid.hpp"
 #include "multigrid/refine.hpp"
 #include <terracl/launch.hpp>
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 #include "cl/workspace.hpp"
 
 #include <terracl/error.hpp>

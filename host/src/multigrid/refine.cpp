@@ -5,7 +5,7 @@
 // residual is computed in double and each float multigrid cycle only solves for the correction,
 // whose own rounding error is a float's share of a small number.
 #include "multigrid/refine.hpp"
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 #include "cl/workspace.hpp"
 
 #include <terracl/error.hpp>

@@ -8,7 +8,7 @@
 #include "render/render_internal.hpp"
 #include "render/render_window.hpp"
 #include <terracl/launch.hpp>
-#include "row_launch.hpp"
+#include "cl/row_launch.hpp"
 
 namespace terracl::render {
 
