@@ -3,7 +3,7 @@
 // points so that everything else links unchanged; each says what is missing instead of crashing.
 // RAW16 (.r16/.raw, host/src/io/raw16.cpp) stays available.
 #include "edit/state.hpp"
-#include "hypre/hypre_solve.hpp"
+#include "reconstruct/hypre_solve.hpp"
 #include "io/io_common.hpp"
 #include "mesh/mesh_gltf.hpp"
 #include "pipeline/builtin.hpp"
@@ -87,7 +87,7 @@ void register_amplify_benches(BenchRegistry&) {}
 // ... and no "amplify" edit operation (scripts using it get "unknown operation").
 void edit::add_amplify_ops(std::vector<edit::OpSpec>&) {}
 
-// hypre's band reader (hypre/hypre_bands.cpp reads GDAL windows; the core build has no hypre).
+// hypre's band reader (reconstruct/hypre_bands.cpp reads GDAL windows; the core build has no hypre).
 ReconstructResult reconstruct_hypre_files(const HypreBandFiles& f, const SolverOptions&) {
   unavailable("hypre's band reader", f.gradient.empty() ? f.divergence : f.gradient);
 }

@@ -7,8 +7,8 @@ namespace terracl {
 void register_io_stages(StageRegistry& r);       // host/src/pipeline/io_stages.cpp (read, write, crop)
 void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cpp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
-void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct_stages.cpp
-void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct_stages.cpp
+void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct/reconstruct_stages.cpp
+void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct/reconstruct_stages.cpp
 void register_edit_stages(StageRegistry& r);   // host/src/edit/edit_stage.cpp
 void register_edit_benches(BenchRegistry& r);  // host/src/edit/edit_stage.cpp
 void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp

@@ -1,6 +1,6 @@
 // Stage table entries `extract` and `reconstruct`, and the `terracl bench reconstruct` benchmark.
 #include "pipeline/builtin.hpp"
-#include "hypre/hypre_solve.hpp"
+#include "reconstruct/hypre_solve.hpp"
 #include "io/io_common.hpp"
 #include "tile/extract_tiles.hpp"
 

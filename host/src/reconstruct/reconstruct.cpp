@@ -8,9 +8,9 @@
 #include <terracl/reconstruct.hpp>
 
 #include "cl/workspace.hpp"
-#include "hypre/hypre_solve.hpp"
+#include "reconstruct/hypre_solve.hpp"
 #include "io/io_common.hpp"
-#include "multigrid/multigrid.hpp"
+#include "reconstruct/multigrid.hpp"
 
 #include <chrono>
 #include <cmath>

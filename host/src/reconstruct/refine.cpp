@@ -4,7 +4,7 @@
 // 1.5e-6 relative residual on a sparse-constraint canyon). Here the solution lives in double, its
 // residual is computed in double and each float multigrid cycle only solves for the correction,
 // whose own rounding error is a float's share of a small number.
-#include "multigrid/refine.hpp"
+#include "reconstruct/refine.hpp"
 #include "cl/row_launch.hpp"
 #include "cl/workspace.hpp"
 

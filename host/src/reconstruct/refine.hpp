@@ -1,6 +1,6 @@
 #pragma once
 // Mixed-precision iterative refinement of a multigrid solve (internal; kernels/refine.cl).
-#include "multigrid/multigrid.hpp"
+#include "reconstruct/multigrid.hpp"
 
 #include <functional>
 

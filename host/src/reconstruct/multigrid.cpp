@@ -1,7 +1,7 @@
 // Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
 // docs/reconstruct.md for the design choices and measurements.
-#include "multigrid/multigrid.hpp"
-#include "multigrid/refine.hpp"
+#include "reconstruct/multigrid.hpp"
+#include "reconstruct/refine.hpp"
 #include <terracl/launch.hpp>
 #include "cl/row_launch.hpp"
 #include "cl/workspace.hpp"

@@ -2,7 +2,7 @@
 // file that its band of the system needs (gradient or divergence, start heightfield, fixed
 // rasters) and rasterises only its rows of the constraints, so that no rank holds a whole field
 // until rank 0 gathers the result (docs/scale.md).
-#include "hypre/hypre_solve.hpp"
+#include "reconstruct/hypre_solve.hpp"
 #include "io/gdal_window.hpp"
 #include "io/io_common.hpp"
 

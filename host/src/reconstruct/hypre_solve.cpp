@@ -2,7 +2,7 @@
 // Laplacian with natural Neumann border, hard cells as Dirichlet nodes) assembled on hypre's Struct
 // interface and solved by PFMG-preconditioned CG in double. Under mpirun every rank owns a band of
 // rows (one hypre box); the bands are gathered so that every rank holds the result.
-#include "hypre/hypre_solve.hpp"
+#include "reconstruct/hypre_solve.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/hypre.hpp>
