@@ -5,7 +5,7 @@
 //     potential sum_i P_i(d_i), a cross-section profile of the distance to a curve (crests, faults,
 //     ravines, river banks, rims), whose discrete gradient add_potential_gradient adds to g.
 // Positions are metres: cell (x, y) is at (x * cx, y * cy), y growing southwards.
-// Each primitive is PRIM_STRIDE floats (layout in host/src/tensor.cpp); vertices are float4 (x, y, amp,
+// Each primitive is PRIM_STRIDE floats (layout in host/src/authoring/tensor.cpp); vertices are float4 (x, y, amp,
 // arc length from the first vertex).
 // Kernels run over a bounding box (x0, y0, bw, bh) of the grid, one work-item per row, VW cells of
 // the row at a time in explicit vectors: PoCL vectorises across work-items only for loop-free kernels,

@@ -2,7 +2,7 @@
 // GIS, image, mesh or nearest-neighbour library. These definitions stand in for their entry
 // points so that everything else links unchanged; each says what is missing instead of crashing.
 // RAW16 (.r16/.raw, host/src/io/raw16.cpp) stays available.
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 #include "reconstruct/hypre_solve.hpp"
 #include "io/io_common.hpp"
 #include "mesh/mesh_gltf.hpp"

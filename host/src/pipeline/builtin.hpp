@@ -9,8 +9,8 @@ void register_core_stages(StageRegistry& r);     // host/src/core/core_stages.cp
 void register_core_benches(BenchRegistry& r);    // host/src/core/core_stages.cpp
 void register_reconstruct_stages(StageRegistry& r);   // host/src/reconstruct/reconstruct_stages.cpp
 void register_reconstruct_benches(BenchRegistry& r);  // host/src/reconstruct/reconstruct_stages.cpp
-void register_edit_stages(StageRegistry& r);   // host/src/edit/edit_stage.cpp
-void register_edit_benches(BenchRegistry& r);  // host/src/edit/edit_stage.cpp
+void register_edit_stages(StageRegistry& r);   // host/src/authoring/edit_stage.cpp
+void register_edit_benches(BenchRegistry& r);  // host/src/authoring/edit_stage.cpp
 void register_amplify_stages(StageRegistry& r);  // host/src/amplify/amplify_stage.cpp
 void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_stage.cpp
 void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp

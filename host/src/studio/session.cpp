@@ -12,7 +12,7 @@
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
 
-#include "edit/ops_erode.hpp"
+#include "authoring/ops_erode.hpp"
 
 namespace fs = std::filesystem;
 

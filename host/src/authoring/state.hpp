@@ -1,7 +1,7 @@
 #pragma once
 // The state an edit script works on: the gradient field on the device, the hard elevation
 // constraints, and the last reconstruction (a cache, also the warm start of the next solve).
-#include "edit/params.hpp"
+#include "authoring/params.hpp"
 
 #include <terracl/reconstruct.hpp>
 #include <terracl/tensor.hpp>

@@ -1,7 +1,7 @@
-#include "edit/state.hpp"
-#include "edit/ops_erode.hpp"
+#include "authoring/state.hpp"
+#include "authoring/ops_erode.hpp"
 
-#include "edit/locality.hpp"
+#include "authoring/locality.hpp"
 
 #include <terracl/error.hpp>
 

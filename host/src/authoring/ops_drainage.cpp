@@ -28,7 +28,7 @@
 // The change dz = result - h goes into the field like strata's: each face's gradient gains
 // (dz_b - dz_a) / d; faces whose two cells did not change keep their bits, so the local solve and
 // its locality work unchanged.
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>

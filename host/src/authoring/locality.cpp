@@ -1,6 +1,6 @@
 // Distance transform for the locality of edits: the solve region is every cell within the
 // falloff of a changed cell, so it follows a diagonal stroke instead of filling its bounding box.
-#include "edit/locality.hpp"
+#include "authoring/locality.hpp"
 
 #include <algorithm>
 #include <cmath>

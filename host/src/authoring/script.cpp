@@ -1,5 +1,5 @@
 // Edit scripts: parsing (all operations validated before any runs) and the editing session.
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 #include <terracl/launch.hpp>
 
 #include <terracl/edit.hpp>

@@ -8,8 +8,8 @@
 // `taper` (the amplitude fades to 0 over this arc length at both ends) and `smooth` (a centripetal
 // Catmull-Rom spline through the points). Defaults scale with the cell size and the feature's
 // relief, so that no default feature is narrower than kMinCells cells.
-#include "edit/curve_shape.hpp"
-#include "edit/state.hpp"
+#include "authoring/curve_shape.hpp"
+#include "authoring/state.hpp"
 
 #include <terracl/error.hpp>
 

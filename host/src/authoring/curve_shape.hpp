@@ -1,7 +1,7 @@
 #pragma once
 // The cross-section and path options shared by the landform curves (ops_curves.cpp) and the
 // mountain_range brush (ops_composite.cpp): width, profile, floor, taper, smoothing.
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 
 #include <string>
 #include <vector>

@@ -2,8 +2,8 @@
 // and mesa (plateau elevation constraints + a rim drop + downslope-oriented noise). "Downslope
 // oriented" = the noise's gradients are dragged across the slope by a tensor aligned with the
 // stroke (or with the rim), so its crests and gullies run down the flanks.
-#include "edit/curve_shape.hpp"
-#include "edit/state.hpp"
+#include "authoring/curve_shape.hpp"
+#include "authoring/state.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/noise.hpp>

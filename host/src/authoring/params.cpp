@@ -1,4 +1,4 @@
-#include "edit/params.hpp"
+#include "authoring/params.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>

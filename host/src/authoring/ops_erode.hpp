@@ -4,7 +4,7 @@
 // preview and the recorded operation run the same simulation.
 #include <terracl/erosion.hpp>
 
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 
 namespace terracl::edit {
 

@@ -23,7 +23,7 @@
 // Remap form ("form": "remap", kept for comparison): g += grad(w (S(h) - h)), the elevation remap
 // blended by the weight: the same where w is constant, plus (S(h) - h) grad(w), which draws bumps
 // along the weight's contours (the foot and brink of every wall): why it is not the default.
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 
 #include <terracl/error.hpp>
 

@@ -3,7 +3,7 @@
 // gradients are dragged along the features (so its gullies run perpendicular to the ridges) and
 // whose amplitude fades with the distance to the nearest ridge or river.
 // regularize (section 3): reconstruct, re-extract, drop the hard constraints; lowers the curl.
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>

@@ -17,7 +17,7 @@
 #include <memory>
 #include <mutex>
 
-#include "edit/ops_erode.hpp"
+#include "authoring/ops_erode.hpp"
 
 namespace terracl::edit {
 

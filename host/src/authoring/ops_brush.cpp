@@ -1,5 +1,5 @@
 // Brushes: scale_slopes, noise, freeze, tensor (paper sections 4.1, 4.3, 4.4).
-#include "edit/state.hpp"
+#include "authoring/state.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/noise.hpp>
