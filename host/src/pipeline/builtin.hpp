@@ -19,6 +19,6 @@ StageInfo render_stage_info();                 // host/src/render/render_stage.c
 namespace render { struct Options; }
 render::Options render_stage_options(const StageContext& c);  // host/src/render/render_stage.cpp
 void register_render_benches(BenchRegistry& r);  // host/src/render/render_stage.cpp
-int erode_tile_halo(const json& options, const Georef& level);  // host/src/erosion_stage.cpp (tiled runs)
-void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion_stage.cpp
+int erode_tile_halo(const json& options, const Georef& level);  // host/src/erosion/erosion_stage.cpp (tiled runs)
+void register_erosion_stages(StageRegistry& r); void register_erosion_benches(BenchRegistry& r);  // host/src/erosion/erosion_stage.cpp
 }  // namespace terracl
