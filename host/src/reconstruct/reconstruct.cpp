@@ -138,12 +138,9 @@ class SolveBuffers {
 
 using RhsMaker = std::function<void(Device&, cl::Buffer& g, PhaseClock& clk, SolveBuffers& bufs)>;
 
-ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
-                               double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
-                               const SolverOptions& o, const hypre::RowDivergence& row_div = {}) {
-  const double t0 = now_ms();
+// Throws a clear error for a grid, cell size, option or warm start the solver cannot take.
+void check_solve_inputs(int W, int H, double cx, double cy, const ConstraintSet& cin, const SolverOptions& o) {
   if (W < 1 || H < 1) fail("reconstruct", "empty input grid");
-  const double cx = georef.cell_x, cy = georef.cell_y;
   if (!(cx > 0) || !(cy > 0) || !std::isfinite(cx) || !std::isfinite(cy))
     fail("reconstruct", "cell size must be positive and finite, got {} x {} m", cx, cy);
   if (!(o.tolerance > 0)) fail("reconstruct", "tolerance must be positive, got {}", o.tolerance);
@@ -159,39 +156,149 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   }
   if (cin.width() != 0 && (cin.width() != W || cin.height() != H))
     fail("reconstruct", "constraints are {}x{}, the input is {}x{}", cin.width(), cin.height(), W, H);
-
-  // Hard cells as a sparse row-major list (index, resolved value), with the border added when asked.
   if (size_t(W) * size_t(H) > size_t(UINT32_MAX)) fail("reconstruct", "grid {}x{} has too many cells", W, H);
-  std::vector<uint32_t> hard_index;
-  std::vector<float> hard_value;
+}
+
+// Hard cells as a sparse row-major list (index, resolved value), with the border added when asked.
+struct HardCells {
+  std::vector<uint32_t> index;
+  std::vector<float> value;
+};
+HardCells hard_cells_of(int W, int H, const ConstraintSet& cin, const SolverOptions& o) {
+  HardCells hc;
   if (o.dirichlet_border) {
     if (!o.initial) fail("reconstruct", "a Dirichlet border needs the initial heightfield for its values");
     ConstraintSet c = cin.width() ? cin : ConstraintSet(W, H);
     c.add_border(*o.initial);
-    c.hard_cells(hard_index, hard_value);
+    c.hard_cells(hc.index, hc.value);
   } else if (cin.width()) {
-    cin.hard_cells(hard_index, hard_value);
+    cin.hard_cells(hc.index, hc.value);
   }
+  return hc;
+}
+
+// The mean a solve without hard cells is shifted to: the asked one, else the source's, else the
+// warm start's.
+double target_mean(const SolverOptions& o, double source_mean) {
+  if (o.mean) return *o.mean;
+  if (std::isfinite(source_mean)) return source_mean;
+  if (!o.initial) return 0;
+  double s = 0;
+  for (float v : o.initial->z) s += v;
+  return s / double(o.initial->size());
+}
+
+// Device level 0 of the problem: u the warm start (or 0) as deviation from m, g = -f from make_rhs,
+// then the hard cells scattered from the sparse list (u = value - m, g = NaN); a singular problem's
+// right-hand side projected onto the range of the pure-Neumann operator. Returns the peak bytes.
+uint64_t upload_level0(Device& d, mg::Problem& p, const HardCells& hc, double m, const RhsMaker& make_rhs,
+                       const SolverOptions& o, PhaseClock& clk, SolveBuffers& bufs, AllocationScope& scope) {
+  const int W = p.width, H = p.height;
+  const size_t N = size_t(W) * H, bytes = N * sizeof(float), hard = hc.index.size();
+  cl::CommandQueue& q = d.queue();
+  uint64_t peak = 0;
+  p.u = bufs.take("u", bytes, CL_MEM_READ_WRITE, "reconstruction solution");
+  p.g = bufs.take("g", bytes, CL_MEM_READ_WRITE, "reconstruction right-hand side");
+  if (o.initial) {
+    bufs.upload(p.u, o.initial->z.data(), bytes, "stage x", true);  // the staging is reused next
+    clk.mark(d, "upload");
+    cl::Kernel sh = d.kernel("multigrid", "shift_level0");
+    set_args(sh, p.u, W, H, float(m));
+    launch_rows(d, sh, size_t(H));
+  } else {
+    d.fill(p.u, 0.0f, 0, N);
+  }
+  clk.mark(d, "device init");
+  make_rhs(d, p.g, clk, bufs);
+  clk.mark(d, "device init");
+  peak = std::max<uint64_t>(peak, scope.live());
+  if (hard) {
+    cl::Buffer bi = bufs.take("hard index", hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
+    cl::Buffer bv = bufs.take("hard value", hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
+    q.enqueueWriteBuffer(bi, CL_FALSE, 0, hard * sizeof(uint32_t), hc.index.data());
+    q.enqueueWriteBuffer(bv, CL_FALSE, 0, hard * sizeof(float), hc.value.data());
+    clk.mark(d, "upload");
+    const int chunk = 4096;
+    cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
+    set_args(sc, p.u, p.g, bi, bv, int(hard), chunk, float(m));
+    launch_rows(d, sc, (hard + chunk - 1) / chunk);
+    peak = std::max<uint64_t>(peak, scope.live());
+  }
+  q.finish();  // the gradient and hard-list buffers go back to the (releasable) cache
+  bufs.put_back_all_but("u", "g");
+  if (p.singular) {
+    // Project onto the range of the pure-Neumann operator: the mean of f must vanish.
+    cl::Buffer rows = d.buffer(size_t(H) * sizeof(float), CL_MEM_READ_WRITE, "row sums");
+    cl::Kernel k = d.kernel("multigrid", "row_sums");
+    set_args(k, p.g, W, H, rows);
+    launch_rows(d, k, size_t(H));
+    std::vector<float> rs(static_cast<size_t>(H));
+    q.enqueueReadBuffer(rows, CL_TRUE, 0, rs.size() * sizeof(float), rs.data());
+    double s = 0;
+    for (float v : rs) s += v;
+    const double mean = s / double(N);
+    if (mean != 0.0) {
+      cl::Kernel sh = d.kernel("multigrid", "shift_free");
+      set_args(sh, p.g, W, H, float(mean));
+      launch_rows(d, sh, size_t(H));
+    }
+  }
+  clk.mark(d, "device init");
+  return peak;
+}
+
+// The result heights from the solution as read back (`src`): shifted to the reference level (or,
+// singular, to the target mean), hard cells bit-exact, and every value checked finite.
+void finish_heights(Heightfield& h, const float* src, size_t N, int W, double shift, const HardCells& hc) {
+  const size_t hard = hc.index.size();
+  // Element-wise passes in threads: every cell's value is computed alone, so the result does not
+  // depend on the thread count (the singular mean is one sequential sum for that reason).
+  std::vector<char> chunk_finite(host_chunks(N), 1);
+  parallel_for(chunk_finite.size(), host_threads(N), [&](size_t c0, size_t c1) {
+    for (size_t c = c0; c < c1; ++c) {
+      bool f = true;
+      float* z = h.z.data();
+      for (size_t i = c * kHostChunk, e = std::min(N, i + kHostChunk); i < e; ++i) {
+        z[i] = float(double(src[i]) + shift);
+        f &= std::isfinite(z[i]);
+      }
+      chunk_finite[c] = f;
+    }
+  });
+  parallel_for(host_chunks(hard), host_threads(hard), [&](size_t c0, size_t c1) {
+    for (size_t k = c0 * kHostChunk, e = std::min(hard, c1 * kHostChunk); k < e; ++k)
+      h.z[hc.index[k]] = hc.value[k];  // hard cells bit-exact (the indices are distinct)
+  });
+  bool finite = true;
+  for (char f : chunk_finite) finite &= f != 0;
+  for (size_t i = 0; !finite && i < N; ++i)
+    if (!std::isfinite(h.z[i]))
+      fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}): NaN/Inf in the input, or values too large for float32",
+           i % W, i / W);
+}
+
+// One reconstruction whatever its input (a gradient field, device buffers or a divergence):
+// checks, hard cells, the level-0 upload, the multigrid (or hypre) solve, the read-back and finish.
+ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, const Metadata& meta,
+                               double source_mean, const RhsMaker& make_rhs, const ConstraintSet& cin,
+                               const SolverOptions& o, const hypre::RowDivergence& row_div = {}) {
+  const double t0 = now_ms();
+  const double cx = georef.cell_x, cy = georef.cell_y;
+  check_solve_inputs(W, H, cx, cy, cin, o);
+  const HardCells hc = hard_cells_of(W, H, cin, o);
   const double t_vals = now_ms();
   std::vector<std::pair<std::string, double>> phases;
   PhaseClock clk(t0, phases);
   clk.add("host constraints", t_vals - t0);
-  const size_t hard = hard_index.size();
+  const size_t hard = hc.index.size();
   double hard_sum = 0;
-  for (float v : hard_value) hard_sum += v;
+  for (float v : hc.value) hard_sum += v;
   const bool singular = hard == 0;
-  double target = 0;
-  if (o.mean) target = *o.mean;
-  else if (std::isfinite(source_mean)) target = source_mean;
-  else if (o.initial) {
-    double s = 0;
-    for (float v : o.initial->z) s += v;
-    target = s / double(o.initial->size());
-  }
+  const double target = target_mean(o, source_mean);
   if (o.solver == Solver::Hypre) {
     // The whole problem is in memory here; reconstruct_hypre_files reads it by bands instead.
     if (!row_div) fail("reconstruct", "the hypre solver needs the problem on the host");
-    return hypre::solve(W, H, georef, meta, hypre::whole_problem(W, row_div, hard_index, hard_value, o.initial),
+    return hypre::solve(W, H, georef, meta, hypre::whole_problem(W, row_div, hc.index, hc.value, o.initial),
                         target, o);
   }
   // Work with the deviation from a reference level: float32 keeps more digits for the solve.
@@ -203,7 +310,6 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   res.smoother = o.smoother;
   res.hard_cells = hard;
   AllocationScope scope;  // this solve's own buffers (the peak figure)
-  uint64_t peak = 0;
   mg::Problem p;
   p.width = W;
   p.height = H;
@@ -218,55 +324,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
   const float* src = out.data();  // the solution as read back (out itself, or pinned staging)
   try {
     cl::CommandQueue& q = d.queue();
-    p.u = bufs.take("u", bytes, CL_MEM_READ_WRITE, "reconstruction solution");
-    p.g = bufs.take("g", bytes, CL_MEM_READ_WRITE, "reconstruction right-hand side");
-    // u: the warm start (or 0) as deviation from m; g: -f; then the hard cells from the sparse
-    // list (u = value - m, g = NaN).
-    if (o.initial) {
-      bufs.upload(p.u, o.initial->z.data(), bytes, "stage x", true);  // the staging is reused next
-      clk.mark(d, "upload");
-      cl::Kernel sh = d.kernel("multigrid", "shift_level0");
-      set_args(sh, p.u, W, H, float(m));
-      launch_rows(d, sh, size_t(H));
-    } else {
-      d.fill(p.u, 0.0f, 0, size_t(W) * H);
-    }
-    clk.mark(d, "device init");
-    make_rhs(d, p.g, clk, bufs);
-    clk.mark(d, "device init");
-    peak = std::max<uint64_t>(peak, scope.live());
-    if (hard) {
-      cl::Buffer bi = bufs.take("hard index", hard * sizeof(uint32_t), CL_MEM_READ_ONLY, "hard cell indices");
-      cl::Buffer bv = bufs.take("hard value", hard * sizeof(float), CL_MEM_READ_ONLY, "hard cell values");
-      q.enqueueWriteBuffer(bi, CL_FALSE, 0, hard * sizeof(uint32_t), hard_index.data());
-      q.enqueueWriteBuffer(bv, CL_FALSE, 0, hard * sizeof(float), hard_value.data());
-      clk.mark(d, "upload");
-      const int chunk = 4096;
-      cl::Kernel sc = d.kernel("multigrid", "scatter_hard");
-      set_args(sc, p.u, p.g, bi, bv, int(hard), chunk, float(m));
-      launch_rows(d, sc, (hard + chunk - 1) / chunk);
-      peak = std::max<uint64_t>(peak, scope.live());
-    }
-    q.finish();  // the gradient and hard-list buffers go back to the (releasable) cache
-    bufs.put_back_all_but("u", "g");
-    if (singular) {
-      // Project onto the range of the pure-Neumann operator: the mean of f must vanish.
-      cl::Buffer rows = d.buffer(size_t(H) * sizeof(float), CL_MEM_READ_WRITE, "row sums");
-      cl::Kernel k = d.kernel("multigrid", "row_sums");
-      set_args(k, p.g, W, H, rows);
-      launch_rows(d, k, size_t(H));
-      std::vector<float> rs(static_cast<size_t>(H));
-      q.enqueueReadBuffer(rows, CL_TRUE, 0, rs.size() * sizeof(float), rs.data());
-      double s = 0;
-      for (float v : rs) s += v;
-      const double mean = s / double(N);
-      if (mean != 0.0) {
-        cl::Kernel sh = d.kernel("multigrid", "shift_free");
-        set_args(sh, p.g, W, H, float(mean));
-        launch_rows(d, sh, size_t(H));
-      }
-    }
-    clk.mark(d, "device init");
+    const uint64_t peak = upload_level0(d, p, hc, m, make_rhs, o, clk, bufs, scope);
     const double t_setup0 = now_ms() - t0;
     if (std::getenv("TERRACL_MG_PROFILE"))
       std::fprintf(stderr, "host constraints %.1f ms, upload+divergence+init %.1f ms\n", t_vals - t0, now_ms() - t_vals);
@@ -277,8 +335,8 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     clk.add("cycles", st.cycles_ms);
     clk.add("refinement", st.refine_ms);
     clk.add("solver other", t_solved - t0 - t_setup0 - st.setup_ms - st.cycles_ms - st.refine_ms);
-    // Pinned: the read lands in the staging and the finish pass below copies it into the result
-    // (the copy is the pass's own; no extra one).
+    // Pinned: the read lands in the staging and finish_heights copies it into the result (the
+    // copy is that pass's own; no extra one).
     if (bufs.pinned()) {
       src = bufs.staging("stage x", bytes).data();
       q.enqueueReadBuffer(p.u, CL_TRUE, 0, bytes, const_cast<float*>(src));
@@ -314,30 +372,7 @@ ReconstructResult solve_common(Device& d, int W, int H, const Georef& georef, co
     for (size_t i = 0; i < N; ++i) s += src[i];
     shift = target - s / double(N);
   }
-  // Element-wise passes in threads: every cell's value is computed alone, so the result does not
-  // depend on the thread count (the singular mean above stays one sequential sum for that reason).
-  std::vector<char> chunk_finite(host_chunks(N), 1);
-  parallel_for(chunk_finite.size(), host_threads(N), [&](size_t c0, size_t c1) {
-    for (size_t c = c0; c < c1; ++c) {
-      bool f = true;
-      float* z = h.z.data();
-      for (size_t i = c * kHostChunk, e = std::min(N, i + kHostChunk); i < e; ++i) {
-        z[i] = float(double(src[i]) + shift);
-        f &= std::isfinite(z[i]);
-      }
-      chunk_finite[c] = f;
-    }
-  });
-  parallel_for(host_chunks(hard), host_threads(hard), [&](size_t c0, size_t c1) {
-    for (size_t k = c0 * kHostChunk, e = std::min(hard, c1 * kHostChunk); k < e; ++k)
-      h.z[hard_index[k]] = hard_value[k];  // hard cells bit-exact (the indices are distinct)
-  });
-  bool finite = true;
-  for (char f : chunk_finite) finite &= f != 0;
-  for (size_t i = 0; !finite && i < N; ++i)
-    if (!std::isfinite(h.z[i]))
-      fail("reconstruct", "the solver produced a non-finite value at cell ({}, {}): NaN/Inf in the input, or values too large for float32",
-           i % W, i / W);
+  finish_heights(h, src, N, W, shift, hc);
   clk.mark(d, "host finish");
   res.phases_ms = std::move(phases);
   res.total_ms = now_ms() - t0;
