@@ -24,10 +24,10 @@ file(GLOB TERRACL_KERNELS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/kernels/*.cl ${C
 set(EMBEDDED_KERNELS_CPP ${CMAKE_BINARY_DIR}/generated/embedded_kernels.cpp)
 add_custom_command(
   OUTPUT ${EMBEDDED_KERNELS_CPP}
-  COMMAND ${CMAKE_COMMAND} -DOUT=${EMBEDDED_KERNELS_CPP} -DKERNEL_DIR=${CMAKE_SOURCE_DIR}/kernels
-          -P ${CMAKE_SOURCE_DIR}/cmake/EmbedKernels.cmake
-  DEPENDS ${TERRACL_KERNELS} ${CMAKE_SOURCE_DIR}/cmake/EmbedKernels.cmake
-  COMMENT "Embedding OpenCL kernels")
+  COMMAND ${CMAKE_COMMAND} -DOUT=${EMBEDDED_KERNELS_CPP} -DDIR=${CMAKE_SOURCE_DIR}/kernels "-DPATTERNS=*.cl,*.clh"
+          -DFUNC=embedded_kernels -DDELIM=tclkernel -P ${CMAKE_SOURCE_DIR}/cmake/EmbedFiles.cmake
+  DEPENDS ${TERRACL_KERNELS} ${CMAKE_SOURCE_DIR}/cmake/EmbedFiles.cmake
+  COMMENT "Embedding OpenCL kernels" VERBATIM)
 configure_file(${CMAKE_SOURCE_DIR}/cmake/version.hpp.in ${CMAKE_BINARY_DIR}/generated/terracl/version.hpp)
 
 file(GLOB_RECURSE TERRACL_CORE_SOURCES CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/host/src/*.cpp)
