@@ -18,26 +18,13 @@ namespace {
 
 // Tiled fill of `h` held in memory; returns the assembled result and checks every cell is written once.
 Heightfield fill_tiled(const Heightfield& h, int tile, analysis::TiledFillStats* stats = nullptr) {
-  Heightfield out(h.width, h.height, -12345.f);
-  std::vector<int> written(h.size(), 0);
-  auto read = [&](int x, int y, int w, int ht) {
-    Heightfield win(w, ht);
-    win.georef = h.georef;
-    for (int r = 0; r < ht; ++r)
-      for (int c = 0; c < w; ++c) win.at(c, r) = h.at(x + c, y + r);
-    return win;
-  };
-  auto write = [&](int x, int y, const Heightfield& core) {
-    for (int r = 0; r < core.height; ++r)
-      for (int c = 0; c < core.width; ++c) {
-        out.at(x + c, y + r) = core.at(c, r);
-        written[size_t(y + r) * h.width + x + c]++;
-      }
-  };
+  test::MemoryTiles m(h);
+  auto read = [&](int x, int y, int w, int ht) { return m.read(x, y, w, ht); };
+  auto write = [&](int x, int y, const Heightfield& core) { m.write(x, y, core); };
   const auto st = analysis::priority_flood_fill_tiled(h.width, h.height, tile, read, write);
   if (stats) *stats = st;
-  for (size_t i = 0; i < written.size(); ++i) EXPECT_EQ(written[i], 1) << "cell " << i;
-  return out;
+  m.expect_each_cell_written_once();
+  return m.out;
 }
 
 using test::bit_differences;

@@ -30,28 +30,15 @@ Heightfield untiled_area(const Heightfield& h) {
 
 Heightfield tiled_area(const Heightfield& h, int tile, bool global_phase = true,
                        analysis::TiledFlowStats* stats = nullptr) {
-  Heightfield out(h.width, h.height, -12345.f);
-  std::vector<int> written(h.size(), 0);
-  auto read = [&](int x, int y, int w, int ht) {
-    Heightfield win(w, ht);
-    win.georef = h.georef;
-    for (int r = 0; r < ht; ++r)
-      for (int c = 0; c < w; ++c) win.at(c, r) = h.at(x + c, y + r);
-    return win;
-  };
-  auto write = [&](int x, int y, const Heightfield& core) {
-    for (int r = 0; r < core.height; ++r)
-      for (int c = 0; c < core.width; ++c) {
-        out.at(x + c, y + r) = core.at(c, r);
-        written[size_t(y + r) * h.width + x + c]++;
-      }
-  };
+  test::MemoryTiles m(h);
+  auto read = [&](int x, int y, int w, int ht) { return m.read(x, y, w, ht); };
+  auto write = [&](int x, int y, const Heightfield& core) { m.write(x, y, core); };
   const double cx = h.georef.cell_x, cy = h.georef.cell_y;
   const auto st =
       analysis::d8_accumulation_tiled(h.width, h.height, tile, cx, cy, cx * cy, read, write, {}, global_phase);
   if (stats) *stats = st;
-  for (size_t i = 0; i < written.size(); ++i) EXPECT_EQ(written[i], 1) << "cell " << i;
-  return out;
+  m.expect_each_cell_written_once();
+  return m.out;
 }
 
 using test::bit_differences;

@@ -20,6 +20,33 @@
 
 namespace terracl::test {
 
+/// A raster held in memory behind the tiled algorithms' read and write callbacks: windows of `src`
+/// in, cores into `out`, each cell's writes counted (every cell must be written exactly once).
+struct MemoryTiles {
+  explicit MemoryTiles(const Heightfield& source)
+      : src(source), out(source.width, source.height, -12345.f), written(source.size(), 0) {}
+  Heightfield read(int x, int y, int w, int ht) const {
+    Heightfield win(w, ht);
+    win.georef = src.georef;
+    for (int r = 0; r < ht; ++r)
+      for (int c = 0; c < w; ++c) win.at(c, r) = src.at(x + c, y + r);
+    return win;
+  }
+  void write(int x, int y, const Heightfield& core) {
+    for (int r = 0; r < core.height; ++r)
+      for (int c = 0; c < core.width; ++c) {
+        out.at(x + c, y + r) = core.at(c, r);
+        written[size_t(y + r) * src.width + x + c]++;
+      }
+  }
+  void expect_each_cell_written_once() const {
+    for (size_t i = 0; i < written.size(); ++i) EXPECT_EQ(written[i], 1) << "cell " << i;
+  }
+  const Heightfield& src;
+  Heightfield out;
+  std::vector<int> written;
+};
+
 /// The bundled SRTM tile N44W072 (geographic), read once.
 inline const Heightfield& srtm_tile() {
   static const Heightfield dem = read_heightfield(data_path("dem/N44W072.hgt"));
