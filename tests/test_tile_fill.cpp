@@ -29,20 +29,9 @@ Heightfield fill_tiled(const Heightfield& h, int tile, analysis::TiledFillStats*
 
 using test::bit_differences;
 
-// Rough terrain with pits at every scale: white noise plus a few wide bowls.
-Heightfield pitted(int w, int h, unsigned seed, double nodata_fraction = 0) {
-  Heightfield t = test::smooth_terrain(w, h, 30.0, 300.0, seed);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> noise(-8.f, 8.f), u(0.f, 1.f);
-  for (float& v : t.z) v = std::round(v + noise(rng));  // integer metres: many exact ties and flats
-  for (size_t i = 0; i < t.size(); ++i)
-    if (u(rng) < nodata_fraction) t.z[i] = NAN;
-  return t;
-}
-
 TEST(TileFill, EqualsUntiledBitForBitOnManyTilesAndOddSizes) {
   for (auto [w, h, tile] : {std::tuple{97, 61, 16}, {64, 64, 8}, {131, 37, 7}, {50, 50, 49}, {33, 71, 2}}) {
-    const Heightfield t = pitted(w, h, unsigned(w * 7 + h));
+    const Heightfield t = test::pitted_terrain(w, h, unsigned(w * 7 + h));
     const Heightfield ref = analysis::priority_flood_fill(t).filled;
     const Heightfield got = fill_tiled(t, tile);
     EXPECT_EQ(bit_differences(ref, got), 0u) << w << " x " << h << " tile " << tile;
@@ -50,7 +39,7 @@ TEST(TileFill, EqualsUntiledBitForBitOnManyTilesAndOddSizes) {
 }
 
 TEST(TileFill, EqualsUntiledWithNodata) {
-  Heightfield t = pitted(120, 90, 5, 0.02);
+  Heightfield t = test::pitted_terrain(120, 90, 5, 0.02);
   for (int y = 30; y < 60; ++y)  // a nodata lake crossing tile borders
     for (int x = 20; x < 45; ++x) t.at(x, y) = NAN;
   const Heightfield ref = analysis::priority_flood_fill(t).filled;

@@ -43,17 +43,6 @@ Heightfield tiled_area(const Heightfield& h, int tile, bool global_phase = true,
 
 using test::bit_differences;
 
-// Rough terrain with pits and flats at every scale (integer metres: many exact ties).
-Heightfield pitted(int w, int h, unsigned seed, double nodata_fraction = 0) {
-  Heightfield t = test::smooth_terrain(w, h, 30.0, 300.0, seed);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> noise(-8.f, 8.f), u(0.f, 1.f);
-  for (float& v : t.z) v = std::round(v + noise(rng));
-  for (size_t i = 0; i < t.size(); ++i)
-    if (u(rng) < nodata_fraction) t.z[i] = NAN;
-  return t;
-}
-
 // The surface a tiled run is given: the untiled epsilon fill (pits and flats drained).
 Heightfield drained(const Heightfield& h) { return analysis::priority_flood_fill(h, true).filled; }
 
@@ -61,7 +50,7 @@ TEST(TileFlow, EqualsUntiledDrainageOfTheRawSurfaceBitForBit) {
   // The tiled accumulation of the epsilon-filled surface equals the untiled drainage of the raw
   // one (which fills it itself): flats and pits are resolved as the untiled run resolves them.
   for (auto [w, h, tile] : {std::tuple{97, 61, 16}, {64, 64, 8}, {131, 37, 7}, {50, 50, 49}, {33, 71, 2}, {40, 9, 3}}) {
-    const Heightfield raw = pitted(w, h, unsigned(w * 7 + h));
+    const Heightfield raw = test::pitted_terrain(w, h, unsigned(w * 7 + h));
     const Heightfield ref = untiled_area(raw);
     analysis::TiledFlowStats st;
     const Heightfield got = tiled_area(drained(raw), tile, true, &st);
@@ -72,7 +61,7 @@ TEST(TileFlow, EqualsUntiledDrainageOfTheRawSurfaceBitForBit) {
 }
 
 TEST(TileFlow, EqualsUntiledWithNodata) {
-  Heightfield raw = pitted(120, 90, 5, 0.02);
+  Heightfield raw = test::pitted_terrain(120, 90, 5, 0.02);
   for (int y = 30; y < 60; ++y)  // a nodata lake crossing tile borders
     for (int x = 20; x < 45; ++x) raw.at(x, y) = NAN;
   const Heightfield ref = untiled_area(raw);
@@ -166,7 +155,7 @@ TEST(TileFlow, PipelineDrainageEqualsUntiled) {
 
 TEST(TileFlow, DinfBreachAndRawSurfacesAreRefusedTiled) {
   test::TempDir dir;
-  Heightfield t = pitted(64, 64, 3);
+  Heightfield t = test::pitted_terrain(64, 64, 3);
   const std::string in = dir.path("in.tif");
   write_heightfield(t, in);
   struct Case {
@@ -177,29 +166,15 @@ TEST(TileFlow, DinfBreachAndRawSurfacesAreRefusedTiled) {
     Pipeline p =
         Pipeline::parse(json::parse("[\"" + in + "\", " + c.stage + ", \"" + dir.path("o.tif") + "\"]"), "x", "x.json");
     p.validate();
-    RunReport r;
-    TileOptions to;
-    to.tile = 32;
-    try {
-      run_tiled(p, to, RunOptions{}, r);
-      FAIL() << c.stage << " ran tiled";
-    } catch (const UsageError& e) {
-      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
-    }
+    const std::string e = test::tiled_run_error<UsageError>(p);
+    EXPECT_NE(e.find(c.expect), std::string::npos) << c.stage << ": " << e;
   }
   // The raw surface has pits: the tiled drainage names one and leaves no output behind.
   Pipeline p =
       Pipeline::parse(json::parse("[\"" + in + "\", \"drainage\", \"" + dir.path("o.tif") + "\"]"), "x", "x.json");
   p.validate();
-  RunReport r;
-  TileOptions to;
-  to.tile = 32;
-  try {
-    run_tiled(p, to, RunOptions{}, r);
-    FAIL() << "pits ran tiled";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("no lower neighbour"), std::string::npos) << e.what();
-  }
+  const std::string e = test::tiled_run_error(p);
+  EXPECT_NE(e.find("no lower neighbour"), std::string::npos) << e;
   EXPECT_FALSE(std::filesystem::exists(dir.path("o.tif")));
 }
 

@@ -11,6 +11,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/pipeline.hpp>
 #include <terracl/tile.hpp>
@@ -46,6 +47,34 @@ struct MemoryTiles {
   Heightfield out;
   std::vector<int> written;
 };
+
+/// Rough terrain with pits and flats at every scale: smooth relief plus white noise, rounded to
+/// integer metres (many exact ties), with a `nodata_fraction` of random cells NaN.
+inline Heightfield pitted_terrain(int w, int h, unsigned seed, double nodata_fraction = 0) {
+  Heightfield t = smooth_terrain(w, h, 30.0, 300.0, seed);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-8.f, 8.f), u(0.f, 1.f);
+  for (float& v : t.z) v = std::round(v + noise(rng));
+  for (size_t i = 0; i < t.size(); ++i)
+    if (u(rng) < nodata_fraction) t.z[i] = NAN;
+  return t;
+}
+
+/// Runs `p` tiled (tiles of `tile` cells) expecting it to throw an E; returns the message (a
+/// failure is added when it runs through).
+template <typename E = Error>
+std::string tiled_run_error(const Pipeline& p, int tile = 32) {
+  RunReport r;
+  TileOptions to;
+  to.tile = tile;
+  try {
+    run_tiled(p, to, RunOptions{}, r);
+  } catch (const E& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << p.source() << " ran tiled";
+  return {};
+}
 
 /// The bundled SRTM tile N44W072 (geographic), read once.
 inline const Heightfield& srtm_tile() {
