@@ -197,7 +197,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   ev->add_option("--mode", va->amp.mode, "detail | faithful (see amplify --mode)")->capture_default_str();
   ev->add_option("--detail-correlation", va->amp.detail_correlation, "Detail blend: assumed correlation of overlapping details")->capture_default_str();
   ev->add_flag("--no-detail-anisotropy{false}", va->amp.detail_anisotropy,
-              "Detail blend: one measured rho for all overlaps (before issue 16 session 8)");
+              "Detail blend: one measured rho for all overlaps (isotropic)");
   ev->add_option("--cascade-relief-exponent", va->amp.cascade_relief_exponent,
                  "Detail blend, x16: the second step's gain times (q_ref / q_med)^b, the relief of the dictionary's atoms over its input's footprints (-1: b from the dictionary; 0: off)")
       ->capture_default_str();

@@ -1,4 +1,4 @@
-// Virtual-pipe hydraulic erosion and thermal erosion (issue 5). OpenCL C 1.2.
+// Virtual-pipe hydraulic erosion and thermal erosion. OpenCL C 1.2.
 //
 // Layout: every field is a float32 array with a zero halo: row pitch P (a multiple of 8), one pad
 // row above and below the grid and 8 pad columns on the left; cell (x, y) is at (y + 1) * P + 8 + x.

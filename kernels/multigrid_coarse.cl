@@ -1,4 +1,4 @@
-// The coarse part of a multigrid cycle in one launch (issue 19 point 5): from a level that fits one
+// The coarse part of a multigrid cycle in one launch: from a level that fits one
 // work-group down to the coarsest and back (zebra smoothing, residual restriction, the coarsest
 // pseudo-inverse, prolongation, zebra smoothing), with the corrections of every level in local memory and
 // barriers between the stages, instead of ~10 launches per level per cycle. On a GPU those coarse

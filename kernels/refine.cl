@@ -46,7 +46,7 @@ __kernel void refine_residual(__global const double* U, __global const float* g,
   rows[y] = s;
 }
 
-// Flexible CG on top of the refinement (issue 19 point 6; Notay's FCG(1)): the float V-cycle's
+// Flexible CG on top of the refinement (Notay's FCG(1)): the float V-cycle's
 // answer c to the residual r is the preconditioned residual, the search direction is
 // d = c - beta d_prev (A-orthogonal to the previous one) and U moves by alpha d with
 // alpha = (d, r) / (d, A d). On sparse-constraint problems the V-cycle alone contracts the

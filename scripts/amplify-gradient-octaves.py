@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Where the slope of an amplified DEM comes from (issue 16): the gradient's energy per octave of
+"""Where the slope of an amplified DEM comes from: the gradient's energy per octave of
 spatial frequency, output over truth, from `terracl dictionary evaluate --save PREFIX` files.
 
   /usr/bin/python3 scripts/amplify-gradient-octaves.py --factor 16 PREFIX [PREFIX ...]

@@ -8,7 +8,7 @@
 # of a 1201^2 DEM and x256 of 32^2 -> 8192^2. Detail mode's pk S / pk f are read from the curvature
 # spectra averaged over 3 seeds (--seed S, S+1, S+2; TRACE_SEEDS=1: one seed, as before issue 16
 # session 8); the other columns are seed S's. The detail blend's correlation is anisotropic by
-# default (issue 16 sessions 8-9); pass --no-detail-anisotropy for the single-rho figures.
+# default; pass --no-detail-anisotropy for the single-rho figures.
 #   scripts/eval-amplify.sh [--bench] [extra `terracl dictionary evaluate` options]
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -452,7 +452,7 @@ for side in (1, -1):
         hogs.append(hp)
         ops.append({"op": "free_crest", "comment": "hogback foothill", "points": hp, "smooth": True,
                     "width": round(rng.uniform(1200, 1500)), "profile": "sharp"})
-# Drainage (stream-power incision, issue 12): gullies and branch valleys carved along the terrain's
+# Drainage (stream-power incision): gullies and branch valleys carved along the terrain's
 # own flow over the whole map after the landforms. n = 2 keeps it on the steep flanks (depth 250 m x
 # (A / 1000 cells)^0.5 x S^2): with n = 1 the big ravines' gentle floors got straight D8 trenches
 # running out onto the plain; max_depth 60 m caps the cut on the steepest walls (S^2 up to ~9).

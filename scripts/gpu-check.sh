@@ -63,7 +63,7 @@ if [ "${QUICK:-0}" = 1 ]; then
   bench reconstruct 257 3; bench edit 257 3; bench erode 256 3
 else
   bench reconstruct 1025 10; bench reconstruct 4097 5; bench edit 1025 10; bench erode 1024 10
-  # Refinement cost (issue 19 point 6), render against the host path, and where reconstruct's time goes.
+  # Refinement cost, render against the host path, and where reconstruct's time goes.
   bench reconstruct 1025 5 --set fixed=0.0000038 --set refine=off
   bench reconstruct 1025 5 --set fixed=0.0000038 --set refine=auto
   bench reconstruct 4097 3 --set refine=auto

@@ -129,7 +129,7 @@ TEST(AmplifyQuality, DetailBlendLeavesNoPatchGridTraceOnAFrontRangeCrop) {
 }
 
 TEST(AmplifyQuality, SeedAveragedTraceStillFindsTheAverageBlendsRipple) {
-  // The evaluation's seed-averaged pk S (docs/amplify.md, issue 16 session 8) must still fail the
+  // The evaluation's seed-averaged pk S (docs/amplify.md) must still fail the
   // output the trace test was written against: the paper's average blend, here over seeds 1-3 (each
   // seed its own training subset and FLANN forest), on the N44W072 crop of
   // DetailBlendLeavesNoPatchGridTrace; the detail blend stays under the threshold.

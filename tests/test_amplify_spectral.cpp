@@ -1,4 +1,4 @@
-// Per-input HF calibration (issue 16): the power-law prediction of the energy above the input's
+// Per-input HF calibration: the power-law prediction of the energy above the input's
 // Nyquist, and the first step's gain that matches it with the held-out folds' estimate.
 #include "test_helpers.hpp"
 

@@ -1,4 +1,4 @@
-// Known-answer tests for depression filling, breaching and flow routing (issue 7).
+// Known-answer tests for depression filling, breaching and flow routing.
 #include <cmath>
 #include <random>
 #include <terracl/analysis.hpp>

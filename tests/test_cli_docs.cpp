@@ -1,4 +1,4 @@
-// Docs and CLI agree (issue 15, item 8): info and metrics report the same slope, `run --validate`
+// Docs and CLI agree: info and metrics report the same slope, `run --validate`
 // keeps its columns aligned past /pipeline/10, and docs/pipelines.md describes the demo as it is.
 // (The "(pipeline only)" labels are checked in test_pipeline_cli.cpp, StagesCli.)
 #include "test_helpers.hpp"

@@ -205,7 +205,7 @@ TEST(Kernels, GridIndexProductsAre64Bit) {
   EXPECT_TRUE(std::regex_search(std::string("  const int row = (y + 1) * P + PAD;"), decl));
 }
 
-// Launch shapes (issue 19): chosen from the device's properties (CPU bit of CL_DEVICE_TYPE), shown
+// Launch shapes: chosen from the device's properties (CPU bit of CL_DEVICE_TYPE), shown
 // by `terracl devices`, forced by TERRACL_LAUNCH so that both shapes run on PoCL.
 TEST(Device, LaunchShapeFromPropertiesAndForced) {
   unsetenv("TERRACL_LAUNCH");

@@ -98,7 +98,7 @@ bool in_polygon(const nlohmann::json& poly, double x, double y) {
   return in;
 }
 
-// Shape facts of the gallery (issue 12), so that a regression towards "1-pixel scratches", "a dark
+// Shape facts of the gallery, so that a regression towards "1-pixel scratches", "a dark
 // line without scree" or "a crest that is only a shading edge" fails. `cell` is the cell size of
 // the run (twice the script's: the suite runs the 1025^2 examples at 513^2).
 void check_shapes(const std::string& name, const nlohmann::json& script, const Heightfield& h, double cell);
@@ -132,7 +132,7 @@ bool check_turned_cliff(const nlohmann::json& script, const Heightfield& h, doub
   return true;
 }
 
-// The cliff band reads as natural rock (issue 12, figure 14), on the turned terrain (plateau north):
+// The cliff band reads as natural rock (figure 14), on the turned terrain (plateau north):
 // gullies at irregular spacing along the brink, a plateau with relief, a brink that wanders. Each
 // bound fails on the former example (ten evenly spaced identical gullies, a slab frozen flat after
 // 3 m of noise, a 4-point rim whose only bend is one bow).
@@ -1066,7 +1066,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
   EXPECT_GE(n, 7);
 }
 
-// The two real-DEM examples (issue 12) are local: a small part of the N44W072 tile changes, all of
+// The two real-DEM examples are local: a small part of the N44W072 tile changes, all of
 // it inside the solved window the report names, and the rest is the tile bit for bit.
 TEST(EditExamples, RealDemExamplesAreLocal) {
   test::TempDir tmp;

@@ -1,4 +1,4 @@
-// Locality of edits on real DEMs (issue 12): a crest on a crop of each bundled DEM changes the
+// Locality of edits on real DEMs: a crest on a crop of each bundled DEM changes the
 // terrain near the crest only, and the same edit solved globally does not; map units, off-grid
 // primitives, zero widths and sub-cell supports.
 #include "test_helpers.hpp"

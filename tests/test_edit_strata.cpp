@@ -1,4 +1,4 @@
-// The "strata" edit operation (issue 12): layered rock turns a steep ramp into a staircase whose
+// The "strata" edit operation: layered rock turns a steep ramp into a staircase whose
 // risers and treads lie at the layer boundaries, leaves gentle ground and the outside of its
 // region untouched, and rejects bad layers with the JSON path.
 #include "edit_helpers.hpp"

@@ -1,4 +1,4 @@
-// Erosion (issue 5) T1-T8: conservation, non-negativity, sub-stepping, mirror symmetry, extreme
+// Erosion T1-T8: conservation, non-negativity, sub-stepping, mirror symmetry, extreme
 // inputs, determinism, lake at rest and thermal talus. All on the real OpenCL device, small grids.
 #include "test_helpers.hpp"
 
@@ -629,7 +629,7 @@ TEST(Erosion, T7WideLaunchShapeGivesTheSameBits) {
 namespace terracl {
 namespace {
 
-// Bed diffusion (hillslope creep, issue 15) against the analytic decay of a Neumann cosine mode:
+// Bed diffusion (hillslope creep) against the analytic decay of a Neumann cosine mode:
 // z = 100 + A cos(k (x + l/2)), k = m pi / (n l), is an exact eigenvector of the discrete Laplacian
 // with a closed (no-flux) border, so after T seconds of sub-steps h its amplitude is
 // A (1 + h D 2 (cos(k l) - 1) / l^2)^(T/h); the continuum answer A exp(-D k^2 T) differs by O((k l)^2).

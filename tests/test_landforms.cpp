@@ -1,4 +1,4 @@
-// Landform cross-sections (issue 12): every profile against its analytic formula, C1 continuity of
+// Landform cross-sections: every profile against its analytic formula, C1 continuity of
 // the profile across a bent polyline, tapers, smoothing, and no default feature narrower than 3 cells.
 #include "test_helpers.hpp"
 
@@ -111,7 +111,7 @@ TEST(Landforms, ProfileIsC1AcrossABend) {
   EXPECT_LT(c1, c2 / 3.0) << c2 << " -> " << c1;
 }
 
-// A smoothed stroke (issue 12): the Catmull-Rom spline is sampled in pieces of r/8, and the distance
+// A smoothed stroke: the Catmull-Rom spline is sampled in pieces of r/8, and the distance
 // to those chords creases on the bisector inside every vertex, a jump of the slope of about the
 // pieces' turning angle. With the pieces taken as Hermite curves (Primitive::smooth) the slope is
 // continuous along the stroke. Measured on a circular arc (radius 200 m, r = 50 m) half-way down
@@ -311,7 +311,7 @@ TEST(Landforms, NoDefaultFeatureIsNarrowerThanThreeCells) {
 }
 
 // A ravine deepens downstream and cuts through a constrained rim it crosses.
-// A cliff (issue 12, the gallery's cliff band): a steep face over a concave scree apron that starts
+// A cliff (the gallery's cliff band): a steep face over a concave scree apron that starts
 // at the face's foot with the face's slope there (no ledge, no kink) and flattens towards its toe,
 // so the apron reads as a band of its own: (1 - face) r wide, every cell of it steeper than a
 // tenth of its top slope except near the toe. The former profile (two smoothersteps) ended the face

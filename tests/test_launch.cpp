@@ -1,4 +1,4 @@
-// Launch shapes (issue 19 point 3): every cell kernel (kernels/launch.clh) gives the same bits in
+// Launch shapes: every cell kernel (kernels/launch.clh) gives the same bits in
 // the rows shape (PoCL's default: a row per work-item) and the wide shape (GPUs: a cell per
 // work-item in 2D groups), both run here on PoCL (TERRACL_LAUNCH forces the shape).
 #include "test_helpers.hpp"

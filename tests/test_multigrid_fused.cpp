@@ -1,4 +1,4 @@
-// The fused coarse cycle (issue 19 point 5, kernels/multigrid_coarse.cl): the coarse levels of a
+// The fused coarse cycle (kernels/multigrid_coarse.cl): the coarse levels of a
 // cycle in one work-group launch give the same bits as one launch per stage and level
 // (TERRACL_MG_FUSED=0), for every cycle kind, with and without hard cells, with dead coarse nodes;
 // and the launch count per solve drops.

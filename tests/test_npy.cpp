@@ -1,4 +1,4 @@
-// NumPy .npy read/write (issue 19 point 4): fixtures written by numpy (data/npy/make_fixtures.py),
+// NumPy .npy read/write: fixtures written by numpy (data/npy/make_fixtures.py),
 // the refusals with their reasons, and a round trip with numpy itself (full build only, where
 // python3-numpy is installed; the core build runs the fixture cases).
 #include "test_helpers.hpp"

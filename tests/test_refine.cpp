@@ -1,4 +1,4 @@
-// Mixed-precision iterative refinement (issue 19 point 6): on a canyon held by a few hard cells
+// Mixed-precision iterative refinement: on a canyon held by a few hard cells
 // (large free regions) the float32 multigrid stops far from the exact discrete solution; with the
 // residual in double it reaches 1e-6 of the range. Reference: Eigen's sparse direct solve in double
 // of the same 5-point problem (recon_reference.hpp).

@@ -1,4 +1,4 @@
-// Hostile input and interrupted runs (issue 14), run as a careless or hostile user would: every
+// Hostile input and interrupted runs, run as a careless or hostile user would: every
 // case here crashed, hung, destroyed data, wrapped a number or gave an unhelpful message before.
 // Each test states the exit code and the words of the message it expects, and that nothing
 // partial (or nothing at all) was written.
@@ -615,7 +615,7 @@ TEST(Reliability, TiffBlocksClaimingMoreThanTheFileAreRefusedBeforeGdalAllocates
   EXPECT_FALSE(fs::exists(dir.path("o.tif")));
 }
 
-// Two findings of the 1-hour fuzz_raster campaign (issue 14), kept as seeds of the fuzz corpus
+// Two findings of the 1-hour fuzz_raster campaign, kept as seeds of the fuzz corpus
 // (their first byte picks the format): a 12 x 9 pixel-interleaved GeoTIFF of 65535 bands made GDAL
 // calloc one 16 GiB block (17 GB resident, 127 s before failing), and an EXR whose displayWindow
 // states 3 bytes made OpenEXR read on out of step into a 1.5 GB string (1.6 GB, 9 s).

@@ -1,4 +1,4 @@
-// The streamed render (render_stream.cpp, issue 15): a GDAL raster read and rendered strip by
+// The streamed render (render_stream.cpp): a GDAL raster read and rendered strip by
 // strip writes the same file as the in-memory render (read_heightfield + render + write_image),
 // for every picture mode, both backends, PNG and GeoTIFF, with nodata, percentage ramps and
 // strips that do not divide the raster; progress comes once per strip.

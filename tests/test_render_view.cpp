@@ -1,4 +1,4 @@
-// The perspective picture (render --mode perspective, issue 12): analytic horizon and Lambert
+// The perspective picture (render --mode perspective): analytic horizon and Lambert
 // brightness on a flat plane, left-right symmetry, occlusion, nodata holes, kernel against the
 // host reference, and the CLI's option errors. Small grids and pictures: well under 2 s in all.
 #include <OpenImageIO/imageio.h>

@@ -1,4 +1,4 @@
-// The stage table's memory column (terracl/stage_memory.hpp, issue 14): every stage declares what
+// The stage table's memory column (terracl/stage_memory.hpp): every stage declares what
 // it needs from its options and its input's size, and a run that cannot fit is refused before
 // anything is read or written, by `run --validate` as by the run, by the stage subcommands and by
 // `terracl edit`. TERRACL_MAX_MEMORY (host_memory_limit()) stands for a small machine.

@@ -45,7 +45,7 @@ TEST(EditErode, ErodesTheTerrainAndKeepsHardConstraintsExact) {
             run_script({{"operations", {kRange, kCrest, {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}}}}}).z);
 }
 
-// The operation settles the suspended sediment like the erode stage (issue 15): without settling
+// The operation settles the suspended sediment like the erode stage: without settling
 // the load in suspension at the end is lost and the mean elevation drops by it.
 TEST(EditErode, SettlesTheSuspendedSedimentLikeTheStage) {
   const json erode = {{"op", "erode"}, {"steps", 40}, {"rain", 0.02}};

@@ -1,4 +1,4 @@
-// warp and resize (issue 15): the same values as the gdalwarp program with the same options,
+// warp and resize: the same values as the gdalwarp program with the same options,
 // nodata kept, engine presets' sizes and Z scale, and amplify's error naming the warp command.
 #include "test_helpers.hpp"
 

@@ -289,7 +289,7 @@ struct AmplifyOptions {
   float detail_correlation = -1.f;
   /// Detail blend with a measured rho: also measure the anisotropy delta (x-neighbour overlaps
   /// correlated by rho + delta, y-neighbour ones by rho - delta), which removes the ripple with the
-  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md, issue 16 session 8). Only
+  /// patch spacing one rho leaves on anisotropic terrain (docs/amplify.md). Only
   /// with a dictionary whose gain was calibrated so (Dictionary::anisotropy; not .tdic files before
   /// version 5): false, or such a dictionary, gives one rho.
   bool detail_anisotropy = true;
@@ -299,9 +299,9 @@ struct AmplifyOptions {
   /// atom footprint norm (complete and constrained dictionaries only; K-SVD atoms have none). The atom
   /// search ties each patch's detail to its footprint's relief as the exemplar's patches do (detail ~
   /// relief^(1 - b)); across terrains the fine relief follows the relief less, and a later step's
-  /// footprints are the previous step's RMSE-capped synthesis (docs/amplify.md, issue 16 session 10).
+  /// footprints are the previous step's RMSE-capped synthesis (docs/amplify.md).
   /// < 0: b = 1 - that exponent fitted on the dictionary's atoms (detail_relief_exponent); 0: off
-  /// (before session 10); > 0: this b. Applies whatever the gain's source (also an explicit detail_gain).
+  /// (no relief scale); > 0: this b. Applies whatever the gain's source (also an explicit detail_gain).
   float cascade_relief_exponent = -1.f;
   /// Internal (amplify_from_exemplars, the cascade calibration): this call's first step is a later
   /// step of a cascade whose steps run as separate calls.

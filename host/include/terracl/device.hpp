@@ -26,7 +26,7 @@ struct DeviceInfo {
   std::string opencl_c_version;
   std::string driver_version;
   std::string device_version;
-  /// Launch shape the launchers use (issue 19): "rows" (one work-item per row with the x-loop
+  /// Launch shape the launchers use: "rows" (one work-item per row with the x-loop
   /// inside: PoCL's fastest form for stencils) on CPU devices, "wide" (many work-items per row,
   /// larger groups) on GPUs, accelerators and anything else. Chosen from CL_DEVICE_TYPE's CPU
   /// bit, not from the type string; TERRACL_LAUNCH=rows|wide forces one (tests run both on PoCL).

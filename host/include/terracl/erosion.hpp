@@ -59,7 +59,7 @@ struct ErosionParams {
   double recession = 0.0;      ///< s, erode(): simulated time after the rain stops (no rain, the load
                                ///< bounded by the depth and settling at w_s/d), so that the water drains
                                ///< and drops its load along its way instead of all at once where it
-                               ///< stands at the end (the flat valley ribbon of issue 15); 0 = off
+                               ///< stands at the end (a flat valley ribbon); 0 = off
   double settling_velocity = 0.0;  ///< m/s, w_s: during the recession the load above capacity settles
                                    ///< at the rate w_s/d (capped at 1 per sub-step)
   double recession_concentration = 0.0;  ///< during the recession the capacity is at most this times

@@ -1,5 +1,5 @@
 #pragma once
-/// The stage table's memory column (issue 14): what each stage needs, in host RAM and device
+/// The stage table's memory column: what each stage needs, in host RAM and device
 /// memory, estimated from its resolved options and the size of its input, and the one checker
 /// that refuses a run before any work starts (`terracl run`, `run --validate`, every stage
 /// subcommand, `terracl edit`). Sizes flow from the readers' headers (read without the pixels)

@@ -1,5 +1,5 @@
 // The HF energy a finer grid of the input's terrain should have, from the input's own spectrum
-// (issue 16: detail calibrated per input, not only on the exemplar's average).
+// (detail calibrated per input, not only on the exemplar's average).
 #include <terracl/amplify.hpp>
 
 #include "row_spectra.hpp"

@@ -51,8 +51,8 @@ class StepEngine {
     const Georef g = low.georef.resampled(f);
     m_qscale = d.cell_x > 0 && g.cell_x > 0 ? float(d.cell_x / g.cell_x) : 1.f;
     // A later step of a cascade: its detail scaled by the relief of the exemplar's footprints over
-    // this input's (relief_scale; AmplifyOptions::cascade_relief_exponent, docs/amplify.md, issue 16
-    // session 10).
+    // this input's (relief_scale; AmplifyOptions::cascade_relief_exponent, docs/amplify.md,
+    // "Relief scale of later cascade steps").
     if (m_detail_blend && (step > 0 || o.later_cascade_step) && o.cascade_relief_exponent != 0.f &&
         !d.low_norm.empty()) {
       const double b = o.cascade_relief_exponent > 0 ? o.cascade_relief_exponent : detail_relief_exponent(d, o.base);
@@ -240,7 +240,7 @@ class StepEngine {
   // correlation rho + delta, of y-neighbours rho - delta (diagonal ones rho), |delta| <= min(rho, 1 -
   // rho), chosen by the same flatness. Details of anisotropic terrain (the Front Range's north-south
   // ridges) are correlated more along one axis than the other, which one rho cannot fit: its
-  // compromise left a ripple with the spacing along y (docs/amplify.md, issue 16 session 8).
+  // compromise left a ripple with the spacing along y (docs/amplify.md).
   std::pair<float, float> measure_rho(int X0, int Y0, int X1, int Y1) const {
     // Band-limited base: rho flattens the curvature of base + 2 detail per phase (2: a typical
     // calibrated gain, fixed so that the output stays affine in the gain, as the calibration needs). The

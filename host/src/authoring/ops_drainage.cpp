@@ -1,4 +1,4 @@
-// Drainage: stream-power channel incision (issue 12, dendritic valleys carved from the terrain).
+// Drainage: stream-power channel incision (dendritic valleys carved from the terrain).
 //
 // On the current terrain h (a solve when stale): fill its depressions (Priority-Flood+epsilon,
 // analysis/fill.cpp) and route flow on the filled surface (analysis/flow.cpp), over the whole grid
@@ -46,7 +46,7 @@ namespace {
 
 // The smallest half-width of a channel's cross-section. The bowl kernel (1 - (d / r)^2)^2 is deeper
 // than half the cut for d < 0.54 r: at r = 1.5 cells only the centre cell, so the smallest channels
-// were 1-cell hairlines; at 2 cells the cells beside it too (3 cells, issue 12's narrowest feature).
+// were 1-cell hairlines; at 2 cells the cells beside it too (3 cells, the narrowest channel the gallery asks for).
 // The canyon section's floor keeps 1.5 cells: its walls widen it by 2 x depth / wall_slope anyway
 // (and 2 cells there widened the canyon example's small side canyons onto its wall stations).
 constexpr double kMinHalfWidthCells = 2.0, kMinCanyonFloorCells = 1.5;

@@ -1,4 +1,4 @@
-// Strata: layered rock of alternating hardness inside a region (issue 12, canyon and cliff walls).
+// Strata: layered rock of alternating hardness inside a region (canyon and cliff walls).
 //
 // The stack is a monotone map S of elevations (metres in -> metres out) built from the top down:
 // pairs of a hard layer over a soft one, their thicknesses (as they appear in the result) jittered

@@ -253,7 +253,7 @@ const nlohmann::json& EditSession::log() const { return m_state->log(); }
 nlohmann::json EditSession::report() const {
   nlohmann::json r = {{"operations", m_state->log()}, {"hard_cells", m_state->hard_count()}, {"solves", m_state->solves()},
                       {"solve", m_state->local() ? "local" : "global"}, {"warnings", warnings()}};
-  r["launch"] = describe_launch(m_state->device());  // the device's launch shape and group sizes (issue 19)
+  r["launch"] = describe_launch(m_state->device());  // the device's launch shape and group sizes
   if (m_state->local() && m_state->locality_report().contains("falloff_m"))
     r["falloff_m"] = m_state->locality_report()["falloff_m"];  // the largest used by the last solve
   if (m_state->solves() > 0) r["locality"] = m_state->locality_report();

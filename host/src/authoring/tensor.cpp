@@ -232,7 +232,7 @@ Packed pack(const std::vector<Primitive>& prims) {
 
 }  // namespace
 
-// The tensor kernels' parameters live in one persistent buffer per field (issue 19 point 1):
+// The tensor kernels' parameters live in one persistent buffer per field:
 // before, every launch created two buffers (CL_MEM_COPY_HOST_PTR: an allocation and a transfer
 // each; ~0.3 ms per operation on an H100). Now each launch does one non-blocking write of its
 // packed block into [prims | vertices] sub-buffers of that buffer, which grows (doubling) only

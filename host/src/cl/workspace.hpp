@@ -1,5 +1,5 @@
 #pragma once
-// Per-device cache of the reconstruction's level-0 buffers (issue 19 point 5): the studio, the
+// Per-device cache of the reconstruction's level-0 buffers: the studio, the
 // edit state and `terracl bench` solve the same grid again and again, and on a GPU the creation
 // and first touch of two or four fresh N-float buffers cost more than the whole V-cycle work.
 //

@@ -57,11 +57,11 @@ ErosionParams ErosionParams::defaults() {
   // fine sediment stays suspended in lakes instead of filling every valley flat.
   ErosionParams p;
   p.rain = 0.003;
-  // Issue 15, the valley ribbon: undamped pipes (the published model has no damping) let the water
-  // and its load run on through the trunk valleys and out of a crop within the run, little
-  // evaporation keeps the load afloat until then, and a slower pick-up keeps the carving as it was.
-  // With the old 0.5 / 0.02 / 0.015 the load of 400 s of gullying stopped in the trunk valleys and
-  // settled there as raised flat ribbons (docs/erosion.md, "The valley ribbon: fixed").
+  // Undamped pipes (the published model has no damping) let the water and its load run on through
+  // the trunk valleys and out of a crop within the run, little evaporation keeps the load afloat
+  // until then, and a slow pick-up keeps the carving. With damping 0.5, evaporation 0.02 and
+  // dissolve 0.015 the load of 400 s of gullying stops in the trunk valleys and settles there as
+  // raised flat ribbons (docs/erosion.md, "Parameters").
   p.evaporation = 0.002;
   p.damping = 0.0;
   p.capacity = 20.0;
@@ -73,10 +73,10 @@ ErosionParams ErosionParams::defaults() {
   p.max_change = 0.5;  // m/s: 0.5 m per ~1 s sub-step of the SRTM3 tiles it was tuned on
   p.thermal_rate = 0.05;
   p.talus_deg = 35.0;
-  // Issue 15 (look at 10-30 m cells): hillslope creep of 2 m^2/s smooths the one-cell crinkles of a
+  // At 10-30 m cells: hillslope creep of 2 m^2/s smooths the one-cell crinkles of a
   // 10 m grid in ~50 s (w^2/D) but a 66 m cell's features only after ~2000 s, five times the default
   // run; an open border lets the valleys drain out of a DEM crop instead of filling as lakes
-  // against a wall that is not there; a third of the old rain keeps the incision a few metres.
+  // against a wall that is not there; a low rain keeps the incision a few metres.
   p.diffusion = 2.0;
   p.boundary = ErosionBoundary::Open;
   return p;

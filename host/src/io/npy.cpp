@@ -1,6 +1,6 @@
 // NumPy .npy arrays (format versions 1, 2 and 3): a 2-D array, C order, little-endian float32,
 // float64, int16 or uint16; rows are north to south as in every terracl raster. No GDAL needed:
-// with RAW16 this is what the core build reads and writes (issue 19 point 4). The optional JSON
+// with RAW16 this is what the core build reads and writes. The optional JSON
 // sidecar "<file>.npy.json" carries the cell size, georeferencing and metadata (as for RAW16);
 // values are elevations as stored, NaN is nodata.
 #include "io/io_common.hpp"

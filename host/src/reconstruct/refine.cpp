@@ -1,4 +1,4 @@
-// Mixed-precision iterative refinement (issue 19 point 6, docs/reconstruct.md). The float32
+// Mixed-precision iterative refinement (docs/reconstruct.md). The float32
 // multigrid stops where float rounding of u hides the residual; on problems with large free
 // regions the remaining smooth error is then far above the residual (2.6e-4 of the range at a
 // 1.5e-6 relative residual on a sparse-constraint canyon). Here the solution lives in double, its

@@ -1,4 +1,4 @@
-// The streamed `render` (issue 15): a GDAL raster read strip by strip (a one-row halo each side),
+// The streamed `render`: a GDAL raster read strip by strip (a one-row halo each side),
 // each strip rendered on the device or the host and written before the next one is needed, so the
 // memory held is a few strips, not the raster and its picture. The picture's layout depends on the
 // whole raster (alpha when any cell is nodata, a percentage ramp's data range): when it does, a
