@@ -47,18 +47,6 @@ void run_sketch(StageContext& c) {
   if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), analysis::sketch_to_json(s, h).dump(1) + "\n");
 }
 
-void run_mesh(StageContext& c) {
-  const Heightfield& h = c.height();
-  mesh::Mesh m;
-  if (!c.has("max_error"))
-    m = mesh::triangulate_full(h);
-  else if (c.get<std::string>("simplifier") == "rtin")
-    m = mesh::triangulate_rtin(h, c.get<double>("max_error"), c.progress);
-  else  // greedy; falls back to the RTIN where the grid has nodata
-    m = mesh::triangulate_simplified(h, c.get<double>("max_error"), c.progress);
-  mesh::write_mesh(m, c.get<std::string>("file"), c.provenance, &h);
-}
-
 void run_drainage(StageContext& c) {
   Heightfield& h = c.height();
   Heightfield out = h;
@@ -144,30 +132,7 @@ void register_analysis_stages(StageRegistry& r) {
          run_sketch,
          false});
   r.add(render_stage_info());  // host/src/render/render_stage.cpp
-  r.add({"mesh",
-         "Export a triangle mesh in metres (.glb, .gltf or .obj) with texture coordinates and its map placement "
-         "(glTF node extras and a <file>.json sidecar), optionally simplified within a vertical error; passes the "
-         "heightfield through.",
-         H,
-         H,
-         {{"file", OptionType::OutputPath, nullptr, "", "Mesh file (.glb, .gltf or .obj)", {}, true},
-          {"max_error",
-           OptionType::Float,
-           nullptr,
-           "m",
-           "Simplify so that no cell is further than this from the mesh (default: full grid)",
-           {},
-           false},
-          {"simplifier",
-           OptionType::Enum,
-           "greedy",
-           "",
-           "greedy: Delaunay greedy insertion, fewest vertices (the RTIN where the grid has nodata); rtin: "
-           "right-triangulated irregular network",
-           {"greedy", "rtin"},
-           false}},
-         run_mesh,
-         false});
+  r.add(mesh_stage_info());  // host/src/mesh/mesh_stage.cpp
   r.add({"fill_depressions",
          "Priority-Flood depression filling (Barnes et al. 2014); --epsilon gives every flat a drainage gradient.",
          H,

@@ -16,6 +16,7 @@ void register_amplify_benches(BenchRegistry& r);  // host/src/amplify/amplify_st
 void register_analysis_stages(StageRegistry& r); // host/src/analysis/analysis_stages.cpp
 void register_analysis_benches(BenchRegistry& r); // host/src/analysis/analysis_stages.cpp
 StageInfo render_stage_info();                 // host/src/render/render_stage.cpp
+StageInfo mesh_stage_info();                   // host/src/mesh/mesh_stage.cpp
 namespace render { struct Options; }
 render::Options render_stage_options(const StageContext& c);  // host/src/render/render_stage.cpp
 void register_render_benches(BenchRegistry& r);  // host/src/render/render_stage.cpp
