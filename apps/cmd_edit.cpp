@@ -27,7 +27,7 @@ struct EditArgs {
 CommandRegistrar reg(40, [](CLI::App& app) {
   auto a = std::make_shared<EditArgs>();
   auto* sub = app.add_subcommand("edit", "Apply a JSON edit script to a terrain (docs/authoring.md) and reconstruct it");
-  sub->add_option("base", a->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE] (metres)");
+  sub->add_option("base", a->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE][+ELEVATION] (metres)");
   sub->add_option("--script", a->script, "Edit script (JSON)");
   sub->add_option("-o,--output", a->output, "Output heightfield (.tif, .exr, .png, ...)");
   sub->add_option("--preview", a->preview, "Also write a shaded-relief preview PNG (render module), one pixel per cell");
@@ -54,7 +54,7 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       a->base = resolve_path(script["base"].get<std::string>(), std::filesystem::path(a->script).parent_path().string());
     }
     if (a->base.empty())
-      throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE]), or \"base\" in the script");
+      throw UsageError("edit", "needs BASE (a raster or flat:WIDTHxHEIGHT[@CELLSIZE][+ELEVATION]), or \"base\" in the script");
     if (a->output.empty() && !a->validate) throw UsageError("edit", "needs -o OUTPUT");
     check_output_paths("edit", {{"BASE", a->base.rfind("flat:", 0) == 0 ? "" : a->base}, {"--script", a->script}},
                        {{"-o", a->output},

@@ -17,7 +17,7 @@ namespace {
 CommandRegistrar reg(45, [](CLI::App& app) {
   auto o = std::make_shared<StudioOptions>();
   auto* sub = app.add_subcommand("studio", "Sketch a terrain interactively in the browser (docs/studio.md)");
-  sub->add_option("base", o->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE] (metres)")
+  sub->add_option("base", o->base, "Base terrain: a raster, or flat:WIDTHxHEIGHT[@CELLSIZE][+ELEVATION] (metres)")
       ->capture_default_str();
   sub->add_option("--script", o->script, "Edit script to start from (JSON, as `terracl edit`)");
   sub->add_option("--port", o->port, "TCP port (0: any free port)")->capture_default_str();

@@ -38,7 +38,7 @@ struct EditOptions {
   std::optional<bool> locality;
 };
 
-/// "flat:WIDTHxHEIGHT[@CELLSIZE]" -> a zero heightfield (cell size in metres, default 1); nullopt
+/// "flat:WIDTHxHEIGHT[@CELLSIZE][+ELEVATION]" -> a level heightfield (cell size in metres, default 1; elevation in metres, default 0); nullopt
 /// when `spec` does not start with "flat:"; throws on a malformed spec.
 std::optional<Heightfield> parse_flat_spec(const std::string& spec);
 

@@ -1,7 +1,6 @@
-// Composite brushes (paper figure 8): mountain_range (gradient profile + downslope-oriented noise)
-// and mesa (plateau elevation constraints + a rim drop + downslope-oriented noise). "Downslope
-// oriented" = the noise's gradients are dragged across the slope by a tensor aligned with the
-// stroke (or with the rim), so its crests and gullies run down the flanks.
+// Composite brush (paper figure 8): mesa (plateau elevation constraints + a rim drop +
+// downslope-oriented noise). "Downslope oriented" = the noise's gradients are dragged across the
+// slope by a tensor aligned with the rim, so its crests and gullies run down the flanks.
 #include "authoring/curve_shape.hpp"
 #include "authoring/state.hpp"
 
@@ -70,35 +69,6 @@ void add_oriented_noise(EditState& s, const OrientedNoise& o, const Primitive& r
   b.clear_scratch(d, box);
 }
 
-Operation parse_mountain_range(Params& p) {
-  CurveShape c = parse_curve_shape(p, "round", {"round", "sharp", "v", "u", "flat"}, true);
-  size_t with_z = 0;
-  for (const auto& v : c.pts) with_z += std::isnan(v.z) ? 0 : 1;
-  if (with_z != 0 && with_z != c.pts.size()) param_error(p.where("points"), "give z for every point or for none");
-  double height = 0;
-  if (with_z) {
-    for (const auto& v : c.pts) height = std::max(height, v.z);
-    if (p.has("height")) param_error(p.where("height"), "the points already carry heights [x, y, z]");
-  } else {
-    height = p.vlength("height");
-    for (auto& v : c.pts) v.z = height;
-  }
-  // The noise's wavelength follows the half-width, known here only when given: default r = 2 height.
-  const double r_guess = c.radius > 0 ? c.radius : std::max(min_half_width(p.grid()), 2.0 * std::abs(height));
-  const OrientedNoise noise = parse_oriented_noise(p, 0.12 * std::abs(height), r_guess / 4);
-  return [=](EditState& s) {
-    const double r = c.resolve_radius(s.grid(), height, 2.0);
-    const auto path = c.path(s.grid(), r);
-    Primitive ridge = c.primitive(path, r, c.profile, 1.0);
-    for (const auto& v : path) ridge.amplitude.push_back(v.z);
-    add_profile_gradient(s.device(), s.buffers(), {ridge});
-    Primitive orient = ridge;
-    orient.tensor = TensorKind::Tangent;
-    add_oriented_noise(s, noise, ridge, orient);
-    s.changed();
-  };
-}
-
 // A mesa: the rim ring is hard at `elevation`; the cap inside is free and gets gentle noise of its
 // own (detail, no flat disc), and the flanks drop as a cliff face over a talus apron (the cliff's
 // Drop profile with a scree share).
@@ -150,7 +120,6 @@ Operation parse_mesa(Params& p) {
 }  // namespace
 
 void add_composite_ops(std::vector<OpSpec>& ops) {
-  ops.push_back({"mountain_range", "one stroke: a ridge profile plus downslope-oriented ridged noise", parse_mountain_range});
   ops.push_back({"mesa", "a plateau of fixed elevation with a steep rim and downslope-oriented noise", parse_mesa});
 }
 

@@ -9,6 +9,7 @@
 // Catmull-Rom spline through the points). Defaults scale with the cell size and the feature's
 // relief, so that no default feature is narrower than kMinCells cells.
 #include "authoring/curve_shape.hpp"
+#include "authoring/ops_landforms.hpp"
 #include "authoring/state.hpp"
 
 #include <terracl/error.hpp>
@@ -143,6 +144,7 @@ double terrain_under(EditState& s, const std::vector<Vec3>& pts) {
 }
 
 Operation parse_crest(Params& p) {
+  if (is_relative(p, "points")) return relative_crest(p);
   CurveShape c = parse_curve_shape(p, "sharp", {"sharp", "round", "v", "u", "flat"}, false);
   with_elevation(p, c.pts);
   const std::optional<double> height = p.has("height") ? std::optional<double>(p.vlength("height")) : std::nullopt;
@@ -168,6 +170,7 @@ Operation parse_crest(Params& p) {
 }
 
 Operation parse_cliff(Params& p) {
+  if (is_relative(p, "points")) return relative_cliff(p);
   CurveShape c = parse_curve_shape(p, "", {}, false);
   with_elevation(p, c.pts);
   const double height = p.vlength("height");
@@ -229,6 +232,7 @@ std::vector<double> banks_to_terrain(EditState& s, const std::vector<Vec3>& path
 }
 
 Operation parse_river(Params& p) {
+  if (is_relative(p, "points")) return relative_river(p);
   CurveShape c = parse_curve_shape(p, "round", {"round", "u", "v", "flat"}, false);
   with_elevation(p, c.pts);
   // `bank_height`: metres, or "terrain" (per vertex: the depth of the river below the terrain).

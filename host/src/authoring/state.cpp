@@ -98,6 +98,46 @@ void EditState::solve_global(bool warm) {
   m_solution = std::move(m_last.height);
   m_last.height = Heightfield();
   m_solution->georef = m_template.georef;
+  if (cs.empty()) keep_far_field_level();
+}
+
+void EditState::keep_far_field_level() {
+  // Without a hard cell the solve fixes the level by the mean elevation, so a raised ridge would
+  // lower the whole plain around it. The far field (cells more than two cells from any changed
+  // face) keeps the base's level instead; with no far field left, the mean stays the gauge.
+  const int W = m_grid.width, H = m_grid.height;
+  const size_t N = size_t(W) * size_t(H);
+  if (m_base.z.size() != N || m_base_gx.size() != N || m_solution->z.size() != N) return;
+  download();
+  const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
+  std::vector<uint8_t> near(N, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      if (gx[i] != m_base_gx[i]) near[i] = 1, near[i + (x + 1 < W ? 1 : 0)] = 1;
+      if (gy[i] != m_base_gy[i]) near[i] = 1, near[i + (y + 1 < H ? size_t(W) : 0)] = 1;
+    }
+  constexpr int kMargin = 2;
+  std::vector<uint8_t> row(N, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int k = std::max(0, x - kMargin); k <= std::min(W - 1, x + kMargin) && !row[size_t(y) * W + x]; ++k)
+        row[size_t(y) * W + x] = near[size_t(y) * W + k];
+  double sum = 0;
+  size_t n = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      bool touched = false;
+      for (int k = std::max(0, y - kMargin); k <= std::min(H - 1, y + kMargin) && !touched; ++k) touched = row[size_t(k) * W + x];
+      if (touched) continue;
+      const size_t i = size_t(y) * W + x;
+      sum += double(m_solution->z[i]) - double(m_base.z[i]);
+      ++n;
+    }
+  if (n < N / 100) return;
+  const float shift = float(sum / double(n));
+  for (float& z : m_solution->z) z -= shift;
+  m_locality["far_field_cells"] = n;
 }
 
 void EditState::solve_local(bool warm) {
@@ -395,6 +435,9 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
   const int cx0 = std::max(0, cell_index(std::floor((x0 - half) / g.cell_x))), cx1 = std::min(g.width - 1, cell_index(std::ceil((x1 + half) / g.cell_x)));
   const int cy0 = std::max(0, cell_index(std::floor((y0 - half) / g.cell_y))), cy1 = std::min(g.height - 1, cell_index(std::ceil((y1 + half) / g.cell_y)));
   if (cx1 < cx0 || cy1 < cy0) return;
+  const Heightfield* ground = s.last_solution();
+  double cut = 0, fill = 0;
+  size_t n = 0;
   for (int y = cy0; y <= cy1; ++y) {
     // Only the columns near some segment in this row (a diagonal curve's box is mostly empty): the
     // x-extent of each segment's part within `half` of the row, widened by `half` and one cell.
@@ -427,10 +470,31 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
         const double d = std::hypot(px - a.x - t * ux, py - a.y - t * uy);
         if (d < best) best = d, z = a.z + t * (b.z - a.z);
       }
-      if (best <= half) s.set_hard(size_t(y) * g.width + x, float(z));
+      if (best <= half) {
+        const size_t i = size_t(y) * g.width + x;
+        s.set_hard(i, float(z));
+        if (ground && std::isfinite(ground->z[i])) cut = std::max(cut, double(ground->z[i]) - z), fill = std::max(fill, z - double(ground->z[i])), ++n;
+      }
     }
   }
   s.changed();
+  // Hard constraints replace the terrain: say so when they cut (or fill) the existing relief by
+  // more than kCutWarning (a crest drawn below a range planes the range).
+  constexpr double kCutWarning = 10.0;
+  if (n && (cut > kCutWarning || fill > kCutWarning) && !s.log().empty()) {
+    auto& e = s.log().back();
+    if (e.contains("constraint_cut_m")) {  // one warning per operation (fit rasterizes many curves)
+      cut = std::max(cut, e["constraint_cut_m"].get<double>()), fill = std::max(fill, e["constraint_fill_m"].get<double>());
+    } else {
+      if (!e.contains("warnings")) e["warnings"] = nlohmann::json::array();
+      e["warnings"].push_back(fmt::format(
+        "operation {} ({}): its elevation constraints {} the terrain under them by up to {:.0f} m; leave out `elevation` "
+        "to place the stroke relative to the ground",
+          e.value("index", 0), e.value("op", std::string()), cut > fill ? "cut into" : "raise", std::max(cut, fill)));
+    }
+    e["constraint_cut_m"] = cut;
+    e["constraint_fill_m"] = fill;
+  }
 }
 
 double curl_rms(const GradientField& g) {
@@ -452,6 +516,7 @@ const std::vector<OpSpec>& operations() {
     std::vector<OpSpec> v;
     add_brush_ops(v);
     add_curve_ops(v);
+    add_landform_ops(v);
     add_composite_ops(v);
     add_paste_ops(v);
     add_fit_ops(v);

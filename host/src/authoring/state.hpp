@@ -98,6 +98,7 @@ class EditState {
  private:
   void solve_local(bool warm);
   void solve_global(bool warm);
+  void keep_far_field_level();
 
   Device& m_device;
   Grid m_grid;
@@ -142,6 +143,7 @@ void add_fit_ops(std::vector<OpSpec>& ops);        // ops_fit.cpp
 void add_amplify_ops(std::vector<OpSpec>& ops);    // ops_amplify.cpp
 void add_strata_ops(std::vector<OpSpec>& ops);     // ops_strata.cpp
 void add_drainage_ops(std::vector<OpSpec>& ops);   // ops_drainage.cpp
+void add_landform_ops(std::vector<OpSpec>& ops);   // ops_landforms.cpp
 
 // ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
 

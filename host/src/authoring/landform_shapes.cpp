@@ -1,0 +1,426 @@
+#include "authoring/landform_shapes.hpp"
+
+#include <terracl/amplify.hpp>  // parallel_for
+
+#include <algorithm>
+#include <cmath>
+
+namespace terracl::edit {
+namespace {
+
+double smoothstep(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * (3 - 2 * t);
+}
+Vec2 rotate(Vec2 v, double a) { return {v.x * std::cos(a) - v.y * std::sin(a), v.x * std::sin(a) + v.y * std::cos(a)}; }
+Vec2 unit(Vec2 v) {
+  const double l = std::max(1e-12, std::hypot(v.x, v.y));
+  return {v.x / l, v.y / l};
+}
+double cell_of(const Grid& g) { return std::max(g.cell_x, g.cell_y); }
+
+// Linear interpolation of per-stroke-vertex values at arc length `a` (one value: constant).
+double along(const std::vector<double>& v, const std::vector<double>& arc, double a) {
+  if (v.size() == 1 || arc.size() < 2) return v.front();
+  if (a <= arc.front()) return v.front();
+  for (size_t i = 1; i < arc.size(); ++i)
+    if (a <= arc[i]) {
+      const double t = arc[i] > arc[i - 1] ? (a - arc[i - 1]) / (arc[i] - arc[i - 1]) : 1.0;
+      return v[i - 1] + t * (v[i] - v[i - 1]);
+    }
+  return v.back();
+}
+
+// A curved line from `p` along `dir`: it bends by up to `bend` radians and wanders sideways.
+std::vector<Vec2> branch_path(Vec2 p, Vec2 dir, double len, double bend, double wobble, uint32_t seed) {
+  std::vector<Vec2> pts{p};
+  const int n = 8;
+  Vec2 d = unit(dir), q = p;
+  for (int k = 1; k <= n; ++k) {
+    d = rotate(d, bend / n);
+    q = {q.x + d.x * len / n, q.y + d.y * len / n};
+    pts.push_back(q);
+  }
+  return wander(pts, wobble * len, 0.6 * len, 2, seed);
+}
+
+// Two passes of a separable box blur of radius r cells (about a Gaussian of sigma 0.8 r): age
+// rounds crests and softens walls.
+void soften(ShapeRaster& s, int r) {
+  if (r < 1 || s.box.empty()) return;
+  const int W = s.box.w, H = s.box.h;
+  std::vector<float> tmp(s.v.size());
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int y = 0; y < H; ++y) {
+      double acc = 0;
+      int n = 0;
+      for (int x = -r; x <= r; ++x)
+        if (x >= 0 && x < W) acc += s.v[size_t(y) * W + x], ++n;
+      for (int x = 0; x < W; ++x) {
+        tmp[size_t(y) * W + x] = float(acc / std::max(1, n));
+        const int out = x - r, in = x + r + 1;
+        if (out >= 0) acc -= s.v[size_t(y) * W + out], --n;
+        if (in < W) acc += s.v[size_t(y) * W + in], ++n;
+      }
+    }
+    for (int x = 0; x < W; ++x) {
+      double acc = 0;
+      int n = 0;
+      for (int y = -r; y <= r; ++y)
+        if (y >= 0 && y < H) acc += tmp[size_t(y) * W + x], ++n;
+      for (int y = 0; y < H; ++y) {
+        s.v[size_t(y) * W + x] = float(acc / std::max(1, n));
+        const int out = y - r, in = y + r + 1;
+        if (out >= 0) acc -= tmp[size_t(out) * W + x], --n;
+        if (in < H) acc += tmp[size_t(in) * W + x], ++n;
+      }
+    }
+  }
+}
+
+// Detail whose amplitude follows the shape and fades to nothing at its highest point (a crest
+// drawn at a height stays at that height).
+void detail_below_top(ShapeRaster& s, const Grid& g, double amp, double wavelength, uint32_t seed) {
+  float top = 0;
+  for (float v : s.v) top = std::max(top, v);
+  if (!(top > 0)) return;
+  ShapeRaster d = s;
+  add_relief_detail(d, g, amp, wavelength, seed);
+  for (size_t i = 0; i < s.v.size(); ++i) {
+    const double e = std::min(1.0, 4.0 * (1.0 - s.v[i] / top));
+    s.v[i] = float(s.v[i] + e * (d.v[i] - s.v[i]));
+  }
+}
+
+// Rock bands of a wall: height fraction e(t) for t in [0, 1] across the wall (0 at its foot, 1 at
+// its top). Each band is a bench (hard caprock: a wide ledge and a near-vertical cliff; soft: a
+// narrow ledge and a steep slope), with thicknesses drawn unevenly.
+struct Bands {
+  std::vector<double> t, e;  // boundaries in t and in height fraction, 0 .. 1
+  std::vector<bool> hard;
+  double operator()(double x) const {
+    x = std::clamp(x, 0.0, 1.0);
+    if (t.size() < 2) return x;
+    size_t k = 0;
+    while (k + 2 < t.size() && x > t[k + 1]) ++k;
+    const double fr = (x - t[k]) / std::max(1e-9, t[k + 1] - t[k]);
+    const double bench = hard[k] ? 0.55 : 0.25;
+    const double r = std::clamp((fr - bench) / (1 - bench), 0.0, 1.0);
+    return e[k] + (e[k + 1] - e[k]) * (hard[k] ? std::sqrt(r) : smoothstep(r));
+  }
+};
+Bands make_bands(int n, Rng& rng) {
+  Bands b;
+  if (n <= 0) return b;
+  std::vector<double> wt(n), wh(n);
+  double st = 0, sh = 0;
+  for (int k = 0; k < n; ++k) st += wt[k] = rng.uniform(0.5, 1.6), sh += wh[k] = rng.uniform(0.4, 1.8);
+  b.t.push_back(0), b.e.push_back(0);
+  for (int k = 0; k < n; ++k) {
+    b.t.push_back(b.t.back() + wt[k] / st), b.e.push_back(b.e.back() + wh[k] / sh);
+    b.hard.push_back(k % 2 == 0 ? rng.uniform() < 0.8 : rng.uniform() < 0.3);
+  }
+  b.t.back() = b.e.back() = 1.0;
+  return b;
+}
+
+// Nearest point of a polyline for every cell within `reach` of it: distance, side (+1 on the right
+// of the direction of travel on a north-up map, -1 on the left) and arc length there.
+struct Nearest {
+  ShapeRaster dist, side, arc;
+};
+Nearest nearest_on(const Grid& g, const std::vector<Vec2>& pts, const Box& box, double reach) {
+  Nearest n{ShapeRaster(box), ShapeRaster(box), ShapeRaster(box)};
+  std::fill(n.dist.v.begin(), n.dist.v.end(), std::numeric_limits<float>::infinity());
+  const auto arc = arc_lengths(pts);
+  for (size_t i = 0; i + 1 < pts.size(); ++i) {
+    const Vec2 a = pts[i], b = pts[i + 1];
+    const Box bb = box_around(g, {a, b}, reach);
+    const int x0 = std::max(bb.x0, box.x0), x1 = std::min(bb.x0 + bb.w, box.x0 + box.w);
+    const int y0 = std::max(bb.y0, box.y0), y1 = std::min(bb.y0 + bb.h, box.y0 + box.h);
+    const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const double px = x * g.cell_x, py = y * g.cell_y;
+        const double t = l2 > 0 ? std::clamp(((px - a.x) * ux + (py - a.y) * uy) / l2, 0.0, 1.0) : 0.0;
+        const double dx = px - a.x - t * ux, dy = py - a.y - t * uy, d = std::hypot(dx, dy);
+        if (d < n.dist.at(x, y)) {
+          n.dist.at(x, y) = float(d);
+          n.side.at(x, y) = (ux * dy - uy * dx) >= 0 ? 1.0f : -1.0f;
+          n.arc.at(x, y) = float(arc[i] + t * std::sqrt(l2));
+        }
+      }
+  }
+  return n;
+}
+
+}  // namespace
+
+ShapeRaster ridge_system(const Grid& g, const RidgeParams& p) {
+  const double W = p.width, cell = cell_of(g);
+  const double rough = p.look.roughness, age = p.look.age;
+  const double sharp = p.sharpness >= 0 ? p.sharpness : std::clamp(1.0 - 0.8 * age, 0.0, 1.0);
+  Rng rng(p.look.seed);
+  const auto stroke_arc = arc_lengths(p.stroke);
+  double hmax = 0;
+  for (double h : p.height) hmax = std::max(hmax, h);
+  const bool peak = p.stroke.size() < 2 || stroke_arc.back() < 2 * cell;
+  std::vector<RidgeLine> lines;
+  RidgeLine main;
+  if (!peak) {
+    const auto base = resample(p.stroke, std::max(W / 6, cell));
+    const auto base_arc = arc_lengths(base);
+    main.pts = wander(base, p.spurs > 0 ? (0.03 + 0.1 * rough) * W : 0.0, 1.6 * W, 3, p.look.seed + 1);
+    const double L = base_arc.back();
+    const double taper = p.taper >= 0 ? p.taper : std::min(0.8 * W, L / 3);
+    for (size_t i = 0; i < main.pts.size(); ++i) {
+      const double a = base_arc[i];
+      // Summits and saddles along a range; a single crest keeps the height it was drawn at.
+      const double relief = p.spurs > 0.75 ? 1 + (0.2 + 0.25 * rough) * fbm(a / (1.3 * W), 3.7, 3, 0.5, p.look.seed + 2) : 1.0;
+      const double end = taper > 0 ? smoothstep(std::min(a, L - a) / taper) : 1.0;
+      main.h.push_back(along(p.height, stroke_arc, a * stroke_arc.back() / std::max(1e-9, L)) * relief * end);
+      main.w.push_back(0.8 * W * (1 + 0.15 * fbm(a / (0.9 * W), 8.1, 2, 0.5, p.look.seed + 3)));
+    }
+  } else {
+    const Vec2 c = p.stroke.front();
+    main.pts = {c, {c.x + 0.01 * cell, c.y}};
+    main.h = {p.height.front(), p.height.front()};
+    main.w = {0.8 * W, 0.8 * W};
+  }
+  lines.push_back(main);
+
+  // Spurs: down both flanks at uneven spacing, mostly alternating sides, bending as they descend;
+  // the longer ones fork once. Their crests stay above the main flank, so the valleys between
+  // them are the flank itself.
+  std::function<void(Vec2, Vec2, double, double, double, int)> spur = [&](Vec2 at, Vec2 dir, double len, double h0,
+                                                                           double w0, int level) {
+    if (len < 3 * cell || h0 <= 0) return;
+    RidgeLine s;
+    s.pts = branch_path(at, dir, len, rng.uniform(-0.45, 0.45), 0.05 + 0.1 * rough, uint32_t(rng.next()));
+    const int n = int(s.pts.size());
+    const double fall = 1.1 + 0.4 * rng.uniform();
+    for (int k = 0; k < n; ++k) {
+      const double t = double(k) / (n - 1);
+      s.h.push_back(h0 * std::pow(1 - t, fall));
+      s.w.push_back(w0 * (1 - 0.45 * t));
+    }
+    lines.push_back(s);
+    if (level >= 1) return;
+    const int forks = (rng.uniform() < 0.65 * p.spurs ? 1 : 0) + (rng.uniform() < 0.25 * p.spurs ? 1 : 0);
+    double side = rng.uniform() < 0.5 ? -1 : 1;
+    for (int f = 0; f < forks; ++f, side = -side) {
+      const double t = rng.uniform(0.25, 0.6);
+      const int k = std::clamp(int(t * (n - 1)), 0, n - 2);
+      const Vec2 tan = unit({s.pts[k + 1].x - s.pts[k].x, s.pts[k + 1].y - s.pts[k].y});
+      spur(s.pts[k], rotate(tan, side * rng.uniform(0.5, 1.0)), (1 - t) * len * rng.uniform(0.5, 0.8),
+           0.95 * s.h[k], 0.7 * s.w[k], level + 1);
+    }
+  };
+  if (p.spurs > 0) {
+    if (peak) {
+      const int n = int(std::lround(4 + 3 * p.spurs + 2 * rng.uniform()));
+      const double a0 = rng.uniform(0, 2 * M_PI);
+      for (int k = 0; k < n; ++k) {
+        const double a = a0 + 2 * M_PI * (k + rng.uniform(-0.3, 0.3)) / n;
+        spur(main.pts.front(), {std::cos(a), std::sin(a)}, W * rng.uniform(0.8, 1.05), 0.97 * main.h.front(), 0.42 * W, 0);
+      }
+    } else {
+      const auto arc = arc_lengths(main.pts);
+      double side = rng.uniform() < 0.5 ? -1 : 1;
+      for (double a = W * rng.uniform(0.2, 0.5) / p.spurs; a < arc.back(); a += W * rng.uniform(0.35, 0.75) / p.spurs) {
+        size_t i = 0;
+        while (i + 2 < main.pts.size() && arc[i + 1] < a) ++i;
+        const Vec2 tan = unit({main.pts[i + 1].x - main.pts[i].x, main.pts[i + 1].y - main.pts[i].y});
+        const double hc = main.h[i];
+        if (hc < 0.15 * hmax) continue;
+        side = rng.uniform() < 0.75 ? -side : side;
+        const Vec2 dir = rotate({-tan.y * side, tan.x * side}, rng.uniform(-0.6, 0.6));
+        spur(main.pts[i], dir, W * rng.uniform(0.85, 1.2) * (0.6 + 0.4 * hc / std::max(1e-9, hmax)), 0.93 * hc, 0.42 * W, 0);
+      }
+    }
+  }
+
+  const int blur = int(std::lround(age * 0.1 * W / cell));
+  std::vector<Vec2> all;
+  for (const auto& l : lines) all.insert(all.end(), l.pts.begin(), l.pts.end());
+  ShapeRaster out(box_around(g, all, W + (2 * blur + 2) * cell));
+  for (const auto& l : lines) max_ridge(out, g, l, sharp);
+  soften(out, blur);
+  detail_below_top(out, g, (0.15 + 0.35 * rough) * (1 - 0.5 * age), 0.45 * W, p.look.seed + 7);
+  return out;
+}
+
+ShapeRaster volcano(const Grid& g, const VolcanoParams& p) {
+  const double R = p.radius, H = p.height, cell = cell_of(g), age = p.look.age, rough = p.look.roughness;
+  Rng rng(p.look.seed);
+  const double rc = p.crater * R;
+  const double crater_depth = (0.5 - 0.3 * age) * H * std::min(1.0, 2.5 * p.crater);
+  const int blur = int(std::lround(age * 0.06 * R / cell));
+  ShapeRaster out(box_around(g, {p.center}, 1.15 * R + (2 * blur + 2) * cell));
+  const Box& b = out.box;
+  const double expo = 1.5 + 0.6 * age;  // concave flanks, lower and longer with age
+  auto cone = [&](double r) { return H * std::pow(std::max(0.0, 1 - r / R), expo); };
+  parallel_for(size_t(b.h), 0, [&](size_t r0, size_t r1) {
+    for (int y = b.y0 + int(r0); y < b.y0 + int(r1); ++y)
+      for (int x = b.x0; x < b.x0 + b.w; ++x) {
+        const double dx = x * g.cell_x - p.center.x, dy = y * g.cell_y - p.center.y;
+        const double th = std::atan2(dy, dx);
+        // An uneven footprint: the radius wanders with the direction (lava flows ran further).
+        const double rr = std::hypot(dx, dy) / (1 + 0.12 * fbm(1.2 * std::cos(th), 1.2 * std::sin(th), 3, 0.5, p.look.seed + 5));
+        double h = rr < rc ? cone(rc) : cone(rr);
+        if (rc > 0 && rr < 1.3 * rc) {  // the crater bowl and its rim
+          const double u = rr / rc;
+          const double bowl = u < 1 ? crater_depth * (1 - u * u) : 0.0;
+          const double rim = 0.04 * H * std::exp(-8 * (u - 1) * (u - 1));
+          h = h - bowl + rim;
+        }
+        out.at(x, y) = float(std::max(0.0, h));
+      }
+  });
+  // Radial ridges between gullies: lines from the rim down the flanks, a little above the cone
+  // (more with age: erosion deepens the gullies between them).
+  const int n = int(std::lround(12 + 6 * rng.uniform()));
+  const double lift = 0.05 + 0.1 * age;
+  for (int k = 0; k < n; ++k) {
+    const double a = 2 * M_PI * (k + rng.uniform(-0.35, 0.35)) / n;
+    const double r0 = std::max(1.1 * rc, 0.08 * R), r1 = R * rng.uniform(0.75, 1.0);
+    RidgeLine l;
+    l.pts = branch_path({p.center.x + r0 * std::cos(a), p.center.y + r0 * std::sin(a)}, {std::cos(a), std::sin(a)}, r1 - r0,
+                        rng.uniform(-0.3, 0.3), 0.04 + 0.06 * rough, uint32_t(rng.next()));
+    for (size_t i = 0; i < l.pts.size(); ++i) {
+      const double r = std::hypot(l.pts[i].x - p.center.x, l.pts[i].y - p.center.y);
+      l.h.push_back(cone(r) * (1 + lift));
+      l.w.push_back(0.1 * R * (0.6 + 0.6 * r / R));
+    }
+    max_ridge(out, g, l, 0.9);
+  }
+  soften(out, blur);
+  detail_below_top(out, g, (0.12 + 0.3 * rough) * (1 - 0.4 * age), 0.3 * R, p.look.seed + 7);
+  return out;
+}
+
+ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
+  const double W = p.width, cell = cell_of(g), rough = p.look.roughness, age = p.look.age;
+  Rng rng(p.look.seed);
+  const Bands bands = make_bands(p.bands, rng);
+  struct Piece {
+    std::vector<Vec2> pts;
+    std::vector<double> depth, w;
+  };
+  std::vector<Piece> pieces;
+  Piece main;
+  main.pts = wander(resample(p.stroke, std::max(W / 5, cell)), p.meander * W * (0.6 + 0.8 * rough), 3 * W, 3, p.look.seed + 1);
+  const auto arc = arc_lengths(main.pts);
+  for (size_t i = 0; i < main.pts.size(); ++i) {
+    main.depth.push_back(p.depth_at(main.pts[i], arc[i], arc.back()));
+    // The valley narrows to its head and its mouth and widens and narrows along its course.
+    const double end = smoothstep(std::min(arc[i], arc.back() - arc[i]) / std::max(1e-9, W));
+    main.w.push_back(W * (0.45 + 0.55 * end) * (1 + 0.2 * fbm(arc[i] / (2.5 * W), 4.3, 2, 0.5, p.look.seed + 12)));
+  }
+  pieces.push_back(main);
+  // Side valleys: they join at an acute angle pointing downstream, at uneven spacing, mostly on
+  // alternating sides, as deep as the main valley at their mouth and rising to nothing at the tip.
+  if (p.branches > 0 && arc.back() > 2 * W) {
+    double side = rng.uniform() < 0.5 ? -1 : 1;
+    for (double a = W * rng.uniform(0.8, 1.6) / p.branches; a < arc.back() - 0.5 * W; a += W * rng.uniform(1.2, 2.6) / p.branches) {
+      size_t i = 0;
+      while (i + 2 < main.pts.size() && arc[i + 1] < a) ++i;
+      const Vec2 tan = unit({main.pts[i + 1].x - main.pts[i].x, main.pts[i + 1].y - main.pts[i].y});
+      side = rng.uniform() < 0.7 ? -side : side;
+      const Vec2 dir = rotate({-tan.x, -tan.y}, side * rng.uniform(0.7, 1.3));
+      Piece s;
+      const double len = W * rng.uniform(1.5, 3.2);
+      s.pts = branch_path(main.pts[i], dir, len, rng.uniform(-0.6, 0.6), 0.08 + 0.1 * rough, uint32_t(rng.next()));
+      const double d0 = 0.85 * main.depth[i], w0 = main.w[i] * rng.uniform(0.3, 0.5);
+      for (size_t k = 0; k < s.pts.size(); ++k) {
+        const double t = double(k) / (s.pts.size() - 1);
+        s.depth.push_back(d0 * std::pow(1 - t, 0.8));
+        s.w.push_back(w0 * (1 - 0.6 * t));
+      }
+      pieces.push_back(s);
+    }
+  }
+  const int blur = int(std::lround(age * 0.08 * W / cell));
+  std::vector<Vec2> all;
+  for (const auto& pc : pieces) all.insert(all.end(), pc.pts.begin(), pc.pts.end());
+  ShapeRaster out(box_around(g, all, W + (2 * blur + 2) * cell));
+  for (const auto& pc : pieces) {
+    const double wmax = *std::max_element(pc.w.begin(), pc.w.end());
+    const Nearest n = nearest_on(g, pc.pts, out.box, wmax);
+    const auto parc = arc_lengths(pc.pts);
+    const Box& b = out.box;
+    parallel_for(size_t(b.h), 0, [&](size_t r0, size_t r1) {
+      for (int y = b.y0 + int(r0); y < b.y0 + int(r1); ++y)
+        for (int x = b.x0; x < b.x0 + b.w; ++x) {
+          const double d = n.dist.at(x, y);
+          if (!(d < wmax)) continue;
+          const double w = along(pc.w, parc, n.arc.at(x, y));
+          if (!(d < w)) continue;
+          const double depth = along(pc.depth, parc, n.arc.at(x, y));
+          // The wall's bench edges wander (no ruled stripes); the floor widens and narrows.
+          double u = d / w + 0.05 * (0.5 + rough) * fbm(x * g.cell_x / (0.7 * W), y * g.cell_y / (0.7 * W), 3, 0.5, p.look.seed + 9);
+          const double f = p.floor * (1 + 0.3 * fbm(n.arc.at(x, y) / (2 * W), 1.7, 2, 0.5, p.look.seed + 11));
+          const double t = std::clamp((u - f) / std::max(1e-6, 1 - f), 0.0, 1.0);
+          const double e = p.bands > 0 ? bands(t) : 0.5 * (1 - std::cos(M_PI * std::pow(t, 0.8)));
+          float& o = out.at(x, y);
+          o = std::max(o, float(depth * (1 - e)));
+        }
+    });
+  }
+  soften(out, blur);
+  ShapeRaster detail = out;
+  add_relief_detail(detail, g, (0.08 + 0.22 * rough) * (1 - 0.5 * age), 0.4 * W, p.look.seed + 7);
+  out = std::move(detail);
+  return out;
+}
+
+ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
+  const double D = p.drop, cell = cell_of(g), rough = p.look.roughness, age = p.look.age;
+  Rng rng(p.look.seed);
+  const Bands bands = make_bands(p.bands, rng);
+  const double face = std::max(2 * cell, (0.3 + 0.3 * age) * D);
+  const double apron = std::max(2 * cell, p.talus * D * 2.2);
+  const auto line = wander(resample(p.stroke, std::max(cell, D / 4)), (0.05 + 0.2 * rough) * D, 3 * D, 3, p.look.seed + 1);
+  const auto arc = arc_lengths(line);
+  const double L = arc.back(), taper = std::min(2 * D, L / 4);
+  // Chutes: notches cut back into the plateau edge at uneven spacing.
+  struct Chute {
+    double at, half, cut;
+  };
+  std::vector<Chute> chutes;
+  for (double a = D * rng.uniform(0.3, 1.0); a < L; a += D * rng.uniform(0.5, 1.6))
+    chutes.push_back({a, D * rng.uniform(0.12, 0.3), face * rng.uniform(0.8, 2.2)});
+  const double reach = std::max(p.back, face + apron) + face * 2.5;
+  const int blur = int(std::lround(age * 0.08 * D / cell));
+  ShapeRaster out(box_around(g, line, reach + (2 * blur + 2) * cell));
+  const Nearest n = nearest_on(g, line, out.box, reach);
+  const double plateau_side = p.left ? -1.0 : 1.0;  // Nearest's side is +1 on the right (map view)
+  const Box& b = out.box;
+  parallel_for(size_t(b.h), 0, [&](size_t r0, size_t r1) {
+    for (int y = b.y0 + int(r0); y < b.y0 + int(r1); ++y)
+      for (int x = b.x0; x < b.x0 + b.w; ++x) {
+        const double d = n.dist.at(x, y);
+        if (!(d < reach)) continue;
+        const double s = n.arc.at(x, y);
+        double notch = 0;
+        const double sd0 = n.side.at(x, y) * plateau_side * d;  // > 0 on the plateau
+        for (const auto& c : chutes) {
+          // A V-shaped groove cut back into the edge, fading out on the plateau behind it.
+          const double v = c.cut * std::pow(std::max(0.0, 1 - std::abs(s - c.at) / c.half), 1.5);
+          notch = std::max(notch, v * std::clamp(1 - sd0 / (2 * c.cut), 0.0, 1.0));
+        }
+        const double sd = sd0 - notch;
+        double h;
+        if (sd >= 0) h = D * (1 - smoothstep(sd / std::max(p.back, face)));   // the dip slope behind
+        else if (sd > -face) h = D * (p.talus + (1 - p.talus) * bands(1 + sd / face));  // the face
+        else h = D * p.talus * std::pow(std::max(0.0, 1 - (-sd - face) / apron), 2);   // the apron
+        const double end = taper > 0 ? smoothstep(std::min(s, L - s) / taper) : 1.0;
+        out.at(x, y) = float(h * end);
+      }
+  });
+  soften(out, blur);
+  add_relief_detail(out, g, (0.06 + 0.2 * rough) * (1 - 0.5 * age), 0.6 * D, p.look.seed + 7);
+  return out;
+}
+
+}  // namespace terracl::edit

@@ -1,0 +1,237 @@
+// Landform strokes placed relative to the ground: mountain_range, peak, volcano, canyon, and the
+// relative forms of crest, river and cliff (no `elevation`). Each computes its change on the host
+// (landform_shapes.cpp) and adds it with the sign it promises (landform.hpp): raising landforms
+// never lower land, lowering ones never raise it. Sizes default from the relief around the stroke,
+// its length and the cell size, so the default stroke makes a sensible landform on any DEM.
+#include "authoring/ops_landforms.hpp"
+
+#include "authoring/curve_shape.hpp"
+#include "authoring/landform_shapes.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace terracl::edit {
+namespace {
+
+double cell_of(const Grid& g) { return std::max(g.cell_x, g.cell_y); }
+
+LandformLook parse_look(Params& p, double def_roughness, double def_age) {
+  LandformLook l;
+  l.seed = uint32_t(p.integer("seed", int(p.grid().seed & 0x7fffffffu), 0, std::numeric_limits<int>::max()));
+  l.roughness = p.number("roughness", def_roughness, 0.0, 1.0);
+  l.age = p.number("age", def_age, 0.0, 1.0);
+  return l;
+}
+
+std::vector<Vec2> stroke_of(Params& p, const std::string& key, size_t min) {
+  std::vector<Vec3> pts = p.points(key, min);
+  for (const auto& v : pts)
+    if (!std::isnan(v.z)) param_error(p.where(key), "give [x, y] points: the landform is placed relative to the ground");
+  return xy(pts);
+}
+
+// The size of a default landform (metres): the larger of 12 cells (20 for a point), 0.4 x the
+// relief around the stroke and 0.1 x its length; each tool scales it.
+double default_size(EditState& s, const std::vector<Vec2>& pts) {
+  const double cell = cell_of(s.grid());
+  const double L = pts.size() > 1 ? arc_lengths(pts).back() : 0.0;
+  const double relief = local_relief(s, pts, std::max(0.25 * L, 40 * cell));
+  return std::max({pts.size() > 1 ? 12 * cell : 20 * cell, 0.4 * relief, 0.1 * L});
+}
+
+// Optional positive lengths, noted as the operation's reach when known at parse time.
+std::optional<double> opt_v(Params& p, const std::string& key) {
+  if (!p.has(key)) return std::nullopt;
+  const double v = p.vlength(key);
+  if (!(v > 0)) param_error(p.where(key), fmt::format("expected > 0 m, got {}", v));
+  return v;
+}
+std::optional<double> opt_h(Params& p, const std::string& key) {
+  if (!p.has(key)) return std::nullopt;
+  return p.hlength(key, {}, 0, true);
+}
+// The full width: `width`, or twice `radius` (the half-width, as the studio's tools send it).
+std::optional<double> full_width(Params& p) {
+  if (p.has("width") && p.has("radius")) param_error(p.where("width"), "give either width (full) or radius (half of it), not both");
+  if (p.has("radius")) return 2 * p.hlength("radius", {}, 0, true);
+  return opt_h(p, "width");
+}
+
+void log_change(EditState& s, const ShapeRaster& c, double size, double width) {
+  size_t n = 0;
+  float peak = 0;
+  for (float v : c.v)
+    if (std::abs(v) > 0.01f) ++n, peak = std::abs(v) > std::abs(peak) ? v : peak;
+  auto& e = s.log().back();
+  e["size_m"] = size;
+  e["width_m"] = width;
+  e["changed_cells"] = n;
+  e["max_change_m"] = peak;
+}
+
+// The bed of a valley never rises downstream: the depth below the terrain at each vertex is at
+// least `depth`, more where the ground ahead rises (a gorge through it).
+struct MonotoneBed {
+  EditState* s;
+  double depth, taper;
+  double bed = std::numeric_limits<double>::infinity();
+  double operator()(const Vec2& p, double arc, double L) {
+    if (arc == 0) bed = std::numeric_limits<double>::infinity();
+    const double z = terrain_at(*s, p.x, p.y);
+    const double end = taper > 0 ? std::clamp(std::min(arc, L - arc) / taper, 0.0, 1.0) : 1.0;
+    bed = std::min(bed, z - depth * (0.3 + 0.7 * end));
+    return std::max(0.0, z - bed) * std::min(1.0, 0.2 + 0.8 * end);
+  }
+};
+
+Operation parse_range_like(Params& p, bool point, double def_spurs, double size_factor, double width_factor) {
+  const auto stroke = point ? std::vector<Vec2>{p.point("center")} : stroke_of(p, "points", 2);
+  const auto height = opt_v(p, "height");
+  const auto full = full_width(p);
+  const auto width = full ? std::optional<double>(0.5 * *full) : std::nullopt;
+  const double spurs = p.number("spurs", def_spurs, 0.0, 2.0);
+  const LandformLook look = parse_look(p, 0.5, 0.3);
+  if (width) p.note_reach(*width);
+  else if (height) p.note_reach(width_factor * *height);
+  return [=](EditState& s) {
+    RidgeParams r;
+    r.stroke = stroke;
+    const double h = height.value_or(size_factor * default_size(s, stroke));
+    r.height = {h};
+    r.width = std::max(min_half_width(s.grid()), width.value_or(width_factor * h));
+    r.spurs = spurs;
+    r.look = look;
+    ShapeRaster c = ridge_system(s.grid(), r);
+    log_change(s, add_change(s, c, +1), h, r.width);
+  };
+}
+
+Operation parse_mountain_range(Params& p) { return parse_range_like(p, false, 1.0, 1.0, 2.2); }
+Operation parse_peak(Params& p) { return parse_range_like(p, true, 1.0, 1.0, 2.2); }
+
+Operation parse_volcano(Params& p) {
+  const Vec2 c = p.point("center");
+  const auto height = opt_v(p, "height");
+  const auto radius = opt_h(p, "radius");
+  const double crater = p.number("crater", 0.15, 0.0, 0.5);
+  const LandformLook look = parse_look(p, 0.5, 0.3);
+  if (radius) p.note_reach(*radius);
+  else if (height) p.note_reach(3.5 * *height);
+  return [=](EditState& s) {
+    VolcanoParams v;
+    v.center = c;
+    v.height = height.value_or(1.2 * default_size(s, {c}));
+    v.radius = std::max(min_half_width(s.grid()), radius.value_or(3.5 * v.height));
+    v.crater = crater;
+    v.look = look;
+    ShapeRaster ch = volcano(s.grid(), v);
+    log_change(s, add_change(s, ch, +1), v.height, v.radius);
+  };
+}
+
+Operation parse_valley_like(Params& p, double size_factor, double width_factor, int def_bands, double def_branches,
+                            double floor, double meander) {
+  const auto stroke = stroke_of(p, "points", 2);
+  const auto depth = opt_v(p, "depth");
+  const auto width = full_width(p);
+  const int bands = p.integer("bands", def_bands, 0, 12);
+  const double branches = p.number("branches", def_branches, 0.0, 2.0);
+  const LandformLook look = parse_look(p, 0.5, 0.3);
+  // The full width is given (as for the other curves); the reach is its half.
+  if (width) p.note_reach(0.5 * *width);
+  else if (depth) p.note_reach(width_factor * *depth);
+  return [=](EditState& s) {
+    ValleyParams v;
+    v.stroke = stroke;
+    const double d = depth.value_or(size_factor * default_size(s, stroke));
+    v.width = std::max(min_half_width(s.grid()), width ? 0.5 * *width : width_factor * d);
+    v.depth_at = MonotoneBed{&s, d, v.width};
+    v.floor = floor;
+    v.bands = bands;
+    v.branches = branches;
+    v.meander = meander;
+    v.look = look;
+    ShapeRaster c = valley_system(s.grid(), v);
+    for (float& x : c.v) x = -x;
+    log_change(s, add_change(s, c, -1), d, v.width);
+  };
+}
+
+Operation parse_canyon(Params& p) { return parse_valley_like(p, 0.6, 2.2, 4, 1.0, 0.22, 0.12); }
+
+}  // namespace
+
+Operation relative_crest(Params& p) {
+  const auto stroke = stroke_of(p, "points", 2);
+  const auto height = opt_v(p, "height");
+  const auto width = full_width(p);
+  const std::string profile = p.choice("profile", "sharp", {"sharp", "round", "v", "u", "flat"});
+  const double spurs = p.number("spurs", 0.5, 0.0, 2.0);
+  const auto taper = p.has("taper") ? std::optional<double>(p.hlength("taper", 0.0)) : std::nullopt;
+  const LandformLook look = parse_look(p, 0.4, 0.3);
+  if (width) p.note_reach(0.5 * *width);
+  else if (height) p.note_reach(2.2 * *height);
+  const double sharpness = profile == "sharp" || profile == "v" ? 1.0 : profile == "u" ? 0.3 : 0.0;
+  return [=](EditState& s) {
+    RidgeParams r;
+    r.stroke = stroke;
+    const double h = height.value_or(0.6 * default_size(s, stroke));
+    r.height = {h};
+    r.width = std::max(min_half_width(s.grid()), width ? 0.5 * *width : 2.2 * h);
+    r.spurs = spurs;
+    r.sharpness = sharpness;
+    r.taper = taper.value_or(-1.0);
+    r.look = look;
+    ShapeRaster c = ridge_system(s.grid(), r);
+    log_change(s, add_change(s, c, +1), h, r.width);
+  };
+}
+
+Operation relative_river(Params& p) {
+  return parse_valley_like(p, 0.15, 4.0, 0, 0.6, 0.12, 0.25);
+}
+
+Operation relative_cliff(Params& p) {
+  const auto stroke = stroke_of(p, "points", 2);
+  if (p.has("drop") && p.has("height")) param_error(p.where("drop"), "give the drop as `drop` or `height`, not both");
+  const auto drop = p.has("drop") ? opt_v(p, "drop") : opt_v(p, "height");
+  const std::string side = p.choice("side", "right", {"right", "left"});
+  const auto back = opt_h(p, "back");
+  const int bands = p.integer("bands", 3, 0, 12);
+  const double talus = p.number("scree", 0.3, 0.0, 0.9);
+  const LandformLook look = parse_look(p, 0.5, 0.25);
+  if (back) p.note_reach(*back);
+  else if (drop) p.note_reach(6 * *drop);
+  return [=](EditState& s) {
+    EscarpmentParams e;
+    e.stroke = stroke;
+    e.drop = drop.value_or(0.5 * default_size(s, stroke));
+    e.back = std::max(min_half_width(s.grid()), back.value_or(6 * e.drop));
+    e.left = side == "right";  // the low side is `side`: the plateau is on the other one
+    e.bands = bands;
+    e.talus = talus;
+    e.look = look;
+    ShapeRaster c = escarpment(s.grid(), e);
+    log_change(s, add_change(s, c, +1), e.drop, e.back);
+  };
+}
+
+bool is_relative(Params& p, const std::string& key) {
+  if (p.has("elevation")) return false;
+  for (const auto& v : p.raw(key))
+    if (v.is_array() && v.size() >= 3) return false;
+  return true;
+}
+
+void add_landform_ops(std::vector<OpSpec>& ops) {
+  ops.push_back({"mountain_range", "one stroke: a range of summits and saddles with spurs branching down both flanks", parse_mountain_range});
+  ops.push_back({"peak", "a summit at a point with spurs radiating from it", parse_peak});
+  ops.push_back({"volcano", "a concave cone with a summit crater and radial ridges and gullies", parse_volcano});
+  ops.push_back({"canyon", "a canyon along a stroke: walls in rock bands, a floor, side canyons", parse_canyon});
+}
+
+}  // namespace terracl::edit
