@@ -51,7 +51,10 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "tensor"}, {"primitives", {{{"shape", "point"}, {"center", {1, 1}}, {"radius", 5}, {"strength", 3}}}}},
        "/operations/0/primitives/0/strength"},
       {{{"op", "crest"}, {"points", {{1, 1}}}, {"elevation", 5}, {"radius", 5}}, "/operations/0/points"},
-      {{{"op", "crest"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}}, "/operations/0/elevation"},
+      {{{"op", "crest"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}, {"height", -5}}, "/operations/0/height"},
+      {{{"op", "crest"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}, {"roughness", 1.5}}, "/operations/0/roughness"},
+      {{{"op", "cliff"}, {"points", {{1, 1}, {9, 9}}}, {"drop", 5}, {"height", 5}}, "/operations/0/drop"},
+      {{{"op", "river"}, {"points", {{1, 1}, {9, 9}}}, {"depth", 0}}, "/operations/0/depth"},
       {{{"op", "crest"}, {"points", {{1, 1, 3}, {9, 9}}}, {"radius", 5}}, "/operations/0/points"},
       {{{"op", "cliff"}, {"points", {{1, 1}, {9, 9}}}, {"elevation", 5}, {"radius", 5}, {"height", -3}}, "/operations/0/height"},
       {{{"op", "cliff"}, {"points", {{1, 1}, {9, 9}}}, {"elevation", 5}, {"radius", 5}, {"height", 3}, {"side", "up"}}, "/operations/0/side"},
@@ -60,8 +63,13 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "free_crest"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}}, "/operations/0/height"},
       {{{"op", "fault"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}, {"throw", "ten metres"}}, "/operations/0/throw"},
       {{{"op", "ravine"}, {"points", {{1, 1}, {9, 9}}}, {"radius", "5 parsecs"}, {"depth", 3}}, "/operations/0/radius"},
-      {{{"op", "mountain_range"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}, {"height", 50}, {"noise", {{"octaves", 0}}}},
-       "/operations/0/noise/octaves"},
+      {{{"op", "mountain_range"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}, {"height", 50}, {"spurs", 3}},
+       "/operations/0/spurs"},
+      {{{"op", "mountain_range"}, {"points", {{1, 1, 5}, {9, 9}}}, {"radius", 5}}, "/operations/0/points"},
+      {{{"op", "peak"}, {"center", {50, 50}}, {"height", "high"}}, "/operations/0/height"},
+      {{{"op", "volcano"}, {"center", {50, 50}}, {"crater", 0.9}}, "/operations/0/crater"},
+      {{{"op", "canyon"}, {"points", {{1, 1}, {9, 9}}}, {"bands", -1}}, "/operations/0/bands"},
+      {{{"op", "canyon"}, {"points", {{1, 1}, {9, 9}}}, {"age", 2}}, "/operations/0/age"},
       {{{"op", "mountain_range"}, {"points", {{1, 1}, {9, 9}}}, {"radius", 5}, {"height", 50}, {"profile", "square"}},
        "/operations/0/profile"},
       {{{"op", "mesa"}, {"center", {50, 50}}, {"radius", 20}, {"elevation", 100}}, "/operations/0/height"},
@@ -91,7 +99,7 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
 }
 
 TEST(EditParams, ScriptLevelErrors) {
-  EXPECT_NE(validate(json{{"operations", {{{"op", "volcano"}}}}}).find("/operations/0/op: unknown operation 'volcano'"), std::string::npos);
+  EXPECT_NE(validate(json{{"operations", {{{"op", "caldera"}}}}}).find("/operations/0/op: unknown operation 'caldera'"), std::string::npos);
   EXPECT_NE(validate(json{{"operations", {{{"op", "regularize"}}}}, {"unit", "m"}}).find("/unit: unknown key"), std::string::npos);
   EXPECT_NE(validate(json{{"operations", {{{"op", "regularize"}}}}, {"units", "feet"}}).find("/units"), std::string::npos);
   EXPECT_NE(validate(json{{"operations", 3}}).find("/operations"), std::string::npos);

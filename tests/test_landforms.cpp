@@ -279,7 +279,7 @@ TEST(Landforms, NoDefaultFeatureIsNarrowerThanThreeCells) {
         {"free_crest", {{"op", "free_crest"}, {"points", P}, {"height", 150}}},
         {"ravine", {{"op", "ravine"}, {"points", P}, {"depth", 80}}},
         {"river", {{"op", "river"}, {"points", P}, {"elevation", 0}}},
-        {"mountain_range", {{"op", "mountain_range"}, {"points", P}, {"height", 400}, {"noise", {{"amplitude", 0}}}}},
+        {"mountain_range", {{"op", "mountain_range"}, {"points", P}, {"height", 400}, {"roughness", 0}}},
         {"cliff", {{"op", "cliff"}, {"points", P}, {"elevation", 0}, {"height", 100}}},
         {"fault", {{"op", "fault"}, {"points", P}, {"throw", 60}}}};
     for (const auto& [name, op] : ops) {

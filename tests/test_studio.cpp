@@ -153,7 +153,7 @@ TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
   ASSERT_TRUE(bad);
   EXPECT_EQ(bad->status, 400);
   EXPECT_NE(bad->body.find("malformed JSON"), std::string::npos);
-  json e = post(c, "/api/operations", {{"op", {{"op", "volcano"}}}}, 400);
+  json e = post(c, "/api/operations", {{"op", {{"op", "caldera"}}}}, 400);
   EXPECT_NE(e["error"].get<std::string>().find("/operations/1/op"), std::string::npos) << e;
   EXPECT_NE(e["error"].get<std::string>().find("unknown operation"), std::string::npos) << e;
   e = post(c, "/api/operations",

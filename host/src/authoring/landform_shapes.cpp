@@ -170,13 +170,13 @@ ShapeRaster ridge_system(const Grid& g, const RidgeParams& p) {
   if (!peak) {
     const auto base = resample(p.stroke, std::max(W / 6, cell));
     const auto base_arc = arc_lengths(base);
-    main.pts = wander(base, p.spurs > 0 ? (0.03 + 0.1 * rough) * W : 0.0, 1.6 * W, 3, p.look.seed + 1);
+    main.pts = wander(base, p.free_line ? (0.03 + 0.1 * rough) * W : 0.0, 1.6 * W, 3, p.look.seed + 1);
     const double L = base_arc.back();
     const double taper = p.taper >= 0 ? p.taper : std::min(0.8 * W, L / 3);
     for (size_t i = 0; i < main.pts.size(); ++i) {
       const double a = base_arc[i];
-      // Summits and saddles along a range; a single crest keeps the height it was drawn at.
-      const double relief = p.spurs > 0.75 ? 1 + (0.2 + 0.25 * rough) * fbm(a / (1.3 * W), 3.7, 3, 0.5, p.look.seed + 2) : 1.0;
+      // Summits and saddles along a range.
+      const double relief = p.free_line ? 1 + (0.2 + 0.25 * rough) * fbm(a / (1.3 * W), 3.7, 3, 0.5, p.look.seed + 2) : 1.0;
       const double end = taper > 0 ? smoothstep(std::min(a, L - a) / taper) : 1.0;
       main.h.push_back(along(p.height, stroke_arc, a * stroke_arc.back() / std::max(1e-9, L)) * relief * end);
       main.w.push_back(0.8 * W * (1 + 0.15 * fbm(a / (0.9 * W), 8.1, 2, 0.5, p.look.seed + 3)));

@@ -28,6 +28,9 @@ struct RidgeParams {
   double spurs = 1;
   double taper = -1;  ///< metres over which the ends fade; < 0: the default (about a half-width)
   double sharpness = -1;  ///< crest profile in [0, 1]; < 0: from age
+  /// A range's crest wanders and rises and falls in summits and saddles; a crest keeps the line
+  /// and the height it was drawn with.
+  bool free_line = true;
   LandformLook look;
 };
 ShapeRaster ridge_system(const Grid& g, const RidgeParams& p);

@@ -89,7 +89,21 @@ struct MonotoneBed {
 };
 
 Operation parse_range_like(Params& p, bool point, double def_spurs, double size_factor, double width_factor) {
-  const auto stroke = point ? std::vector<Vec2>{p.point("center")} : stroke_of(p, "points", 2);
+  // A range's points may carry its crest height per vertex, [x, y, height above the ground].
+  std::vector<double> per_vertex;
+  std::vector<Vec2> stroke;
+  if (point) {
+    stroke = {p.point("center")};
+  } else {
+    const std::vector<Vec3> pts = p.points("points", 2);
+    for (const auto& v : pts)
+      if (!std::isnan(v.z)) per_vertex.push_back(v.z);
+    if (!per_vertex.empty() && per_vertex.size() != pts.size()) param_error(p.where("points"), "give z for every point or for none");
+    for (double z : per_vertex)
+      if (!(z >= 0)) param_error(p.where("points"), fmt::format("a point's z is its height above the ground: expected >= 0 m, got {}", z));
+    if (!per_vertex.empty() && p.has("height")) param_error(p.where("height"), "the points already carry heights [x, y, z]");
+    stroke = xy(pts);
+  }
   const auto height = opt_v(p, "height");
   const auto full = full_width(p);
   const auto width = full ? std::optional<double>(0.5 * *full) : std::nullopt;
@@ -97,11 +111,13 @@ Operation parse_range_like(Params& p, bool point, double def_spurs, double size_
   const LandformLook look = parse_look(p, 0.5, 0.3);
   if (width) p.note_reach(*width);
   else if (height) p.note_reach(width_factor * *height);
+  else if (!per_vertex.empty()) p.note_reach(width_factor * *std::max_element(per_vertex.begin(), per_vertex.end()));
   return [=](EditState& s) {
     RidgeParams r;
     r.stroke = stroke;
-    const double h = height.value_or(size_factor * default_size(s, stroke));
+    double h = height.value_or(size_factor * default_size(s, stroke));
     r.height = {h};
+    if (!per_vertex.empty()) r.height = per_vertex, h = *std::max_element(per_vertex.begin(), per_vertex.end());
     r.width = std::max(min_half_width(s.grid()), width.value_or(width_factor * h));
     r.spurs = spurs;
     r.look = look;
@@ -172,7 +188,7 @@ Operation relative_crest(Params& p) {
   const std::string profile = p.choice("profile", "sharp", {"sharp", "round", "v", "u", "flat"});
   const double spurs = p.number("spurs", 0.5, 0.0, 2.0);
   const auto taper = p.has("taper") ? std::optional<double>(p.hlength("taper", 0.0)) : std::nullopt;
-  const LandformLook look = parse_look(p, 0.4, 0.3);
+  const LandformLook look = parse_look(p, 0.4, 0.0);
   if (width) p.note_reach(0.5 * *width);
   else if (height) p.note_reach(2.2 * *height);
   const double sharpness = profile == "sharp" || profile == "v" ? 1.0 : profile == "u" ? 0.3 : 0.0;
@@ -184,6 +200,7 @@ Operation relative_crest(Params& p) {
     r.width = std::max(min_half_width(s.grid()), width ? 0.5 * *width : 2.2 * h);
     r.spurs = spurs;
     r.sharpness = sharpness;
+    r.free_line = false;
     r.taper = taper.value_or(-1.0);
     r.look = look;
     ShapeRaster c = ridge_system(s.grid(), r);

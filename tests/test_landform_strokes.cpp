@@ -1,0 +1,133 @@
+// Strokes placed relative to the ground: the default stroke of every landform tool, on a flat base
+// and on a real DEM (N44W072), makes a finite landform of its sign and moves no cell against that
+// sign by more than 1 m (no moat beside a ridge, no lobe beside a valley); a relative crest sits
+// `height` above the terrain under it; a flat base keeps its far-field level; constraints that cut
+// the terrain say so.
+#include "test_helpers.hpp"
+
+#include <terracl/edit.hpp>
+#include <terracl/io.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+using namespace terracl;
+using nlohmann::json;
+
+namespace {
+
+Heightfield n44(int x0, int y0, int n) {
+  Heightfield h = read_heightfield(test::data_path("dem/N44W072.hgt"));
+  if (h.count_nodata()) fill_nodata_harmonic(h);
+  Heightfield c(n, n);
+  c.georef = h.georef;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) c.at(x, y) = h.at(x0 + x, y0 + y);
+  return c;
+}
+
+struct Tool {
+  std::string name;
+  int sign;  // +1 raises, -1 lowers
+  bool point;
+};
+const std::vector<Tool> kTools = {{"crest", 1, false},   {"free_crest", 1, false}, {"mountain_range", 1, false},
+                                  {"cliff", 1, false},   {"peak", 1, true},        {"volcano", 1, true},
+                                  {"river", -1, false},  {"ravine", -1, false},    {"canyon", -1, false}};
+
+// The tool's default stroke across the middle of an n x n grid (cells): only where it is.
+json default_stroke(const Tool& t, int n) {
+  json op = {{"op", t.name}};
+  if (t.point) op["center"] = {n / 2, n / 2};
+  else op["points"] = {{n / 5, n / 2}, {n / 2, 2 * n / 5}, {4 * n / 5, n / 2}};
+  if (t.name == "free_crest") op["height"] = 100;  // gradient-only tools have no ground to measure from
+  if (t.name == "ravine") op["depth"] = 60;
+  return op;
+}
+
+void check_sign(const Heightfield& before, const Heightfield& after, const Tool& t, const std::string& where) {
+  double with = 0, against = 0;
+  for (size_t i = 0; i < before.z.size(); ++i) {
+    ASSERT_TRUE(std::isfinite(after.z[i])) << t.name << where;
+    const double d = t.sign * (double(after.z[i]) - double(before.z[i]));
+    with = std::max(with, d), against = std::max(against, -d);
+  }
+  EXPECT_GT(with, 10.0) << t.name << where << ": the default stroke should make a landform";
+  EXPECT_LE(against, 1.0) << t.name << where << ": a cell moved against the landform's sign";
+}
+
+}  // namespace
+
+TEST(LandformStrokes, DefaultStrokesKeepTheirSignOnAFlatBase) {
+  const int n = 257;
+  const Heightfield base = *parse_flat_spec(fmt::format("flat:{}x{}@30+500", n, n));
+  for (const Tool& t : kTools) {
+    EditSession s(test::device(), base);
+    s.apply({{"units", "cells"}, {"operations", {default_stroke(t, n)}}});
+    const Heightfield& h = s.height();
+    check_sign(base, h, t, " on flat");
+    // The far field keeps the base's level: the corners are untouched plain.
+    for (auto [x, y] : {std::pair{0, 0}, {n - 1, 0}, {0, n - 1}, {n - 1, n - 1}})
+      EXPECT_NEAR(h.at(x, y), 500.0, 0.5) << t.name << ": the plain moved at (" << x << ", " << y << ")";
+  }
+}
+
+TEST(LandformStrokes, DefaultStrokesKeepTheirSignOnARealDem) {
+  const int n = 300;
+  const Heightfield base = n44(500, 400, n);
+  for (const Tool& t : kTools) {
+    EditSession s(test::device(), base);
+    s.apply({{"units", "cells"}, {"operations", {default_stroke(t, n)}}});
+    check_sign(base, s.height(), t, " on N44W072");
+  }
+}
+
+TEST(LandformStrokes, RelativeCrestSitsItsHeightAboveTheGround) {
+  const int n = 240;
+  const Heightfield base = n44(300, 600, n);
+  EditSession s(test::device(), base);
+  const double cx = base.georef.cell_x, cy = base.georef.cell_y;
+  // Vertices on cell centres (metres), where the crest line passes exactly.
+  const std::vector<std::pair<int, int>> v = {{50, 120}, {120, 100}, {190, 130}};
+  json pts = json::array();
+  for (auto [x, y] : v) pts.push_back({x * cx, y * cy});
+  s.apply({{"operations", {{{"op", "crest"}, {"points", pts}, {"height", 120}}}}});
+  const Heightfield& h = s.height();
+  const auto [x, y] = v[1];
+  EXPECT_NEAR(h.at(x, y) - base.at(x, y), 120.0, 1.0);
+  EXPECT_FALSE(s.log()[0].contains("warnings")) << s.log()[0].dump();
+}
+
+TEST(LandformStrokes, MountainRangeHeightsPerVertexAndSeedsAreRepeatable) {
+  const Heightfield base = *parse_flat_spec("flat:200x200@20+100");
+  auto run = [&](int seed) {
+    EditSession s(test::device(), base);
+    s.apply({{"units", "cells"},
+             {"operations", {{{"op", "mountain_range"}, {"points", {{30, 100, 300}, {170, 90, 150}}}, {"seed", seed}}}}});
+    return s.height();
+  };
+  const Heightfield a = run(7), b = run(7), c = run(8);
+  EXPECT_EQ(a.z, b.z) << "the same seed gives the same range";
+  EXPECT_NE(a.z, c.z);
+  // The western end carries the 300 m summit, the eastern one 150 m.
+  float west = 0, east = 0;
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x) (x < 100 ? west : east) = std::max(x < 100 ? west : east, a.at(x, y) - 100.0f);
+  EXPECT_GT(west, east);
+  EXPECT_LT(west, 300 * 1.6);
+}
+
+TEST(LandformStrokes, ConstraintsCuttingTheTerrainWarn) {
+  const Heightfield base = n44(300, 600, 200);
+  float lo = 1e30f;
+  for (float z : base.z) lo = std::min(lo, z);
+  EditSession s(test::device(), base);
+  s.apply({{"units", "cells"},
+           {"operations", {{{"op", "crest"}, {"points", {{40, 100}, {160, 100}}}, {"elevation", lo}, {"height", 50}}}}});
+  const auto w = s.warnings();
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("cut into the terrain"), std::string::npos) << w[0];
+  EXPECT_GT(s.log()[0]["constraint_cut_m"].get<double>(), 10.0);
+}
