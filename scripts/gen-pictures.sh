@@ -39,9 +39,9 @@ for name in canyon volcanic_island mountain_range cliff river_valley dem_paste; 
   case "$name" in
     canyon) view="--view-azimuth 140 --view-elevation 32 --view-zoom 1.3 --azimuth 250 --altitude 60" ;;
     volcanic_island) view="--view-azimuth 200 --view-elevation 30 --view-zoom 1.15 --azimuth 250 --altitude 35" ;;
-    mountain_range) view="--view-azimuth 230 --view-elevation 22 --view-target 500,480 --view-zoom 2.2 --azimuth 150 --altitude 28" ;;
-    cliff) view="--view-azimuth 250 --view-elevation 22 --view-target 600,600 --view-zoom 1.6 --azimuth 270 --altitude 30" ;;
-    river_valley) view="--view-azimuth 80 --view-elevation 35 --view-target 540,300 --view-zoom 2.2 --z-factor 1.5 --azimuth 160 --altitude 35" ;;
+    mountain_range) view="--view-azimuth 200 --view-elevation 26 --view-target 520,560 --view-zoom 1.5 --azimuth 150 --altitude 35" ;;
+    cliff) view="--view-azimuth 100 --view-elevation 25 --view-zoom 1.4 --azimuth 100 --altitude 35" ;;
+    river_valley) view="--view-azimuth 80 --view-elevation 35 --view-target 450,300 --view-zoom 2.6 --z-factor 1.5 --azimuth 160 --altitude 35" ;;
     dem_paste) view="--view-azimuth 100 --view-elevation 40 --view-target 620,560 --view-zoom 2.6 --z-factor 2 --azimuth 190 --altitude 40" ;;
   esac
   # shellcheck disable=SC2086

@@ -3,10 +3,9 @@
 // examples on flat bases are 1025^2 in metres ("units": "m"); to keep the suite fast they run here
 // on a base of half the resolution over the same extent (BASE on the command line overrides the
 // script's), which keeps every primitive where it is. scripts/demo.sh runs them at full size.
-// The gallery's shape facts (ravine width and depth, the cliff's scree band, the crest line) are
-// checked on those runs.
+// What each landform stroke makes is checked by test_landform_strokes.cpp; here every gallery
+// example is a short session (at most 12 strokes) that runs and makes relief.
 
-#include "edit_example_checks.hpp"
 #include "test_helpers.hpp"
 
 #include <terracl/analysis.hpp>
@@ -24,9 +23,6 @@
 
 using namespace terracl;
 
-using test::examples::check_river_valley;
-using test::examples::check_shapes;
-
 TEST(EditExamples, EveryExampleScriptRuns) {
   namespace fs = std::filesystem;
   test::TempDir tmp;
@@ -36,6 +32,7 @@ TEST(EditExamples, EveryExampleScriptRuns) {
     ++n;
     const std::string name = e.path().stem().string();
     const nlohmann::json script = read_edit_script(e.path().string());
+    EXPECT_LE(script.at("operations").size(), 12u) << name << ": a gallery example is a session of at most 12 strokes";
     const std::string base = script.at("base").get<std::string>();
     std::string cli_base;
     int want_w = 0, want_h = 0;
@@ -60,8 +57,6 @@ TEST(EditExamples, EveryExampleScriptRuns) {
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
     EXPECT_GT(hi - lo, 50.0f) << name << ": the edits should make relief";
-    if (name == "river_valley") check_river_valley(script, h);
-    if (!cli_base.empty()) check_shapes(name == "cliff" ? "cliff_turned" : name, script, h, 2 * parse_flat_spec(base)->georef.cell_x);
   }
   EXPECT_GE(n, 7);
 }

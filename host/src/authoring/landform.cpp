@@ -231,6 +231,10 @@ void max_ridge(ShapeRaster& out, const Grid& g, const RidgeLine& line, double sh
   }
 }
 
+// Amplitude ratio between octaves of the detail: above 0.5 (a Brownian surface's), as real DEMs
+// keep more relief at the finest scales than a smooth fractal (scripts/landform-relief.py).
+constexpr double kDetailGain = 0.62;
+
 void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wavelength, uint32_t seed) {
   if (shape.box.empty() || amp == 0 || !(wavelength > 0)) return;
   const double cell = std::max(g.cell_x, g.cell_y);
@@ -242,7 +246,7 @@ void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wav
         float& v = shape.at(x, y);
         if (v == 0) continue;
         const double px = x * g.cell_x / wavelength, py = y * g.cell_y / wavelength;
-        v = float(v * (1.0 + amp * ridged(px, py, oct, 0.5, seed)));
+        v = float(v * (1.0 + amp * ridged(px, py, oct, kDetailGain, seed)));
       }
   });
 }

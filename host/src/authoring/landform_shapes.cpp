@@ -246,7 +246,7 @@ ShapeRaster ridge_system(const Grid& g, const RidgeParams& p) {
   ShapeRaster out(box_around(g, all, W + (2 * blur + 2) * cell));
   for (const auto& l : lines) max_ridge(out, g, l, sharp);
   soften(out, blur);
-  detail_below_top(out, g, (0.15 + 0.35 * rough) * (1 - 0.5 * age), 0.45 * W, p.look.seed + 7);
+  detail_below_top(out, g, (0.3 + 0.4 * rough) * (1 - 0.5 * age), 0.45 * W, p.look.seed + 7);
   return out;
 }
 
@@ -295,7 +295,7 @@ ShapeRaster volcano(const Grid& g, const VolcanoParams& p) {
     max_ridge(out, g, l, 0.9);
   }
   soften(out, blur);
-  detail_below_top(out, g, (0.12 + 0.3 * rough) * (1 - 0.4 * age), 0.3 * R, p.look.seed + 7);
+  detail_below_top(out, g, (0.25 + 0.35 * rough) * (1 - 0.4 * age), 0.3 * R, p.look.seed + 7);
   return out;
 }
 
@@ -369,7 +369,7 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   }
   soften(out, blur);
   ShapeRaster detail = out;
-  add_relief_detail(detail, g, (0.08 + 0.22 * rough) * (1 - 0.5 * age), 0.4 * W, p.look.seed + 7);
+  add_relief_detail(detail, g, (0.15 + 0.35 * rough) * (1 - 0.5 * age), 0.4 * W, p.look.seed + 7);
   out = std::move(detail);
   return out;
 }
@@ -394,6 +394,7 @@ ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
   const int blur = int(std::lround(age * 0.08 * D / cell));
   ShapeRaster out(box_around(g, line, reach + (2 * blur + 2) * cell));
   const Nearest n = nearest_on(g, line, out.box, reach);
+  ShapeRaster rock(out.box);  // where the detail goes: the face and the apron, barely the plateau
   const double plateau_side = p.left ? -1.0 : 1.0;  // Nearest's side is +1 on the right (map view)
   const Box& b = out.box;
   parallel_for(size_t(b.h), 0, [&](size_t r0, size_t r1) {
@@ -411,15 +412,28 @@ ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
         }
         const double sd = sd0 - notch;
         double h;
-        if (sd >= 0) h = D * (1 - smoothstep(sd / std::max(p.back, face)));   // the dip slope behind
+        if (sd >= 0) h = D * (1 - smoothstep((sd - 0.4 * p.back) / std::max(0.6 * p.back, face)));  // plateau, then its back slope
         else if (sd > -face) h = D * (p.talus + (1 - p.talus) * bands(1 + sd / face));  // the face
         else h = D * p.talus * std::pow(std::max(0.0, 1 - (-sd - face) / apron), 2);   // the apron
         const double end = taper > 0 ? smoothstep(std::min(s, L - s) / taper) : 1.0;
         out.at(x, y) = float(h * end);
+        // Detail on the face (none at its brink: no teeth above the plateau) and the apron.
+        const double tf = 1 + sd / face;
+        const double wr = sd >= 0 ? 0.08 : sd > -face ? 0.08 + 0.92 * 4 * tf * (1 - tf) : 0.5;
+        rock.at(x, y) = float(end * wr * (h > 0 ? 1.0 : 0.0));
       }
   });
   soften(out, blur);
-  add_relief_detail(out, g, (0.06 + 0.2 * rough) * (1 - 0.5 * age), 0.6 * D, p.look.seed + 7);
+  // Detail in metres of the drop, on the rock: a plateau keeps a gentle surface.
+  const double amp = (0.08 + 0.2 * rough) * (1 - 0.5 * age) * D;
+  const double wl = 0.6 * D, cellm = cell_of(g);
+  const int oct = octaves_down_to_cells(wl, cellm);
+  parallel_for(size_t(b.h), 0, [&](size_t r0, size_t r1) {
+    for (int y = b.y0 + int(r0); y < b.y0 + int(r1); ++y)
+      for (int x = b.x0; x < b.x0 + b.w; ++x)
+        if (rock.at(x, y) > 0)
+          out.at(x, y) += float(amp * rock.at(x, y) * ridged(x * g.cell_x / wl, y * g.cell_y / wl, oct, 0.62, p.look.seed + 7));
+  });
   return out;
 }
 

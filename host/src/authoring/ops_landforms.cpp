@@ -34,13 +34,14 @@ std::vector<Vec2> stroke_of(Params& p, const std::string& key, size_t min) {
   return xy(pts);
 }
 
-// The size of a default landform (metres): the larger of 12 cells (20 for a point), 0.4 x the
-// relief around the stroke and 0.1 x its length; each tool scales it.
+// The size of a default landform (metres): the larger of 4 cells (6 for a point), 0.4 x the
+// relief around the stroke and 0.06 x its length (at most 1.5 km); each tool scales it. Widths
+// follow from it and are at least 9 cells (min_half_width), so every default form is resolved.
 double default_size(EditState& s, const std::vector<Vec2>& pts) {
   const double cell = cell_of(s.grid());
   const double L = pts.size() > 1 ? arc_lengths(pts).back() : 0.0;
   const double relief = local_relief(s, pts, std::max(0.25 * L, 40 * cell));
-  return std::max({pts.size() > 1 ? 12 * cell : 20 * cell, 0.4 * relief, 0.1 * L});
+  return std::max({pts.size() > 1 ? 4 * cell : 6 * cell, 0.4 * relief, std::min(0.06 * L, 1500.0)});
 }
 
 // Optional positive lengths, noted as the operation's reach when known at parse time.

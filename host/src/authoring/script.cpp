@@ -21,10 +21,10 @@ namespace terracl {
 
 std::optional<Heightfield> parse_flat_spec(const std::string& spec) {
   if (spec.rfind("flat:", 0) != 0) return std::nullopt;
-  static const std::regex re(R"(flat:(\d+)x(\d+)(?:@([0-9]*\.?[0-9]+(?:[eE][-+]?\d+)?))?(?:\+(-?[0-9]*\.?[0-9]+))?)");
+  static const std::regex re(R"(flat:(\d+)x(\d+)(?:@([0-9]*\.?[0-9]+(?:[eE][-+]?\d+)?))?(?:([+-][0-9]*\.?[0-9]+))?)");
   std::smatch m;
   if (!std::regex_match(spec, m, re))
-    throw UsageError("edit", fmt::format("'{}': expected flat:WIDTHxHEIGHT, flat:WIDTHxHEIGHT@CELLSIZE or flat:WIDTHxHEIGHT@CELLSIZE+ELEVATION (metres)", abbreviate(spec)));
+    throw UsageError("edit", fmt::format("'{}': expected flat:WIDTHxHEIGHT, flat:WIDTHxHEIGHT@CELLSIZE or flat:WIDTHxHEIGHT@CELLSIZE+ELEVATION or -ELEVATION (metres)", abbreviate(spec)));
   // strtod/strtoll, not stol/stod: an overlong number is out of range, not "internal: stol".
   const long long w = std::strtoll(m[1].str().c_str(), nullptr, 10), h = std::strtoll(m[2].str().c_str(), nullptr, 10);
   const double cell = m[3].matched ? std::strtod(m[3].str().c_str(), nullptr) : 1.0;
@@ -34,9 +34,9 @@ std::optional<Heightfield> parse_flat_spec(const std::string& spec) {
   require_memory("edit", fmt::format("a {} x {} edit", w, h), double(w) * double(h) * edit_host_bytes_per_cell, 0, 0,
                  nullptr, "use a smaller base (flat:WxH, or crop the DEM)");
   // An elevation above 0 keeps carved valleys above sea level (renders draw water below 0 m).
-  const double z = m[4].matched ? std::strtod(m[4].str().c_str(), nullptr) : 0.0;
+  const double z = m[4].matched ? std::strtod(m[4].str().c_str(), nullptr) : 0.0;  // "+500", "-200"
   if (!std::isfinite(z) || std::abs(z) > 1e5)
-    throw UsageError("edit", fmt::format("'{}': the elevation after + must be within +-100000 m", abbreviate(spec)));
+    throw UsageError("edit", fmt::format("'{}': the elevation after the cell size must be within +-100000 m", abbreviate(spec)));
   Heightfield f{int(w), int(h), float(z)};
   f.georef.cell_x = f.georef.cell_y = cell;
   f.georef.geotransform = {0, cell, 0, 0, 0, -cell};
