@@ -6,9 +6,15 @@
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
+#include <terracl/io.hpp>
+#include <terracl/render.hpp>
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 using namespace terracl;
 using json = nlohmann::json;
@@ -207,4 +213,50 @@ TEST(EditLake, BadParametersNameTheJsonPath) {
   EXPECT_NE(err(lake(test::kSeedA, {{"levle", 90}})).find("/operations/0/levle: unknown parameter"), std::string::npos);
   // The last cell's far half is still on the grid.
   EXPECT_EQ(err(lake(474, 234)), "");
+}
+
+TEST(EditLake, CliWritesTheWaterLayerReportAndTintedPreview) {
+  test::TempDir tmp;
+  Heightfield base = test::two_basins();
+  write_heightfield(base, tmp.path("base.tif"));
+  write_text_file_atomic(tmp.path("s.json"), json{{"operations", {lake(test::kSeedA)}}}.dump());
+  const auto r = test::run_cli(fmt::format("edit {} --script {} -o {} --water {} --report {} --preview {}", tmp.path("base.tif"),
+                                           tmp.path("s.json"), tmp.path("o.tif"), tmp.path("w.tif"), tmp.path("r.json"),
+                                           tmp.path("p.png")));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield w = read_heightfield(tmp.path("w.tif"));
+  EXPECT_EQ(differences(w.z, test::brute_force_lake(base, 11, 11, 100.0)), 0u);
+  EXPECT_EQ(w.georef.geotransform, read_heightfield(tmp.path("o.tif")).georef.geotransform);
+  std::ifstream rf(tmp.path("r.json"));
+  const json rep = json::parse(rf);
+  EXPECT_EQ(rep["lakes"][0]["level_m"].get<double>(), 100.0);
+  EXPECT_TRUE(std::filesystem::exists(tmp.path("p.png")));
+  // Without a lake operation --water writes zeros and says why.
+  write_text_file_atomic(tmp.path("n.json"), R"({"operations": []})");
+  const auto n = test::run_cli(fmt::format("edit {} --script {} -o {} --water {}", tmp.path("base.tif"), tmp.path("n.json"),
+                                           tmp.path("o2.tif"), tmp.path("w2.tif")));
+  ASSERT_EQ(n.exit_code, 0) << n.out;
+  EXPECT_NE(n.out.find("no lake operation"), std::string::npos) << n.out;
+  for (float d : read_heightfield(tmp.path("w2.tif")).z) ASSERT_EQ(d, 0.f);
+}
+
+TEST(EditLake, PreviewTintIsBlueOverWaterOnly) {
+  const Heightfield base = test::two_basins();
+  const std::vector<float> depth = test::brute_force_lake(base, 11, 11, 100.0);
+  Heightfield w(base.width, base.height);
+  w.z = depth;
+  render::Options ro;
+  ro.mode = render::Mode::ShadedRelief;
+  ro.ramp = render::ColorRamp::from_spec("grey");
+  render::Image img = render::render(base, ro);
+  const render::Image before = img;
+  render::tint_water(img, w);
+  ASSERT_GE(img.channels, 3);
+  for (size_t i = 0; i < depth.size(); ++i) {
+    const uint8_t* p = &img.pixels[i * img.channels];
+    if (depth[i] > 0)
+      EXPECT_GT(int(p[2]), int(p[0]) + 30) << "water is blue at " << i;
+    else
+      EXPECT_EQ(p[0], before.pixels[i * before.channels]) << "dry ground keeps its grey at " << i;
+  }
 }
