@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -97,6 +98,7 @@ const Heightfield* EditState::water() {
   const double cell_area = m_grid.cell_x * m_grid.cell_y;
   m_lake_report = nlohmann::json::array();
   for (const Lake& l : m_lakes) {
+    const auto t0 = std::chrono::steady_clock::now();
     const float ground = h.at(l.sx, l.sy);
     double level = l.value;
     std::optional<SpillPoint> spill;
@@ -108,7 +110,9 @@ const Heightfield* EditState::water() {
     }
     const std::vector<size_t> cells = lake_cells(h, l.sx, l.sy, level);
     double volume = 0, deepest = 0;
+    bool reaches_edge = false;  // at a given level the water may run off the map there
     for (size_t i : cells) {
+      reaches_edge = reaches_edge || on_edge(h, int(i % size_t(h.width)), int(i / size_t(h.width)));
       const double d = level - double(h.z[i]);  // > 0: a lake cell is below the level
       volume += d;
       deepest = std::max(deepest, d);
@@ -122,7 +126,9 @@ const Heightfield* EditState::water() {
                           {"cells", cells.size()},
                           {"area_m2", double(cells.size()) * cell_area},
                           {"volume_m3", volume * cell_area},
-                          {"max_depth_m", deepest}};
+                          {"max_depth_m", deepest},
+                          {"reaches_edge", reaches_edge},
+                          {"fill_ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()}};
     if (spill) {
       fig["pit_cell"] = {spill->pit_x, spill->pit_y};
       fig["spill_cell"] = {spill->x, spill->y};
