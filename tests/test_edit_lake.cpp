@@ -209,7 +209,9 @@ TEST(EditLake, BadParametersNameTheJsonPath) {
   EXPECT_NE(err({{"op", "lake"}}).find("/operations/0/seed: missing"), std::string::npos);
   EXPECT_NE(err(lake(test::kSeedA, {{"level", 90}, {"depth", 3}})).find("/operations/0/depth: give either"), std::string::npos);
   EXPECT_NE(err(lake(test::kSeedA, {{"depth", -3}})).find("/operations/0/depth: expected a depth > 0 m"), std::string::npos);
-  EXPECT_NE(err(lake(test::kSeedA, {{"level", "high"}})).find("/operations/0/level"), std::string::npos);
+  EXPECT_NE(err(lake(test::kSeedA, {{"level", "high"}})).find("/operations/0/level: expected \"spill\" or an elevation"),
+            std::string::npos);
+  EXPECT_NE(err(lake(test::kSeedA, {{"level", true}})).find("/operations/0/level: expected \"spill\""), std::string::npos);
   EXPECT_NE(err(lake(test::kSeedA, {{"levle", 90}})).find("/operations/0/levle: unknown parameter"), std::string::npos);
   // The last cell's far half is still on the grid.
   EXPECT_EQ(err(lake(474, 234)), "");

@@ -4,6 +4,8 @@
 // (EditState::water, lake.cpp); parsing only fixes the seed cell and the level rule.
 #include "authoring/state.hpp"
 
+#include <terracl/error.hpp>
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -34,7 +36,13 @@ Operation parse_lake(Params& p) {
     l.rule = EditState::Lake::Spill;
   } else if (p.has("level")) {
     l.rule = EditState::Lake::Level;
-    l.value = p.vlength("level");
+    try {
+      l.value = p.vlength("level");
+    } catch (const Error&) {  // vlength's message does not know about "spill"
+      param_error(p.where("level"), fmt::format("expected \"spill\" or an elevation in metres (a number, or a string "
+                                                "like \"350 m\"), got {}",
+                                                p.raw("level").dump()));
+    }
   } else if (p.has("depth")) {
     l.rule = EditState::Lake::Depth;
     l.value = p.vlength("depth");
