@@ -18,7 +18,7 @@ namespace terracl::cli {
 namespace {
 
 struct EditArgs {
-  std::string base, script, output, preview, ramp, report, gradient_out, gradient_image;
+  std::string base, script, output, preview, ramp, report, gradient_out, gradient_image, water;
   bool validate = false, list = false, keep_filled = false;
   InputScaleFlags in;
   OutputFlags out;
@@ -35,6 +35,9 @@ CommandRegistrar reg(40, [](CLI::App& app) {
   sub->add_option("--report", a->report, "Write per-operation timings and solver figures (JSON)");
   sub->add_option("--gradient-out", a->gradient_out, "Also write the edited gradient field (.exr, or .tif: two float32 bands gx, gy)");
   sub->add_option("--gradient-image", a->gradient_image, "Also write the edited gradient as a 16-bit gradient image (.png)");
+  sub->add_option("--water", a->water,
+                  "Also write the lakes' water depth (m, float32, the output's georeferencing; 0 where dry) from the "
+                  "script's lake operations");
   sub->add_flag("--keep-filled", a->keep_filled,
                 "Write the harmonically filled elevations where the base has nodata (default: those cells stay nodata)");
   sub->add_flag("--validate", a->validate, "Check the script against BASE and exit");
@@ -61,7 +64,8 @@ CommandRegistrar reg(40, [](CLI::App& app) {
                         {"--preview", a->preview},
                         {"--report", a->report},
                         {"--gradient-out", a->gradient_out},
-                        {"--gradient-image", a->gradient_image}});
+                        {"--gradient-image", a->gradient_image},
+                        {"--water", a->water}});
     if (!a->preview.empty() && format_from_extension(a->preview) != FileFormat::PNG)
       throw UsageError("edit", fmt::format("--preview {}: the preview is a PNG; use a .png name", a->preview));
     // The preview's ramp is checked before any work (a bad ramp must not leave a half-done run).
@@ -100,20 +104,42 @@ CommandRegistrar reg(40, [](CLI::App& app) {
       return;
     }
     s.apply(script);
-    warn(s.warnings());
     Heightfield h = s.height();
+    // Lakes are filled on the final terrain; their warnings (an empty lake) exist from then on.
+    std::optional<Heightfield> water = s.water();
     finish_progress();
+    warn(s.warnings());
     h.georef = base.georef;
     h.metadata = base.metadata;
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
     h.metadata["terracl:edit_script"] = a->script;
     if (!a->keep_filled) restore_nodata(h, nodata);
     write_heightfield(h, a->output, a->out.write_options());
+    if (!a->water.empty()) {
+      if (!water) {
+        fmt::print(stderr, "terracl WARNING: edit: --water {}: the script has no lake operation; the water depth is 0 "
+                           "everywhere\n", a->water);
+        water = Heightfield(h.width, h.height, 0.f);
+      }
+      water->georef = h.georef;
+      water->metadata = h.metadata;
+      water->metadata["terracl:layer"] = "water depth (m)";
+      if (!a->keep_filled) restore_nodata(*water, nodata);  // as the terrain: nodata where the base had none
+      // Float32 whatever --ot says for the terrain (depths are centimetres, not whole metres), and
+      // the terrain's vertical range, if given for PNG/RAW16, is not the water's.
+      WriteOptions wo = a->out.write_options();
+      wo.output_type = "Float32";
+      wo.zmin.reset();
+      wo.zmax.reset();
+      write_heightfield(*water, a->water, wo);
+    }
     if (!a->preview.empty()) {
       render::Options ro;
       ro.mode = render::Mode::ShadedRelief;
       ro.ramp = ramp;
-      render::write_image(render::render(h, ro, device()), a->preview, h.metadata);
+      render::Image img = render::render(h, ro, device());
+      if (water) render::tint_water(img, *water);
+      render::write_image(img, a->preview, h.metadata);
     }
     if (!a->gradient_out.empty() || !a->gradient_image.empty()) {
       GradientField g = s.gradient();

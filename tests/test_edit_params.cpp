@@ -87,6 +87,7 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "amplify"}, {"exemplar", dem}, {"factor", 3}}, "/operations/0/factor"},
       {{{"op", "strata"}, {"center", {150, 150}}, {"radius", 50}, {"top", 100}, {"thickness", -2}}, "/operations/0/thickness"},
       {{{"op", "drainage"}, {"depth", -4}}, "/operations/0/depth"},
+      {{{"op", "lake"}, {"seed", {1000, 50}}}, "/operations/0/seed"},
   };
   std::set<std::string> covered;
   for (const auto& c : cases) {

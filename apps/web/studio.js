@@ -9,7 +9,7 @@ const PREVIEW_MAX = 513;  // cells per side of the preview terrain
 const MESH_MAX = 257;     // cells per side of the 3D mesh
 
 let state = null;    // GET /api/state
-let terr = null;     // {w, h, cx, cy, z: Float32Array}
+let terr = null;     // {w, h, cx, cy, z: Float32Array, water: Float32Array | null}
 let selected = -1;   // selected layer
 let stroke = null;   // points (canvas px) of the stroke being drawn
 let rect = null;     // {x0, y0, x1, y1} canvas px of a region being dragged
@@ -35,6 +35,7 @@ const TOOLS = {
   amplify: { exemplar: '', factor: 4, strength: 1, falloff: 0.03 },
   drainage: { depth: 60, max_depth: 40, threshold: 0.0008, channel_width: 0.006, falloff: 0.03 },
   strata: { radius: 0.1, thickness: 25, soft_thickness: 12, min_slope: 25, falloff: 0.02 },
+  lake: { level: '' },  // empty: the basin's spill point; a number: the water surface in metres
 };
 const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength', 'channel_width']);
 // Areas (m^2) given as a share of the terrain's area: scaled by it on the first load.
@@ -60,10 +61,11 @@ function showParams() {
   div.innerHTML = '';
   for (const [k, v] of Object.entries(t)) {
     const l = document.createElement('label');
-    l.textContent = k + (LENGTHS.has(k) ? ' m' : '');
+    l.textContent = k + (LENGTHS.has(k) || k === 'level' ? ' m' : '');
     const i = document.createElement('input');
     i.value = v;
     i.id = 'p_' + k;
+    if (k === 'level') i.placeholder = 'spill';
     i.onchange = () => { t[k] = typeof v === 'string' ? i.value : parseFloat(i.value); };
     div.append(l, i);
   }
@@ -89,7 +91,17 @@ function decode(r, buf) {
 
 async function fetchTerrain() {
   const r = await fetch('/api/terrain.f32?max=' + PREVIEW_MAX);
-  return decode(r, await r.arrayBuffer());
+  const t = decode(r, await r.arrayBuffer());
+  t.water = null;
+  // The lakes' water depth, sampled like the terrain; only fetched when the script has a lake.
+  if (state && (state.lakes || []).length) {
+    const w = await fetch('/api/water.f32?max=' + PREVIEW_MAX);
+    if (w.ok) {
+      const z = new Float32Array(await w.arrayBuffer());
+      if (z.length === t.z.length) t.water = z;
+    }
+  }
+  return t;
 }
 
 async function change(method, path, body) {
@@ -97,7 +109,9 @@ async function change(method, path, body) {
   const s = await api(method, path, body);
   await refresh(s);
   const last = s.last || {};
-  const warn = (last.warnings || []).length ? ' | warning: ' + last.warnings.join('; ') : '';
+  // An empty lake is known once it is filled on the new terrain: its warning comes with the lakes.
+  const warnings = (last.warnings || []).concat(...(s.lakes || []).map((l) => l.warnings || []));
+  const warn = warnings.length ? ' | warning: ' + warnings.join('; ') : '';
   status(`${last.mode || ''} ${last.ms ? last.ms.toFixed(0) + ' ms solve' : ''}, ${(performance.now() - t0).toFixed(0)} ms to preview${warn}`);
 }
 
@@ -130,6 +144,14 @@ function range(z) {
   return [lo, hi];
 }
 
+// Water over the shaded ground: pale over shallows, deep blue towards the deepest cell, the bed's
+// shading showing through (as terracl edit --preview tints it).
+function tintWater(c, k, d, deepest) {
+  const u = Math.sqrt(Math.min(1, d / deepest)), a = 0.55 + 0.3 * u;
+  const sh = [120, 190, 235], dp = [20, 60, 150];
+  for (let j = 0; j < 3; j++) c[j] = (1 - a) * c[j] * k + a * (sh[j] + u * (dp[j] - sh[j]));
+}
+
 // Horn hillshade (light from the north-west, 45 degrees up) times the colour relief.
 function shade(t) {
   const { w, h, z, cx, cy } = t;
@@ -139,6 +161,9 @@ function shade(t) {
   const az = (360 - 315 + 90) * Math.PI / 180, alt = 45 * Math.PI / 180;
   const contours = $('contours').checked;
   const iv = niceStep(span / 15);
+  const water = t.water;
+  let deepest = 0;
+  if (water) for (const d of water) if (d > deepest) deepest = d;
   const c = [0, 0, 0];
   const Z = (x, y) => z[Math.min(h - 1, Math.max(0, y)) * w + Math.min(w - 1, Math.max(0, x))];
   for (let y = 0; y < h; y++)
@@ -158,6 +183,7 @@ function shade(t) {
         if (q !== Math.floor((z[y * w + x + 1] - lo) / iv) || q !== Math.floor((z[(y + 1) * w + x] - lo) / iv)) k *= 0.45;
       }
       const o = 4 * (y * w + x);
+      if (water && water[y * w + x] > 0) { tintWater(c, k, water[y * w + x], deepest); k = 1; }
       img.data[o] = c[0] * k; img.data[o + 1] = c[1] * k; img.data[o + 2] = c[2] * k; img.data[o + 3] = 255;
     }
   return img;
@@ -267,6 +293,13 @@ function brushOp(tool, px, py) {
       return { op: tool, center: c, radius: L(p.radius), falloff: L(p.falloff), top: round1(top),
                thickness: p.thickness, soft_thickness: p.soft_thickness, min_slope: p.min_slope };
     }
+    case 'lake': {
+      // Click = the seed; the level field empty (or "spill") fills the basin to its spill point.
+      const op = { op: 'lake', seed: c };
+      const lv = parseFloat(p.level);
+      if (Number.isFinite(lv)) op.level = lv;
+      return op;
+    }
     case 'point': return { op: 'crest', points: [[c[0], c[1], p.elevation], [round1(c[0] + L(state.cell_x)), c[1], p.elevation]], radius: L(p.radius) };
   }
   return null;
@@ -281,6 +314,7 @@ map.addEventListener('mousedown', (e) => {
 });
 map.addEventListener('mousemove', (e) => {
   const [x, y] = evt(e);
+  readout(x, y);
   if (stroke) {
     const l = stroke[stroke.length - 1];
     if (Math.hypot(x - l[0], y - l[1]) > 3) stroke.push([x, y]);
@@ -344,6 +378,21 @@ async function amplifyRegion(r) {
   await change('POST', '/api/operations', { op });
 }
 
+// "x, y: z m" of the preview terrain under the cursor (script units for x, y, as the tools post
+// them), with the water depth over it when a lake covers it.
+function readout(px, py) {
+  const el = $('readout');
+  if (!terr || !state) return;
+  const fx = (px - view.ox) / view.sw, fy = (py - view.oy) / view.sh;
+  if (fx < 0 || fy < 0 || fx > 1 || fy > 1) { el.textContent = ''; return; }
+  const gx = Math.max(0, Math.min(terr.w - 1, Math.round(fx * terr.w - 0.5)));
+  const gy = Math.max(0, Math.min(terr.h - 1, Math.round(fy * terr.h - 0.5)));
+  const z = terr.z[gy * terr.w + gx], d = terr.water ? terr.water[gy * terr.w + gx] : 0;
+  const [mx, my] = toMetres(px, py), u = inCells() ? ' cells' : ' m';
+  el.textContent = `${mx}, ${my}${u}: ${Number.isFinite(z) ? z.toFixed(1) + ' m' : 'nodata'}` + (d > 0 ? ` (water ${d.toFixed(1)} m)` : '');
+}
+map.addEventListener('mouseleave', () => { $('readout').textContent = ''; });
+
 // The highest elevation of the preview terrain within radius_m metres of canvas pixel (px, py).
 function highestWithin(px, py, radius_m) {
   if (!terr) return undefined;
@@ -403,7 +452,7 @@ $('erode_commit').onclick = async () => { eroding = false; await change('POST', 
 $('erode_cancel').onclick = async () => { eroding = false; await change('POST', '/api/erosion/cancel', {}); };
 
 // ---- 3D view ----
-let renderer = null, scene, camera, controls, mesh = null;
+let renderer = null, scene, camera, controls, mesh = null, waterMesh = null;
 function init3d() {
   const el = $('view3d');
   try {
@@ -463,8 +512,42 @@ function draw3d(t = terr) {
   pos.needsUpdate = true;
   col.needsUpdate = true;
   mesh.geometry.computeVertexNormals();
+  drawWater3d(t, w, h, step, ax, ay, mid, span);
   controls.update();
   render3d();
+}
+
+// The lakes as one semi-transparent surface over the same grid, made of the cells that touch water
+// only: wet vertices at the water surface, the shore's dry ones under the ground, so the surface
+// meets the terrain near the shore (a whole grid of hidden triangles flickered through the terrain).
+function drawWater3d(t, w, h, step, ax, ay, mid, span) {
+  if (!t.water) { if (waterMesh) waterMesh.visible = false; return; }
+  if (!waterMesh || waterMesh.userData.w !== w || waterMesh.userData.h !== h) {
+    if (waterMesh) { scene.remove(waterMesh); waterMesh.geometry.dispose(); }
+    const g = new THREE.PlaneBufferGeometry(ax, ay, w - 1, h - 1);
+    g.rotateX(-Math.PI / 2);
+    waterMesh = new THREE.Mesh(g, new THREE.MeshLambertMaterial({ color: 0x2f6fc0, transparent: true, opacity: 0.65, depthWrite: false }));
+    waterMesh.userData = { w, h };
+    scene.add(waterMesh);
+  }
+  const pos = waterMesh.geometry.attributes.position, below = 0.02 * span;
+  const wet = new Uint8Array(w * h);
+  for (let y = 0; y < h; y++)
+    for (let x = 0; x < w; x++) {
+      const k = y * step * t.w + x * step, d = t.water[k];
+      wet[y * w + x] = d > 0 ? 1 : 0;
+      pos.setY(y * w + x, d > 0 ? t.z[k] + d - mid : t.z[k] - mid - below);
+    }
+  const index = [];
+  for (let y = 0; y + 1 < h; y++)
+    for (let x = 0; x + 1 < w; x++) {
+      const a = y * w + x, b = a + w, c = b + 1, d = a + 1;  // PlaneBufferGeometry's quad and winding
+      if (wet[a] | wet[b] | wet[c] | wet[d]) index.push(a, b, d, b, c, d);
+    }
+  waterMesh.geometry.setIndex(index);
+  pos.needsUpdate = true;
+  waterMesh.geometry.computeVertexNormals();
+  waterMesh.visible = true;
 }
 
 // ---- layers ----

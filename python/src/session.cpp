@@ -112,7 +112,20 @@ void init_session(py::module_& m) {
           [](Session& s, bool warm) { return from_json(s.run([&] { return s.edit().solve(warm).to_json(); })); },
           py::arg("warm") = true, "Reconstructs now (warm: from the previous solution); returns the solver's figures.")
       .def("gradient", [](Session& s) { return s.run([&] { return s.edit().gradient(); }); })
-      .def("report", [](Session& s) { return from_json(s.edit().report()); })
+      // Under the device lock: with lake operations the report fills them (a solve when stale).
+      .def("report", [](Session& s) { return from_json(s.run([&] { return s.edit().report(); })); })
+      .def(
+          "water",
+          [](Session& s) -> py::object {
+            std::optional<Heightfield> w = s.run([&] { return s.edit().water(); });
+            if (!w) return py::none();
+            return py::cast(with_base_georef(*w, s.base()));
+          },
+          "The lake operations' water depth in metres (0 where dry) on the current terrain, or None without a "
+          "lake (docs/authoring.md, \"Lakes\").")
+      .def(
+          "lakes", [](Session& s) { return from_json(s.run([&] { return s.edit().lakes(); })); },
+          "Each lake's figures on the current terrain (level_m, cells, volume_m3, max_depth_m, ...).")
       .def("warnings", [](Session& s) { return s.edit().warnings(); })
       .def_property_readonly("local", [](Session& s) { return s.edit().local(); })
       .def_property_readonly("hard_cells", [](Session& s) { return s.edit().hard_cells(); })

@@ -146,6 +146,23 @@ def test_session_keeps_state_and_solves_warm(tmp_path):
     assert s.solve()["converged"]
 
 
+def test_session_lake_is_a_water_layer_over_the_untouched_terrain():
+    # A bowl whose lowest rim cell is on the grid's edge: the spill level is that cell's elevation.
+    y, x = np.mgrid[0:33, 0:33]
+    bowl = (((x - 16.2) ** 2 + (y - 15.8) ** 2) * 0.25).astype(np.float32)
+    s = terracl.Session(bowl)
+    assert s.water() is None
+    s.apply({"units": "cells", "operations": [{"op": "lake", "seed": [16, 16]}]})
+    w = s.water()
+    lake = s.lakes()[0]
+    edge = min(bowl[0, :].min(), bowl[-1, :].min(), bowl[:, 0].min(), bowl[:, -1].min())
+    assert lake["level_m"] == float(edge) and lake["spills_off_map"]
+    assert same_bits(s.height().z, bowl)  # the terrain is untouched
+    assert (w.z > 0).sum() == lake["cells"] == (bowl < edge).sum()  # the bowl is one basin
+    assert np.allclose(w.z[bowl < edge], edge - bowl[bowl < edge])
+    assert s.report()["lakes"] == s.lakes()
+
+
 def test_ctrl_c_stops_a_long_stage(dem):
     """SIGINT while the main thread is inside a stage (GIL released) cancels it at the next progress
     report; the KeyboardInterrupt is the Cancelled's cause."""

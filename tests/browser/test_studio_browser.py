@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """terracl studio in a real browser: Debian's chromium, headless (no display), driven by
 python3-selenium through chromium-driver. Loads the page, draws a crest with mouse events, checks
-that the terrain changed (API state and the map canvas), undoes and redoes it, saves the script from
+that the terrain changed (API state and the map canvas), undoes and redoes it, adds a lake at the
+elevation the cursor readout shows (blue on the map), saves the script from
 the page and replays it with `terracl edit`: the studio's export and the CLI's output must be equal
 bit for bit.
 
@@ -159,6 +160,33 @@ def main():
         check(ops[3]["op"] == "strata" and 100.0 < ops[3]["top"] < 160.0,
               f"the click posted a strata operation whose top is the highest cell in its disc ({ops[3:]})")
 
+        # A lake: the readout names the terrain under the cursor, and a lake 15 m above it, seeded
+        # by a click there, fills the water around the click and tints the map blue.
+        blue = "const d = document.getElementById('map').getContext('2d').getImageData(0, 0, 640, 640).data; " \
+               "let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i + 2] > d[i] + 40 && d[i + 2] > d[i + 1]) n++; return n;"
+        blue0 = driver.execute_script(blue)
+        Select(driver.find_element(By.ID, "tool")).select_by_value("lake")
+        ActionChains(driver).move_to_element_with_offset(canvas, 0, 200).perform()
+        txt = driver.find_element(By.ID, "readout").text
+        m = re.match(r"^(-?[\d.]+), (-?[\d.]+) m: (-?[\d.]+) m$", txt)
+        check(m is not None, f"the readout shows 'x, y: z m' under the cursor ({txt!r})")
+        level = driver.find_element(By.ID, "p_level")
+        level.clear()
+        level.send_keys(f"{float(m.group(3)) + 15:.1f}" + Keys.TAB)
+        v = driver.execute_script("return document.body.dataset.version")
+        ActionChains(driver).move_to_element_with_offset(canvas, 0, 200).click().perform()
+        wait_version(driver, v)
+        st = get_json(url + "api/state")
+        lake = st["operations"][-1]
+        check(lake["op"] == "lake" and abs(lake["level"] - float(m.group(3)) - 15) < 0.11,
+              f"the click posted a lake 15 m above the readout's elevation ({lake})")
+        check(len(st["lakes"]) == 1 and st["lakes"][0]["cells"] > 0, f"the lake holds water ({st['lakes']})")
+        with urllib.request.urlopen(url + "api/water.f32", timeout=60) as r:
+            w = np.frombuffer(r.read(), dtype=np.float32)
+        check(int((w > 0).sum()) == st["lakes"][0]["cells"], "the water layer covers the lake's cells")
+        blue1 = driver.execute_script(blue)
+        check(blue1 > blue0 + 100, f"the map shows the water in blue ({blue0} -> {blue1} blue pixels)")
+
         name = driver.find_element(By.ID, "file")
         name.clear()
         name.send_keys("sketch.json")
@@ -170,11 +198,13 @@ def main():
             time.sleep(0.1)
         check(os.path.exists(script) and os.path.exists(exported), "the page saved the script and exported the terrain")
         out = os.path.join(tmp, "cli.tif")
-        r = subprocess.run([cli, "-q", "edit", "--script", script, "-o", out], capture_output=True, text=True)
+        water = os.path.join(tmp, "water.tif")
+        r = subprocess.run([cli, "-q", "edit", "--script", script, "-o", out, "--water", water], capture_output=True, text=True)
         check(r.returncode == 0, "terracl edit replays the saved script " + r.stderr)
         a = gdal.Open(exported).ReadAsArray()
         b = gdal.Open(out).ReadAsArray()
         check(a.shape == b.shape and np.array_equal(a, b), "the studio's export equals terracl edit's output bit for bit")
+        check(int((gdal.Open(water).ReadAsArray() > 0).sum()) > 0, "the replay writes the lake's water (--water)")
 
         if shots:  # a second picture: a mountain range being eroded live
             Select(driver.find_element(By.ID, "tool")).select_by_value("mountain_range")

@@ -84,8 +84,17 @@ class EditSession {
   const std::vector<float>& hard_constraints() const;
   /// Per-operation log: op, index, milliseconds and operation-specific figures.
   const nlohmann::json& log() const;
-  /// Log plus the last solve's figures.
+  /// Log plus the last solve's figures; with lake operations also "lakes" (as lakes()) and
+  /// "water" (cells, volume_m3, max_depth_m of the combined layer), which reconstructs when stale.
   nlohmann::json report() const;
+  /// Water depth in metres (>= 0, 0 on dry cells) of the script's `lake` operations, filled on the
+  /// current terrain (reconstructs when stale; docs/authoring.md "Lakes"), where lakes overlap the
+  /// highest water surface; nullopt when no lake operation ran. The terrain is not changed.
+  std::optional<Heightfield> water();
+  /// Per-lake figures on the current terrain, one per lake operation in script order: index,
+  /// rule, seed_cell, level_m, cells, area_m2, volume_m3, max_depth_m (spill: spill_cell,
+  /// spills_off_map), warnings (an empty lake); an empty array without lakes.
+  nlohmann::json lakes();
 
  private:
   std::unique_ptr<edit::EditState> m_state;

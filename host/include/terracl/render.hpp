@@ -168,6 +168,13 @@ Heightfield values(const Heightfield& h, const Options& opt, Device& device);
 /// an unassociated alpha band, `meta` as TIFF metadata.
 void write_image(const Image& img, const std::string& path, const Metadata& meta = {});
 
+/// Tints a picture of a heightfield (one pixel per cell, as render() makes) with water where `depth`
+/// (metres, the same width x height) is > 0: a blue over the shaded ground, paler over shallows
+/// and deeper blue towards the layer's deepest cell, so the lake bed's relief shows through. Grey
+/// pictures become RGB (the alpha channel is kept). For edit previews with lakes (terracl edit
+/// --preview). Throws when the sizes differ.
+void tint_water(Image& img, const Heightfield& depth);
+
 /// Whether render_file can stream `input` to `output`: a GDAL raster (.tif, .hgt, .vrt, ...) to a
 /// picture (.png, or .tif for the picture modes).
 bool can_stream_render(const std::string& input, const std::string& output, const Options& opt);

@@ -60,6 +60,7 @@ struct Parsed {
   std::vector<std::pair<std::string, Operation>> ops;
   std::vector<edit::ParseTrace> traces;  // one per operation
   std::vector<nlohmann::json> supports;  // one per operation: [x0, y0, x1, y1] cells, or "grid"
+  std::vector<bool> changes_terrain;     // one per operation (OpSpec::changes_terrain)
   double unit = 1, unit_y = 1;
   std::optional<bool> local;             // "solve": "local" | "global"
   std::optional<double> falloff;         // "locality": {"falloff": ...}
@@ -153,6 +154,7 @@ Parsed parse_script(const json& script, Grid grid) {
     if (!enabled) continue;  // validated above; a hidden layer has no support and runs nothing
     out.supports.push_back(support_of(name, j, trace, grid));
     out.traces.push_back(std::move(trace));
+    out.changes_terrain.push_back(spec->changes_terrain);
     out.ops.emplace_back(name, std::move(op));
   }
   return out;
@@ -219,6 +221,9 @@ void EditSession::apply(const nlohmann::json& script) {
   if (parsed.local) m_state->set_local(*parsed.local);
   if (parsed.falloff) m_state->set_falloff(parsed.falloff);
   for (size_t i = 0; i < parsed.traces.size(); ++i) {
+    // A layer over the terrain (a lake) changes no cell: noting its support would only force a
+    // re-solve, and a lake's reach is its whole basin, not its seed.
+    if (!parsed.changes_terrain[i]) continue;
     m_state->note_reach(parsed.traces[i].reach);
     edit::EditState::Support sp{0, 0, m_state->grid().width - 1, m_state->grid().height - 1, parsed.traces[i].reach};
     if (parsed.supports[i].is_array())
@@ -255,18 +260,43 @@ const std::vector<float>& EditSession::hard_constraints() const { return m_state
 const nlohmann::json& EditSession::log() const { return m_state->log(); }
 
 nlohmann::json EditSession::report() const {
+  // Lakes are filled on the final terrain (a solve when stale) before anything is read, so their
+  // figures, the log's and the solve's agree with height() and water().
+  const Heightfield* water = m_state->water();
   nlohmann::json r = {{"operations", m_state->log()}, {"hard_cells", m_state->hard_count()}, {"solves", m_state->solves()},
                       {"solve", m_state->local() ? "local" : "global"}, {"warnings", warnings()}};
   r["launch"] = describe_launch(m_state->device());  // the device's launch shape and group sizes
   if (m_state->local() && m_state->locality_report().contains("falloff_m"))
     r["falloff_m"] = m_state->locality_report()["falloff_m"];  // the largest used by the last solve
   if (m_state->solves() > 0) r["locality"] = m_state->locality_report();
+  if (water) {
+    size_t cells = 0;
+    double volume = 0, deepest = 0;
+    for (float d : water->z)
+      if (d > 0) ++cells, volume += d, deepest = std::max(deepest, double(d));
+    r["lakes"] = m_state->lakes_report();
+    r["water"] = {{"cells", cells},
+                  {"volume_m3", volume * m_state->grid().cell_x * m_state->grid().cell_y},
+                  {"max_depth_m", deepest}};
+  }
   if (m_state->solves() > 0) {
     r["last_solve"] = m_state->last_solve().to_json();
     r["last_solve"]["width"] = m_state->grid().width;
     r["last_solve"]["height"] = m_state->grid().height;
   }
   return r;
+}
+
+std::optional<Heightfield> EditSession::water() {
+  const Heightfield* w = m_state->water();
+  if (!w) return std::nullopt;
+  Heightfield out = *w;
+  out.georef = m_georef;  // the base's, as the terrain is written with
+  return out;
+}
+
+nlohmann::json EditSession::lakes() {
+  return m_state->has_lakes() ? m_state->lakes_report() : nlohmann::json::array();
 }
 
 std::vector<std::pair<std::string, std::string>> edit_operations() {

@@ -524,6 +524,7 @@ const std::vector<OpSpec>& operations() {
     add_amplify_ops(v);
     add_strata_ops(v);
     add_drainage_ops(v);
+    add_lake_ops(v);
     return v;
   }();
   return ops;

@@ -119,6 +119,39 @@ class EditState {
   Heightfield m_base;
   std::vector<float> m_base_gx, m_base_gy;
   nlohmann::json m_locality = nlohmann::json::object();
+
+ public:
+  // ---- lakes (lake.cpp; docs/authoring.md, "Lakes") ----
+  /// A lake operation: water filling the basin around a seed cell up to a level. Only the
+  /// definition is kept: the water is computed from the terrain when asked, so operations after
+  /// the lake that change the terrain move its shore.
+  struct Lake {
+    enum Rule { Spill, Level, Depth } rule = Spill;
+    double value = 0;  ///< Level: metres; Depth: metres of water at the seed
+    int sx = 0, sy = 0;  ///< the seed cell
+    std::string path;    ///< JSON path of the seed, for warnings
+    size_t log_index = 0;  ///< its entry in log()
+    std::vector<std::string> parse_warnings;
+  };
+  /// Records a lake; the terrain is not changed (no gradient, no constraint, no re-solve).
+  void add_lake(Lake l) { m_lakes.push_back(std::move(l)); }
+  bool has_lakes() const { return !m_lakes.empty(); }
+  /// Water depth (metres, >= 0, never NaN) of every lake on the current terrain (reconstructs
+  /// when stale); where lakes overlap the highest water surface wins. Cached until the next solve
+  /// or lake. nullptr when no lake was added. Also writes each lake's figures into its log entry.
+  const Heightfield* water();
+  /// Per-lake figures of water() (index, level_m, cells, area_m2, volume_m3, max_depth_m, ...).
+  const nlohmann::json& lakes_report() {
+    water();
+    return m_lake_report;
+  }
+
+ private:
+  std::vector<Lake> m_lakes;
+  std::optional<Heightfield> m_water;
+  int m_water_solves = -1;  ///< m_solves when m_water was computed
+  size_t m_water_lakes = 0;
+  nlohmann::json m_lake_report = nlohmann::json::array();
 };
 
 /// One parsed operation, ready to run.
@@ -129,6 +162,9 @@ struct OpSpec {
   std::string summary;
   /// Validates the parameters (throwing with their JSON path) and returns the operation.
   std::function<Operation(Params&)> parse;
+  /// False for operations that only add a layer over the terrain (lake): they note no support, so
+  /// appending one costs no re-solve and leaves the terrain's bits alone.
+  bool changes_terrain = true;
 };
 
 /// Every edit operation, in documentation order.
@@ -144,6 +180,7 @@ void add_amplify_ops(std::vector<OpSpec>& ops);    // ops_amplify.cpp
 void add_strata_ops(std::vector<OpSpec>& ops);     // ops_strata.cpp
 void add_drainage_ops(std::vector<OpSpec>& ops);   // ops_drainage.cpp
 void add_landform_ops(std::vector<OpSpec>& ops);   // ops_landforms.cpp
+void add_lake_ops(std::vector<OpSpec>& ops);       // ops_lake.cpp
 
 // ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
 

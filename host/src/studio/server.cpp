@@ -264,6 +264,17 @@ void StudioServer::Impl::routes() {
       return json();
     });
   });
+  // The lakes' water depth on the live terrain, sampled as terrain.f32 (zeros without a lake).
+  s.Get("/api/water.f32", [this](const httplib::Request& req, httplib::Response& res) {
+    api(res, [&] {
+      const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
+      std::optional<Heightfield> w = session->water();
+      if (!w) w = Heightfield(session->terrain().width, session->terrain().height, 0.f);
+      res.set_content(f32_body(*w, max_side, res), "application/octet-stream");
+      res.set_header("X-Version", std::to_string(session->version()));
+      return json();
+    });
+  });
   s.Get("/api/terrain.tif", [this](const httplib::Request&, httplib::Response& res) {
     api(res, [&] {
       Heightfield h = session->canonical();

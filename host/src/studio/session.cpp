@@ -71,7 +71,10 @@ json Session::state() const {
           {"can_redo", !m_redo.empty()},
           {"eroding", bool(m_erosion)},
           {"erosion_steps", m_erosion_steps},
-          {"last", m_last}};
+          {"last", m_last},
+          // Each lake's figures on the live terrain (cached until the next solve), so the page
+          // knows when to fetch the water layer and can show an empty lake's warning.
+          {"lakes", m_edit->lakes()}};
 }
 
 json Session::appended_only(const json& ops) const {

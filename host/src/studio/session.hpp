@@ -30,7 +30,7 @@ class Session {
   Session(Device& d, const std::string& base, const std::string& workspace);
   ~Session();
 
-  /// {version, width, height, cell_x, cell_y, operations, can_undo, can_redo, last}
+  /// {version, width, height, cell_x, cell_y, operations, can_undo, can_redo, last, lakes}
   json state() const;
   /// The script as `terracl edit` reads it (base, units, seed, operations).
   json script() const;
@@ -60,6 +60,9 @@ class Session {
   /// was reached incrementally.
   const Heightfield& canonical();
   const Heightfield& base() const { return m_base; }
+  /// Water depth of the script's lakes on the live terrain (docs/authoring.md "Lakes"); nullopt
+  /// without a lake operation.
+  std::optional<Heightfield> water() { return m_edit->water(); }
 
   // ---- live erosion (docs/studio.md): a preview that becomes an "erode" operation on commit ----
   void erosion_start(const json& params);
