@@ -84,7 +84,7 @@ TEST(EditExamples, RealDemExamplesAreLocal) {
           ++changed;
           outside += x < x0 || x >= x1 || y < y0 || y >= y1;
         }
-    EXPECT_GT(changed, 1000u) << name;
+    EXPECT_GT(changed, name == "n44_dam" ? 200u : 1000u) << name;  // the dam is a narrow wall; its lake leaves the terrain
     EXPECT_LT(changed, base.size() / 20) << name << ": under 5 % of the tile";
     EXPECT_EQ(outside, 0u) << name;
   }

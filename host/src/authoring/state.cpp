@@ -478,19 +478,19 @@ void rasterize_polyline(EditState& s, const std::vector<Vec3>& pts, double width
     }
   }
   s.changed();
-  // Hard constraints replace the terrain: say so when they cut (or fill) the existing relief by
-  // more than kCutWarning (a crest drawn below a range planes the range).
+  // Hard constraints replace the terrain: say so when they cut the existing relief by more than
+  // kCutWarning (a crest drawn below a range planes the range; a dam raising a valley is meant).
   constexpr double kCutWarning = 10.0;
-  if (n && (cut > kCutWarning || fill > kCutWarning) && !s.log().empty()) {
+  if (n && cut > kCutWarning && !s.log().empty()) {
     auto& e = s.log().back();
     if (e.contains("constraint_cut_m")) {  // one warning per operation (fit rasterizes many curves)
       cut = std::max(cut, e["constraint_cut_m"].get<double>()), fill = std::max(fill, e["constraint_fill_m"].get<double>());
     } else {
       if (!e.contains("warnings")) e["warnings"] = nlohmann::json::array();
       e["warnings"].push_back(fmt::format(
-        "operation {} ({}): its elevation constraints {} the terrain under them by up to {:.0f} m; leave out `elevation` "
-        "to place the stroke relative to the ground",
-          e.value("index", 0), e.value("op", std::string()), cut > fill ? "cut into" : "raise", std::max(cut, fill)));
+        "operation {} ({}): its elevation constraints cut into the terrain under them by up to {:.0f} m; leave out "
+        "`elevation` to place the stroke relative to the ground",
+          e.value("index", 0), e.value("op", std::string()), cut));
     }
     e["constraint_cut_m"] = cut;
     e["constraint_fill_m"] = fill;
