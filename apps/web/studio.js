@@ -17,19 +17,23 @@ let clip = null;     // copy-paste clipboard {source, from}
 let eroding = false;
 
 // ---- tool parameters (lengths in metres; scaled to the terrain on the first load) ----
+// Empty fields ('') are left out of the operation: terracl picks the default from the relief
+// around the stroke (docs/authoring.md, "Landform strokes"). Strokes sit relative to the ground.
 const TOOLS = {
-  crest: { radius: 0.08, elevation: 150, height: 150, width: 0 },
-  river: { radius: 0.05, elevation: 0, width: 0 },
+  crest: { height: '', radius: '' },
+  mountain_range: { height: '', radius: '', roughness: 0.5, age: 0.3, spurs: 1 },
+  river: { depth: '', radius: '' },
+  canyon: { depth: '', radius: '', bands: 4, roughness: 0.5 },
   ravine: { radius: 0.05, depth: 60 },
-  cliff: { radius: 0.03, elevation: 150, height: 80 },
+  cliff: { drop: '', side: 'right', bands: 3 },
   fault: { radius: 0.03, throw: 40 },
   free_crest: { radius: 0.08, height: 100 },
-  mountain_range: { radius: 0.12, height: 400 },
+  peak: { height: '', radius: '' },
+  volcano: { height: '', radius: '', crater: 0.15, age: 0.3 },
   scale_slopes: { radius: 0.08, factor: 2, falloff: 0.03 },
   noise: { radius: 0.12, amplitude: 20, wavelength: 0.05 },
   freeze: { radius: 0.05 },
   tensor: { radius: 0.1, angle: 45, strength: 0.8 },
-  point: { radius: 0.06, elevation: 200 },
   copy_paste: { rotate: 0, height_scale: 1 },
   erode: { radius: 0.1, falloff: 0.03 },
   amplify: { exemplar: '', factor: 4, strength: 1, falloff: 0.03 },
@@ -37,6 +41,8 @@ const TOOLS = {
   strata: { radius: 0.1, thickness: 25, soft_thickness: 12, min_slope: 25, falloff: 0.02 },
   lake: { level: '' },  // empty: the basin's spill point; a number: the water surface in metres
 };
+// Fields that hold words, not numbers.
+const WORDS = new Set(['exemplar', 'side']);
 const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength', 'channel_width']);
 // Areas (m^2) given as a share of the terrain's area: scaled by it on the first load.
 const AREAS = new Set(['threshold']);
@@ -66,7 +72,11 @@ function showParams() {
     i.value = v;
     i.id = 'p_' + k;
     if (k === 'level') i.placeholder = 'spill';
-    i.onchange = () => { t[k] = typeof v === 'string' ? i.value : parseFloat(i.value); };
+    else if (v === '') i.placeholder = 'auto';
+    i.onchange = () => {
+      const w = i.value.trim();
+      t[k] = WORDS.has(k) || w === '' ? w : parseFloat(w);
+    };
     div.append(l, i);
   }
 }
@@ -262,18 +272,26 @@ function simplify(pts, eps) {
   return simplify(pts.slice(0, bi + 1), eps).slice(0, -1).concat(simplify(pts.slice(bi), eps));
 }
 
-const CURVES = new Set(['crest', 'river', 'ravine', 'cliff', 'fault', 'free_crest', 'mountain_range']);
+const CURVES = new Set(['crest', 'river', 'ravine', 'cliff', 'fault', 'free_crest', 'mountain_range', 'canyon']);
 const REGIONS = new Set(['copy_paste', 'erode', 'amplify', 'drainage']);
 
 function num(k, v) { return Number.isFinite(v) ? v : undefined; }
 
-function curveOp(tool, pts) {
-  const p = TOOLS[tool];
-  const op = { op: tool, points: pts.map(([x, y]) => toMetres(x, y)), radius: L(p.radius) };
-  for (const k of ['elevation', 'depth', 'height', 'throw'])
-    if (k in p && num(k, p[k]) !== undefined) op[k] = p[k];
+// The tool's filled-in fields: lengths scaled to script units, words as they are, numbers if finite.
+function withParams(op, p) {
+  for (const [k, v] of Object.entries(p)) {
+    if (k === 'width' || v === '') continue;
+    if (LENGTHS.has(k)) { if (v > 0) op[k] = L(v); } else if (WORDS.has(k)) op[k] = v;
+    else if (num(k, v) !== undefined) op[k] = v;
+  }
   if (p.width > 0) op.width = L(p.width);
   return op;
+}
+
+function curveOp(tool, pts) {
+  const p = TOOLS[tool];
+  const op = { op: tool, points: pts.map(([x, y]) => toMetres(x, y)) };
+  return withParams(op, p);
 }
 
 function brushOp(tool, px, py) {
@@ -300,7 +318,7 @@ function brushOp(tool, px, py) {
       if (Number.isFinite(lv)) op.level = lv;
       return op;
     }
-    case 'point': return { op: 'crest', points: [[c[0], c[1], p.elevation], [round1(c[0] + L(state.cell_x)), c[1], p.elevation]], radius: L(p.radius) };
+    case 'peak': case 'volcano': return withParams({ op: tool, center: c }, p);
   }
   return null;
 }
