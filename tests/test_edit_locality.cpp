@@ -126,9 +126,13 @@ TEST(EditLocality, CrestStaysLocalOnFrontRange) {
   expect_local(dem("frontrange_srtm3_758.asc", 300, 300, 193), "frontrange");
 }
 
-TEST(EditLocality, FlatBaseSolvesGloballyAndScriptsChoose) {
+TEST(EditLocality, FlatBaseSolvesLocallyForLandformStrokesAndScriptsChoose) {
   EditSession flat(test::device(), *parse_flat_spec("flat:65x65@10"));
-  EXPECT_FALSE(flat.local());
+  EXPECT_TRUE(flat.local());
+  flat.apply(json{{"units", "cells"}, {"operations", {{{"op", "peak"}, {"center", {32, 32}}}}}});
+  EXPECT_TRUE(flat.local()) << "a landform stroke keeps a flat base local";
+  flat.apply(json{{"units", "cells"}, {"operations", {{{"op", "fault"}, {"points", {{0, 10}, {64, 20}}}, {"throw", 20}}}}});
+  EXPECT_FALSE(flat.local()) << "a fault's step needs the whole map";
   const Heightfield base = dem("N44W072.hgt", 600, 300, 65);
   EditSession real(test::device(), base);
   EXPECT_TRUE(real.local());

@@ -100,6 +100,9 @@ class EditSession {
   std::unique_ptr<edit::EditState> m_state;
   EditOptions m_options;
   Georef m_georef;  ///< of the base ("units": "map")
+  /// A flat base with no locality chosen solves locally while every operation is a landform
+  /// stroke (changes that fade to nothing) and globally from the first one that is not.
+  bool m_auto_flat = false;
 };
 
 /// Name and one-line summary of every edit operation.

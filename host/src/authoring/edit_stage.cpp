@@ -12,6 +12,8 @@
 #include <filesystem>
 
 namespace terracl {
+void bench_strokes(const BenchArgs& a);  // stroke_bench.cpp
+
 namespace {
 
 void run_edit(StageContext& c) {
@@ -181,6 +183,8 @@ void register_edit_stages(StageRegistry& r) {
 
 void register_edit_benches(BenchRegistry& r) {
   r.add({"edit", "20 edit operations + reconstruction, then a warm- vs cold-started re-solve after one more", bench_edit});
+  r.add({"stroke", "One landform stroke of each tool (default size) + the warm re-solve, as the studio pays it; --set base=DEM, tool=NAME",
+         bench_strokes});
 }
 
 }  // namespace terracl

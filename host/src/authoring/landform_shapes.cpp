@@ -133,24 +133,29 @@ Nearest nearest_on(const Grid& g, const std::vector<Vec2>& pts, const Box& box, 
   Nearest n{ShapeRaster(box), ShapeRaster(box), ShapeRaster(box)};
   std::fill(n.dist.v.begin(), n.dist.v.end(), std::numeric_limits<float>::infinity());
   const auto arc = arc_lengths(pts);
-  for (size_t i = 0; i + 1 < pts.size(); ++i) {
-    const Vec2 a = pts[i], b = pts[i + 1];
-    const Box bb = box_around(g, {a, b}, reach);
-    const int x0 = std::max(bb.x0, box.x0), x1 = std::min(bb.x0 + bb.w, box.x0 + box.w);
-    const int y0 = std::max(bb.y0, box.y0), y1 = std::min(bb.y0 + bb.h, box.y0 + box.h);
-    const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const double px = x * g.cell_x, py = y * g.cell_y;
-        const double t = l2 > 0 ? std::clamp(((px - a.x) * ux + (py - a.y) * uy) / l2, 0.0, 1.0) : 0.0;
-        const double dx = px - a.x - t * ux, dy = py - a.y - t * uy, d = std::hypot(dx, dy);
-        if (d < n.dist.at(x, y)) {
-          n.dist.at(x, y) = float(d);
-          n.side.at(x, y) = (ux * dy - uy * dx) >= 0 ? 1.0f : -1.0f;
-          n.arc.at(x, y) = float(arc[i] + t * std::sqrt(l2));
+  std::vector<Box> boxes;
+  for (size_t i = 0; i + 1 < pts.size(); ++i) boxes.push_back(box_around(g, {pts[i], pts[i + 1]}, reach));
+  // Rows are independent: each thread takes a band of them and every piece that reaches it.
+  parallel_for(size_t(box.h), 0, [&](size_t r0, size_t r1) {
+    for (size_t i = 0; i + 1 < pts.size(); ++i) {
+      const Vec2 a = pts[i], b = pts[i + 1];
+      const Box& bb = boxes[i];
+      const int x0 = std::max(bb.x0, box.x0), x1 = std::min(bb.x0 + bb.w, box.x0 + box.w);
+      const int y0 = std::max(bb.y0, box.y0 + int(r0)), y1 = std::min(bb.y0 + bb.h, box.y0 + int(r1));
+      const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          const double px = x * g.cell_x, py = y * g.cell_y;
+          const double t = l2 > 0 ? std::clamp(((px - a.x) * ux + (py - a.y) * uy) / l2, 0.0, 1.0) : 0.0;
+          const double dx = px - a.x - t * ux, dy = py - a.y - t * uy, d = std::hypot(dx, dy);
+          if (d < n.dist.at(x, y)) {
+            n.dist.at(x, y) = float(d);
+            n.side.at(x, y) = (ux * dy - uy * dx) >= 0 ? 1.0f : -1.0f;
+            n.arc.at(x, y) = float(arc[i] + t * std::sqrt(l2));
+          }
         }
-      }
-  }
+    }
+  });
   return n;
 }
 
@@ -380,7 +385,7 @@ ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
   const Bands bands = make_bands(p.bands, rng);
   const double face = std::max(2 * cell, (0.3 + 0.3 * age) * D);
   const double apron = std::max(2 * cell, p.talus * D * 2.2);
-  const auto line = wander(resample(p.stroke, std::max(cell, D / 4)), (0.05 + 0.2 * rough) * D, 3 * D, 3, p.look.seed + 1);
+  const auto line = wander(resample(p.stroke, std::max(cell, D / 2)), (0.05 + 0.2 * rough) * D, 3 * D, 3, p.look.seed + 1);
   const auto arc = arc_lengths(line);
   const double L = arc.back(), taper = std::min(2 * D, L / 4);
   // Chutes: notches cut back into the plateau edge at uneven spacing.

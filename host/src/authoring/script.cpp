@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <regex>
+#include <set>
 
 namespace terracl {
 
@@ -162,6 +163,26 @@ Parsed parse_script(const json& script, Grid grid) {
 
 }  // namespace
 
+namespace {
+// True when every enabled operation is a landform stroke placed relative to the ground (its change
+// is computed whole and fades to nothing) or a lake (no change at all).
+bool landform_strokes_only(const nlohmann::json& script) {
+  static const std::set<std::string> always = {"mountain_range", "peak", "volcano", "canyon", "lake"};
+  static const std::set<std::string> when_relative = {"crest", "river", "cliff"};
+  if (!script.is_object() || !script.contains("operations")) return true;
+  for (const auto& op : script["operations"]) {
+    if (!op.is_object() || !op.value("enabled", true)) continue;
+    const std::string name = op.value("op", std::string());
+    if (always.count(name)) continue;
+    if (!when_relative.count(name) || op.contains("elevation")) return false;
+    if (op.contains("points") && op["points"].is_array())
+      for (const auto& v : op["points"])
+        if (v.is_array() && v.size() >= 3) return false;
+  }
+  return true;
+}
+}  // namespace
+
 EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_options(std::move(o)), m_georef(base.georef) {
   require_finite(base, "edit", "the base terrain (fill nodata first: terracl fill_nodata)");
   GradientField g = extract_gradient(d, base);
@@ -169,11 +190,15 @@ EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_
   so.initial = nullptr;
   so.progress = nullptr;
   m_state = std::make_unique<edit::EditState>(d, g, base, so);
-  // Locality by default on a real base; a flat base (every cell equal, e.g. flat:WxH) has nothing
-  // to keep and solves globally, as before.
+  // Local solves by default on a real base. A flat base (every cell equal, e.g. flat:WxH) solves
+  // locally too while the strokes are landforms whose change fades to nothing (the far field then
+  // keeps its level exactly, and a stroke on a 1025^2 plain re-solves its window, not the map);
+  // the first operation that needs the whole map (a fault's step, absolute constraints, noise,
+  // tensors...) turns it global for the session, as flat bases always solved.
   bool flat = true;
   for (float v : base.z) flat = flat && v == base.z.front();
-  m_state->set_local(m_options.locality.value_or(!flat));
+  m_auto_flat = flat && !m_options.locality;
+  m_state->set_local(m_options.locality.value_or(true));
 }
 
 EditSession::~EditSession() = default;
@@ -218,7 +243,8 @@ bool EditSession::local() const { return m_state->local(); }
 
 void EditSession::apply(const nlohmann::json& script) {
   const Parsed parsed = parse_script(script, script_grid(*m_state, m_options, m_georef));
-  if (parsed.local) m_state->set_local(*parsed.local);
+  if (parsed.local) m_state->set_local(*parsed.local), m_auto_flat = false;
+  if (m_auto_flat && !landform_strokes_only(script)) m_state->set_local(false), m_auto_flat = false;
   if (parsed.falloff) m_state->set_falloff(parsed.falloff);
   for (size_t i = 0; i < parsed.traces.size(); ++i) {
     // A layer over the terrain (a lake) changes no cell: noting its support would only force a
