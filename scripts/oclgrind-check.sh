@@ -64,7 +64,7 @@ for e in volcanic_island canyon cliff mountain_range mountain_chain_tensors; do
   /usr/bin/python3 - "data/examples/$e.json" "$OUT/$e.json" <<'PY'
 import json, re, sys
 d = json.load(open(sys.argv[1]))
-w, h, cell = re.fullmatch(r"flat:(\d+)x(\d+)@([0-9.]+)", d["base"]).groups()
+w, h, cell, z = re.fullmatch(r"flat:(\d+)x(\d+)@([0-9.]+)([+-][0-9.]+)?", d["base"]).groups()
 w, h, cell = int(w), int(h), float(cell)
 k = 64.0 / (w - 1)  # new cells per old cell
 in_cells = d.get("units") == "cells"
@@ -79,7 +79,7 @@ def walk(v, key=None):
     if in_cells and key in HORIZONTAL and isinstance(v, (int, float)):
         return v * k
     return v
-d["base"] = "flat:65x%d@%g" % (max(9, round((h - 1) * k) + 1), cell / k)
+d["base"] = "flat:65x%d@%g%s" % (max(9, round((h - 1) * k) + 1), cell / k, z or "")
 d["operations"] = [walk(o) for o in d["operations"] if o.get("op") != "fit"]
 json.dump(d, open(sys.argv[2], "w"))
 PY
