@@ -93,6 +93,32 @@ TEST(EditErode, DiffusionOptionsReachTheErosion) {
   EXPECT_THROW(run_script({{"operations", {kRange, bad}}}), Error);
 }
 
+// Presets are looks in physical units: old hills creep more than young alpine relief (a smoother
+// surface), and a key given with a preset overrides it.
+TEST(EditErode, PresetsGiveTheirLooksAndKeysOverrideThem) {
+  const json noise = {{"op", "noise"}, {"amplitude", 30}, {"wavelength", 150}, {"octaves", 3}};
+  auto lap = [](const Heightfield& h) {
+    double s = 0;
+    for (int y = 1; y < 64; ++y)
+      for (int x = 1; x < 64; ++x) {
+        const double l = h.at(x - 1, y) + h.at(x + 1, y) + h.at(x, y - 1) + h.at(x, y + 1) - 4.0 * h.at(x, y);
+        s += l * l;
+      }
+    return std::sqrt(s / (63.0 * 63.0));
+  };
+  auto with = [&](json erode) { return run_script({{"operations", {kRange, noise, erode}}}); };
+  const Heightfield alpine = with({{"op", "erode"}, {"steps", 40}, {"preset", "young_alpine"}});
+  const Heightfield hills = with({{"op", "erode"}, {"steps", 40}, {"preset", "old_hills"}});
+  for (float z : hills.z) ASSERT_TRUE(std::isfinite(z));
+  EXPECT_GT(lap(alpine), 1.05 * lap(hills)) << "old hills are smoother than young alpine relief";
+  // young_alpine with old_hills' creep and rates is old_hills' erosion.
+  const Heightfield overridden = with({{"op", "erode"}, {"steps", 40}, {"preset", "young_alpine"}, {"rain", 0.002},
+                                      {"dissolve", 0.005}, {"deposit", 0.004}, {"diffusion", 6}, {"channel_diffusion", 2},
+                                      {"thermal_rate", 0.03}, {"talus", 25}});
+  EXPECT_EQ(overridden.z, hills.z);
+  EXPECT_THROW(with({{"op", "erode"}, {"steps", 4}, {"preset", "lunar"}}), Error);
+}
+
 TEST(EditErode, ABrushRegionLeavesTheRestAlone) {
   const Heightfield before = run_script({{"operations", {kRange}}});
   const json brush = {{"op", "erode"},        {"steps", 40},   {"rain", 0.02},

@@ -9,9 +9,30 @@
 
 namespace terracl::edit {
 
+namespace {
+// Looks of erosion in physical units (docs/authoring.md, "Erosion presets"): what differs from the
+// defaults; keys given in the operation override them.
+void apply_preset(ErosionParams& q, const std::string& name) {
+  if (name == "young_alpine") {  // deep narrow gullies, sharp ridges, scree at a steep repose
+    q.rain = 0.004, q.dissolve = 0.012, q.deposit = 0.001, q.diffusion = 0.5, q.channel_diffusion = 0.5;
+    q.thermal_rate = 0.08, q.talus_deg = 40;
+  } else if (name == "old_hills") {  // rounded slopes, wide channels, valleys filling
+    q.rain = 0.002, q.dissolve = 0.005, q.deposit = 0.004, q.diffusion = 6, q.channel_diffusion = 2;
+    q.thermal_rate = 0.03, q.talus_deg = 25;
+  } else if (name == "badlands") {  // dense sharp rills on soft rock, little creep
+    q.rain = 0.005, q.dissolve = 0.015, q.deposit = 0.001, q.diffusion = 0.3;
+    q.channel_diffusion = 0.3, q.thermal_rate = 0.06, q.talus_deg = 45;
+  } else if (name == "desert_wash") {  // rare water that drops its load in fans and wide washes
+    q.rain = 0.0015, q.evaporation = 0.01, q.dissolve = 0.006, q.deposit = 0.006, q.diffusion = 1;
+    q.channel_diffusion = 3, q.thermal_rate = 0.06, q.talus_deg = 33;
+  }
+}
+}  // namespace
+
 ErodeSpec parse_erode_spec(Params& p) {
   ErodeSpec e;
   e.params = ErosionParams::defaults();
+  apply_preset(e.params, p.choice("preset", "default", {"default", "young_alpine", "old_hills", "badlands", "desert_wash"}));
   // Settles like the erode stage; the studio previews with Erosion::settled_bed, the same
   // settle_sediment on the same bits, so the committed script replays to the preview.
   e.params.settle = p.boolean("settle", true);
