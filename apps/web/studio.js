@@ -439,8 +439,14 @@ async function drainageRegion(r) {
 }
 
 // ---- erosion ----
+// The look's preset, with rain and capacity only when typed in (they override the preset).
 function erosionParams() {
-  return { rain: parseFloat($('e_rain').value), capacity: parseFloat($('e_capacity').value) };
+  const p = { preset: $('e_preset').value };
+  for (const k of ['rain', 'capacity']) {
+    const v = parseFloat($('e_' + k).value);
+    if (Number.isFinite(v)) p[k] = v;
+  }
+  return p;
 }
 async function erodeBrush(r) {
   const [x0, y0] = toMetres(r.x0, r.y0), [x1, y1] = toMetres(r.x1, r.y1);
