@@ -12,7 +12,10 @@
 #include <filesystem>
 
 namespace terracl {
-void bench_strokes(const BenchArgs& a);  // stroke_bench.cpp
+// stroke_bench.cpp: `terracl bench stroke`, and the bases of both benches (a flat n x n grid of
+// 10 m cells at `level`, or the centre n x n window of the DEM at `path`).
+void bench_strokes(const BenchArgs& a);
+Heightfield bench_base(const std::string& path, int n, float level);
 
 namespace {
 
@@ -72,24 +75,10 @@ void bench_edit(const BenchArgs& a) {
   auto dev = Device::open(a.device);
   Device& d = *dev;
   const int n = a.size;
-  Heightfield base(n, n, 100.f);
-  base.georef.cell_x = base.georef.cell_y = 10;
   // --set base=DEM: the centre n x n window of a real DEM (local solves by default);
   // --set solve=local|global forces the mode.
   const std::string base_path = a.extra.value("base", std::string());
-  if (!base_path.empty()) {
-    const Heightfield dem = read_heightfield(base_path);
-    if (dem.width < n || dem.height < n)
-      throw UsageError("bench", fmt::format("base '{}' is {}x{}, smaller than --size {}", base_path, dem.width, dem.height, n));
-    const int x0 = (dem.width - n) / 2, y0 = (dem.height - n) / 2;
-    base = Heightfield(n, n);
-    base.georef = dem.georef;
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) base.at(x, y) = dem.at(x0 + x, y0 + y);
-    auto& gt = base.georef.geotransform;
-    gt[0] += x0 * gt[1] + y0 * gt[2], gt[3] += x0 * gt[4] + y0 * gt[5];
-    if (base.count_nodata()) fill_nodata_harmonic(base);
-  }
+  const Heightfield base = bench_base(base_path, n, 100.f);
   std::optional<bool> locality;
   if (a.extra.contains("solve")) {
     const json& v = a.extra["solve"];

@@ -12,24 +12,30 @@
 
 namespace terracl {
 
+Heightfield bench_base(const std::string& path, int n, float level) {
+  Heightfield base(n, n, level);
+  base.georef.cell_x = base.georef.cell_y = 10;
+  if (path.empty()) return base;
+  const Heightfield dem = read_heightfield(path);
+  if (dem.width < n || dem.height < n)
+    throw UsageError("bench", fmt::format("base '{}' is {}x{}, smaller than --size {}", path, dem.width, dem.height, n));
+  const int x0 = (dem.width - n) / 2, y0 = (dem.height - n) / 2;
+  base = Heightfield(n, n);
+  base.georef = dem.georef;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) base.at(x, y) = dem.at(x0 + x, y0 + y);
+  auto& gt = base.georef.geotransform;
+  gt[0] += x0 * gt[1] + y0 * gt[2], gt[3] += x0 * gt[4] + y0 * gt[5];
+  if (base.count_nodata()) fill_nodata_harmonic(base);
+  return base;
+}
+
 void bench_strokes(const BenchArgs& a) {
   auto dev = Device::open(a.device);
   Device& d = *dev;
   const int n = a.size;
-  Heightfield base(n, n, 300.f);
-  base.georef.cell_x = base.georef.cell_y = 10;
   const std::string base_path = a.extra.value("base", std::string());
-  if (!base_path.empty()) {  // the centre n x n window of a real DEM (local solves)
-    const Heightfield dem = read_heightfield(base_path);
-    if (dem.width < n || dem.height < n)
-      throw UsageError("bench", fmt::format("base '{}' is {}x{}, smaller than --size {}", base_path, dem.width, dem.height, n));
-    const int x0 = (dem.width - n) / 2, y0 = (dem.height - n) / 2;
-    base = Heightfield(n, n);
-    base.georef = dem.georef;
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) base.at(x, y) = dem.at(x0 + x, y0 + y);
-    if (base.count_nodata()) fill_nodata_harmonic(base);
-  }
+  const Heightfield base = bench_base(base_path, n, 300.f);  // a real DEM solves locally
   // Each tool's default stroke across a third of the grid (cells); --set tool=NAME: one of them.
   const json line = {{0.3 * n, 0.55 * n}, {0.5 * n, 0.45 * n}, {0.65 * n, 0.5 * n}};
   const json centre = {0.5 * n, 0.5 * n};
