@@ -9,6 +9,7 @@
 #include <terracl/io.hpp>
 #include <terracl/studio.hpp>
 
+#include "studio_client.hpp"
 #include "test_helpers.hpp"
 
 namespace terracl {
@@ -16,39 +17,10 @@ namespace {
 
 using json = nlohmann::json;
 using test::TempDir;
+using test::body;
+using test::post;
+using test::Studio;
 
-struct Studio {
-  TempDir dir;
-  std::unique_ptr<StudioServer> server;
-  int port = 0;
-  explicit Studio(const std::string& base = "flat:129x97@10") {
-    StudioOptions o;
-    o.base = base;
-    o.port = 0;
-    o.workspace = dir.path("ws");
-    server = std::make_unique<StudioServer>(test::device(), o);
-    port = server->start();
-  }
-  httplib::Client client() const {
-    httplib::Client c("127.0.0.1", port);
-    c.set_read_timeout(120, 0);
-    return c;
-  }
-};
-
-json body(const httplib::Result& r) {
-  EXPECT_TRUE(r) << "no answer";
-  if (!r) return json();
-  return json::parse(r->body);
-}
-
-json post(httplib::Client& c, const std::string& path, const json& b, int expect = 200) {
-  auto r = c.Post(path.c_str(), b.dump(), "application/json");
-  EXPECT_TRUE(r);
-  if (!r) return json();
-  EXPECT_EQ(r->status, expect) << path << " " << r->body;
-  return json::parse(r->body);
-}
 
 std::vector<float> terrain(httplib::Client& c) {
   auto r = c.Get("/api/terrain.f32");

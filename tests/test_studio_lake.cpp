@@ -10,29 +10,16 @@
 #include <terracl/studio.hpp>
 
 #include "lake_terrain.hpp"
+#include "studio_client.hpp"
 #include "test_helpers.hpp"
 
 namespace terracl {
 namespace {
 
 using json = nlohmann::json;
+using test::f32;
+using test::post;
 
-std::vector<float> f32(httplib::Client& c, const std::string& path) {
-  auto r = c.Get(path.c_str());
-  EXPECT_TRUE(r && r->status == 200) << path;
-  if (!r) return {};
-  std::vector<float> v(r->body.size() / sizeof(float));
-  std::memcpy(v.data(), r->body.data(), r->body.size());
-  return v;
-}
-
-json post(httplib::Client& c, const std::string& path, const json& b, int expect = 200) {
-  auto r = c.Post(path.c_str(), b.dump(), "application/json");
-  EXPECT_TRUE(r);
-  if (!r) return json();
-  EXPECT_EQ(r->status, expect) << path << " " << r->body;
-  return json::parse(r->body);
-}
 
 TEST(StudioApi, LakeToolFillsTheBasinAndServesTheWaterLayer) {
   test::TempDir dir;
