@@ -11,7 +11,24 @@ namespace terracl {
 /// not throw). An empty function removes it.
 void set_stop_check(std::function<bool()> check);
 
-/// True when the installed check asks to stop; false when none is installed.
+/// Adds a further check beside the installed one, for a component that lives shorter than the
+/// process (a studio server's cancel and time budget); returns its id for remove_stop_check.
+int add_stop_check(std::function<bool()> check);
+void remove_stop_check(int id);
+
+/// True when the installed check or an added one asks to stop; false when none does, or on a
+/// thread inside a NoStopScope.
 bool stop_requested();
+
+/// While one is alive on a thread, stop_requested() is false there: for work that restores a
+/// consistent state after a stop (a studio session going back to its previous script) and must
+/// not itself be stopped half-way.
+class NoStopScope {
+ public:
+  NoStopScope();
+  ~NoStopScope();
+  NoStopScope(const NoStopScope&) = delete;
+  NoStopScope& operator=(const NoStopScope&) = delete;
+};
 
 }  // namespace terracl

@@ -3,6 +3,8 @@
 // elevation). Recorded in scripts like any operation, so a studio session with erosion replays.
 #include "authoring/ops_erode.hpp"
 
+#include <terracl/interrupt.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <terracl/gradient.hpp>
@@ -84,7 +86,9 @@ Operation parse_erode(Params& p) {
   return [e](EditState& s) {
     const Heightfield h = s.height();
     const std::vector<float> w = erode_weight(e, s.grid(), s.hard());
-    const Heightfield bed = erode(s.device(), h, e.params, e.steps, &w);
+    // Long runs stop on Ctrl-C (CLI) or a cancel / time budget (studio): Cancelled, nothing changed.
+    const Progress stop = [](double, const std::string&) { return !stop_requested(); };
+    const Heightfield bed = erode(s.device(), h, e.params, e.steps, &w, nullptr, stop);
     double mean = 0;
     for (float z : bed.z) mean += z;
     s.upload(extract_gradient(s.device(), bed));

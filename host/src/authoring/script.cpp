@@ -4,6 +4,7 @@
 
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
+#include <terracl/interrupt.hpp>
 #include <terracl/gradient.hpp>
 #include <terracl/json_limits.hpp>
 #include <terracl/memory.hpp>
@@ -216,6 +217,7 @@ namespace {
 Grid script_grid(const edit::EditState& s, const EditOptions& o, const Georef& geo) {
   Grid g = s.grid();
   g.base_dir = o.base_dir;
+  g.file_roots = o.file_roots;
   g.georeferenced = geo.has_geotransform;
   g.geotransform = geo.geotransform;
   return g;
@@ -263,6 +265,8 @@ void EditSession::apply(const nlohmann::json& script) {
   // waits after each one so that its "ms" includes its device time.
   const bool per_op_wait = std::getenv("TERRACL_PHASES") || std::getenv("TERRACL_MG_PROFILE");
   for (size_t i = 0; i < parsed.ops.size(); ++i) {
+    // Ctrl-C in the CLI, a cancel or a time budget in the studio (terracl/interrupt.hpp).
+    if (stop_requested()) throw Cancelled("edit", fmt::format("stopped before operation {} ({})", first + i, parsed.ops[i].first));
     report_progress(m_options.progress, "edit", double(i) / double(parsed.ops.size() + 1), parsed.ops[i].first);
     m_state->log().push_back({{"index", first + i}, {"op", parsed.ops[i].first}, {"support", parsed.supports[i]}});
     if (!parsed.traces[i].warnings.empty()) m_state->log().back()["warnings"] = parsed.traces[i].warnings;
