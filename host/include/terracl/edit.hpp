@@ -33,6 +33,11 @@ struct EditOptions {
   SolverOptions solver;   ///< initial/progress are managed by the session
   Progress progress;
   std::string base_dir;   ///< folder for relative file names in the script (copy_paste, fit)
+  /// When not empty, files named by operations (copy_paste source, amplify exemplar/dictionary,
+  /// fit file) must be one of these files or lie inside one of these folders once links are
+  /// resolved; other names are refused. The studio confines them to its workspace, its base raster
+  /// and its --allow-dir folders.
+  std::vector<std::string> file_roots;
   /// Local solves (docs/authoring.md, "Locality"): true = local, false = global, nullopt = local
   /// unless the base is flat (every cell equal, e.g. flat:WxH). A script's "solve" overrides it.
   std::optional<bool> locality;

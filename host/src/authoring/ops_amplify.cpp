@@ -80,9 +80,7 @@ Operation parse_amplify(Params& p) {
   const bool dict = p.has("dictionary"), ex = p.has("exemplar");
   if (dict == ex) param_error(p.path(), "give either dictionary (a .tdic file) or exemplar (a DEM to learn one from)");
   const std::string key = dict ? "dictionary" : "exemplar";
-  const std::string given = p.string(key);
-  const std::string path = resolve_path(given, p.grid().base_dir);
-  if (!path_exists(path)) param_error(p.where(key), fmt::format("file '{}' not found", given));
+  const std::string path = operation_file(p, key);
   (dict ? a.dictionary : a.exemplar) = path;
   a.factor = p.integer("factor", 4, 2, 8);
   if (a.factor != 2 && a.factor != 4 && a.factor != 8)

@@ -65,7 +65,7 @@ Operation parse_fit(Params& p) {
   Features f;
   if (p.has("file")) {
     const std::string given = p.string("file");
-    const std::string path = resolve_path(given, p.grid().base_dir);
+    const std::string path = operation_file(p, "file");
     std::ifstream in(path);
     if (!in) param_error(p.where("file"), fmt::format("cannot open '{}'", given));
     json doc;

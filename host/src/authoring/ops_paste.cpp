@@ -37,9 +37,7 @@ float sample(const std::vector<float>& v, int W, int nx, int ny, double x, doubl
 }
 
 Operation parse_copy_paste(Params& p) {
-  const std::string given = p.string("source");
-  const std::string path = resolve_path(given, p.grid().base_dir);
-  if (!path_exists(path)) param_error(p.where("source"), fmt::format("file '{}' not found", given));
+  const std::string path = operation_file(p, "source");
   auto src = std::make_shared<Source>();
   try {
     if (is_gradient_file(path)) {

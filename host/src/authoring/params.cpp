@@ -243,3 +243,39 @@ void Params::done() const {
 }
 
 }  // namespace terracl::edit
+
+namespace terracl::edit {
+
+namespace {
+bool inside(const std::filesystem::path& file, const std::string& root) {
+  std::error_code ec;
+  const std::string r = std::filesystem::canonical(root, ec).string();
+  if (ec) return false;
+  const std::string f = file.string();
+  if (f == r) return true;  // a root may be one file (the studio's base raster)
+  return f.size() > r.size() && f.compare(0, r.size(), r) == 0 && (f[r.size()] == '/' || r == "/");
+}
+}  // namespace
+
+std::string operation_file(Params& p, const std::string& key) {
+  namespace fs = std::filesystem;
+  const std::string given = p.string(key);
+  const Grid& g = p.grid();
+  if (g.file_roots.empty()) {
+    const std::string path = resolve_path(given, g.base_dir);
+    if (!path_exists(path)) param_error(p.where(key), fmt::format("file '{}' not found", given));
+    return path;
+  }
+  // Confined (the studio): relative names are taken in the script's folder only, never the
+  // server's working directory, and links are followed before the check so none leads out.
+  const fs::path asked = fs::path(given).is_absolute() || g.base_dir.empty() ? fs::path(given) : fs::path(g.base_dir) / given;
+  std::error_code ec;
+  const fs::path real = fs::canonical(asked, ec);
+  if (ec || !path_exists(real.string())) param_error(p.where(key), fmt::format("file '{}' not found in the workspace", given));
+  for (const std::string& root : g.file_roots)
+    if (inside(real, root)) return real.string();
+  param_error(p.where(key), fmt::format("'{}' is outside the workspace: operations may only read files inside it "
+                                        "(or a folder given with --allow-dir)", given));
+}
+
+}  // namespace terracl::edit

@@ -38,6 +38,8 @@ struct Grid {
   unsigned seed = 1;
   /// Folder of the script file: relative file names are tried there when not found as given.
   std::string base_dir;
+  /// Folders files named by operations must lie in (EditOptions::file_roots; empty: anywhere).
+  std::vector<std::string> file_roots;
   /// The base's GDAL geotransform (corner convention) when it has one ("units": "map").
   bool georeferenced = false;
   std::array<double, 6> geotransform{0, 1, 0, 0, 0, -1};
@@ -51,6 +53,11 @@ struct Grid {
 };
 
 using terracl::resolve_path;
+
+class Params;
+/// The existing file named by parameter `key`, tried as given and then in the script's folder,
+/// and inside the grid's file_roots when it has some; errors name the parameter.
+std::string operation_file(Params& p, const std::string& key);
 
 /// A vertex with an optional elevation (NaN when the point has only x, y).
 struct Vec3 {
