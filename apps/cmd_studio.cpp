@@ -1,8 +1,10 @@
-// `terracl studio [BASE] [--script S.json] [--port 8080] [--bind 127.0.0.1] [--workspace DIR]`:
+// `terracl studio [BASE] [--script S.json] [--port 8080] [--bind 127.0.0.1] [--workspace DIR]
+//  [--allow-dir DIR] [--allow-host NAME] [--time-limit S]`:
 // the interactive sketching page and its JSON API (docs/studio.md).
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
@@ -25,6 +27,13 @@ CommandRegistrar reg(45, [](CLI::App& app) {
   sub->add_option("--workspace", o->workspace, "Folder that saves, loads and exports are confined to")
       ->capture_default_str();
   sub->add_option("--three", o->three_dir, "Folder of three.js (Debian's libjs-three)")->capture_default_str();
+  sub->add_option("--allow-dir", o->allow_dirs,
+                  "Folder operations may read files from besides the workspace (copy_paste, amplify, fit); repeatable");
+  sub->add_option("--allow-host", o->allow_hosts,
+                  "Host name the server answers besides 127.0.0.1, localhost and --bind (e.g. with --bind 0.0.0.0); repeatable");
+  sub->add_option("--time-limit", o->time_limit_s, "Longest one change may run (seconds); longer ones are stopped")
+      ->check(CLI::Range(1.0, 86400.0))
+      ->capture_default_str();
   sub->callback([o, sub] {
     // Like `terracl edit`: without BASE, a script's own "base" (relative to the script) is used.
     if (sub->count("base") == 0 && !o->script.empty()) {
@@ -33,6 +42,8 @@ CommandRegistrar reg(45, [](CLI::App& app) {
         o->base =
             resolve_path(script["base"].get<std::string>(), std::filesystem::path(o->script).parent_path().string());
     }
+    // Scripts that drive the API can fix the token; otherwise it is random and only the page has it.
+    if (const char* t = std::getenv("TERRACL_STUDIO_TOKEN")) o->token = t;
     StudioServer server(device(), *o);
     const int port = server.start();
     // One line a script can read to find the server (tests start it on port 0).

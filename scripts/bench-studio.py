@@ -12,12 +12,17 @@ Starts `terracl studio flat:NxN@10` on a free port and measures
 """
 import json
 import random
+import os
 import re
 import statistics
 import subprocess
 import sys
 import time
+import secrets
 import urllib.request
+
+# The API token the bench fixes for the server it starts (docs/studio.md).
+TOKEN = secrets.token_hex(16)
 
 
 def arg(name, default):
@@ -26,14 +31,14 @@ def arg(name, default):
 
 def request(base, method, path, body=None):
     data = None if body is None else json.dumps(body).encode()
-    req = urllib.request.Request(base + path, data=data, method=method, headers={"Content-Type": "application/json"})
+    req = urllib.request.Request(base + path, data=data, method=method, headers={"Content-Type": "application/json", "X-Terracl-Token": TOKEN})
     with urllib.request.urlopen(req, timeout=600) as r:
         return r.read()
 
 
 def start(cli, base):
     p = subprocess.Popen([cli, "-q", "studio", base, "--port", "0", "--workspace", "/tmp/terracl-bench-studio"],
-                         stdout=subprocess.PIPE, text=True)
+                         stdout=subprocess.PIPE, text=True, env={**os.environ, "TERRACL_STUDIO_TOKEN": TOKEN})
     for _ in range(50):
         m = re.search(r"(http://127\.0\.0\.1:\d+/)", p.stdout.readline())
         if m:

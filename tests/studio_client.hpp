@@ -28,6 +28,7 @@ struct Studio {
   httplib::Client client() const {
     httplib::Client c("127.0.0.1", port);
     c.set_read_timeout(120, 0);
+    c.set_default_headers({{"X-Terracl-Token", server->token()}});
     return c;
   }
 };

@@ -32,6 +32,7 @@ TEST(StudioApi, LakeToolFillsTheBasinAndServesTheWaterLayer) {
   StudioServer server(test::device(), o);
   httplib::Client c("127.0.0.1", server.start());
   c.set_read_timeout(120, 0);
+  c.set_default_headers({{"X-Terracl-Token", server.token()}});
 
   json st = json::parse(c.Get("/api/state")->body);
   EXPECT_EQ(st["lakes"], json::array());

@@ -82,11 +82,30 @@ function showParams() {
 }
 
 // ---- API ----
+// Every API call carries the token the server put in this page (docs/studio.md, "Threat model").
+const TOKEN = document.querySelector('meta[name="terracl-token"]').content;
+function apiFetch(path, opts = {}) {
+  return fetch(path, { ...opts, headers: { ...(opts.headers || {}), 'X-Terracl-Token': TOKEN } });
+}
+// A change that takes long (a big erosion, a replay) can be stopped: the Cancel button appears.
+let inFlight = 0;
 async function api(method, path, body) {
-  const r = await fetch(path, { method, headers: { 'Content-Type': 'application/json' }, body: body === undefined ? undefined : JSON.stringify(body) });
+  inFlight++;
+  const show = setTimeout(() => { $('cancel').hidden = false; }, 700);
+  let r;
+  try {
+    r = await apiFetch(path, { method, headers: { 'Content-Type': 'application/json' }, body: body === undefined ? undefined : JSON.stringify(body) });
+  } finally {
+    clearTimeout(show);
+    if (--inFlight === 0) $('cancel').hidden = true;
+  }
   const j = await r.json();
   if (!r.ok) { status('error: ' + j.error, true); throw new Error(j.error); }
   return j;
+}
+async function cancelRunning() {
+  await apiFetch('/api/cancel', { method: 'POST' });
+  status('cancelling...');
 }
 
 function status(msg, err) {
@@ -100,12 +119,12 @@ function decode(r, buf) {
 }
 
 async function fetchTerrain() {
-  const r = await fetch('/api/terrain.f32?max=' + PREVIEW_MAX);
+  const r = await apiFetch('/api/terrain.f32?max=' + PREVIEW_MAX);
   const t = decode(r, await r.arrayBuffer());
   t.water = null;
   // The lakes' water depth, sampled like the terrain; only fetched when the script has a lake.
   if (state && (state.lakes || []).length) {
-    const w = await fetch('/api/water.f32?max=' + PREVIEW_MAX);
+    const w = await apiFetch('/api/water.f32?max=' + PREVIEW_MAX);
     if (w.ok) {
       const z = new Float32Array(await w.arrayBuffer());
       if (z.length === t.z.length) t.water = z;
@@ -461,7 +480,7 @@ async function startErosion(params) {
   const t0 = performance.now();
   const n = Math.max(1, parseInt($('e_steps').value) || 1);
   while (eroding) {
-    const r = await fetch(`/api/erosion/step?steps=${n}&max=${PREVIEW_MAX}`, { method: 'POST' });
+    const r = await apiFetch(`/api/erosion/step?steps=${n}&max=${PREVIEW_MAX}`, { method: 'POST' });
     if (!r.ok) { eroding = false; status((await r.json()).error, true); break; }
     const t = decode(r, await r.arrayBuffer());
     frames++; steps += n;
@@ -625,14 +644,17 @@ $('export').onclick = async () => {
 };
 $('contours').onchange = () => drawMap();
 $('tool').onchange = showParams;
+$('cancel').onclick = cancelRunning;
 document.addEventListener('keydown', (e) => {
+  if (e.key === 'Escape' && inFlight) { cancelRunning(); return; }
   if (!(e.ctrlKey || e.metaKey) || e.target.tagName === 'TEXTAREA' || e.target.tagName === 'INPUT') return;
   if (e.key === 'z') { e.preventDefault(); change('POST', '/api/undo'); }
   if (e.key === 'y') { e.preventDefault(); change('POST', '/api/redo'); }
 });
 // Other tabs' edits show up within a second (one shared session).
 setInterval(async () => {
-  if (eroding || stroke || rect) return;
+  // Not while a change runs: polls would queue behind it and hold the browser's connections.
+  if (eroding || stroke || rect || inFlight) return;
   const s = await api('GET', '/api/state');
   if (state && s.version !== state.version) await refresh(s);
 }, 1000);

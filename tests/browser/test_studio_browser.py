@@ -15,6 +15,8 @@ import subprocess
 import sys
 import tempfile
 import time
+import secrets
+import shutil
 import urllib.request
 
 import numpy as np
@@ -26,7 +28,9 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import Select
 
-EXEMPLAR = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", "data", "crops", "presidential_128x96.tif"))
+# Operations read files inside the workspace only: the exemplar is copied there.
+EXEMPLAR_SRC = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", "data", "crops", "presidential_128x96.tif"))
+EXEMPLAR = "presidential_128x96.tif"
 
 gdal.UseExceptions()
 
@@ -42,14 +46,23 @@ def check(cond, msg):
     print("ok:", msg)
 
 
+# The studio's API wants its token (docs/studio.md, "Threat model"); the test fixes it.
+TOKEN = secrets.token_hex(16)
+
+
+def api_get(url):
+    return urllib.request.urlopen(urllib.request.Request(url, headers={"X-Terracl-Token": TOKEN}), timeout=60)
+
+
 def get_json(url):
-    with urllib.request.urlopen(url, timeout=60) as r:
+    with api_get(url) as r:
         return json.load(r)
 
 
 def start_studio(cli, ws):
     p = subprocess.Popen([cli, "-q", "studio", "flat:257x257@10", "--port", "0", "--workspace", ws],
-                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                         env={**os.environ, "TERRACL_STUDIO_TOKEN": TOKEN})
     t0 = time.time()
     while time.time() - t0 < 60:
         line = p.stdout.readline()
@@ -87,6 +100,7 @@ def main():
     tmp = tempfile.mkdtemp(prefix="terracl-browser-")
     ws = os.path.join(tmp, "ws")
     studio, url = start_studio(cli, ws)
+    shutil.copy(EXEMPLAR_SRC, os.path.join(ws, EXEMPLAR))
     opts = webdriver.ChromeOptions()
     for a in ["--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1700,860",
               "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]:
@@ -111,7 +125,7 @@ def main():
         st = get_json(url + "api/state")
         check(len(st["operations"]) == 1 and st["operations"][0]["op"] == "crest", "the stroke posted a crest operation")
         check(len(st["operations"][0]["points"]) >= 2, f"the crest has {len(st['operations'][0]['points'])} vertices")
-        with urllib.request.urlopen(url + "api/terrain.f32", timeout=60) as r:
+        with api_get(url + "api/terrain.f32") as r:
             z = np.frombuffer(r.read(), dtype=np.float32)
         op0 = st["operations"][0]
         check("elevation" not in op0, f"the crest is placed relative to the ground ({op0})")
@@ -184,7 +198,7 @@ def main():
         check(lake["op"] == "lake" and abs(lake["level"] - float(m.group(3)) - 15) < 0.11,
               f"the click posted a lake 15 m above the readout's elevation ({lake})")
         check(len(st["lakes"]) == 1 and st["lakes"][0]["cells"] > 0, f"the lake holds water ({st['lakes']})")
-        with urllib.request.urlopen(url + "api/water.f32", timeout=60) as r:
+        with api_get(url + "api/water.f32") as r:
             w = np.frombuffer(r.read(), dtype=np.float32)
         check(int((w > 0).sum()) == st["lakes"][0]["cells"], "the water layer covers the lake's cells")
         blue1 = driver.execute_script(blue)

@@ -3,6 +3,7 @@
 /// One shared session (an edit script on a base terrain) for every client.
 #include <memory>
 #include <string>
+#include <vector>
 #include <terracl/device.hpp>
 
 namespace terracl {
@@ -15,6 +16,20 @@ struct StudioOptions {
   int port = 8080;                                        ///< 0: any free port
   std::string workspace = ".";                            ///< scripts and exports stay inside this folder
   std::string three_dir = "/usr/share/javascript/three";  ///< Debian's libjs-three
+  /// Host names the server answers besides 127.0.0.1, localhost, [::1] and `bind` (requests
+  /// naming any other Host are refused: DNS rebinding).
+  std::vector<std::string> allow_hosts;
+  /// Folders operations may read files from besides the workspace (copy_paste, amplify, fit).
+  std::vector<std::string> allow_dirs;
+  /// The API token every /api request carries (X-Terracl-Token); empty: a random one. The page
+  /// gets it embedded; scripts read it from the page or set it here.
+  std::string token;
+  /// Longest a request may hold the session (seconds): a longer operation is stopped and the
+  /// session stays as it was.
+  double time_limit_s = 120;
+  /// A connection must deliver each request (headers and body) within this many seconds of its
+  /// start or of the previous answer, else it is closed (slow clients cannot hold the workers).
+  double request_timeout_s = 10;
 };
 
 /// The server; stop() (or the destructor) ends the background thread.
@@ -26,6 +41,8 @@ class StudioServer {
   int start();
   void stop();
   bool running() const;
+  /// The API token of this server (what the page embeds).
+  const std::string& token() const;
 
  private:
   struct Impl;

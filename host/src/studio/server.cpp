@@ -1,6 +1,7 @@
 // terracl studio's HTTP server (cpp-httplib): the embedded page, three.js from libjs-three, and
 // the JSON API of docs/studio.md over one shared Session, serialised by one mutex (the OpenCL
-// queue and the session are not thread-safe; edits are short).
+// queue and the session are not thread-safe). Requests pass the guard first (studio/guard.hpp);
+// each holds the session at most the time budget, and POST /api/cancel stops the one running.
 #include <fmt/format.h>
 #include <httplib.h>
 
@@ -13,11 +14,14 @@
 #include <mutex>
 #include <sstream>
 #include <terracl/error.hpp>
+#include <terracl/interrupt.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
 #include <terracl/studio.hpp>
 #include <thread>
 
+#include "studio/guard.hpp"
 #include "studio/session.hpp"
 
 namespace terracl::detail {
@@ -42,13 +46,20 @@ std::string mime_of(const std::string& name) {
   return "application/octet-stream";
 }
 
+// The CLI's limits on JSON (depth, size, numbers that fit a double) apply to requests too.
 json parse_body(const httplib::Request& req) {
   if (req.body.empty()) return json::object();
   try {
-    return json::parse(req.body);
-  } catch (const json::parse_error& e) {
-    throw RequestError(400, fmt::format("malformed JSON: {}", e.what()));
+    return parse_json_limited(req.body, "studio", "request body");
+  } catch (const Error& e) {
+    throw RequestError(400, e.what());
   }
+}
+
+/// {"error": message} (bytes that are not UTF-8, e.g. echoed from a binary file, are replaced).
+void send_error(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  res.set_content(json{{"error", message}}.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
 }
 
 size_t parse_index(const std::string& s, const char* what) {
@@ -109,38 +120,95 @@ struct StudioServer::Impl {
   StudioOptions opts;
   std::unique_ptr<studio::Session> session;
   std::mutex mutex;
-  httplib::Server server;
+  studio::GuardedServer server;
+  studio::RequestGuard guard;
   std::thread thread;
   int port = 0;
+  // The stop condition of the request holding the session (terracl/interrupt.hpp).
+  std::atomic<bool> cancel{false};
+  std::atomic<long long> deadline_ns{0};  ///< steady clock; 0 = no request running
+  int stop_check_id = -1;
 
-  Impl(Device& d, StudioOptions o) : device(d), opts(std::move(o)) {}
+  Impl(Device& d, StudioOptions o)
+      : device(d),
+        opts(std::move(o)),
+        server(opts.request_timeout_s, 32),
+        guard(opts.bind, opts.allow_hosts, opts.token.empty() ? studio::random_token() : opts.token) {}
+
+  static long long now_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+  bool should_stop() const {
+    const long long d = deadline_ns.load();
+    return d != 0 && (cancel.load() || now_ns() > d);
+  }
 
   void routes();
-  /// Runs `f` under the session lock and answers its JSON (or the error with its status).
+  /// Runs `f` under the session lock and within the time budget, and answers its JSON (or the
+  /// error with its status).
   template <typename F>
-  void api(httplib::Response& res, F&& f) {
+  void api(const httplib::Request& req, httplib::Response& res, F&& f) {
+    server.busy(req, true);
     try {
       std::lock_guard<std::mutex> lock(mutex);
+      cancel = false;
+      deadline_ns = now_ns() + static_cast<long long>(opts.time_limit_s * 1e9);
+      struct Done {
+        std::atomic<long long>& d;
+        ~Done() { d = 0; }
+      } done{deadline_ns};
       json out = f();
-      if (!out.is_null()) res.set_content(out.dump(), "application/json");
+      if (!out.is_null()) res.set_content(out.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
     } catch (const RequestError& e) {
-      res.status = e.status;
-      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+      send_error(res, e.status, e.what());
+    } catch (const Cancelled& e) {
+      if (cancel)
+        send_error(res, 409, fmt::format("cancelled (POST /api/cancel); the session is as it was: {}", e.what()));
+      else
+        send_error(res, 503, fmt::format("stopped after the studio's time budget of {} s (--time-limit); the session "
+                                         "is as it was: {}", opts.time_limit_s, e.what()));
     } catch (const Error& e) {  // validation (JSON paths) and library errors
-      res.status = 400;
-      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+      send_error(res, 400, e.what());
     } catch (const std::exception& e) {
-      res.status = 500;
-      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+      send_error(res, 500, e.what());
+    } catch (...) {
+      send_error(res, 500, "internal error");
     }
+    server.busy(req, false);
   }
 };
 
 void StudioServer::Impl::routes() {
   server.set_payload_max_length(16u << 20);
+  server.set_read_timeout(5, 0);
+  server.set_write_timeout(30, 0);
   auto& s = server;
-  s.Get("/", [](const httplib::Request&, httplib::Response& res) {
-    res.set_content(detail::embedded_web().at("index.html"), mime_of("index.html"));
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (auto refused = guard.check(req)) {
+      send_error(res, refused->status, refused->message);
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+  // Answers httplib gives itself (unknown route, a POST without Content-Length) get a JSON body too.
+  s.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    if (!res.body.empty()) return;
+    send_error(res, res.status, res.status == 404 ? fmt::format("no such resource: {} {}", req.method, req.path)
+                                                  : fmt::format("bad request (HTTP {})", res.status));
+  });
+  // Only the page itself, never inside another site's frame; the token it carries is not cached.
+  s.set_default_headers({{"X-Content-Type-Options", "nosniff"},
+                         {"X-Frame-Options", "DENY"},
+                         {"Content-Security-Policy", "frame-ancestors 'none'"},
+                         {"Referrer-Policy", "no-referrer"}});
+  s.Get("/", [this](const httplib::Request&, httplib::Response& res) {
+    std::string page = detail::embedded_web().at("index.html");
+    const std::string slot = "{{TERRACL_TOKEN}}";
+    const size_t at = page.find(slot);
+    if (at != std::string::npos) page.replace(at, slot.size(), guard.token());
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(page, mime_of("index.html"));
   });
   s.Get(R"(/web/([A-Za-z0-9_.-]+))", [](const httplib::Request& req, httplib::Response& res) {
     const auto& web = detail::embedded_web();
@@ -165,18 +233,18 @@ void StudioServer::Impl::routes() {
         });
 
   s.Get("/api/state",
-        [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->state(); }); });
+        [this](const httplib::Request& req, httplib::Response& res) { api(req, res, [&] { return session->state(); }); });
   s.Get("/api/script",
-        [this](const httplib::Request&, httplib::Response& res) { api(res, [&] { return session->script(); }); });
-  s.Get("/api/catalog", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+        [this](const httplib::Request& req, httplib::Response& res) { api(req, res, [&] { return session->script(); }); });
+  s.Get("/api/catalog", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       json c = json::array();
       for (const auto& [name, summary] : edit_operations()) c.push_back({{"op", name}, {"summary", summary}});
       return c;
     });
   });
   s.Post("/api/operations", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const json b = parse_body(req);
       if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
       std::optional<size_t> at;
@@ -186,7 +254,7 @@ void StudioServer::Impl::routes() {
     });
   });
   s.Put(R"(/api/operations/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const json b = parse_body(req);
       if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
       session->update(parse_index(req.matches[1], "index"), b["op"]);
@@ -194,20 +262,20 @@ void StudioServer::Impl::routes() {
     });
   });
   s.Delete(R"(/api/operations/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       session->remove(parse_index(req.matches[1], "index"));
       return session->state();
     });
   });
   s.Post(R"(/api/operations/(\d+)/move)", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const json b = parse_body(req);
       session->move(parse_index(req.matches[1], "index"), index_field(b, "to"));
       return session->state();
     });
   });
   s.Post(R"(/api/operations/(\d+)/visible)", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const json b = parse_body(req);
       if (!b.contains("visible") || !b["visible"].is_boolean())
         throw RequestError(400, "/visible: expected true or false");
@@ -215,20 +283,20 @@ void StudioServer::Impl::routes() {
       return session->state();
     });
   });
-  s.Post("/api/undo", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+  s.Post("/api/undo", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       session->undo();
       return session->state();
     });
   });
-  s.Post("/api/redo", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+  s.Post("/api/redo", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       session->redo();
       return session->state();
     });
   });
   s.Post("/api/script", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       session->load_script(parse_body(req));
       return session->state();
     });
@@ -239,25 +307,25 @@ void StudioServer::Impl::routes() {
     return b["path"].get<std::string>();
   };
   s.Post("/api/save", [this, path_of](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       session->save(path_of(parse_body(req)));
       return session->state();
     });
   });
   s.Post("/api/load", [this, path_of](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       session->load(path_of(parse_body(req)));
       return session->state();
     });
   });
   s.Post("/api/export", [this, path_of](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const std::string p = session->export_to(path_of(parse_body(req)));
       return json{{"written", p}};
     });
   });
   s.Get("/api/terrain.f32", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
       res.set_content(f32_body(session->terrain(), max_side, res), "application/octet-stream");
       res.set_header("X-Version", std::to_string(session->version()));
@@ -266,7 +334,7 @@ void StudioServer::Impl::routes() {
   });
   // The lakes' water depth on the live terrain, sampled as terrain.f32 (zeros without a lake).
   s.Get("/api/water.f32", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
       std::optional<Heightfield> w = session->water();
       if (!w) w = Heightfield(session->terrain().width, session->terrain().height, 0.f);
@@ -275,8 +343,8 @@ void StudioServer::Impl::routes() {
       return json();
     });
   });
-  s.Get("/api/terrain.tif", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+  s.Get("/api/terrain.tif", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       Heightfield h = session->canonical();
       h.georef = session->base().georef;
       const std::string tmp = temp_name(".tif");
@@ -286,8 +354,8 @@ void StudioServer::Impl::routes() {
       return json();
     });
   });
-  s.Get("/api/preview.png", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+  s.Get("/api/preview.png", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       render::Options ro;
       ro.mode = render::Mode::ShadedRelief;
       const std::string tmp = temp_name(".png");
@@ -297,14 +365,21 @@ void StudioServer::Impl::routes() {
       return json();
     });
   });
+  // Stops the request holding the session (an operation, a replay, an export), without waiting for
+  // the session: that request then answers 409 and the session stays as it was.
+  s.Post("/api/cancel", [this](const httplib::Request&, httplib::Response& res) {
+    const bool running = deadline_ns.load() != 0;
+    if (running) cancel = true;
+    res.set_content(json{{"cancelling", running}}.dump(), "application/json");
+  });
   s.Post("/api/erosion/start", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       session->erosion_start(parse_body(req));
       return session->state();
     });
   });
   s.Post("/api/erosion/step", [this](const httplib::Request& req, httplib::Response& res) {
-    api(res, [&] {
+    api(req, res, [&] {
       const int steps = int_param(req, "steps", 1, 1, 1000);
       const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
       const Heightfield bed = session->erosion_step(steps);
@@ -312,14 +387,14 @@ void StudioServer::Impl::routes() {
       return json();
     });
   });
-  s.Post("/api/erosion/commit", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+  s.Post("/api/erosion/commit", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       session->erosion_commit();
       return session->state();
     });
   });
-  s.Post("/api/erosion/cancel", [this](const httplib::Request&, httplib::Response& res) {
-    api(res, [&] {
+  s.Post("/api/erosion/cancel", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
       session->erosion_cancel();
       return session->state();
     });
@@ -327,7 +402,9 @@ void StudioServer::Impl::routes() {
 }
 
 StudioServer::StudioServer(Device& d, StudioOptions o) : m(std::make_unique<Impl>(d, std::move(o))) {
-  m->session = std::make_unique<studio::Session>(d, m->opts.base, m->opts.workspace);
+  if (!(m->opts.time_limit_s > 0) || !(m->opts.request_timeout_s > 0))
+    throw UsageError("studio", "--time-limit and the request timeout must be positive numbers of seconds");
+  m->session = std::make_unique<studio::Session>(d, m->opts.base, m->opts.workspace, m->opts.allow_dirs);
   if (!m->opts.script.empty()) {
     try {
       m->session->load_script(read_edit_script(m->opts.script));
@@ -349,7 +426,14 @@ int StudioServer::start() {
   }
   if (m->port <= 0)
     fail("studio", "cannot listen on {}:{} (in use, or not an address of this machine)", m->opts.bind, m->opts.port);
+  m->guard.set_port(m->port);
+  m->server.watch(m->port);
+  // Long operations poll stop_requested(): the studio's cancel and time budget join the CLI's Ctrl-C.
+  m->stop_check_id = add_stop_check([impl = m.get()] { return impl->should_stop(); });
   m->thread = std::thread([this] { m->server.listen_after_bind(); });
+  // httplib's stop() does nothing before the accept loop runs: a server stopped right after its
+  // start would leave that loop waiting for ever.
+  for (int i = 0; i < 5000 && !m->server.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   return m->port;
 }
 
@@ -357,8 +441,11 @@ void StudioServer::stop() {
   if (m->thread.joinable()) {
     m->server.stop();
     m->thread.join();
+    remove_stop_check(m->stop_check_id);
   }
 }
+
+const std::string& StudioServer::token() const { return m->guard.token(); }
 
 bool StudioServer::running() const { return m->server.is_running(); }
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <terracl/error.hpp>
+#include <terracl/interrupt.hpp>
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
 
@@ -30,14 +31,24 @@ constexpr size_t kMaxOps = 1000;
 
 }  // namespace
 
-Session::Session(Device& d, const std::string& base, const std::string& workspace) : m_device(d), m_base_spec(base) {
+Session::Session(Device& d, const std::string& base, const std::string& workspace,
+                 const std::vector<std::string>& allowed_dirs)
+    : m_device(d), m_base_spec(base) {
   fs::create_directories(workspace);
   m_workspace = fs::canonical(workspace).string();
+  m_file_roots = {m_workspace};
+  for (const std::string& dir : allowed_dirs) {
+    std::error_code ec;
+    const fs::path real = fs::canonical(dir, ec);
+    if (ec || !fs::is_directory(real)) throw UsageError("studio", fmt::format("--allow-dir '{}': not a folder", dir));
+    m_file_roots.push_back(real.string());
+  }
   if (auto flat = parse_flat_spec(base)) {
     m_base = std::move(*flat);
   } else {
     if (!path_exists(base)) throw UsageError("studio", fmt::format("base terrain '{}' not found", base));
     m_base_spec = fs::absolute(base).string();  // the saved script replays from anywhere
+    m_file_roots.push_back(fs::canonical(base).string());  // the page amplifies with the base's texture
     m_base = read_heightfield(base);
     m_nodata = nodata_cells(m_base);
     if (!m_nodata.empty()) fill_nodata_harmonic(m_base);  // as `terracl edit` does
@@ -94,6 +105,7 @@ void Session::apply_ops(const json& tail) {
 void Session::replay(const json& ops) {
   EditOptions o;
   o.base_dir = m_workspace;
+  o.file_roots = m_file_roots;
   auto fresh = std::make_unique<EditSession>(m_device, m_base, o);
   fresh->apply(full_script(ops));
   fresh->height();
@@ -125,8 +137,10 @@ void Session::commit(const json& ops, bool record_undo) {
     for (float z : m_edit->height().z)
       if (!std::isfinite(z)) throw RequestError(400, "/operations: these operations give non-finite elevations");
   } catch (...) {
-    // Validated operations can still fail while running (a file vanished): go back to the
-    // previous list so the session stays consistent.
+    // Validated operations can still fail while running (a file vanished, a cancel, the time
+    // budget): go back to the previous list so the session stays consistent. That replay rebuilds
+    // an accepted state, so a pending stop must not cut it short.
+    NoStopScope finish_rollback;
     replay(m_ops);
     throw;
   }
@@ -243,6 +257,9 @@ std::string Session::resolve(const std::string& rel, bool must_exist) const {
   std::error_code ec;  // a component longer than the file system allows, a loop of links
   const fs::path full = fs::weakly_canonical(fs::path(m_workspace) / p, ec);
   if (ec) throw RequestError(400, fmt::format("/path: '{}' is not a usable file name ({})", rel, ec.message()));
+  // A link whose target is missing would be replaced by the written file (or lead out later).
+  if (fs::is_symlink(fs::symlink_status(full, ec)))
+    throw RequestError(403, fmt::format("/path: '{}' is a link to a missing file: not written through", rel));
   const std::string f = full.string();
   if (f.size() <= m_workspace.size() || f.compare(0, m_workspace.size(), m_workspace) != 0 ||
       f[m_workspace.size()] != '/')

@@ -26,8 +26,9 @@ struct RequestError : std::runtime_error {
 class Session {
  public:
   /// `base`: a raster path or flat:WxH[@cell]; `workspace`: the only folder scripts and exports
-  /// may be read from or written to.
-  Session(Device& d, const std::string& base, const std::string& workspace);
+  /// may be read from or written to; operations may also read files in `allowed_dirs`.
+  Session(Device& d, const std::string& base, const std::string& workspace,
+          const std::vector<std::string>& allowed_dirs = {});
   ~Session();
 
   /// {version, width, height, cell_x, cell_y, operations, can_undo, can_redo, last, lakes}
@@ -85,6 +86,7 @@ class Session {
 
   Device& m_device;
   std::string m_base_spec, m_workspace;
+  std::vector<std::string> m_file_roots;  ///< where operations may read files (workspace + allowed)
   Heightfield m_base;
   std::vector<size_t> m_nodata;  ///< the base's nodata cells (filled for editing, nodata in exports)
   json m_header;  ///< units, seed, description of the script (everything but operations and base)
