@@ -67,9 +67,13 @@ void require_memory(const std::string& stage, const std::string& what, double ho
 void require_memory_info(const std::string& stage, const std::string& what, double host_bytes, double device_bytes,
                          double largest_buffer, const DeviceInfo* device, const std::string& hint) {
   const double host = double(host_memory_limit());
-  if (host_bytes > host)
-    fail(stage, "{} needs about {} of memory, and {} is available{}; {}", what, human_bytes(host_bytes),
-         human_bytes(host), std::getenv("TERRACL_MAX_MEMORY") ? " (TERRACL_MAX_MEMORY)" : "", hint);
+  // A CPU device (PoCL) allocates its buffers in host memory: they add to the host's share.
+  const bool shared = device && device->type == "CPU";
+  const double need = host_bytes + (shared ? device_bytes : 0);
+  if (need > host)
+    fail(stage, "{} needs about {} of memory{}, and {} is available{}; {}", what, human_bytes(need),
+         shared && device_bytes > 0 ? " (the CPU device's buffers included)" : "", human_bytes(host),
+         std::getenv("TERRACL_MAX_MEMORY") ? " (TERRACL_MAX_MEMORY)" : "", hint);
   if (!device) return;
   const DeviceInfo& d = *device;
   if (d.global_mem && device_bytes > double(d.global_mem))
