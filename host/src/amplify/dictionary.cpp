@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "io/checked_output.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -137,10 +139,7 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
   }
   put<uint64_t>(out, fnv1a(out));
   write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) fail("dictionary", "cannot write {}", path);
-    f.write(out.data(), std::streamsize(out.size()));
-    if (!f) fail("dictionary", "write error on {}", path);
+    io::write_file_checked(tmp, out);
   });
 }
 

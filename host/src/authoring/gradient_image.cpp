@@ -4,6 +4,8 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
+#include "io/oiio_checked.hpp"
+
 #include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
@@ -36,15 +38,12 @@ void write_gradient_image(const GradientField& g, const std::string& path) {
                        {"cell_y", g.georef.cell_y}, {"encoding", "(r, g) = 2^(p-1) (1 + g/m), staggered faces"}};
   if (std::isfinite(g.mean_elevation)) sc["mean_elevation"] = g.mean_elevation;
   write_atomically(path, [&](const std::string& tmp) {
-    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(tmp);
-    if (!out) fail("gradient-image", "{}: cannot create a PNG writer", path);
     OIIO::ImageSpec spec(g.width, g.height, 2, OIIO::TypeDesc::UINT16);
     spec.channelnames = {"R", "G"};
     spec.attribute("oiio:ColorSpace", "linear");
     spec.alpha_channel = -1;  // a PNG with 2 channels is grey + alpha: keep the values unassociated
     spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT16, px.data()) || !out->close())
-      fail("gradient-image", "{}: write failed: {}", path, out->geterror());
+    io::write_image_checked(tmp, spec, OIIO::TypeDesc::UINT16, px.data(), "gradient-image");
   });
   write_text_file_atomic(path + ".json", sc.dump(2) + "\n");
 }

@@ -17,6 +17,7 @@
 
 #include "io/gdal_common.hpp"
 #include "io/io_common.hpp"
+#include "io/checked_output.hpp"
 
 namespace terracl::io {
 namespace {
@@ -149,7 +150,7 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   CSLDestroy(opts);
   if (!m_ds) {
     if (!m_resumable) discard_temporary(m_tmp);
-    fail("io", "cannot create GeoTIFF {} ({})", path, last_gdal_error());
+    fail("io", "cannot create GeoTIFF {} ({})", path, name_output(last_gdal_error(), m_tmp));
   }
   if (g.has_geotransform) {
     double gt[6];
@@ -184,12 +185,12 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   GDALClose(raw);
   if (CPLGetLastErrorType() >= CE_Failure) {
     discard_temporary(m_tmp);
-    fail("io", "cannot create GeoTIFF {} ({})", path, last_gdal_error());
+    fail("io", "cannot create GeoTIFF {} ({})", path, name_output(last_gdal_error(), m_tmp));
   }
   m_tif = TIFFOpen(m_tmp.c_str(), "r+");
   if (!m_tif) {
     discard_temporary(m_tmp);
-    fail("io", "cannot reopen {} to write its blocks ({})", m_tmp, last_gdal_error());
+    fail("io", "cannot reopen {} to write its blocks ({})", m_path, name_output(last_gdal_error(), m_tmp));
   }
   m_block_written.assign(size_t(m_blocks_x) * size_t(m_blocks_y), 0);
 }
@@ -300,7 +301,7 @@ size_t GeoTiffWindowWriter::block_cells(uint32_t index) const {
 void GeoTiffWindowWriter::write_block(uint32_t index, const uint8_t* bytes, size_t n) {
   CPLErrorReset();
   if (TIFFWriteRawTile(m_tif, index, const_cast<uint8_t*>(bytes), tmsize_t(n)) != tmsize_t(n))
-    fail("io", "writing GeoTIFF {} failed at block {} ({})", m_path, index, last_gdal_error());
+    fail("io", "writing GeoTIFF {} failed at block {} ({})", m_path, index, name_output(last_gdal_error(), m_tmp));
   m_block_written[index] = 1;
 }
 
@@ -339,7 +340,7 @@ uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e, int band) {
     CPLErrorReset();
     if (m_ds->GetRasterBand(band)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, m_buffer.data(), hd.w, hd.h, GDT_Float32,
                                             0, 0) != CE_None)
-      fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y, last_gdal_error());
+      fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y, name_output(last_gdal_error(), m_tmp));
     return hd.checksum;
   }
   // The blocks the window covers in part: its cells join the others' there; a block is compressed
@@ -375,7 +376,7 @@ uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h, int band) {
   m_buffer.resize(size_t(w) * h);
   CPLErrorReset();
   if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
-    fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_tmp, x, y, w, h, last_gdal_error());
+    fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_path, x, y, w, h, name_output(last_gdal_error(), m_tmp));
   // As write(): a NaN stored without a nodata value makes commit() declare NaN as nodata.
   if (!m_nodata)
     for (float v : m_buffer)
@@ -401,10 +402,10 @@ void GeoTiffWindowWriter::flush() {
   CPLErrorReset();
   GDALClose(m_ds);
   m_ds = nullptr;
-  if (CPLGetLastErrorType() >= CE_Failure) fail("io", "{}: flushing to disk failed ({})", m_tmp, last_gdal_error());
+  if (CPLGetLastErrorType() >= CE_Failure) fail("io", "{}: flushing to disk failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
   m_ds =
       static_cast<GDALDataset*>(GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
-  if (!m_ds) fail("io", "{}: reopening after a flush failed ({})", m_tmp, last_gdal_error());
+  if (!m_ds) fail("io", "{}: reopening after a flush failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
 }
 
 void GeoTiffWindowWriter::commit() {
@@ -422,7 +423,7 @@ void GeoTiffWindowWriter::commit() {
   GDALClose(raw);
   if (CPLGetLastErrorType() >= CE_Failure) {
     discard_temporary(m_tmp);
-    fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
+    fail("io", "finishing GeoTIFF {} failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
   }
   commit_temporary(m_tmp, m_path);
 }
@@ -449,7 +450,7 @@ void GeoTiffWindowWriter::commit_raw() {
   TIFFClose(t);
   if (!flushed || CPLGetLastErrorType() >= CE_Failure) {
     discard_temporary(m_tmp);
-    fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
+    fail("io", "finishing GeoTIFF {} failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
   }
   // What is known only now goes through GDAL: as write_geotiff, NaN cells without a nodata value
   // of the source get NaN as nodata; metadata items added after the first window.
@@ -463,7 +464,7 @@ void GeoTiffWindowWriter::commit_raw() {
     }
     if (!ds || CPLGetLastErrorType() >= CE_Failure) {
       discard_temporary(m_tmp);
-      fail("io", "finishing GeoTIFF {} failed ({})", m_path, last_gdal_error());
+      fail("io", "finishing GeoTIFF {} failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
     }
   }
   commit_temporary(m_tmp, m_path);
