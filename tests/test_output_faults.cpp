@@ -70,6 +70,24 @@ TEST(OutputFaults, FailedTiledRunKeepsTheEarlierOutput) {
   EXPECT_FALSE(has_leftover(dir.dir()));
 }
 
+// A NUL ends the name at the system call: "o\u0000x.tif" wrote a file named "o". Names with
+// control characters are refused before anything runs, naming the pipeline field.
+TEST(OutputFaults, ControlCharactersInAPipelineFileNameAreRefused) {
+  test::TempDir dir;
+  for (const std::string bad : {std::string("o\0x.tif", 7), std::string("a\x01b.tif")}) {
+    const std::string p = write_pipeline(dir, "p.json", json::array({crop(), dir.path(bad)}));
+    const auto r = test::run_cli("run -q " + q(p));
+    EXPECT_EQ(r.exit_code, 2) << r.out;
+    EXPECT_NE(r.out.find("/1/filename"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("control characters"), std::string::npos) << r.out;
+    EXPECT_EQ(dir.count(), 1u) << "only the pipeline file";
+  }
+  const std::string p = write_pipeline(dir, "p.json", json::array({crop() + std::string("\0", 1), dir.path("o.tif")}));
+  const auto r = test::run_cli("run -q " + q(p));
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("NUL at byte"), std::string::npos) << r.out;
+}
+
 namespace {
 
 std::string convert(const std::string& in, const std::string& out) {

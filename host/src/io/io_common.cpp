@@ -318,6 +318,19 @@ bool path_exists(const std::string& path, bool regular) noexcept {
 }
 
 void check_path_length(const std::string& stage, const std::string& label, const std::string& path) {
+  // The system call stops at a NUL, so "o\0x.tif" wrote a file named "o"; other control
+  // characters make names that no one can type or see.
+  for (size_t i = 0; i < path.size(); ++i) {
+    const auto c = static_cast<unsigned char>(path[i]);
+    if (c >= 0x20 && c != 0x7f) continue;
+    std::string shown;
+    for (unsigned char d : path.substr(0, 80))
+      shown += d == 0 ? std::string("\\0") : (d < 0x20 || d == 0x7f) ? fmt::format("\\x{:02x}", d) : std::string(1, char(d));
+    throw UsageError(stage, fmt::format("{} '{}{}': a file name may not hold control characters ({} at byte {}); "
+                                        "expected a plain file name",
+                                        label, shown, path.size() > 80 ? "..." : "",
+                                        c == 0 ? std::string("NUL") : fmt::format("0x{:02x}", c), i));
+  }
   size_t longest = 0;
   for (const auto& part : fs::path(path)) longest = std::max(longest, part.string().size());
   // The temporary output name adds ".NAME.tmpPID-N" to the stem: leave room for it.
