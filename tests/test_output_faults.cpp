@@ -88,6 +88,26 @@ TEST(OutputFaults, ControlCharactersInAPipelineFileNameAreRefused) {
   EXPECT_NE(r.out.find("NUL at byte"), std::string::npos) << r.out;
 }
 
+// A tiled run killed part way and resumed writes an output of about the size of a straight run
+// (it was several times larger: blocks of the reopened partial file were rewritten, not reused).
+TEST(OutputFaults, ResumedTiledOutputIsAboutTheSizeOfAStraightRun) {
+  test::TempDir dir;
+  const std::string p = write_pipeline(dir, "p.json", json::array({crop(), dir.path("o.tif")}));
+  ASSERT_EQ(test::run_cli("run -q " + q(p) + " --tile 16").exit_code, 0);
+  const auto straight = fs::file_size(dir.path("o.tif"));
+  fs::remove(dir.path("o.tif"));
+  setenv("TERRACL_TEST_KILL_AFTER_TILES", "20", 1);
+  const auto killed = test::run_cli("run -q " + q(p) + " --tile 16 --resume");
+  unsetenv("TERRACL_TEST_KILL_AFTER_TILES");
+  ASSERT_NE(killed.exit_code, 0) << killed.out;
+  ASSERT_FALSE(fs::exists(dir.path("o.tif")));
+  const auto resumed = test::run_cli("run -q " + q(p) + " --tile 16 --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.out;
+  const auto size = fs::file_size(dir.path("o.tif"));
+  EXPECT_LE(double(size), 1.5 * double(straight)) << "resumed " << size << " bytes, straight " << straight;
+  EXPECT_EQ(read_heightfield(dir.path("o.tif")).z, read_heightfield(crop()).z);
+}
+
 namespace {
 
 std::string convert(const std::string& in, const std::string& out) {
