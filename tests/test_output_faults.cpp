@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <terracl/edit.hpp>
+#include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/stage.hpp>
 
@@ -145,6 +147,19 @@ TEST(OutputFaults, SidecarOfAnotherImageIsRefused) {
     const auto o = test::run_cli("convert -q " + q(a) + " " + q(dir.path("z.tif")));
     EXPECT_EQ(o.exit_code, 0) << ext << "\n" << o.out;
     fs::remove(dir.path("z.tif"));
+  }
+  // Gradient images carry their scale m in the sidecar: the same check.
+  GradientField g(16, 16), g2(16, 16);
+  for (size_t i = 0; i < g.size(); ++i) g.gx[i] = 0.1f * float(i % 7), g2.gx[i] = 0.3f * float(i % 5);
+  write_gradient_image(g, dir.path("g.png"));
+  write_gradient_image(g2, dir.path("g2.png"));
+  EXPECT_NO_THROW(read_gradient_image(dir.path("g.png")));
+  fs::copy_file(dir.path("g2.png"), dir.path("g.png"), fs::copy_options::overwrite_existing);
+  try {
+    read_gradient_image(dir.path("g.png"));
+    ADD_FAILURE() << "a gradient image beside another image's sidecar was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("do not belong together"), std::string::npos) << e.what();
   }
 }
 

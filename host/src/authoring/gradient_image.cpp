@@ -4,6 +4,8 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
+#include "io/checked_output.hpp"
+#include "io/io_common.hpp"
 #include "io/oiio_checked.hpp"
 
 #include <OpenImageIO/imageio.h>
@@ -44,6 +46,11 @@ void write_gradient_image(const GradientField& g, const std::string& path) {
     spec.alpha_channel = -1;  // a PNG with 2 channels is grey + alpha: keep the values unassociated
     spec.attribute("oiio:UnassociatedAlpha", 1);
     io::write_image_checked(tmp, spec, OIIO::TypeDesc::UINT16, px.data(), "gradient-image");
+    // The sidecar (renamed after the image) names the image it was written for: an image beside
+    // an older sidecar (a failed second rename) would decode with the wrong scale m.
+    const io::FileDigest d = io::file_digest(tmp);
+    sc["image_bytes"] = d.bytes;
+    sc["image_fnv1a64"] = io::hex64(d.fnv1a);
   });
   write_text_file_atomic(path + ".json", sc.dump(2) + "\n");
 }
@@ -57,6 +64,7 @@ GradientField read_gradient_image(const std::string& path) {
   } catch (const nlohmann::json::exception& e) {
     fail("gradient-image", "{}.json: malformed JSON: {}", path, e.what());
   }
+  io::check_sidecar_image(sc, path);
   if (!sc.contains("m") || !sc["m"].is_number() || !(sc["m"].get<double>() > 0))
     fail("gradient-image", "{}.json: needs \"m\" > 0 (the gradient scale)", path);
   const double m = sc["m"].get<double>();
