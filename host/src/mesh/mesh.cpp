@@ -18,7 +18,6 @@
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
 
-#include "io/checked_output.hpp"
 #include "mesh/mesh_gltf.hpp"
 
 namespace terracl::mesh {
