@@ -56,7 +56,8 @@ bool has_leftover(const fs::path& dir) {
 // earlier untiled run.
 TEST(OutputFaults, FailedTiledRunKeepsTheEarlierOutput) {
   test::TempDir dir;
-  const std::string p = write_pipeline(dir, "p.json", json::array({crop(), dir.path("c.tif"), "drainage", dir.path("acc.tif")}));
+  const std::string p =
+      write_pipeline(dir, "p.json", json::array({crop(), dir.path("c.tif"), "drainage", dir.path("acc.tif")}));
   const auto good = test::run_cli("run -q " + q(p));
   ASSERT_EQ(good.exit_code, 0) << good.out;
   const std::string before = file_bytes(dir.path("acc.tif"));

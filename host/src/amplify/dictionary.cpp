@@ -138,9 +138,7 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
         for (Eigen::Index j = 0; j < w.cols(); ++j) put<float>(out, w(i, j));
   }
   put<uint64_t>(out, fnv1a(out));
-  write_atomically(path, [&](const std::string& tmp) {
-    io::write_file_checked(tmp, out);
-  });
+  write_atomically(path, [&](const std::string& tmp) { io::write_file_checked(tmp, out); });
 }
 
 Dictionary load_dictionary(const std::string& path) {

@@ -6,7 +6,6 @@
 #include <memory>
 #include <string>
 
-
 namespace terracl::io {
 
 /// The output a temporary name (".NAME.tmpPID-N.ext", ".NAME.partial.ext") stands for; any other

@@ -60,7 +60,6 @@ void CPL_STDCALL GdalFirstError::handle(CPLErr e, CPLErrorNum, const char* m) {
 
 std::string GdalFirstError::message() const { return m_first.empty() ? last_gdal_error() : m_first; }
 
-
 void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
   GDALDataset* ds = &dataset;
   GDALRasterBand* band = ds->GetRasterBand(1);

@@ -340,7 +340,8 @@ uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e, int band) {
     CPLErrorReset();
     if (m_ds->GetRasterBand(band)->RasterIO(GF_Write, hd.x, hd.y, hd.w, hd.h, m_buffer.data(), hd.w, hd.h, GDT_Float32,
                                             0, 0) != CE_None)
-      fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y, name_output(last_gdal_error(), m_tmp));
+      fail("io", "writing GeoTIFF {} failed at window {},{} ({})", m_path, hd.x, hd.y,
+           name_output(last_gdal_error(), m_tmp));
     return hd.checksum;
   }
   // The blocks the window covers in part: its cells join the others' there; a block is compressed
@@ -376,7 +377,8 @@ uint64_t GeoTiffWindowWriter::checksum(int x, int y, int w, int h, int band) {
   m_buffer.resize(size_t(w) * h);
   CPLErrorReset();
   if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, m_buffer.data(), w, h, GDT_Float32, 0, 0) != CE_None)
-    fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_path, x, y, w, h, name_output(last_gdal_error(), m_tmp));
+    fail("io", "{}: reading back window {},{} {} x {} failed ({})", m_path, x, y, w, h,
+         name_output(last_gdal_error(), m_tmp));
   // As write(): a NaN stored without a nodata value makes commit() declare NaN as nodata.
   if (!m_nodata)
     for (float v : m_buffer)
@@ -402,7 +404,8 @@ void GeoTiffWindowWriter::flush() {
   CPLErrorReset();
   GDALClose(m_ds);
   m_ds = nullptr;
-  if (CPLGetLastErrorType() >= CE_Failure) fail("io", "{}: flushing to disk failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
+  if (CPLGetLastErrorType() >= CE_Failure)
+    fail("io", "{}: flushing to disk failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
   m_ds =
       static_cast<GDALDataset*>(GDALOpenEx(m_tmp.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE, nullptr, nullptr, nullptr));
   if (!m_ds) fail("io", "{}: reopening after a flush failed ({})", m_path, name_output(last_gdal_error(), m_tmp));
@@ -442,9 +445,11 @@ void GeoTiffWindowWriter::commit_compacted() {
   uint64_t used = 0;
   for (int b = 1; b <= m_bands; ++b)
     for (int by = 0; by < m_blocks_y; ++by)
-      for (int bx = 0; bx < m_blocks_x; ++bx)
-        if (const char* n = in->GetRasterBand(b)->GetMetadataItem(fmt::format("BLOCK_SIZE_{}_{}", bx, by).c_str(), "TIFF"))
+      for (int bx = 0; bx < m_blocks_x; ++bx) {
+        const std::string item = fmt::format("BLOCK_SIZE_{}_{}", bx, by);
+        if (const char* n = in->GetRasterBand(b)->GetMetadataItem(item.c_str(), "TIFF"))
           used += std::strtoull(n, nullptr, 10);
+      }
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(m_tmp, ec);
   if (ec || size <= used + used / 3 + 65536) {

@@ -325,7 +325,9 @@ void check_path_length(const std::string& stage, const std::string& label, const
     if (c >= 0x20 && c != 0x7f) continue;
     std::string shown;
     for (unsigned char d : path.substr(0, 80))
-      shown += d == 0 ? std::string("\\0") : (d < 0x20 || d == 0x7f) ? fmt::format("\\x{:02x}", d) : std::string(1, char(d));
+      shown += d == 0                      ? std::string("\\0")
+               : (d < 0x20 || d == 0x7f) ? fmt::format("\\x{:02x}", d)
+                                         : std::string(1, char(d));
     throw UsageError(stage, fmt::format("{} '{}{}': a file name may not hold control characters ({} at byte {}); "
                                         "expected a plain file name",
                                         label, shown, path.size() > 80 ? "..." : "",

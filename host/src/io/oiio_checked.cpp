@@ -53,7 +53,8 @@ std::unique_ptr<OIIO::ImageOutput> CheckedImageFile::open(const OIIO::ImageSpec&
 }
 
 void CheckedImageFile::check(const char* stage) const {
-  if (m_proxy && m_proxy->error) fail(stage, "writing {} failed: {}", output_name(m_tmp), std::strerror(m_proxy->error));
+  if (m_proxy && m_proxy->error)
+    fail(stage, "writing {} failed: {}", output_name(m_tmp), std::strerror(m_proxy->error));
 }
 
 void CheckedImageFile::finish(const char* stage) {

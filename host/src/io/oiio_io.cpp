@@ -201,7 +201,8 @@ void write_gradient(const GradientField& g, const std::string& path) {
   io::set_attributes(spec, g.georef, g.metadata);
   // As text: a float attribute would lose centimetres at mountain elevations.
   if (std::isfinite(g.mean_elevation)) spec.attribute("terracl:mean_elevation", fmt::format("{:.17g}", g.mean_elevation));
-  write_atomically(path, [&](const std::string& tmp) { io::write_image_checked(tmp, spec, OIIO::TypeDesc::FLOAT, px.data()); });
+  write_atomically(path,
+                   [&](const std::string& tmp) { io::write_image_checked(tmp, spec, OIIO::TypeDesc::FLOAT, px.data()); });
 }
 
 }  // namespace terracl

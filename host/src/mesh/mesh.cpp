@@ -251,7 +251,8 @@ void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
     // fflush first: its errno says why (a full disk), fclose's may not.
     const bool flushed = std::fflush(f) == 0;
     const int err = errno;
-    if (std::fclose(f) != 0 || !flushed) fail("mesh", "writing {} failed: {}", path, std::strerror(flushed ? errno : err));
+    if (std::fclose(f) != 0 || !flushed)
+      fail("mesh", "writing {} failed: {}", path, std::strerror(flushed ? errno : err));
   });
 }
 
