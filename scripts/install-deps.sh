@@ -19,6 +19,7 @@ PACKAGES=(
   chromium chromium-driver python3-selenium python3-gdal python3-numpy
   clang libclang-rt-14-dev
   dpkg-dev file
+  strace  # fault injection in the tests: ENOSPC / EIO on an output's writes and renames (docs/reliability.md)
   pybind11-dev python3-dev python3-pytest python3-setuptools python3-pip
 )
 

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "io/checked_output.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -136,12 +138,7 @@ void save_dictionary(const Dictionary& d, const std::string& path) {
         for (Eigen::Index j = 0; j < w.cols(); ++j) put<float>(out, w(i, j));
   }
   put<uint64_t>(out, fnv1a(out));
-  write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) fail("dictionary", "cannot write {}", path);
-    f.write(out.data(), std::streamsize(out.size()));
-    if (!f) fail("dictionary", "write error on {}", path);
-  });
+  write_atomically(path, [&](const std::string& tmp) { io::write_file_checked(tmp, out); });
 }
 
 Dictionary load_dictionary(const std::string& path) {

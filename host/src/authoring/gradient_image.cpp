@@ -4,6 +4,10 @@
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
+#include "io/checked_output.hpp"
+#include "io/io_common.hpp"
+#include "io/oiio_checked.hpp"
+
 #include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
@@ -36,15 +40,17 @@ void write_gradient_image(const GradientField& g, const std::string& path) {
                        {"cell_y", g.georef.cell_y}, {"encoding", "(r, g) = 2^(p-1) (1 + g/m), staggered faces"}};
   if (std::isfinite(g.mean_elevation)) sc["mean_elevation"] = g.mean_elevation;
   write_atomically(path, [&](const std::string& tmp) {
-    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(tmp);
-    if (!out) fail("gradient-image", "{}: cannot create a PNG writer", path);
     OIIO::ImageSpec spec(g.width, g.height, 2, OIIO::TypeDesc::UINT16);
     spec.channelnames = {"R", "G"};
     spec.attribute("oiio:ColorSpace", "linear");
     spec.alpha_channel = -1;  // a PNG with 2 channels is grey + alpha: keep the values unassociated
     spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT16, px.data()) || !out->close())
-      fail("gradient-image", "{}: write failed: {}", path, out->geterror());
+    io::write_image_checked(tmp, spec, OIIO::TypeDesc::UINT16, px.data(), "gradient-image");
+    // The sidecar (renamed after the image) names the image it was written for: an image beside
+    // an older sidecar (a failed second rename) would decode with the wrong scale m.
+    const io::FileDigest d = io::file_digest(tmp);
+    sc["image_bytes"] = d.bytes;
+    sc["image_fnv1a64"] = io::hex64(d.fnv1a);
   });
   write_text_file_atomic(path + ".json", sc.dump(2) + "\n");
 }
@@ -58,6 +64,7 @@ GradientField read_gradient_image(const std::string& path) {
   } catch (const nlohmann::json::exception& e) {
     fail("gradient-image", "{}.json: malformed JSON: {}", path, e.what());
   }
+  io::check_sidecar_image(sc, path);
   if (!sc.contains("m") || !sc["m"].is_number() || !(sc["m"].get<double>() > 0))
     fail("gradient-image", "{}.json: needs \"m\" > 0 (the gradient scale)", path);
   const double m = sc["m"].get<double>();

@@ -16,6 +16,23 @@ void init_gdal();
 /// CPLGetLastErrorMsg(), or "no details from GDAL".
 std::string last_gdal_error();
 
+/// Collects GDAL's first failure message while it lives (a handler pushed on this thread). After a
+/// failed write GDAL's last message is often a consequence ("not a TIFF" when it reads back what
+/// it could not write, "FillEmptyTiles() failed"); the first one says what went wrong.
+class GdalFirstError {
+ public:
+  GdalFirstError();
+  ~GdalFirstError();
+  GdalFirstError(const GdalFirstError&) = delete;
+  GdalFirstError& operator=(const GdalFirstError&) = delete;
+  /// The first failure seen, else last_gdal_error().
+  std::string message() const;
+
+ private:
+  static void CPL_STDCALL handle(CPLErr e, CPLErrorNum, const char* m);
+  std::string m_first;
+};
+
 struct DatasetCloser {
   void operator()(GDALDataset* d) const { GDALClose(d); }
 };

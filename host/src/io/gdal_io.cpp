@@ -3,6 +3,7 @@
 // sees why a file was refused.
 #include "io/gdal_common.hpp"
 #include "io/io_common.hpp"
+#include "io/checked_output.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/interrupt.hpp>
@@ -49,6 +50,15 @@ std::string last_gdal_error() {
   return (m && *m) ? std::string(m) : std::string("no details from GDAL");
 }
 
+GdalFirstError::GdalFirstError() { CPLPushErrorHandlerEx(&GdalFirstError::handle, this); }
+GdalFirstError::~GdalFirstError() { CPLPopErrorHandler(); }
+
+void CPL_STDCALL GdalFirstError::handle(CPLErr e, CPLErrorNum, const char* m) {
+  auto* self = static_cast<GdalFirstError*>(CPLGetErrorHandlerUserData());
+  if (e >= CE_Failure && self->m_first.empty() && m && *m) self->m_first = m;
+}
+
+std::string GdalFirstError::message() const { return m_first.empty() ? last_gdal_error() : m_first; }
 
 void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
   GDALDataset* ds = &dataset;
@@ -265,6 +275,8 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
     opts = CSLSetNameValue(opts, key.c_str(), kv.substr(eq + 1).c_str());
   }
   DatasetPtr mem = to_mem_dataset(h, type);
+  GdalFirstError first;
+  auto gdal_error = [&] { return name_output(first.message(), tmp_path); };
   CPLErrorReset();
   // GDAL calls this between the blocks it compresses and writes; FALSE makes CreateCopy stop (a
   // Ctrl-C during a seconds-long LZMA write used to wait for the whole file, then exit 0).
@@ -275,10 +287,11 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
     if (out) GDALClose(out);
     throw Cancelled("io", "the GeoTIFF write was stopped (Ctrl-C); no output was written");
   }
-  if (!out) fail("io", "cannot create GeoTIFF {} ({})", tmp_path, last_gdal_error());
+  if (!out) fail("io", "cannot write GeoTIFF {} ({})", output_name(tmp_path), gdal_error());
   CPLErrorReset();
   GDALClose(out);
-  if (CPLGetLastErrorType() >= CE_Failure) fail("io", "finishing GeoTIFF {} failed ({})", tmp_path, last_gdal_error());
+  if (CPLGetLastErrorType() >= CE_Failure)
+    fail("io", "writing GeoTIFF {} failed ({})", output_name(tmp_path), gdal_error());
   // Closing flushes the last blocks, after GDAL's last callback: a stop asked then still wins.
   if (stop_requested())
     throw Cancelled("io", "the GeoTIFF write was stopped (Ctrl-C); no output was written");

@@ -105,6 +105,7 @@ class GeoTiffWindowWriter {
   };
   void write_block(uint32_t index, const uint8_t* bytes, size_t n);
   void commit_raw();
+  void commit_compacted();  // resumable outputs
   size_t block_cells(uint32_t index) const;  // its cells inside the raster
   std::string m_path, m_tmp;
   int m_width = 0, m_height = 0, m_blocks_x = 0, m_blocks_y = 0, m_bands = 1;

@@ -2,6 +2,7 @@
 // renamed .tif is refused with a clear message rather than silently read by whichever library
 // recognises it.
 #include "io/io_common.hpp"
+#include "io/checked_output.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/warp.hpp>
@@ -141,19 +142,34 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
 
 namespace {
 
-// The JSON sidecar, written under its temporary name and renamed while the raster's own temporary
-// still exists, so a failure leaves neither file behind.
-void write_sidecar(const nlohmann::json& sc, const std::string& sc_path, const std::string& sc_tmp) {
+// An image with a JSON sidecar is committed as one unit: both are written under temporary names,
+// the sidecar records the image's size and FNV-1a so that a reader can tell a mismatched pair, then
+// the image is renamed into place and the sidecar last. A failure before the image's rename leaves
+// the earlier pair as it was; one between the two renames leaves a new image beside the old
+// sidecar, which the reader refuses (check_sidecar_size) rather than decoding it with the wrong
+// range (the sidecar used to be renamed first, so a failed image rename did exactly that).
+template <typename F>
+void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_image) {
+  const std::string sc_path = io::sidecar_path(path);
+  const std::string tmp = temporary_path_for(path), sc_tmp = temporary_path_for(sc_path);
   try {
-    std::ofstream out(sc_tmp);
-    out << sc.dump(2) << "\n";
-    out.close();
-    if (!out) fail("io", "cannot write sidecar {}", sc_path);
-    commit_temporary(sc_tmp, sc_path);
+    write_image(tmp);
+    const io::FileDigest d = io::file_digest(tmp);
+    sc["image_bytes"] = d.bytes;
+    sc["image_fnv1a64"] = io::hex64(d.fnv1a);
+    io::write_file_checked(sc_tmp, sc.dump(2) + "\n");
+  } catch (...) {
+    discard_temporary(tmp);
+    discard_temporary(sc_tmp);
+    throw;
+  }
+  try {
+    commit_temporary(tmp, path);
   } catch (...) {
     discard_temporary(sc_tmp);
     throw;
   }
+  commit_temporary(sc_tmp, sc_path);
 }
 
 }  // namespace
@@ -177,11 +193,7 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
     sc["height"] = h.height;
     sc["format"] = "npy-float32";
     sc["metadata"] = h.metadata;
-    const std::string sc_path = io::sidecar_path(path), sc_tmp = temporary_path_for(sc_path);
-    return write_atomically(path, [&](const std::string& tmp) {
-      io::write_npy(h, tmp);
-      write_sidecar(sc, sc_path, sc_tmp);
-    });
+    return write_with_sidecar(path, sc, [&](const std::string& tmp) { io::write_npy(h, tmp); });
   }
 
   // Quantised formats: the image and its sidecar are both written under temporary names and
@@ -208,14 +220,11 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   Metadata md = h.metadata;
   for (const auto& [k, v] : engine_scale_entries(es)) md.erase("engine:" + k);
   sc["metadata"] = md;
-  const std::string sc_path = io::sidecar_path(path);
-  const std::string sc_tmp = temporary_path_for(sc_path);
-  write_atomically(path, [&](const std::string& tmp) {
+  write_with_sidecar(path, sc, [&](const std::string& tmp) {
     if (f == FileFormat::PNG)
       io::write_png16(h, tmp, zmin, zmax);
     else
       io::write_raw16(h, tmp, zmin, zmax);
-    write_sidecar(sc, sc_path, sc_tmp);
   });
 }
 

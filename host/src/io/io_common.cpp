@@ -1,4 +1,5 @@
 #include "io/io_common.hpp"
+#include "io/checked_output.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
@@ -172,6 +173,24 @@ void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long 
       fail("io", "{}: sidecar says {} {}, the image has {}; the sidecar belongs to another file", sidecar_path(path), key,
            abbreviate(v.dump(), 30), actual);
   }
+  check_sidecar_image(sc, path);
+}
+
+void check_sidecar_image(const nlohmann::json& sc, const std::string& path) {
+  // Sidecars written before the check have neither field: they are read as before.
+  if (!sc.is_object() || (!sc.contains("image_bytes") && !sc.contains("image_fnv1a64"))) return;
+  const std::string sc_name = sidecar_path(path);
+  const auto& b = sc.value("image_bytes", nlohmann::json());
+  const auto& hsh = sc.value("image_fnv1a64", nlohmann::json());
+  if (!b.is_number_unsigned() || !hsh.is_string() || hsh.get<std::string>().size() != 16)
+    fail("io", "{}: 'image_bytes' must be a byte count and 'image_fnv1a64' 16 hex digits (they identify the image {})",
+         sc_name, path);
+  const FileDigest d = file_digest(path);
+  const std::string want = hsh.get<std::string>();
+  if (d.bytes != b.get<uint64_t>() || hex64(d.fnv1a) != want)
+    fail("io", "{} and its sidecar {} do not belong together: the sidecar was written for an image of {} bytes "
+         "(FNV-1a {}), the image has {} bytes (FNV-1a {}); one of them was replaced or its write failed, so "
+         "write the raster again", path, sc_name, b.get<uint64_t>(), abbreviate(want, 20), d.bytes, hex64(d.fnv1a));
 }
 
 std::pair<double, double> finite_range(const std::vector<float>& z) {
@@ -299,6 +318,21 @@ bool path_exists(const std::string& path, bool regular) noexcept {
 }
 
 void check_path_length(const std::string& stage, const std::string& label, const std::string& path) {
+  // The system call stops at a NUL, so "o\0x.tif" wrote a file named "o"; other control
+  // characters make names that no one can type or see.
+  for (size_t i = 0; i < path.size(); ++i) {
+    const auto c = static_cast<unsigned char>(path[i]);
+    if (c >= 0x20 && c != 0x7f) continue;
+    std::string shown;
+    for (unsigned char d : path.substr(0, 80))
+      shown += d == 0                      ? std::string("\\0")
+               : (d < 0x20 || d == 0x7f) ? fmt::format("\\x{:02x}", d)
+                                         : std::string(1, char(d));
+    throw UsageError(stage, fmt::format("{} '{}{}': a file name may not hold control characters ({} at byte {}); "
+                                        "expected a plain file name",
+                                        label, shown, path.size() > 80 ? "..." : "",
+                                        c == 0 ? std::string("NUL") : fmt::format("0x{:02x}", c), i));
+  }
   size_t longest = 0;
   for (const auto& part : fs::path(path)) longest = std::max(longest, part.string().size());
   // The temporary output name adds ".NAME.tmpPID-N" to the stem: leave room for it.
@@ -356,10 +390,7 @@ void discard_temporary(const std::string& tmp) {
 void write_text_file_atomic(const std::string& path, const std::string& content) {
   io::require_writable_folder(path);
   write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << content;
-    out.close();
-    if (!out) fail("io", "cannot write {}", path);
+    io::write_file_checked(tmp, content);
   });
 }
 

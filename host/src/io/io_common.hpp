@@ -40,6 +40,9 @@ void georef_from_json(const nlohmann::json& j, Georef& g, const std::string& whe
 void check_vertical_range(double zmin, double zmax, const std::string& where);
 /// Throws when the sidecar `sc` of `path` states a width/height other than the image's.
 void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long long width, long long height);
+/// Throws naming both files when the sidecar records an image size and FNV-1a ("image_bytes",
+/// "image_fnv1a64") that `path` does not have: the pair was not written together.
+void check_sidecar_image(const nlohmann::json& sc, const std::string& path);
 
 /// Min/max of the finite values; {0, 0} when none are finite.
 std::pair<double, double> finite_range(const std::vector<float>& z);

@@ -4,6 +4,7 @@
 // sidecar "<file>.npy.json" carries the cell size, georeferencing and metadata (as for RAW16);
 // values are elevations as stored, NaN is nodata.
 #include "io/io_common.hpp"
+#include "io/checked_output.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/json_limits.hpp>
@@ -179,12 +180,9 @@ void write_npy(const Heightfield& h, const std::string& tmp_path) {
     std::memcpy(&v, &h.z[i], 4);
     for (int b = 0; b < 4; ++b) bytes[4 * i + size_t(b)] = static_cast<unsigned char>(v >> (8 * b));
   }
-  std::ofstream out(tmp_path, std::ios::binary);
-  out.write(pre.data(), std::streamsize(pre.size()));
-  out.write(header.data(), std::streamsize(header.size()));
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-  out.close();
-  if (!out) fail("io", "writing {} failed", tmp_path);
+  std::string file = pre + header;
+  file.append(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  write_file_checked(tmp_path, file);
 }
 
 }  // namespace terracl::io

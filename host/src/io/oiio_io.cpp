@@ -2,6 +2,7 @@
 // terracl attributes. PNG16 output is linear: integer codes written as-is, so no gamma or dither.
 #include "io/io_common.hpp"
 #include "io/gradient_tiff.hpp"
+#include "io/oiio_checked.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/memory.hpp>
@@ -44,14 +45,6 @@ void set_attributes(ImageSpec& spec, const Georef& g, const Metadata& md) {
   // Without a DateTime, the EXR writer stamps the wall-clock time (capDate), so the same input
   // would give different bytes on every run (DESIGN: determinism).
   if (!md.count("DateTime")) spec.attribute("DateTime", "");
-}
-
-void write_image(const std::string& tmp_path, const ImageSpec& spec, TypeDesc type, const void* data) {
-  auto out = ImageOutput::create(tmp_path);
-  if (!out) fail("io", "cannot create {}: {}", tmp_path, OIIO::geterror());
-  if (!out->open(tmp_path, spec)) fail("io", "cannot open {} for writing: {}", tmp_path, out->geterror());
-  if (!out->write_image(type, data)) fail("io", "writing {} failed: {}", tmp_path, out->geterror());
-  if (!out->close()) fail("io", "closing {} failed: {}", tmp_path, out->geterror());
 }
 
 }  // namespace
@@ -120,7 +113,7 @@ void write_png16(const Heightfield& h, const std::string& tmp_path, double zmin,
   ImageSpec spec(h.width, h.height, 1, TypeDesc::UINT16);
   spec.attribute("oiio:ColorSpace", "Linear");
   spec.attribute("Software", "terracl");
-  write_image(tmp_path, spec, TypeDesc::UINT16, codes.data());
+  write_image_checked(tmp_path, spec, TypeDesc::UINT16, codes.data());
 }
 
 void write_exr(const Heightfield& h, const std::string& tmp_path) {
@@ -128,7 +121,7 @@ void write_exr(const Heightfield& h, const std::string& tmp_path) {
   spec.channelnames = {"Y"};
   spec.attribute("compression", "zip");
   set_attributes(spec, h.georef, h.metadata);
-  write_image(tmp_path, spec, TypeDesc::FLOAT, h.z.data());
+  write_image_checked(tmp_path, spec, TypeDesc::FLOAT, h.z.data());
 }
 
 
@@ -208,7 +201,8 @@ void write_gradient(const GradientField& g, const std::string& path) {
   io::set_attributes(spec, g.georef, g.metadata);
   // As text: a float attribute would lose centimetres at mountain elevations.
   if (std::isfinite(g.mean_elevation)) spec.attribute("terracl:mean_elevation", fmt::format("{:.17g}", g.mean_elevation));
-  write_atomically(path, [&](const std::string& tmp) { io::write_image(tmp, spec, OIIO::TypeDesc::FLOAT, px.data()); });
+  write_atomically(path,
+                   [&](const std::string& tmp) { io::write_image_checked(tmp, spec, OIIO::TypeDesc::FLOAT, px.data()); });
 }
 
 }  // namespace terracl

@@ -1,6 +1,7 @@
 // RAW16: headerless little-endian uint16 (Unreal/Unity heightmaps). Size and vertical range live
 // in the JSON sidecar "<file>.json" or come from options; without a size the file is ambiguous.
 #include "io/io_common.hpp"
+#include "io/checked_output.hpp"
 
 #include <terracl/error.hpp>
 #include <terracl/memory.hpp>
@@ -26,6 +27,7 @@ Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
     } catch (const nlohmann::json::exception& e) {
       fail("io", "{}: sidecar fields width/height/zmin/zmax have the wrong type ({})", sidecar_path(path), e.what());
     }
+    check_sidecar_image(sc, path);
     georef_from_json(sc, g, sidecar_path(path));
     if (sc.contains("metadata") && sc["metadata"].is_object())
       for (auto& [k, v] : sc["metadata"].items())
@@ -67,10 +69,7 @@ void write_raw16(const Heightfield& h, const std::string& tmp_path, double zmin,
     bytes[2 * i] = static_cast<unsigned char>(code & 0xff);
     bytes[2 * i + 1] = static_cast<unsigned char>(code >> 8);
   }
-  std::ofstream out(tmp_path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-  out.close();
-  if (!out) fail("io", "writing {} failed", tmp_path);
+  write_file_checked(tmp_path, bytes.data(), bytes.size());
 }
 
 }  // namespace terracl::io

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cerrno>
 #include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -204,13 +205,14 @@ namespace {
 void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
   write_atomically(path, [&](const std::string& tmp) {
     FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) fail("mesh", "cannot write {}", path);
+    if (!f) fail("mesh", "cannot write {}: {}", path, std::strerror(errno));
     std::string buf;
     buf.reserve(1 << 20);
     auto flush = [&] {
       if (std::fwrite(buf.data(), 1, buf.size(), f) != buf.size()) {
+        const int err = errno;
         std::fclose(f);
-        fail("mesh", "cannot write {} (disk full?)", path);
+        fail("mesh", "writing {} failed: {}", path, std::strerror(err));
       }
       buf.clear();
     };
@@ -246,7 +248,11 @@ void write_obj(const Mesh& m, const std::string& path, const Metadata& meta) {
       if (buf.size() > (1 << 20)) flush();
     }
     flush();
-    if (std::fclose(f) != 0) fail("mesh", "cannot write {}", path);
+    // fflush first: its errno says why (a full disk), fclose's may not.
+    const bool flushed = std::fflush(f) == 0;
+    const int err = errno;
+    if (std::fclose(f) != 0 || !flushed)
+      fail("mesh", "writing {} failed: {}", path, std::strerror(flushed ? errno : err));
   });
 }
 

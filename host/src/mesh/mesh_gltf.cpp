@@ -1,9 +1,13 @@
 #include "mesh/mesh_gltf.hpp"
 
+#include "io/checked_output.hpp"
+
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
 #include <tiny_gltf.h>
+
+#include <sstream>
 
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -126,9 +130,13 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   }
 
   write_atomically(path, [&](const std::string& tmp) {
+    // To memory, then one checked write: tinygltf's own file writer does not see a failed flush
+    // or close (a full disk gave a truncated .glb and exit 0).
     tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToFile(&model, tmp, true, true, !binary, binary))
+    std::ostringstream bytes;
+    if (!writer.WriteGltfSceneToStream(&model, bytes, !binary, binary))
       fail("mesh", "tinygltf could not write {}", path);
+    io::write_file_checked(tmp, bytes.str());
   });
 }
 

@@ -8,6 +8,9 @@
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
 
+#include "io/checked_output.hpp"
+#include "io/gdal_common.hpp"
+#include "io/oiio_checked.hpp"
 #include "render/picture_writer.hpp"
 
 namespace terracl::render {
@@ -22,8 +25,9 @@ std::string gdal_error() {
 }  // namespace
 
 struct PictureWriter::Impl {
-  std::string path;
+  std::string path, tmp;
   int width = 0, height = 0, channels = 0, next_row = 0;
+  std::unique_ptr<io::CheckedImageFile> png_file;  // declared first: outlives the writer using it
   std::unique_ptr<OIIO::ImageOutput> png;
   GDALDataset* tif = nullptr;
   ~Impl() {
@@ -35,12 +39,11 @@ PictureWriter::PictureWriter(const std::string& path, const std::string& tmp, in
                              const Georef& g, const Metadata& meta)
     : m(std::make_unique<Impl>()) {
   m->path = path;
+  m->tmp = tmp;
   m->width = width;
   m->height = height;
   m->channels = channels;
   if (format_from_extension(path) == FileFormat::PNG) {
-    m->png = OIIO::ImageOutput::create(tmp);
-    if (!m->png) fail("render", "cannot write {}: {}", path, OIIO::geterror());
     OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
     if (channels == 2) {
       spec.channelnames = {"Y", "A"};
@@ -50,7 +53,8 @@ PictureWriter::PictureWriter(const std::string& path, const std::string& tmp, in
     spec.attribute("oiio:UnassociatedAlpha", 1);
     spec.attribute("Software", "terracl");
     for (const auto& [k, v] : meta) spec.attribute(k, v);  // PNG text chunks
-    if (!m->png->open(tmp, spec)) fail("render", "cannot write {}: {}", path, m->png->geterror());
+    m->png_file = std::make_unique<io::CheckedImageFile>(tmp);
+    m->png = m->png_file->open(spec, "render");
     return;
   }
   // Like gdaldem's output: uncompressed, striped, the input's geotransform and CRS; bands
@@ -67,7 +71,7 @@ PictureWriter::PictureWriter(const std::string& path, const std::string& tmp, in
   if (alpha) opts = CSLSetNameValue(opts, "ALPHA", "YES");  // unassociated (ExtraSamples = 2)
   m->tif = drv->Create(tmp.c_str(), width, height, channels, GDT_Byte, opts);
   CSLDestroy(opts);
-  if (!m->tif) fail("render", "cannot create {} ({})", path, gdal_error());
+  if (!m->tif) fail("render", "cannot create {} ({})", path, io::name_output(gdal_error(), tmp));
   if (g.has_geotransform) {
     double gt[6];
     std::copy(g.geotransform.begin(), g.geotransform.end(), gt);
@@ -92,31 +96,41 @@ void PictureWriter::write_rows(int y0, int rows, const uint8_t* px) {
   if (rows == 0) return;
   m->next_row += rows;
   if (m->png) {
-    if (!m->png->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, px))
-      fail("render", "cannot write {}: {}", m->path, m->png->geterror());
+    const bool wrote = m->png->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, px);
+    m->png_file->check("render");
+    if (!wrote) fail("render", "cannot write {}: {}", m->path, m->png->geterror());
     return;
   }
   const int n = m->channels;
+  io::GdalFirstError first;
   CPLErrorReset();
   if (m->tif->RasterIO(GF_Write, 0, y0, m->width, rows, const_cast<uint8_t*>(px), m->width, rows, GDT_Byte, n,
                        nullptr, n, GSpacing(n) * m->width, 1, nullptr) != CE_None)
-    fail("render", "writing {} failed ({})", m->path, gdal_error());
+    fail("render", "writing {} failed ({})", m->path, io::name_output(first.message(), m->tmp));
   // Written strips leave GDAL's block cache now: a streamed render holds one strip, not the picture.
   m->tif->FlushCache();
+  if (CPLGetLastErrorType() >= CE_Failure)  // a full disk shows here, not at close
+    fail("render", "writing {} failed ({})", m->path, io::name_output(first.message(), m->tmp));
 }
 
 void PictureWriter::close() {
   if (m->next_row != m->height) fail("render", "{}: only {} of {} rows written", m->path, m->next_row, m->height);
   if (m->png) {
-    if (!m->png->close()) fail("render", "cannot write {}: {}", m->path, m->png->geterror());
+    const bool closed = m->png->close();
+    m->png_file->check("render");
+    if (!closed) fail("render", "cannot write {}: {}", m->path, m->png->geterror());
     m->png.reset();
+    m->png_file->finish("render");
+    m->png_file.reset();
     return;
   }
   GDALDataset* raw = m->tif;
   m->tif = nullptr;
+  io::GdalFirstError first;
   CPLErrorReset();
   GDALClose(raw);
-  if (CPLGetLastErrorType() >= CE_Failure) fail("render", "finishing {} failed ({})", m->path, gdal_error());
+  if (CPLGetLastErrorType() >= CE_Failure)
+    fail("render", "writing {} failed ({})", m->path, io::name_output(first.message(), m->tmp));
 }
 
 void write_image(const Image& img, const std::string& path, const Metadata& meta) {

@@ -32,6 +32,15 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   // Else the global stage reads the source directly; a warp always reads the level as the tile
   // writer stores it (float32, NaN as the level's nodata), which is what the untiled warp sees.
   const bool to_temp = has_global && (!seg.ops.empty() || warp);
+  // The global stage's input gets a file of its own: global_out may be the pipeline's final
+  // output, which must receive the finished result or nothing (a failed tiled drainage once left
+  // the elevations it read under the output's name, over an earlier good file).
+  std::string global_in;
+  if (to_temp) {
+    const fs::path o(global_out);
+    global_in = (o.parent_path() / fmt::format(".{}.input.tif", o.filename().string())).string();
+    m_temporaries.push_back(global_in);
+  }
   // Memory: the windows of one tile (about 3 copies of a float cell per level: the window, the
   // extracted input, the stage's output) and the writers' buffers.
   // A level that amplify made finer holds up^2 cells per cell of the source.
@@ -310,7 +319,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       if (call.op < 0) {
         if (!temp_writer) {
           const Level& L = levels[nl - 1];
-          temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_out, L.w, L.h, L.georef, Metadata{});
+          temp_writer = std::make_unique<io::GeoTiffWindowWriter>(global_in, L.w, L.h, L.georef, Metadata{});
         }
         temp_writer->put(call.payload);
         continue;
@@ -398,29 +407,24 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   // The global stage, from the segment's last level (a temporary file or the source) to its output.
   m_report.running = global->tag;
   auto t0 = Clock::now();
-  // From a temporary file, the result goes to a second one that then replaces it (and becomes the
-  // next segment's source).
+  // The writers below commit their output under global_out only once it is complete.
   const Level& L = levels[nl - 1];
-  const std::string out_path = to_temp ? global_out + ".filled.tif" : global_out;
+  const std::string& in_path = to_temp ? global_in : global_out;
+  const std::string& out_path = global_out;
   Metadata md = global_md;
   if (warp) {
     // Rank 0 warps; every rank needs the output grid for the next segment.
     const Heightfield hdr =
-        tile::warp_tiles(*global, global_out, L.georef, out_path, T, md, comm.rank() == 0, progress(global->tag));
+        tile::warp_tiles(*global, in_path, L.georef, out_path, T, md, comm.rank() == 0, progress(global->tag));
     m_warped = Level{hdr.width, hdr.height, hdr.georef};
     m_warped_metadata.clear();
     for (const auto& [k, v] : hdr.metadata)
       if (k.rfind("engine:", 0) == 0) m_warped_metadata[k] = v;
-    if (comm.rank() == 0 && to_temp) {
-      std::error_code ec;
-      fs::rename(out_path, global_out, ec);
-      if (ec) fail("run", "cannot rename {} to {}: {}", out_path, global_out, ec.message());
-    }
     comm.barrier();
     add_seconds(*global, std::chrono::duration<double>(Clock::now() - t0).count());
     return;
   }
-  std::shared_ptr<io::GdalWindowReader> in = to_temp ? std::make_shared<io::GdalWindowReader>(global_out) : seg.source;
+  std::shared_ptr<io::GdalWindowReader> in = to_temp ? std::make_shared<io::GdalWindowReader>(global_in) : seg.source;
   const bool drainage = global->type == "drainage";
   Georef out_georef = L.georef;
   if (drainage) {  // as run_drainage labels its output
@@ -447,14 +451,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     analysis::priority_flood_fill_tiled(L.w, L.h, T, read, write, progress(global->tag));
   }
   in.reset();
-  if (out) {
-    out->commit();
-    if (to_temp) {
-      std::error_code ec;
-      fs::rename(out_path, global_out, ec);
-      if (ec) fail("run", "cannot rename {} to {}: {}", out_path, global_out, ec.message());
-    }
-  }
+  if (out) out->commit();
   comm.barrier();  // the next segment reads what rank 0 wrote
   add_seconds(*global, std::chrono::duration<double>(Clock::now() - t0).count());
 }
