@@ -69,6 +69,57 @@ void write_file_checked(const std::string& tmp, const void* data, size_t size) {
   if (::close(fd) != 0) fail("io", "writing {} failed: {}", output_name(tmp), std::strerror(errno));
 }
 
+// A streambuf onto a file descriptor that keeps the first error instead of losing it in a
+// buffered flush (std::ofstream reports no reason, tinygltf checks nothing).
+struct CheckedFileStream::Buf : std::streambuf {
+  int fd = -1;
+  int error = 0;
+  std::vector<char> buffer = std::vector<char>(size_t(1) << 20);
+  Buf() { setp(buffer.data(), buffer.data() + buffer.size()); }
+  bool drain() {
+    const char* p = pbase();
+    size_t left = size_t(pptr() - pbase());
+    while (left > 0 && error == 0) {
+      const ssize_t n = ::write(fd, p, left);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) error = n < 0 ? errno : ENOSPC;
+      else p += n, left -= size_t(n);
+    }
+    setp(buffer.data(), buffer.data() + buffer.size());
+    return error == 0;
+  }
+  int_type overflow(int_type c) override {
+    if (!drain()) return traits_type::eof();
+    if (!traits_type::eq_int_type(c, traits_type::eof())) {
+      *pptr() = traits_type::to_char_type(c);
+      pbump(1);
+    }
+    return traits_type::not_eof(c);
+  }
+  int sync() override { return drain() ? 0 : -1; }
+};
+
+CheckedFileStream::CheckedFileStream(const std::string& tmp) : m_buf(std::make_unique<Buf>()), m_tmp(tmp) {
+  m_buf->fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (m_buf->fd < 0) fail("io", "cannot create {}: {}", output_name(tmp), std::strerror(errno));
+  m_stream = std::make_unique<std::ostream>(m_buf.get());
+}
+
+CheckedFileStream::~CheckedFileStream() {
+  if (m_buf->fd >= 0) ::close(m_buf->fd);
+}
+
+std::ostream& CheckedFileStream::stream() { return *m_stream; }
+
+void CheckedFileStream::finish() {
+  m_buf->drain();
+  const int fd = m_buf->fd;
+  m_buf->fd = -1;
+  // close() reports what a network or quota-limited file system only finds out at the end.
+  if (::close(fd) != 0 && m_buf->error == 0) m_buf->error = errno;
+  if (m_buf->error) fail("io", "writing {} failed: {}", output_name(m_tmp), std::strerror(m_buf->error));
+}
+
 FileDigest file_digest(const std::string& path) {
   FileDigest d;
   d.fnv1a = 0xcbf29ce484222325ull;

@@ -4,6 +4,7 @@
 // Messages name the output the user asked for, not the temporary file being written.
 #include <cstdint>
 #include <memory>
+#include <ostream>
 #include <string>
 
 namespace terracl::io {
@@ -21,6 +22,25 @@ void write_file_checked(const std::string& tmp, const void* data, size_t size);
 inline void write_file_checked(const std::string& tmp, const std::string& bytes) {
   write_file_checked(tmp, bytes.data(), bytes.size());
 }
+
+/// An output stream onto `tmp` whose every write and the close are checked, for writers that
+/// stream (tinygltf), so that a large output is not held in memory twice. finish() flushes and
+/// closes, and throws as write_file_checked does on the first error; the destructor only closes.
+class CheckedFileStream {
+ public:
+  explicit CheckedFileStream(const std::string& tmp);
+  ~CheckedFileStream();
+  CheckedFileStream(const CheckedFileStream&) = delete;
+  CheckedFileStream& operator=(const CheckedFileStream&) = delete;
+  std::ostream& stream();
+  void finish();
+
+ private:
+  struct Buf;
+  std::unique_ptr<Buf> m_buf;
+  std::unique_ptr<std::ostream> m_stream;
+  std::string m_tmp;
+};
 
 /// Size and FNV-1a (64-bit) of a file's bytes: a sidecar stores them so a reader can tell that the
 /// image beside it is the one it was written for.

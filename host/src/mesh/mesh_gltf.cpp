@@ -7,8 +7,6 @@
 
 #include <tiny_gltf.h>
 
-#include <sstream>
-
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -130,13 +128,13 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   }
 
   write_atomically(path, [&](const std::string& tmp) {
-    // To memory, then one checked write: tinygltf's own file writer does not see a failed flush
-    // or close (a full disk gave a truncated .glb and exit 0).
+    // Through a checked stream: tinygltf's own file writer does not see a failed flush or close
+    // (a full disk gave a truncated .glb and exit 0).
     tinygltf::TinyGLTF writer;
-    std::ostringstream bytes;
-    if (!writer.WriteGltfSceneToStream(&model, bytes, !binary, binary))
-      fail("mesh", "tinygltf could not write {}", path);
-    io::write_file_checked(tmp, bytes.str());
+    io::CheckedFileStream out(tmp);
+    const bool ok = writer.WriteGltfSceneToStream(&model, out.stream(), !binary, binary);
+    out.finish();  // a write error is named first: it is why tinygltf stopped
+    if (!ok) fail("mesh", "tinygltf could not write {}", path);
   });
 }
 
