@@ -169,7 +169,18 @@ Heightfield read_gdal(const std::string& path) {
       std::string(ds->GetRasterBand(2)->GetDescription()) == "gy")
     fail("io", "{}: is a gradient field (2 bands, gx and gy), not a heightfield; reconstruct it first "
          "(terracl reconstruct --gradient {} -o height.tif)", path, path);
+  check_single_band(*ds, path);
   return from_dataset(*ds, path);
+}
+
+void check_single_band(GDALDataset& ds, const std::string& path) {
+  if (const int n = ds.GetRasterCount(); n > 1)
+    fail("io", "{}: has {} bands; terracl reads single-band elevation rasters: pick the elevation band first "
+         "(gdal_translate -b 1 {} elevation.tif)", path, n, path);
+  if (ds.GetRasterCount() == 1 && GDALDataTypeIsComplex(ds.GetRasterBand(1)->GetRasterDataType()))
+    fail("io", "{}: holds complex numbers ({}); terracl reads real-valued elevations: convert it first "
+         "(gdal_translate -ot Float32 {} elevation.tif keeps the real part)", path,
+         GDALGetDataTypeName(ds.GetRasterBand(1)->GetRasterDataType()), path);
 }
 
 Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
