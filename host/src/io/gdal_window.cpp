@@ -36,7 +36,7 @@ GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   }
   try {
     check_tiff_blocks(*m_ds, path);  // a damaged block table: refused before GDAL allocates a block
-    check_single_band(*m_ds, path);
+    if (!is_gradient_tiff(*m_ds)) check_single_band(*m_ds, path);
   } catch (...) {
     GDALClose(m_ds);
     throw;

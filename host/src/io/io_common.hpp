@@ -76,6 +76,8 @@ void check_tiff_blocks(GDALDataset& ds, const std::string& path);
 /// Throws unless band 1 of `ds` is the whole elevation: a 3-band or complex-valued raster was read
 /// as its first band (or real part) without a word.
 void check_single_band(GDALDataset& ds, const std::string& path);
+/// A two-band gx/gy gradient GeoTIFF (gradient_tiff.cpp), which window readers read band by band.
+bool is_gradient_tiff(GDALDataset& ds);
 /// Width and height from a raster's header, pixels unread (GDAL); nullopt when it is not a
 /// raster GDAL opens (the core build: always), so that a size check is skipped, not failed.
 std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string& path);
