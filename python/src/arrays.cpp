@@ -6,8 +6,11 @@
 // non-contiguous or Fortran-ordered array is accepted and copied row by row.
 #include "common.hpp"
 
+#include <terracl/memory.hpp>
+
 #include <fmt/format.h>
 
+#include <cstdlib>
 #include <cstring>
 
 namespace terracl::python {
@@ -27,6 +30,16 @@ void copy_from_array(py::handle obj, const std::string& what, int& width, int& h
   if (w < 1 || h < 1) throw py::value_error(fmt::format("{}: the array is empty ({} x {})", what, h, w));
   if (w > 65536 || h > 65536)
     throw py::value_error(fmt::format("{}: {} x {} is larger than 65536 cells a side", what, h, w));
+  // The CLI's memory rule (terracl/memory.hpp) before the copy: a 65536^2 array wanted 16 GiB unasked.
+  const double bytes = double(w) * double(h) * sizeof(float), limit = double(host_memory_limit());
+  if (bytes > limit) {
+    PyErr_SetString(PyExc_MemoryError,
+                    fmt::format("{}: copying the {} x {} array needs {}, and {} is available{}; use a smaller array",
+                                what, h, w, human_bytes(bytes), human_bytes(limit),
+                                std::getenv("TERRACL_MAX_MEMORY") ? " (TERRACL_MAX_MEMORY)" : "")
+                        .c_str());
+    throw py::error_already_set();
+  }
   width = int(w);
   height = int(h);
   out.resize(size_t(w) * size_t(h));

@@ -75,15 +75,25 @@ class LazyDevice {
   std::unique_lock<std::mutex> m_lock;
 };
 
+/// Raises RuntimeError when this thread is inside a progress callback: the stage that called the
+/// callback holds the device lock, so a stage called from there waited for it forever (GIL released,
+/// 0 % CPU, deaf to Ctrl-C).
+void refuse_from_callback();
+/// Raises TypeError unless `callback` is None or callable (a number was reported as "cancelled").
+void require_callable(py::handle callback, const char* what);
+
 /// Progress callback of one call: Python `callback(fraction, message)` run with the GIL held; a
 /// False return or an exception asks the library to stop (it throws terracl::Cancelled). Also
 /// checks for Ctrl-C (KeyboardInterrupt) at each report, so that a long solve stays interruptible.
 class ProgressBridge {
  public:
-  explicit ProgressBridge(py::object callback = py::none()) : m_callback(std::move(callback)) {}
+  explicit ProgressBridge(py::object callback = py::none()) : m_callback(std::move(callback)) {
+    require_callable(m_callback, "progress");
+  }
   ~ProgressBridge();
   Progress progress();
-  /// Rethrows `e` as terracl.Cancelled, chained (`raise ... from`) to the callback's exception.
+  /// Rethrows `e` as terracl.Cancelled, chained (`raise ... from`) to the callback's exception;
+  /// a KeyboardInterrupt (Ctrl-C) is re-raised as itself, as Python code would.
   [[noreturn]] void raise_cancelled(const Cancelled& e);
   py::object m_callback;
 
@@ -92,9 +102,10 @@ class ProgressBridge {
 };
 
 /// Runs `f` with the GIL released and the device lock held; turns a Cancelled into
-/// terracl.Cancelled chained to the callback's exception.
+/// terracl.Cancelled chained to the callback's exception, or into KeyboardInterrupt on Ctrl-C.
 template <typename F>
 auto run_released(DeviceSlot* slot, ProgressBridge& bridge, F&& f) -> decltype(f()) {
+  refuse_from_callback();
   try {
     py::gil_scoped_release release;
     std::unique_lock<std::mutex> lock;

@@ -14,7 +14,20 @@ json to_json(py::handle v, const std::string& where) {
   if (depth > 64) throw py::value_error(fmt::format("{}: nested deeper than 64 levels", where));
   if (v.is_none()) return nullptr;
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>();
-  if (py::isinstance<py::int_>(v)) return v.cast<int64_t>();
+  if (py::isinstance<py::int_>(v)) {
+    // Beyond int64 (steps=2**63 said "Unable to cast"): a float, so that the option's range check
+    // names the accepted range.
+    int overflow = 0;
+    const long long i = PyLong_AsLongLongAndOverflow(v.ptr(), &overflow);
+    if (!overflow) return int64_t(i);
+    const double d = PyLong_AsDouble(v.ptr());
+    if (d == -1.0 && PyErr_Occurred()) {
+      PyErr_Clear();
+      throw py::value_error(fmt::format("{}: the integer {} is too large for any option", where.empty() ? "/" : where,
+                                        abbreviate(py::str(v).cast<std::string>(), 30)));
+    }
+    return d;
+  }
   if (py::isinstance<py::float_>(v)) return v.cast<double>();
   if (py::isinstance<py::str>(v)) return v.cast<std::string>();
   if (py::isinstance<py::dict>(v)) {
@@ -65,6 +78,25 @@ py::object from_json(const json& j) {
   }
 }
 
+namespace {
+thread_local int t_callback_depth = 0;  // progress callbacks running on this thread
+}  // namespace
+
+void refuse_from_callback() {
+  if (t_callback_depth > 0) {
+    PyErr_SetString(PyExc_RuntimeError,
+                    "terracl: a stage cannot be called from inside a progress callback (the running stage holds the "
+                    "device); call it after the stage returns");
+    throw py::error_already_set();
+  }
+}
+
+void require_callable(py::handle callback, const char* what) {
+  if (!callback.is_none() && !PyCallable_Check(callback.ptr()))
+    throw py::type_error(fmt::format("{} must be callable (callback(fraction, message)) or None, got {}", what,
+                                     py::str(callback.get_type().attr("__name__")).cast<std::string>()));
+}
+
 ProgressBridge::~ProgressBridge() {
   if (m_error) {
     py::gil_scoped_acquire gil;
@@ -80,6 +112,10 @@ Progress ProgressBridge::progress() {
       // Ctrl-C while the GIL was released: its KeyboardInterrupt surfaces here (main thread only).
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
       if (m_callback.is_none()) return true;
+      struct Depth {
+        Depth() { ++t_callback_depth; }
+        ~Depth() { --t_callback_depth; }
+      } depth;
       py::object r = m_callback(fraction, message);
       return r.is_none() || PyObject_IsTrue(r.ptr()) == 1;
     } catch (py::error_already_set& e) {
@@ -97,6 +133,12 @@ void ProgressBridge::raise_cancelled(const Cancelled& e) {
   py::object exc = py::reinterpret_borrow<py::object>(cancelled_type())(py::str(full));
   exc.attr("stage") = e.stage();
   exc.attr("message") = message;
+  if (m_error && PyErr_GivenExceptionMatches(m_error, PyExc_KeyboardInterrupt)) {
+    PyObject* interrupt = m_error;  // the reference goes to PyErr_Restore
+    m_error = nullptr;
+    PyErr_Restore(PyObject_Type(interrupt), interrupt, PyException_GetTraceback(interrupt));
+    throw py::error_already_set();
+  }
   if (m_error) {
     // Both steal a reference; the bridge's own goes to the cause, so the next call starts clean
     // (a Session keeps its bridge across calls).

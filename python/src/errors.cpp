@@ -1,6 +1,6 @@
 // Library exceptions as Python exceptions carrying the stage and the message:
 //   terracl.Error(RuntimeError) .stage .message;  terracl.UsageError(Error, ValueError);
-//   terracl.Cancelled(Error) (a progress callback returned False or raised, or Ctrl-C).
+//   terracl.Cancelled(Error) (a progress callback returned False or raised; Ctrl-C raises KeyboardInterrupt).
 // OpenCL errors become terracl.Error with stage "opencl", as the CLI prints them.
 #include "common.hpp"
 
@@ -35,7 +35,7 @@ void init_errors(py::module_& m) {
   g_usage = PyErr_NewExceptionWithDoc("terracl.UsageError", "Bad options or arguments (the CLI exits 2 for these).",
                                       usage_bases.ptr(), nullptr);
   g_cancelled = PyErr_NewExceptionWithDoc(
-      "terracl.Cancelled", "A progress callback returned False or raised (chained as __cause__), or Ctrl-C.", g_error,
+      "terracl.Cancelled", "A progress callback returned False or raised (chained as __cause__).", g_error,
       nullptr);
   m.attr("Error") = py::handle(g_error);
   m.attr("UsageError") = py::handle(g_usage);

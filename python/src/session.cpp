@@ -132,7 +132,10 @@ void init_session(py::module_& m) {
       .def_property_readonly("base", [](Session& s) { return s.base(); })
       .def_property(
           "progress", [](Session& s) { return s.bridge().m_callback; },
-          [](Session& s, py::object cb) { s.bridge().m_callback = std::move(cb); },
+          [](Session& s, py::object cb) {
+            require_callable(cb, "progress");
+            s.bridge().m_callback = std::move(cb);
+          },
           "callback(fraction, message) -> bool|None for later calls; False or an exception cancels")
       .def("hard_constraints", [](Session& s) {
         const auto& v = s.edit().hard_constraints();

@@ -164,15 +164,14 @@ def test_session_lake_is_a_water_layer_over_the_untouched_terrain():
 
 
 def test_ctrl_c_stops_a_long_stage(dem):
-    """SIGINT while the main thread is inside a stage (GIL released) cancels it at the next progress
-    report; the KeyboardInterrupt is the Cancelled's cause."""
+    """SIGINT while the main thread is inside a stage (GIL released) stops it at the next progress
+    report with KeyboardInterrupt itself, as any Python code stops on Ctrl-C."""
     import os
     import signal
     timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()
     t0 = time.perf_counter()
-    with pytest.raises(terracl.Cancelled) as e:
+    with pytest.raises(KeyboardInterrupt):
         terracl.erode(dem, steps=200000)
     timer.join()
-    assert isinstance(e.value.__cause__, KeyboardInterrupt)
     assert time.perf_counter() - t0 < 60

@@ -28,6 +28,16 @@ namespace edit {
 class EditState;
 }
 
+/// Limits of an edit script (the CLI and the studio share them). Operations: each is validated and
+/// replayed on every run, and a million took minutes and a gigabyte just to validate.
+constexpr size_t max_edit_operations = 1000;
+/// Largest magnitude, in metres, of a vertical quantity (elevation, height, depth, amplitude): ten
+/// times the relief of the Earth, and far below where float32 elevations lose all precision.
+constexpr double max_edit_vertical = 1e5;
+/// Largest horizontal length (radius, width, falloff...), in metres: more than twice the Earth's
+/// circumference.
+constexpr double max_edit_length = 1e8;
+
 /// Settings of an EditSession (`terracl edit`).
 struct EditOptions {
   SolverOptions solver;   ///< initial/progress are managed by the session

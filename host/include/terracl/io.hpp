@@ -15,6 +15,11 @@
 
 namespace terracl {
 
+/// Cell sizes every reader and writer accepts, in metres: a micrometre (lab scans) to 1000 km (a
+/// global grid of ten-degree cells). Outside them slopes, areas and mesh coordinates overflow to
+/// Inf or NaN. Elevations are finite numbers, or NaN for nodata (+-Inf is refused).
+constexpr double min_cell_size = 1e-6, max_cell_size = 1e6;
+
 /// What the file cannot say itself (sizes and ranges of RAW16/PNG), and nodata filling.
 struct ReadOptions {
   /// Vertical range that 0 and the largest code of a PNG/RAW16 map to (overrides the sidecar).

@@ -69,6 +69,8 @@ double Params::hlength(const std::string& key, std::optional<double> def, double
   }
   if (!std::isfinite(v) || (strict_min ? !(v > min) : !(v >= min)))
     param_error(where(key), fmt::format("expected a length {} {} m, got {} m", strict_min ? ">" : ">=", min, v));
+  if (v > max_edit_length)  // 1e300 m overflowed the support and falloff arithmetic
+    param_error(where(key), fmt::format("expected a length <= {:g} m, got {:g} m", max_edit_length, v));
   // An explicit width of 0 was accepted silently before (and drew nothing sensible): widths given
   // in a script must be positive; leaving the key out selects the default.
   if (key == "width" && has(key) && !(v > 0))
@@ -111,7 +113,10 @@ double Params::vlength(const std::string& key, std::optional<double> def) {
   const json& j = get(key);
   if (!j.is_number() && !j.is_string()) param_error(where(key), fmt::format("expected metres, got {}", j.dump()));
   const double v = unit_value(j, "m", where(key));
-  if (!std::isfinite(v)) param_error(where(key), "expected a finite value");
+  // Unbounded, a noise amplitude of 1e38 m gave +-8e37 m and 1e39 (Inf in float) did nothing.
+  if (!std::isfinite(v) || std::fabs(v) > max_edit_vertical)
+    param_error(where(key), fmt::format("expected metres within [{:g}, {:g}], got {:g} m", -max_edit_vertical,
+                                        max_edit_vertical, v));
   return v;
 }
 

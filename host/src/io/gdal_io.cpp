@@ -175,11 +175,26 @@ Heightfield read_gdal(const std::string& path) {
     require_raster_size("io", path, ds->GetRasterXSize(), ds->GetRasterYSize(), 8);  // before counting its blocks
   check_tiff_blocks(*ds, path);
   // A gradient GeoTIFF (gradient_tiff.cpp) is not a heightfield, as a two-channel EXR is not.
-  if (ds->GetRasterCount() == 2 && std::string(ds->GetRasterBand(1)->GetDescription()) == "gx" &&
-      std::string(ds->GetRasterBand(2)->GetDescription()) == "gy")
+  if (is_gradient_tiff(*ds))
     fail("io", "{}: is a gradient field (2 bands, gx and gy), not a heightfield; reconstruct it first "
          "(terracl reconstruct --gradient {} -o height.tif)", path, path);
+  check_single_band(*ds, path);
   return from_dataset(*ds, path);
+}
+
+bool is_gradient_tiff(GDALDataset& ds) {
+  return ds.GetRasterCount() == 2 && std::string(ds.GetRasterBand(1)->GetDescription()) == "gx" &&
+         std::string(ds.GetRasterBand(2)->GetDescription()) == "gy";
+}
+
+void check_single_band(GDALDataset& ds, const std::string& path) {
+  if (const int n = ds.GetRasterCount(); n > 1)
+    fail("io", "{}: has {} bands; terracl reads single-band elevation rasters: pick the elevation band first "
+         "(gdal_translate -b 1 {} elevation.tif)", path, n, path);
+  if (ds.GetRasterCount() == 1 && GDALDataTypeIsComplex(ds.GetRasterBand(1)->GetRasterDataType()))
+    fail("io", "{}: holds complex numbers ({}); terracl reads real-valued elevations: convert it first "
+         "(gdal_translate -ot Float32 {} elevation.tif keeps the real part)", path,
+         GDALGetDataTypeName(ds.GetRasterBand(1)->GetRasterDataType()), path);
 }
 
 Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {

@@ -37,6 +37,7 @@ GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   }
   try {
     check_tiff_blocks(*m_ds, path);  // a damaged block table: refused before GDAL allocates a block
+    if (!is_gradient_tiff(*m_ds)) check_single_band(*m_ds, path);
   } catch (...) {
     GDALClose(m_ds);
     throw;
@@ -55,6 +56,13 @@ GdalWindowReader::GdalWindowReader(const std::string& path) : m_path(path) {
   }
   m_header.metadata.erase("terracl:cell_x");
   m_header.metadata.erase("terracl:cell_y");
+  try {
+    check_cell_size(m_header.georef, path, cell_size_source(m_header.georef, path, false));
+  } catch (...) {
+    GDALClose(m_ds);
+    m_ds = nullptr;
+    throw;
+  }
 }
 
 GdalWindowReader::~GdalWindowReader() {

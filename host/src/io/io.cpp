@@ -129,11 +129,12 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
     cell("terracl:cell_x", h.georef.cell_x);
     cell("terracl:cell_y", h.georef.cell_y);
   }
+  // Every reader ends here, so one check covers GeoTIFF, OIIO, sidecar and option cell sizes: a NaN
+  // cell size gave all-NaN drainage and mesh vertices, 1e300 overflowed to Inf.
+  io::check_cell_size(h.georef, path,
+                      io::cell_size_source(h.georef, path, opts.cell_size && h.georef.cell_x == *opts.cell_size));
   // NaN is nodata; +-Inf is no elevation at all and made invalid meshes (glb "max": null).
-  for (size_t i = 0; i < h.z.size(); ++i)
-    if (std::isinf(h.z[i]))
-      fail("io", "{}: cell ({}, {}) holds an infinite elevation ({}); a DEM must hold finite numbers or nodata", path,
-           i % size_t(h.width), i / size_t(h.width), h.z[i]);
+  io::check_finite_or_nodata(h, path, "holds");
   h.metadata.erase("terracl:cell_x");
   h.metadata.erase("terracl:cell_y");
   if (opts.fill_nodata) fill_nodata_harmonic(h);
@@ -183,6 +184,14 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
     fail("io", "{}: refusing to write an empty or inconsistent heightfield ({} x {})", path, h.width, h.height);
   if (f != FileFormat::GeoTIFF && (!opts.creation_options.empty() || opts.cog || opts.output_type != "Float32"))
     fail("io", "{}: creation options, COG and output types apply to GeoTIFF outputs (.tif) only", path);
+  // The reader's rules, so that nothing terracl writes (from the CLI or Python) is refused on reading.
+  // Bad data handed to a writer is the caller's (Python: ValueError), as bad options are.
+  try {
+    io::check_finite_or_nodata(h, path, "would hold");
+    io::check_cell_size(h.georef, path, "the heightfield being written");
+  } catch (const Error& e) {
+    throw UsageError(e.stage(), std::string(e.what()).substr(e.stage().size() + 2));
+  }
   io::require_writable_folder(path);
   if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t, opts); });
   if (f == FileFormat::EXR) return write_atomically(path, [&](const std::string& t) { io::write_exr(h, t); });

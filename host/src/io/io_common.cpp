@@ -156,8 +156,29 @@ void georef_from_json(const nlohmann::json& j, Georef& g, const std::string& whe
   } catch (const nlohmann::json::exception& e) {
     fail("io", "{}: bad georeferencing field: {}", where, e.what());
   }
-  if (!(g.cell_x > 0) || !(g.cell_y > 0) || !std::isfinite(g.cell_x) || !std::isfinite(g.cell_y))
-    fail("io", "{}: cell_x/cell_y must be positive numbers", where);
+  check_cell_size(g, where, "the sidecar's cell_x/cell_y");
+}
+
+void check_cell_size(const Georef& g, const std::string& path, const std::string& source) {
+  auto ok = [](double c) { return std::isfinite(c) && c >= min_cell_size && c <= max_cell_size; };
+  if (!ok(g.cell_x) || !ok(g.cell_y))
+    fail("io", "{}: {} gives a cell size of {} x {} m; expected finite sizes within [{:g}, {:g}] m", path, source,
+         g.cell_x, g.cell_y, min_cell_size, max_cell_size);
+}
+
+void check_finite_or_nodata(const Heightfield& h, const std::string& path, const char* verb) {
+  for (size_t i = 0; i < h.z.size(); ++i)
+    if (std::isinf(h.z[i]))
+      fail("io", "{}: cell ({}, {}) {} an infinite elevation ({}); a DEM must hold finite numbers or nodata (NaN)",
+           path, i % size_t(h.width), i / size_t(h.width), verb, h.z[i]);
+}
+
+std::string cell_size_source(const Georef& g, const std::string& path, bool from_option) {
+  if (from_option) return "--cell-size";
+  if (g.has_geotransform) return "the geotransform's pixel size";
+  std::ifstream sc(sidecar_path(path));
+  if (sc) return "the sidecar " + sidecar_path(path) + " (cell_x/cell_y)";
+  return "the terracl:cell_x/cell_y metadata";
 }
 
 void check_vertical_range(double zmin, double zmax, const std::string& where) {

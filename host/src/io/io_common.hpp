@@ -35,9 +35,18 @@ nlohmann::json read_sidecar(const std::string& path);
 nlohmann::json georef_to_json(const Georef& g);
 void georef_from_json(const nlohmann::json& j, Georef& g, const std::string& where);
 
+/// Throws naming `path` and the cell when `h` holds +-Inf (NaN is nodata; Inf is no elevation).
+void check_finite_or_nodata(const Heightfield& h, const std::string& path, const char* verb);
+
 /// Throws naming `where` unless zmin and zmax are finite and zmin <= zmax (a swapped range would
 /// turn the terrain upside down without a word).
 void check_vertical_range(double zmin, double zmax, const std::string& where);
+/// Throws "io: <path>: <source> gives a cell size ...; expected ... within [min_cell_size, max_cell_size] m"
+/// unless both cell sizes are; `source` names where they came from (the geotransform, a sidecar...).
+void check_cell_size(const Georef& g, const std::string& path, const std::string& source);
+/// Where a raster read by read_heightfield got its cell size, for check_cell_size's message.
+std::string cell_size_source(const Georef& g, const std::string& path, bool from_option);
+
 /// Throws when the sidecar `sc` of `path` states a width/height other than the image's.
 void check_sidecar_size(const nlohmann::json& sc, const std::string& path, long long width, long long height);
 /// Throws naming both files when the sidecar records an image size and FNV-1a ("image_bytes",
@@ -67,6 +76,11 @@ Heightfield read_gdal(const std::string& path);
 /// Throws "io: <path>: ..." when a GeoTIFF's block size is out of all proportion to the raster or
 /// a block's offset + byte count lies past the end of the file, before GDAL allocates or reads it.
 void check_tiff_blocks(GDALDataset& ds, const std::string& path);
+/// Throws unless band 1 of `ds` is the whole elevation: a 3-band or complex-valued raster was read
+/// as its first band (or real part) without a word.
+void check_single_band(GDALDataset& ds, const std::string& path);
+/// A two-band gx/gy gradient GeoTIFF (gradient_tiff.cpp), which window readers read band by band.
+bool is_gradient_tiff(GDALDataset& ds);
 /// Width and height from a raster's header, pixels unread (GDAL); nullopt when it is not a
 /// raster GDAL opens (the core build: always), so that a size check is skipped, not failed.
 std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string& path);

@@ -61,6 +61,13 @@ Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
   if (io::sniff_magic(path) == "EXR" && spec.nchannels == 2)
     fail("io", "{}: is a gradient field (2 channels, gx and gy), not a heightfield; reconstruct it first "
          "(terracl reconstruct --gradient {} -o height.tif)", path, path);
+  // Grey + alpha reads the grey channel (alpha is transparency); any other second channel would be
+  // dropped without a word.
+  const bool grey_alpha = magic == "PNG" && spec.nchannels == 2 && spec.alpha_channel == 1;
+  if (spec.nchannels > 1 && !grey_alpha)
+    fail("io", "{}: has {} channels; terracl reads single-channel elevation images: keep the elevation channel "
+         "first (e.g. oiiotool {} --ch 0 -o elevation{})", path, spec.nchannels, path,
+         magic == "EXR" ? ".exr" : ".png");
   Heightfield h(spec.width, spec.height);
   const bool is_float = spec.format.basetype == TypeDesc::FLOAT || spec.format.basetype == TypeDesc::HALF ||
                         spec.format.basetype == TypeDesc::DOUBLE;
@@ -95,7 +102,7 @@ Heightfield read_oiio(const std::string& path, const ReadOptions& opts) {
     if (opts.zmin) zmin = *opts.zmin;
     if (opts.zmax) zmax = *opts.zmax;
     check_vertical_range(zmin, zmax, sc.is_null() ? path : sidecar_path(path));
-    if (sc.is_null() && sixteen && !opts.zmin && !opts.zmax && !opts.cell_size) warn_sidecarless(path, "16-bit PNG");
+    if (sc.is_null() && sixteen && !opts.zmin && !opts.zmax && !opts.cell_size) warn_sidecarless(path, magic == "EXR" ? "integer EXR" : "16-bit PNG");
     Quantiser q{zmin, zmax, max_code};
     if (sixteen) quantiser_from_sidecar(sc, q, sidecar_path(path));
     for (size_t i = 0; i < codes.size(); ++i) h.z[i] = q.decode(unsigned(std::round(codes[i] * scale_back)));

@@ -4,6 +4,7 @@
 #include "io/checked_output.hpp"
 
 #include <terracl/error.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/memory.hpp>
 
 #include <cmath>
@@ -11,6 +12,18 @@
 #include <fstream>
 
 namespace terracl::io {
+
+namespace {
+// get<int>() wraps: a width of 1e20 was reported as -2147483648. Read the number as given, then bound it.
+int sidecar_side(const nlohmann::json& sc, const char* key, const std::string& path) {
+  const nlohmann::json& v = sc.at(key);
+  const double d = v.is_number() ? v.get<double>() : NAN;
+  if (!v.is_number() || d != std::floor(d) || d < 1 || d > double(max_raster_side))
+    fail("io", "{}: {} is {}; expected a whole number of cells in [1, {}]", sidecar_path(path), key,
+         abbreviate(v.dump(), 30), max_raster_side);
+  return int(d);
+}
+}  // namespace
 
 Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
   const nlohmann::json sc = read_sidecar(path);
@@ -20,8 +33,8 @@ Heightfield read_raw16(const std::string& path, const ReadOptions& opts) {
   Metadata md;
   if (!sc.is_null()) {
     try {
-      if (!w && sc.contains("width")) w = sc.at("width").get<int>();
-      if (!h && sc.contains("height")) h = sc.at("height").get<int>();
+      if (!w && sc.contains("width")) w = sidecar_side(sc, "width", path);
+      if (!h && sc.contains("height")) h = sidecar_side(sc, "height", path);
       if (sc.contains("zmin")) zmin = sc.at("zmin").get<double>();
       if (sc.contains("zmax")) zmax = sc.at("zmax").get<double>();
     } catch (const nlohmann::json::exception& e) {
