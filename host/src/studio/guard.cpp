@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <netdb.h>
 #include <netinet/in.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -164,6 +165,10 @@ void GuardedServer::scan() {
     Conn& c = it->second;
     if (fresh) c.deadline = now + m_timeout;
     c.seen = true;
+    // Unread bytes: the connection waits for a free worker (a worker reading a slow client takes
+    // each byte as it comes). Its time starts when a worker takes it.
+    int unread = 0;
+    if (::ioctl(int(fd), FIONREAD, &unread) == 0 && unread > 0) c.deadline = now + m_timeout;
     if (!c.busy && now > c.deadline) ::shutdown(int(fd), SHUT_RDWR);  // the worker's read fails; it closes
   }
   for (auto it = m_conns.begin(); it != m_conns.end();) it = it->second.seen || it->second.busy ? std::next(it) : m_conns.erase(it);
