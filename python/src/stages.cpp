@@ -11,6 +11,7 @@
 #include <terracl/pipeline.hpp>
 #include <terracl/render.hpp>
 #include <terracl/stage.hpp>
+#include <terracl/stage_memory.hpp>
 
 #include <fmt/format.h>
 
@@ -72,6 +73,22 @@ py::object run_stage(const std::string& name, py::object input, const py::dict& 
   if (s.input == DataKind::Gradient && data.current != DataKind::Gradient)
     throw UsageError(s.name, "needs a terracl.GradientField as input");
   const std::string spec = device_spec(device);
+  // The memory column, as `terracl <stage>` checks it before running (a CPU device's buffers
+  // count as host memory): a stage too large is refused here instead of killed half-way.
+  {
+    RasterShape shape;
+    if (data.height) shape = {data.height->width, data.height->height};
+    if (data.gradient) shape = {data.gradient->width, data.gradient->height};
+    const MemoryNeed need = memory_of(s.name, resolved, shape);
+    std::optional<DeviceInfo> info;
+    if (need.device > 0) {
+      try {
+        info = choose_device(spec);
+      } catch (const Error&) {  // no device: the stage itself reports it
+      }
+    }
+    require_stage_memory_info(s.name, "terracl." + s.name + "()", need, info ? &*info : nullptr);
+  }
   ProgressBridge bridge(progress);
   Metadata prov = provenance("terracl." + s.name + "()");
   prov["terracl:stages"] = json::array({json{{"type", s.name}, {"options", resolved}}}).dump();

@@ -118,3 +118,12 @@ def test_progress_must_be_callable():
     s = terracl.Session("flat:16x16@10")
     with pytest.raises(TypeError):
         s.progress = "yes"
+
+
+def test_a_stage_too_large_for_memory_is_refused_before_it_runs(monkeypatch):
+    # The CLI's memory column: erosion needs ~168 B per cell on a CPU device (docs/reliability.md).
+    monkeypatch.setenv("TERRACL_MAX_MEMORY", "64M")
+    h = np.full((1024, 1024), 100, np.float32)
+    with pytest.raises(terracl.Error) as e:
+        terracl.erode(h, steps=1)
+    assert "needs about" in str(e.value) and "TERRACL_MAX_MEMORY" in str(e.value), str(e.value)

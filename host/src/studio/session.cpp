@@ -26,8 +26,8 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 // Undo history is bounded so a long session cannot grow without limit.
 constexpr size_t kMaxUndo = 200;
-// A script may hold at most this many operations (each is validated and replayed).
-constexpr size_t kMaxOps = 1000;
+// A script may hold at most as many operations as `terracl edit` takes.
+constexpr size_t kMaxOps = max_edit_operations;
 
 }  // namespace
 
