@@ -635,6 +635,11 @@ TEST(Reliability, FuzzFindingsAreRefusedBeforeTheLibrariesAllocate) {
                      "65535 bands");
   expect_clean_error(test::run_cli("info " + q(exr)), 1,
                      "window.exr: EXR header attribute 'displayWindow' (box2i) states 3 bytes; a box2i is 16 bytes", "box2i");
+  // A 1.7 KB EXR whose data window claims 11993100 x 2049 cells: OpenEXR sized its line buffers
+  // from it when opening the file (30 s in the fuzz harness).
+  const std::string wide = write_text(dir, "wide.exr", file_text(corpus + "seed_exr_data_window_huge").substr(1));
+  expect_clean_error(test::run_cli("info " + q(wide)), 1,
+                     "wide.exr: the EXR data window is 11993100 x 2049 cells; each side must be 1 to 65536 cells", "window");
   // A 12 x 9 PNG whose tEXt chunk claims more bytes than the file has: libpng allocated ~2 GB first.
   const std::string png = write_text(dir, "text.png", file_text(corpus + "seed_png_text_length").substr(1));
   expect_clean_error(test::run_cli("info " + q(png)), 1, "text.png: PNG chunk 'tEXt' claims", "the file is damaged");
