@@ -3,6 +3,7 @@
 #include <httplib.h>
 
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <terracl/studio.hpp>
@@ -17,11 +18,13 @@ struct Studio {
   test::TempDir dir;
   std::unique_ptr<StudioServer> server;
   int port = 0;
-  explicit Studio(const std::string& base = "flat:129x97@10") {
+  /// `tweak` changes the options before the server starts (time limits, allowed folders).
+  explicit Studio(const std::string& base = "flat:129x97@10", const std::function<void(StudioOptions&)>& tweak = {}) {
     StudioOptions o;
     o.base = base;
     o.port = 0;
     o.workspace = dir.path("ws");
+    if (tweak) tweak(o);
     server = std::make_unique<StudioServer>(test::device(), o);
     port = server->start();
   }

@@ -122,16 +122,8 @@ TEST(StudioSecurity, OperationsReadOnlyFilesInsideTheWorkspace) {
   test::TempDir allowed;
   write_heightfield(h, allowed.path("shared.tif"));
 
-  StudioOptions o;
-  test::TempDir dir;
-  o.base = "flat:129x97@10";
-  o.port = 0;
-  o.workspace = dir.path("ws");
-  o.allow_dirs = {allowed.path("")};
-  StudioServer server(test::device(), o);
-  httplib::Client c("127.0.0.1", server.start());
-  c.set_read_timeout(120, 0);
-  c.set_default_headers({{"X-Terracl-Token", server.token()}});
+  test::Studio s("flat:129x97@10", [&](StudioOptions& o) { o.allow_dirs = {allowed.path("")}; });
+  auto c = s.client();
   auto paste = [](const std::string& source) {
     return json{{"op", {{"op", "copy_paste"}, {"source", source}, {"from", {0, 0, 20, 20}}, {"to", {500, 400}}}}};
   };
@@ -143,7 +135,7 @@ TEST(StudioSecurity, OperationsReadOnlyFilesInsideTheWorkspace) {
   r = add(paste("../../" + fs::relative(outside.path("secret.tif"), "/").string()));
   EXPECT_EQ(status_of(r), 400);
   // A link inside the workspace that leads out is followed before the check.
-  fs::create_symlink(outside.path("secret.tif"), dir.path("ws/link.tif"));
+  fs::create_symlink(outside.path("secret.tif"), s.dir.path("ws/link.tif"));
   r = add(paste("link.tif"));
   EXPECT_EQ(status_of(r), 400);
   EXPECT_NE(error_of(r).find("outside the workspace"), std::string::npos) << error_of(r);
@@ -158,7 +150,7 @@ TEST(StudioSecurity, OperationsReadOnlyFilesInsideTheWorkspace) {
   EXPECT_EQ(json::parse(c.Get("/api/state")->body)["operations"].size(), 0u);
 
   // Inside the workspace, and in a folder given with --allow-dir, files are read.
-  write_heightfield(h, dir.path("ws/mine.tif"));
+  write_heightfield(h, s.dir.path("ws/mine.tif"));
   r = add(paste("mine.tif"));
   EXPECT_EQ(status_of(r), 200) << (r ? r->body : "");
   r = add(paste(allowed.path("shared.tif")));
@@ -175,14 +167,8 @@ TEST(StudioSecurity, OperationsReadOnlyFilesInsideTheWorkspace) {
 }
 
 TEST(StudioSecurity, SlowClientsDoNotBlockOthers) {
-  StudioOptions o;
-  test::TempDir dir;
-  o.base = "flat:65x65@10";
-  o.port = 0;
-  o.workspace = dir.path("ws");
-  o.request_timeout_s = 2;
-  StudioServer server(test::device(), o);
-  const int port = server.start();
+  test::Studio s("flat:65x65@10", [](StudioOptions& o) { o.request_timeout_s = 2; });
+  const int port = s.port;
   // More dribbling connections than the server has workers (32): a header byte each second.
   constexpr int kSlow = 40;
   std::vector<int> socks;
@@ -217,9 +203,7 @@ TEST(StudioSecurity, SlowClientsDoNotBlockOthers) {
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto t0 = std::chrono::steady_clock::now();
-  httplib::Client c("127.0.0.1", port);
-  c.set_default_headers({{"X-Terracl-Token", server.token()}});
-  c.set_read_timeout(20, 0);
+  auto c = s.client();
   EXPECT_EQ(status_of(c.Get("/api/state")), 200);
   EXPECT_LT(seconds_since(t0), 4.0) << "a normal request waited behind slow clients";
   // The slow ones are closed after the 2 s request timeout.
@@ -256,16 +240,8 @@ TEST(StudioSecurity, ALongOperationIsCancelledAndTheSessionStaysAsItWas) {
 }
 
 TEST(StudioSecurity, TheTimeBudgetStopsALongOperation) {
-  StudioOptions o;
-  test::TempDir dir;
-  o.base = "flat:129x97@10";
-  o.port = 0;
-  o.workspace = dir.path("ws");
-  o.time_limit_s = 1;
-  StudioServer server(test::device(), o);
-  httplib::Client c("127.0.0.1", server.start());
-  c.set_read_timeout(60, 0);
-  c.set_default_headers({{"X-Terracl-Token", server.token()}});
+  test::Studio s("flat:129x97@10", [](StudioOptions& o) { o.time_limit_s = 1; });
+  auto c = s.client();
   const auto t0 = std::chrono::steady_clock::now();
   auto r = c.Post("/api/operations", erode_op(100000).dump(), "application/json");
   EXPECT_EQ(status_of(r), 503);
