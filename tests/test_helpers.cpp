@@ -1,5 +1,4 @@
 #include "test_helpers.hpp"
-#include <gdal_priv.h>
 
 #include <algorithm>
 #include <array>
@@ -111,25 +110,6 @@ std::vector<double> d8_area(const Heightfield& h, double cell_area) {
     if (to >= 0) area[to] += area[i];
   }
   return area;
-}
-
-}  // namespace terracl::test
-
-namespace terracl::test {
-
-void write_unchecked_tiff(const Heightfield& h, const std::string& path) {
-  GDALAllRegister();
-  GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
-  ASSERT_NE(drv, nullptr);
-  GDALDataset* ds = drv->Create(path.c_str(), h.width, h.height, 1, GDT_Float32, nullptr);
-  ASSERT_NE(ds, nullptr);
-  double gt[6] = {0, h.georef.cell_x, 0, 0, 0, -h.georef.cell_y};
-  if (h.georef.has_geotransform) std::copy(h.georef.geotransform.begin(), h.georef.geotransform.end(), gt);
-  ds->SetGeoTransform(gt);
-  std::vector<float> z = h.z;
-  EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, h.width, h.height, z.data(), h.width, h.height,
-                                           GDT_Float32, 0, 0), CE_None);
-  GDALClose(ds);
 }
 
 }  // namespace terracl::test

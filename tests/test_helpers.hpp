@@ -37,10 +37,6 @@ struct CmdResult {
 /// Runs the built `terracl` with `args` (a shell-quoted string).
 CmdResult run_cli(const std::string& args);
 
-/// Writes `h` as a float32 GeoTIFF with GDAL alone (its geotransform when it has one, else square
-/// cells of cell_x), skipping terracl's writer checks: for files terracl itself would refuse to write.
-void write_unchecked_tiff(const Heightfield& h, const std::string& path);
-
 /// Path of a file under the repository's data/ folder.
 std::string data_path(const std::string& rel);
 

@@ -19,6 +19,24 @@ using namespace terracl;
 
 namespace {
 
+// A float32 GeoTIFF written with GDAL alone (its geotransform when it has one, else square cells
+// of cell_x), past terracl's writer checks: for files terracl itself refuses to write.
+void write_unchecked_tiff(const Heightfield& h, const std::string& path) {
+  GDALAllRegister();
+  GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
+  ASSERT_NE(drv, nullptr);
+  GDALDataset* ds = drv->Create(path.c_str(), h.width, h.height, 1, GDT_Float32, nullptr);
+  ASSERT_NE(ds, nullptr);
+  double gt[6] = {0, h.georef.cell_x, 0, 0, 0, -h.georef.cell_y};
+  if (h.georef.has_geotransform) std::copy(h.georef.geotransform.begin(), h.georef.geotransform.end(), gt);
+  ds->SetGeoTransform(gt);
+  std::vector<float> z = h.z;
+  EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, h.width, h.height, z.data(), h.width, h.height,
+                                           GDT_Float32, 0, 0),
+            CE_None);
+  GDALClose(ds);
+}
+
 std::string bytes_of(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
@@ -117,7 +135,7 @@ TEST(RenderStream, RefusesWhatItCannotStreamAndNamesBadInput) {
   Heightfield h = test::smooth_terrain(20, 30);
   h.at(3, 25) = INFINITY;
   const std::string in = tmp.path("inf.tif");
-  test::write_unchecked_tiff(h, in);  // write_heightfield refuses infinite elevations
+  write_unchecked_tiff(h, in);  // write_heightfield refuses infinite elevations
   try {
     render::render_file(in, tmp.path("x.png"), render::Options{}, nullptr, {}, 8);
     FAIL() << "expected an error";
