@@ -14,13 +14,6 @@ namespace {
 
 std::string q(const std::string& s) { return "'" + s + "'"; }
 
-std::string file_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 }  // namespace
 
 TEST(CliDocs, InfoAndMetricsReportTheSameSlope) {
@@ -65,7 +58,7 @@ TEST(CliDocs, ValidateTableStaysAlignedPastTenStages) {
 }
 
 TEST(CliDocs, PipelinesDocDescribesTheDemoAsItIs) {
-  const std::string doc = file_text(test::data_path("../docs/pipelines.md"));
+  const std::string doc = test::file_bytes(test::data_path("../docs/pipelines.md"));
   EXPECT_EQ(doc.find("as those stages land"), std::string::npos) << "amplify and erode are in the demo already";
   std::ifstream in(test::data_path("pipelines/demo.json"));
   const auto demo = nlohmann::json::parse(in);

@@ -1,6 +1,8 @@
 #include "test_helpers.hpp"
 
 #include <algorithm>
+#include <sstream>
+#include <fstream>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -110,6 +112,17 @@ std::vector<double> d8_area(const Heightfield& h, double cell_area) {
     if (to >= 0) area[to] += area[i];
   }
   return area;
+}
+
+}  // namespace terracl::test
+
+namespace terracl::test {
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
 }
 
 }  // namespace terracl::test

@@ -37,6 +37,9 @@ struct CmdResult {
 /// Runs the built `terracl` with `args` (a shell-quoted string).
 CmdResult run_cli(const std::string& args);
 
+/// The whole content of a file (empty when it cannot be read).
+std::string file_bytes(const std::string& path);
+
 /// Path of a file under the repository's data/ folder.
 std::string data_path(const std::string& rel);
 

@@ -26,13 +26,6 @@ namespace {
 std::string crop() { return test::data_path("crops/presidential_128x96.tif"); }
 std::string q(const std::string& s) { return "'" + s + "'"; }
 
-std::string file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 std::string write_pipeline(const test::TempDir& dir, const std::string& name, const json& p) {
   std::ofstream(dir.path(name), std::ios::binary) << p.dump();
   return dir.path(name);
@@ -60,11 +53,11 @@ TEST(OutputFaults, FailedTiledRunKeepsTheEarlierOutput) {
       write_pipeline(dir, "p.json", json::array({crop(), dir.path("c.tif"), "drainage", dir.path("acc.tif")}));
   const auto good = test::run_cli("run -q " + q(p));
   ASSERT_EQ(good.exit_code, 0) << good.out;
-  const std::string before = file_bytes(dir.path("acc.tif"));
+  const std::string before = test::file_bytes(dir.path("acc.tif"));
   const auto r = test::run_cli("run -q " + q(p) + " --tile 32");
   ASSERT_EQ(r.exit_code, 1) << r.out;
   EXPECT_NE(r.out.find("no lower neighbour"), std::string::npos) << r.out;
-  EXPECT_EQ(file_bytes(dir.path("acc.tif")), before) << "the failed run replaced acc.tif";
+  EXPECT_EQ(test::file_bytes(dir.path("acc.tif")), before) << "the failed run replaced acc.tif";
   EXPECT_FALSE(has_leftover(dir.dir()));
   // With no earlier file, a failed run leaves none.
   fs::remove(dir.path("acc.tif"));
@@ -132,7 +125,7 @@ TEST(OutputFaults, SidecarOfAnotherImageIsRefused) {
     Heightfield h = read_heightfield(crop());
     h.z[h.width * 10 + 10] += 100.0f;
     write_heightfield(h, b);
-    const json sc = json::parse(file_bytes(a + ".json"));
+    const json sc = json::parse(test::file_bytes(a + ".json"));
     ASSERT_TRUE(sc.contains("image_bytes") && sc.contains("image_fnv1a64")) << sc.dump();
     fs::copy_file(b, a, fs::copy_options::overwrite_existing);
     const auto r = test::run_cli("convert -q " + q(a) + " " + q(dir.path("z.tif")));
@@ -209,7 +202,7 @@ TEST_P(OutputFaultsFormat, InjectedWriteAndRenameErrorsLeaveRightOrAbsentOutputs
   const std::string out = dir.path("out." + ext), sc = out + ".json";
   const bool sidecar = ext == "png" || ext == "npy" || ext == "r16";
   convert(crop(), out);
-  const std::string before = file_bytes(out), sc_before = sidecar ? file_bytes(sc) : "";
+  const std::string before = test::file_bytes(out), sc_before = sidecar ? test::file_bytes(sc) : "";
   struct Fault {
     std::string inject, reason;
   };
@@ -223,8 +216,8 @@ TEST_P(OutputFaultsFormat, InjectedWriteAndRenameErrorsLeaveRightOrAbsentOutputs
     EXPECT_NE(r.out.find(f.reason), std::string::npos) << what << "\n" << r.out;
     EXPECT_NE(r.out.find(out), std::string::npos) << what << ": names the output\n" << r.out;
     EXPECT_EQ(r.out.find(".tmp"), std::string::npos) << what << ": names a temporary\n" << r.out;
-    EXPECT_EQ(file_bytes(out), before) << what << ": the earlier output changed";
-    if (sidecar) EXPECT_EQ(file_bytes(sc), sc_before) << what << ": the earlier sidecar changed";
+    EXPECT_EQ(test::file_bytes(out), before) << what << ": the earlier output changed";
+    if (sidecar) EXPECT_EQ(test::file_bytes(sc), sc_before) << what << ": the earlier sidecar changed";
     EXPECT_FALSE(has_temporary(dir.dir())) << what;
   }
   if (sidecar) {

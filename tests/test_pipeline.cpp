@@ -17,13 +17,6 @@ namespace {
 
 std::string crop() { return test::data_path("crops/presidential_128x96.tif"); }
 
-std::string file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // The message of the UsageError that validating `doc` throws ("" when it validates).
 std::string validation_error(const json& doc, const StageRegistry& reg = StageRegistry::instance()) {
   try {
@@ -267,10 +260,10 @@ TEST(Pipeline, RunsOnACropWithProvenance) {
   EXPECT_EQ(stages[0]["options"]["filename"], dir.path("holed.tif"));
   EXPECT_EQ(stages[1]["type"], "fill_nodata");
   // The RAW16 sidecar carries the same provenance.
-  const json sidecar = json::parse(file_bytes(dir.path("out/filled.r16.json")));
+  const json sidecar = json::parse(test::file_bytes(dir.path("out/filled.r16.json")));
   EXPECT_EQ(sidecar["metadata"]["terracl:pipeline_hash"], p.hash());
   // The resolved file is a pipeline that names the same hash.
-  const json resolved = json::parse(file_bytes(r.resolved_path));
+  const json resolved = json::parse(test::file_bytes(r.resolved_path));
   EXPECT_EQ(resolved["terracl"]["pipeline_hash"], p.hash());
   EXPECT_EQ(resolved["pipeline"][2]["tag"], "write1");
 }
@@ -286,7 +279,7 @@ TEST(Pipeline, ResolvedPipelineRerunsBitForBit) {
   p.run({}, r1);
   std::map<std::string, std::string> first;
   for (const auto& f : {"o/a.tif", "o/a.exr", "o/a.png", "o/a.png.json", "o/demo.resolved.json"})
-    first[f] = file_bytes(dir.path(f));
+    first[f] = test::file_bytes(dir.path(f));
 
   Pipeline again = Pipeline::load(r1.resolved_path);
   EXPECT_EQ(again.name(), "demo");
@@ -298,7 +291,7 @@ TEST(Pipeline, ResolvedPipelineRerunsBitForBit) {
   EXPECT_EQ(r2.resolved_path, r1.resolved_path);
   for (const auto& [f, bytes] : first) {
     ASSERT_FALSE(bytes.empty()) << f;
-    EXPECT_TRUE(file_bytes(dir.path(f)) == bytes) << f << " differs after re-running the resolved pipeline";
+    EXPECT_TRUE(test::file_bytes(dir.path(f)) == bytes) << f << " differs after re-running the resolved pipeline";
   }
 }
 

@@ -22,13 +22,6 @@ namespace {
 
 std::string crop() { return test::data_path("crops/presidential_128x96.tif"); }
 
-std::string file_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 std::string write_pipeline(const test::TempDir& dir, const std::string& name, const json& doc) {
   const std::string path = dir.path(name);
   std::ofstream(path) << doc.dump(2);
@@ -124,11 +117,11 @@ TEST(RunCli, SetOverridesApply) {
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_FALSE(fs::exists(dir.path("a.png")));
   ASSERT_TRUE(fs::exists(dir.path("b.png")));
-  const json sidecar = json::parse(file_text(dir.path("b.png.json")));
+  const json sidecar = json::parse(test::file_bytes(dir.path("b.png.json")));
   EXPECT_EQ(sidecar["zmin"].get<double>(), 100.0);
   EXPECT_EQ(sidecar["zmax"].get<double>(), 1500.0);
   // The resolved pipeline records the overridden values.
-  const json resolved = json::parse(file_text(dir.path("s.resolved.json")));
+  const json resolved = json::parse(test::file_bytes(dir.path("s.resolved.json")));
   EXPECT_EQ(resolved["pipeline"][1]["filename"], dir.path("b.png"));
   EXPECT_EQ(resolved["pipeline"][1]["zmax"].get<double>(), 1500.0);
   // Overrides naming nothing are usage errors.
@@ -151,13 +144,13 @@ TEST(RunCli, ResolvedPipelineRerunsToTheSameBytes) {
   ASSERT_EQ(test::run_cli("run -q " + q(p)).exit_code, 0);
   std::map<std::string, std::string> first;
   for (const auto& f : {"o/r.tif", "o/r.exr", "o/r.r16", "o/r.r16.json", "o/r.resolved.json"})
-    first[f] = file_text(dir.path(f));
+    first[f] = test::file_bytes(dir.path(f));
   sleep(1);  // a timestamp in any output would now differ
   const auto again = test::run_cli("run -q " + q(dir.path("o/r.resolved.json")));
   ASSERT_EQ(again.exit_code, 0) << again.out;
   for (const auto& [f, bytes] : first) {
     ASSERT_FALSE(bytes.empty()) << f;
-    EXPECT_TRUE(file_text(dir.path(f)) == bytes) << f << " differs after re-running the resolved pipeline";
+    EXPECT_TRUE(test::file_bytes(dir.path(f)) == bytes) << f << " differs after re-running the resolved pipeline";
   }
 }
 
@@ -259,7 +252,7 @@ TEST(RunCli, UsageErrorsExitTwo) {
 TEST(StagesDoc, MatchesTheStageTable) {
   const auto r = test::run_cli("stages --markdown");
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  const std::string doc = file_text(test::data_path("../docs/stages.md"));
+  const std::string doc = test::file_bytes(test::data_path("../docs/stages.md"));
   EXPECT_TRUE(r.out == doc) << "docs/stages.md is out of date: run scripts/gen-docs.sh and commit it";
   // Every stage of the table has its section.
   for (const auto& s : StageRegistry::instance().all())

@@ -31,13 +31,6 @@ namespace {
 std::string crop() { return test::data_path("crops/presidential_128x96.tif"); }
 std::string q(const std::string& s) { return "'" + s + "'"; }
 
-std::string file_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 std::string write_text(const test::TempDir& dir, const std::string& name, const std::string& text) {
   std::ofstream(dir.path(name), std::ios::binary) << text;
   return dir.path(name);
@@ -161,7 +154,7 @@ TEST(Reliability, OutputsNeverAliasInputsOrEachOther) {
   test::TempDir dir;
   const std::string a = dir.path("a.tif");
   fs::copy_file(crop(), a);
-  const std::string before = file_text(a);
+  const std::string before = test::file_bytes(a);
   const std::string script = write_text(dir, "s.json", R"([{"op": "scale_slopes", "factor": 2}])");
   struct Case {
     std::string args, words;
@@ -182,7 +175,7 @@ TEST(Reliability, OutputsNeverAliasInputsOrEachOther) {
   };
   fs::create_directories(dir.path("x"));
   for (const auto& c : cases) expect_clean_error(test::run_cli(c.args), 2, c.words, c.args);
-  EXPECT_EQ(file_text(a), before) << "the input was changed";
+  EXPECT_EQ(test::file_bytes(a), before) << "the input was changed";
   EXPECT_FALSE(fs::exists(dir.path("o.tif")));
   EXPECT_FALSE(fs::exists(dir.path("e.tif")));
 }
@@ -492,14 +485,14 @@ TEST(Reliability, SingleCommandErodeIsByteReproducible) {
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   }
   ASSERT_TRUE(fs::exists(dir.path("a/o.tif")));
-  EXPECT_EQ(file_text(dir.path("a/o.tif")), file_text(dir.path("b/o.tif")));
+  EXPECT_EQ(test::file_bytes(dir.path("a/o.tif")), test::file_bytes(dir.path("b/o.tif")));
 }
 
 TEST(Reliability, BadSidecarsAndInfiniteElevationsAreRefused) {
   test::TempDir dir;
   const Heightfield h = read_heightfield(crop());
   write_heightfield(h, dir.path("a.png"));
-  json sc = json::parse(file_text(dir.path("a.png.json")));
+  json sc = json::parse(test::file_bytes(dir.path("a.png.json")));
   sc["width"] = 64;  // the sidecar of another file
   std::ofstream(dir.path("a.png.json")) << sc.dump();
   expect_clean_error(test::run_cli("info " + q(dir.path("a.png"))), 1, "sidecar says width 64, the image has 128", "size");
@@ -562,7 +555,7 @@ TEST(Reliability, UnwritableCacheFolderTurnsTheCacheOffNotTheDevice) {
 TEST(Reliability, ExrHeaderClaimingHugeAttributesIsRefusedBeforeOpenExrAllocates) {
   test::TempDir dir;
   write_heightfield(read_heightfield(crop()), dir.path("a.exr"));
-  std::string bytes = file_text(dir.path("a.exr"));
+  std::string bytes = test::file_bytes(dir.path("a.exr"));
   const std::string key = std::string("terracl:georef") + '\0' + "string" + '\0';
   const size_t at = bytes.find(key);
   ASSERT_NE(at, std::string::npos);
@@ -602,7 +595,7 @@ TEST(Reliability, TiffBlocksClaimingMoreThanTheFileAreRefusedBeforeGdalAllocates
                          "-co COMPRESS=DEFLATE " + q(crop()) + " " + q(good)).c_str()),
             0);
   ASSERT_EQ(test::run_cli("info " + q(good)).exit_code, 0) << "the undamaged file reads";
-  const std::string bytes = file_text(good);
+  const std::string bytes = test::file_bytes(good);
   std::string tiles = bytes, count = bytes;
   ASSERT_TRUE(patch_tiff_tag(tiles, 322, 32768) && patch_tiff_tag(tiles, 323, 16384));  // TileWidth, TileLength
   ASSERT_TRUE(patch_tiff_tag(count, 325, 2000000000));                                 // TileByteCounts
@@ -629,19 +622,19 @@ TEST(Reliability, TiffBlocksClaimingMoreThanTheFileAreRefusedBeforeGdalAllocates
 TEST(Reliability, FuzzFindingsAreRefusedBeforeTheLibrariesAllocate) {
   test::TempDir dir;
   const std::string corpus = std::string(TERRACL_SOURCE_DIR) + "/tests/fuzz/corpus/raster/";
-  const std::string tif = write_text(dir, "bands.tif", file_text(corpus + "seed_tif_65535_bands").substr(1));
-  const std::string exr = write_text(dir, "window.exr", file_text(corpus + "seed_exr_box2i_size").substr(1));
+  const std::string tif = write_text(dir, "bands.tif", test::file_bytes(corpus + "seed_tif_65535_bands").substr(1));
+  const std::string exr = write_text(dir, "window.exr", test::file_bytes(corpus + "seed_exr_box2i_size").substr(1));
   expect_clean_error(test::run_cli("info " + q(tif)), 1, "bands.tif: the TIFF claims 256 x 256 cell blocks (16.0 GiB)",
                      "65535 bands");
   expect_clean_error(test::run_cli("info " + q(exr)), 1,
                      "window.exr: EXR header attribute 'displayWindow' (box2i) states 3 bytes; a box2i is 16 bytes", "box2i");
   // A 1.7 KB EXR whose data window claims 11993100 x 2049 cells: OpenEXR sized its line buffers
   // from it when opening the file (30 s in the fuzz harness).
-  const std::string wide = write_text(dir, "wide.exr", file_text(corpus + "seed_exr_data_window_huge").substr(1));
+  const std::string wide = write_text(dir, "wide.exr", test::file_bytes(corpus + "seed_exr_data_window_huge").substr(1));
   expect_clean_error(test::run_cli("info " + q(wide)), 1,
                      "wide.exr: the EXR data window is 11993100 x 2049 cells; each side must be 1 to 65536 cells", "window");
   // A 12 x 9 PNG whose tEXt chunk claims more bytes than the file has: libpng allocated ~2 GB first.
-  const std::string png = write_text(dir, "text.png", file_text(corpus + "seed_png_text_length").substr(1));
+  const std::string png = write_text(dir, "text.png", test::file_bytes(corpus + "seed_png_text_length").substr(1));
   expect_clean_error(test::run_cli("info " + q(png)), 1, "text.png: PNG chunk 'tEXt' claims", "the file is damaged");
   rusage ru{};
   ::getrusage(RUSAGE_CHILDREN, &ru);

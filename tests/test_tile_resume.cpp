@@ -26,13 +26,6 @@ namespace terracl {
 namespace {
 namespace fs = std::filesystem;
 
-std::string slurp(const std::string& f) {
-  std::ifstream in(f, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 using test::bit_differences;
 
 // An odd-sized SRTM window with nodata holes across tile borders, and a pipeline with writers at
@@ -65,7 +58,7 @@ struct Job {
     return r;
   }
   size_t journal_tiles(const std::string& out) const {
-    std::istringstream in(slurp(out + ".journal"));
+    std::istringstream in(test::file_bytes(out + ".journal"));
     std::string line;
     size_t n = 0;
     std::getline(in, line);  // the header
@@ -84,7 +77,7 @@ TEST(TileResume, KilledRunResumesToTheSameFileRunningOnlyTheRest) {
   ASSERT_EQ(full.exit_code, 0) << full.out;
   EXPECT_NE(full.out.find("tiles: 35 run, 0 finished before"), std::string::npos) << full.out;
   EXPECT_FALSE(fs::exists(job.a + ".journal"));  // removed with the finished output
-  const std::string full_a = slurp(job.a), full_b = slurp(job.b);
+  const std::string full_a = test::file_bytes(job.a), full_b = test::file_bytes(job.b);
   fs::remove(job.a);
   fs::remove(job.b);
 
@@ -106,8 +99,8 @@ TEST(TileResume, KilledRunResumesToTheSameFileRunningOnlyTheRest) {
   ASSERT_EQ(resumed.exit_code, 0) << resumed.out;
   EXPECT_NE(resumed.out.find("tiles: 13 run, 22 finished before (verified by checksum), 0 re-run"), std::string::npos)
       << resumed.out;
-  EXPECT_TRUE(slurp(job.a) == full_a) << "a.tif differs from the uninterrupted run's bytes";
-  EXPECT_TRUE(slurp(job.b) == full_b) << "b.tif differs from the uninterrupted run's bytes";
+  EXPECT_TRUE(test::file_bytes(job.a) == full_a) << "a.tif differs from the uninterrupted run's bytes";
+  EXPECT_TRUE(test::file_bytes(job.b) == full_b) << "b.tif differs from the uninterrupted run's bytes";
   EXPECT_FALSE(fs::exists(job.a + ".journal"));
   EXPECT_FALSE(fs::exists(job.dir.path(".a.partial.tif")));
 
@@ -120,13 +113,13 @@ TEST(TileResume, KilledRunResumesToTheSameFileRunningOnlyTheRest) {
 TEST(TileResume, ChecksumMismatchReRunsTheTileAndAnotherRunStartsAfresh) {
   Job job;
   ASSERT_EQ(job.run(kTiled).exit_code, 0);
-  const std::string full_a = slurp(job.a);
+  const std::string full_a = test::file_bytes(job.a);
   fs::remove(job.a);
   fs::remove(job.b);
 
   ASSERT_NE(job.run(kTiled, 9).exit_code, 0);
   // Damage one journaled checksum of a.tif's journal: that tile must run again.
-  std::string j = slurp(job.a + ".journal");
+  std::string j = test::file_bytes(job.a + ".journal");
   const size_t line = j.find('\n', j.find('\n') + 1) + 1;  // the second tile's line
   const size_t sum = j.find(' ', line) + 1;
   j[sum] = j[sum] == '0' ? '1' : '0';
@@ -137,7 +130,7 @@ TEST(TileResume, ChecksumMismatchReRunsTheTileAndAnotherRunStartsAfresh) {
                              "mismatch"),
             std::string::npos)
       << resumed.out;
-  EXPECT_TRUE(slurp(job.a) == full_a);
+  EXPECT_TRUE(test::file_bytes(job.a) == full_a);
 
   // A journal of another run (another tile size) is not trusted: everything runs.
   fs::remove(job.a);
@@ -154,9 +147,9 @@ TEST(TileResume, ChecksumMismatchReRunsTheTileAndAnotherRunStartsAfresh) {
 TEST(TileResume, StopInsideATileJournalsOnlyWholeTiles) {
   Job job;
   ASSERT_EQ(job.run(kTiled).exit_code, 0);
-  const std::string full_a = slurp(job.a), full_b = slurp(job.b);
+  const std::string full_a = test::file_bytes(job.a), full_b = test::file_bytes(job.b);
   auto run = [&](TileCounts* counts) {
-    Pipeline p = Pipeline::parse(json::parse(slurp(job.pipeline)), "p", job.pipeline);
+    Pipeline p = Pipeline::parse(json::parse(test::file_bytes(job.pipeline)), "p", job.pipeline);
     p.validate();
     RunOptions ro;
     ro.device = []() -> Device& { return test::device(); };
@@ -193,8 +186,8 @@ TEST(TileResume, StopInsideATileJournalsOnlyWholeTiles) {
     EXPECT_EQ(counts.mismatched, 0u);
     EXPECT_EQ(counts.skipped, journaled);
     EXPECT_EQ(counts.run + counts.skipped, 35u);
-    EXPECT_TRUE(slurp(job.a) == full_a);
-    EXPECT_TRUE(slurp(job.b) == full_b);
+    EXPECT_TRUE(test::file_bytes(job.a) == full_a);
+    EXPECT_TRUE(test::file_bytes(job.b) == full_b);
   }
 }
 

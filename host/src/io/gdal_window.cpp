@@ -21,6 +21,22 @@
 
 namespace terracl::io {
 namespace {
+
+// The windowed writer's GeoTIFF layout, for the file it writes and for the compacted copy of a
+// resumed one: deflate with the float predictor in 256^2 tiles.
+char** block_tiff_options(double width, double height, int bands) {
+  char** opts = nullptr;
+  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
+  opts = CSLSetNameValue(opts, "PREDICTOR", "3");
+  opts = CSLSetNameValue(opts, "TILED", "YES");
+  opts = CSLSetNameValue(opts, "BLOCKXSIZE", "256");
+  opts = CSLSetNameValue(opts, "BLOCKYSIZE", "256");
+  // Compressed size is unknown up front: BigTIFF as soon as the uncompressed raster could pass 4 GB.
+  opts = CSLSetNameValue(opts, "BIGTIFF", width * height * 4 * bands > 3.5e9 ? "YES" : "IF_SAFER");
+  // A gradient's two bands are written one after the other per window: each in blocks of its own.
+  if (bands > 1) opts = CSLSetNameValue(opts, "INTERLEAVE", "BAND");
+  return opts;
+}
 constexpr int kBlock = 256;  // the writer's BLOCKXSIZE / BLOCKYSIZE
 }  // namespace
 
@@ -140,20 +156,11 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   }
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (!drv) fail("io", "GDAL has no GTiff driver");
-  char** opts = nullptr;
-  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
-  opts = CSLSetNameValue(opts, "PREDICTOR", "3");
-  opts = CSLSetNameValue(opts, "TILED", "YES");
-  opts = CSLSetNameValue(opts, "BLOCKXSIZE", "256");
-  opts = CSLSetNameValue(opts, "BLOCKYSIZE", "256");
-  // Compressed size is unknown up front: BigTIFF as soon as the uncompressed raster could pass 4 GB.
-  opts = CSLSetNameValue(opts, "BIGTIFF", double(width) * height * 4 > 3.5e9 ? "YES" : "IF_SAFER");
+  char** opts = block_tiff_options(width, height, m_bands);
   // A resumable output is closed after every tile (flush()): without SPARSE_OK each close would
   // first write every block not yet written.
   // The raw writer's file is created empty (GDAL then writes no block) and libtiff adds the blocks.
   if (m_resumable || m_bands == 1) opts = CSLSetNameValue(opts, "SPARSE_OK", "TRUE");
-  // A gradient's two bands are written one after the other per window: each in blocks of its own.
-  if (m_bands > 1) opts = CSLSetNameValue(opts, "INTERLEAVE", "BAND");
   m_ds = drv->Create(m_tmp.c_str(), width, height, m_bands, GDT_Float32, opts);
   CSLDestroy(opts);
   if (!m_ds) {
@@ -466,14 +473,7 @@ void GeoTiffWindowWriter::commit_compacted() {
     return;
   }
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
-  char** opts = nullptr;
-  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
-  opts = CSLSetNameValue(opts, "PREDICTOR", "3");
-  opts = CSLSetNameValue(opts, "TILED", "YES");
-  opts = CSLSetNameValue(opts, "BLOCKXSIZE", "256");
-  opts = CSLSetNameValue(opts, "BLOCKYSIZE", "256");
-  opts = CSLSetNameValue(opts, "BIGTIFF", double(m_width) * m_height * 4 * m_bands > 3.5e9 ? "YES" : "IF_SAFER");
-  if (m_bands > 1) opts = CSLSetNameValue(opts, "INTERLEAVE", "BAND");
+  char** opts = block_tiff_options(m_width, m_height, m_bands);
   const std::string compact = temporary_path_for(m_path);
   GDALDataset* out = drv ? drv->CreateCopy(compact.c_str(), in.get(), FALSE, opts, nullptr, nullptr) : nullptr;
   CSLDestroy(opts);
