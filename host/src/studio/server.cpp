@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <httplib.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -73,20 +74,28 @@ size_t index_field(const json& b, const char* key) {
   return b[key].get<size_t>();
 }
 
-/// Every `step`-th cell so that the preview has at most `max_side` cells per side.
-std::string f32_body(const Heightfield& h, int max_side, httplib::Response& res) {
-  const int side = std::max(h.width, h.height);
+/// A window of cells [x0, x1) x [y0, y1) (the whole grid by default), every `step`-th cell so that
+/// a side has at most `max_side` cells.
+struct Window {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
+std::string f32_body(const Heightfield& h, int max_side, httplib::Response& res, Window win = {}) {
+  if (win.x1 <= win.x0 || win.y1 <= win.y0) win = {0, 0, h.width, h.height};
+  const int side = std::max(win.x1 - win.x0, win.y1 - win.y0);
   const int step = std::max(1, (side + max_side - 2) / std::max(1, max_side - 1));
-  const int w = (h.width - 1) / step + 1, hh = (h.height - 1) / step + 1;
+  const int w = (win.x1 - win.x0 - 1) / step + 1, hh = (win.y1 - win.y0 - 1) / step + 1;
   std::string out(size_t(w) * hh * sizeof(float), '\0');
   float* o = reinterpret_cast<float*>(out.data());
   for (int y = 0; y < hh; ++y)
-    for (int x = 0; x < w; ++x) *o++ = h.at(x * step, y * step);
+    for (int x = 0; x < w; ++x) *o++ = h.at(win.x0 + x * step, win.y0 + y * step);
   res.set_header("X-Width", std::to_string(w));
   res.set_header("X-Height", std::to_string(hh));
   res.set_header("X-Cell-X", fmt::format("{}", h.georef.cell_x * step));
   res.set_header("X-Cell-Y", fmt::format("{}", h.georef.cell_y * step));
   res.set_header("X-Step", std::to_string(step));
+  res.set_header("X-X0", std::to_string(win.x0));
+  res.set_header("X-Y0", std::to_string(win.y0));
   return out;
 }
 
@@ -98,6 +107,19 @@ int int_param(const httplib::Request& req, const char* key, int def, int lo, int
   if (v.empty() || *end || n < lo || n > hi)
     throw RequestError(400, fmt::format("?{}: expected an integer in [{}, {}], got '{}'", key, lo, hi, v));
   return int(n);
+}
+
+/// ?x0=&y0=&x1=&y1= (cells, x1/y1 exclusive), clamped to the grid; absent: the whole grid.
+Window window_param(const httplib::Request& req, const Heightfield& h) {
+  if (!req.has_param("x0") && !req.has_param("y0") && !req.has_param("x1") && !req.has_param("y1")) return {};
+  Window w;
+  w.x0 = int_param(req, "x0", 0, -(1 << 20), 1 << 20);
+  w.y0 = int_param(req, "y0", 0, -(1 << 20), 1 << 20);
+  w.x1 = int_param(req, "x1", h.width, -(1 << 20), 1 << 20);
+  w.y1 = int_param(req, "y1", h.height, -(1 << 20), 1 << 20);
+  w.x0 = std::clamp(w.x0, 0, h.width - 1), w.y0 = std::clamp(w.y0, 0, h.height - 1);
+  w.x1 = std::clamp(w.x1, w.x0 + 1, h.width), w.y1 = std::clamp(w.y1, w.y0 + 1, h.height);
+  return w;
 }
 
 std::string read_file_bytes(const std::string& path) {
@@ -327,7 +349,8 @@ void StudioServer::Impl::routes() {
   s.Get("/api/terrain.f32", [this](const httplib::Request& req, httplib::Response& res) {
     api(req, res, [&] {
       const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
-      res.set_content(f32_body(session->terrain(), max_side, res), "application/octet-stream");
+      const Heightfield& h = session->terrain();
+      res.set_content(f32_body(h, max_side, res, window_param(req, h)), "application/octet-stream");
       res.set_header("X-Version", std::to_string(session->version()));
       return json();
     });
@@ -338,7 +361,25 @@ void StudioServer::Impl::routes() {
       const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
       std::optional<Heightfield> w = session->water();
       if (!w) w = Heightfield(session->terrain().width, session->terrain().height, 0.f);
-      res.set_content(f32_body(*w, max_side, res), "application/octet-stream");
+      res.set_content(f32_body(*w, max_side, res, window_param(req, *w)), "application/octet-stream");
+      res.set_header("X-Version", std::to_string(session->version()));
+      return json();
+    });
+  });
+  // Feedback while drawing: the terrain with a stroke not yet recorded, on a coarse grid.
+  s.Post("/api/preview", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, [&] {
+      const json b = parse_body(req);
+      if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
+      std::optional<size_t> replace;
+      if (b.contains("index")) replace = index_field(b, "index");
+      const int max_side = int_param(req, "max", 257, 2, 1025);
+      const Heightfield h = session->preview(b["op"], replace, max_side);
+      res.set_content(f32_body(h, 1 << 16, res), "application/octet-stream");
+      // The coarse grid's cell is the sampling step of the full grid.
+      res.headers.erase("X-Step");
+      res.set_header("X-Step", std::to_string(studio::preview_step(session->base(), max_side)));
+      res.set_header("X-Preview-Ms", fmt::format("{:.1f}", session->preview_ms()));
       res.set_header("X-Version", std::to_string(session->version()));
       return json();
     });

@@ -23,6 +23,9 @@ struct RequestError : std::runtime_error {
   int status;
 };
 
+/// The sampling step that gives at most `max_side` cells a side (as /api/terrain.f32 samples).
+int preview_step(const Heightfield& h, int max_side);
+
 class Session {
  public:
   /// `base`: a raster path or flat:WxH[@cell]; `workspace`: the only folder scripts and exports
@@ -75,6 +78,13 @@ class Session {
 
   long long version() const { return m_version; }
 
+  // ---- feedback while drawing (preview.cpp) ----
+  /// The terrain with `op` appended (or replacing operation `*replace`), solved on a grid of every
+  /// k-th cell (at most `max_side` a side); nothing is recorded. Operations after a replaced one
+  /// that are too slow for a drag (erode, drainage, amplify, ...) are left out.
+  Heightfield preview(const json& op, std::optional<size_t> replace, int max_side);
+  double preview_ms() const { return m_preview_ms; }
+
  private:
   json full_script(const json& ops) const;
   /// Validates `ops`, then makes them current: incremental (apply the new tail warm) when the
@@ -96,6 +106,10 @@ class Session {
   bool m_canonical = true;  ///< m_edit was built by a replay (no incremental step since)
   long long m_version = 0;
   json m_last;  ///< mode and timings of the last change
+
+  std::optional<Heightfield> m_preview_ground;  ///< the coarse terrain a dragged stroke is drawn on
+  json m_preview_key;
+  double m_preview_ms = 0;
 
   std::unique_ptr<Erosion> m_erosion;
   json m_erosion_op;
