@@ -5,7 +5,7 @@
 
 Starts `terracl studio flat:NxN@10` on a free port and measures
   * append: POST one operation at the end (one operation + warm solve) and GET the updated preview
-    (terrain.f32?max=513, what the page draws), median and p95;
+    (terrain.f32?max=400, what the page draws), median and p95;
   * replay: PUT a change to the FIRST operation (the script replayed from the base) + preview;
   * erosion: preview frames per second while eroding at --erosion-size (POST erosion/step?steps=1
     returning the bed, max 513 cells a side).
@@ -72,14 +72,14 @@ def main():
         for i in range(nops):
             t0 = time.perf_counter()
             st = json.loads(request(base, "POST", "/api/operations", {"op": op(i)}))
-            request(base, "GET", "/api/terrain.f32?max=513")
+            request(base, "GET", "/api/terrain.f32?max=400")
             append.append((time.perf_counter() - t0) * 1e3)
             solve_ms.append(st["last"]["ms"])
         replay = []
         for i in range(max(3, nops // 5)):
             t0 = time.perf_counter()
             request(base, "PUT", "/api/operations/0", {"op": op(0)})
-            request(base, "GET", "/api/terrain.f32?max=513")
+            request(base, "GET", "/api/terrain.f32?max=400")
             replay.append((time.perf_counter() - t0) * 1e3)
     finally:
         p.terminate()
@@ -89,10 +89,10 @@ def main():
     try:
         request(base, "POST", "/api/operations", {"op": {"op": "mountain_range", "points": [[0.1 * en * 30, 0.5 * en * 30, 600], [0.9 * en * 30, 0.5 * en * 30, 800]], "radius": 0.3 * en * 30}})
         request(base, "POST", "/api/erosion/start", {"rain": 0.01})
-        request(base, "POST", "/api/erosion/step?steps=1&max=513")  # warm-up (kernels compiled)
+        request(base, "POST", "/api/erosion/step?steps=1&max=400")  # warm-up (kernels compiled)
         t0 = time.perf_counter()
         for _ in range(frames):
-            request(base, "POST", "/api/erosion/step?steps=1&max=513")
+            request(base, "POST", "/api/erosion/step?steps=1&max=400")
         fps = frames / (time.perf_counter() - t0)
     finally:
         p.terminate()

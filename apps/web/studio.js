@@ -8,7 +8,7 @@ import { init3d, draw3d } from '/web/view3d.js';
 import { initExport } from '/web/export.js';
 
 const $ = (id) => document.getElementById(id);
-const PREVIEW_MAX = 513;  // samples per side of the overview terrain
+const PREVIEW_MAX = 400;  // samples per side of the overview terrain (1025^2: every 3rd cell)
 const DETAIL_MAX = 720;   // samples per side of the zoomed-in window
 const DRAG_MAX = 257;     // cells per side of the previews while drawing
 const MAX_ZOOM = 64;      // screen pixels per cell

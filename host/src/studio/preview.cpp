@@ -36,10 +36,12 @@ Heightfield sample(const Heightfield& h, int step) {
 
 }  // namespace
 
-int preview_step(const Heightfield& h, int max_side) {
-  const int side = std::max(h.width, h.height);
-  return std::max(1, (side + max_side - 2) / std::max(1, max_side - 1));
+int sample_step(int side, int max_side) {
+  // the smallest k with (side - 1) / k + 1 <= max_side
+  return std::max(1, (side + max_side - 3) / std::max(1, max_side - 1));
 }
+
+int preview_step(const Heightfield& h, int max_side) { return sample_step(std::max(h.width, h.height), max_side); }
 
 Heightfield Session::preview(const json& op, std::optional<size_t> replace, int max_side) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -83,7 +83,7 @@ struct Window {
 std::string f32_body(const Heightfield& h, int max_side, httplib::Response& res, Window win = {}) {
   if (win.x1 <= win.x0 || win.y1 <= win.y0) win = {0, 0, h.width, h.height};
   const int side = std::max(win.x1 - win.x0, win.y1 - win.y0);
-  const int step = std::max(1, (side + max_side - 2) / std::max(1, max_side - 1));
+  const int step = studio::sample_step(side, max_side);
   const int w = (win.x1 - win.x0 - 1) / step + 1, hh = (win.y1 - win.y0 - 1) / step + 1;
   std::string out(size_t(w) * hh * sizeof(float), '\0');
   float* o = reinterpret_cast<float*>(out.data());

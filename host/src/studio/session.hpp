@@ -23,7 +23,9 @@ struct RequestError : std::runtime_error {
   int status;
 };
 
-/// The sampling step that gives at most `max_side` cells a side (as /api/terrain.f32 samples).
+/// The sampling step k that keeps every k-th of `side` cells, at most `max_side` of them.
+int sample_step(int side, int max_side);
+/// The sampling step of `h`'s longer side (as /api/terrain.f32 and the previews sample).
 int preview_step(const Heightfield& h, int max_side);
 
 class Session {

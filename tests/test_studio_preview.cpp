@@ -1,0 +1,136 @@
+// The studio's zoomed-in windows and its previews while drawing (docs/studio.md, "Feedback while
+// drawing"): a window is exactly the cells of the full terrain; a preview records nothing and shows
+// the stroke (new, or replacing one) on a coarse grid.
+#include <httplib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "studio_client.hpp"
+#include "test_helpers.hpp"
+
+namespace terracl {
+namespace {
+
+using json = nlohmann::json;
+using test::post;
+using test::Studio;
+
+struct Layer {
+  int w = 0, h = 0, step = 0, x0 = 0, y0 = 0;
+  std::vector<float> z;
+  float at(int x, int y) const { return z[size_t(y) * w + x]; }
+};
+
+Layer layer(const httplib::Result& r) {
+  Layer l;
+  EXPECT_TRUE(r && r->status == 200) << (r ? r->body : "no answer");
+  if (!r || r->status != 200) return l;
+  l.w = std::stoi(r->get_header_value("X-Width"));
+  l.h = std::stoi(r->get_header_value("X-Height"));
+  l.step = std::stoi(r->get_header_value("X-Step"));
+  l.x0 = std::stoi(r->get_header_value("X-X0"));
+  l.y0 = std::stoi(r->get_header_value("X-Y0"));
+  l.z.resize(r->body.size() / sizeof(float));
+  std::memcpy(l.z.data(), r->body.data(), r->body.size());
+  EXPECT_EQ(l.z.size(), size_t(l.w) * l.h);
+  return l;
+}
+
+Layer preview(httplib::Client& c, const json& b, int max) {
+  return layer(c.Post(("/api/preview?max=" + std::to_string(max)).c_str(), b.dump(), "application/json"));
+}
+
+// A crest relative to the ground, across the middle of a 1290 x 970 m plain.
+const json kCrest = {{"op", "crest"}, {"points", {{200, 480}, {1080, 400}}}, {"height", 80}, {"radius", 200}};
+
+TEST(StudioPreview, AWindowIsExactlyTheCellsOfTheTerrain) {
+  Studio s;
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", kCrest}});
+  const Layer full = layer(c.Get("/api/terrain.f32"));
+  ASSERT_EQ(full.w, 129);
+  const Layer win = layer(c.Get("/api/terrain.f32?x0=30&y0=20&x1=90&y1=61"));
+  ASSERT_EQ(win.w, 60);
+  ASSERT_EQ(win.h, 41);
+  EXPECT_EQ(win.step, 1);
+  EXPECT_EQ(win.x0, 30);
+  EXPECT_EQ(win.y0, 20);
+  for (int y = 0; y < win.h; ++y)
+    for (int x = 0; x < win.w; ++x) ASSERT_EQ(win.at(x, y), full.at(30 + x, 20 + y));
+  // sampled: every step-th cell from the window's corner
+  const Layer coarse = layer(c.Get("/api/terrain.f32?x0=10&y0=5&x1=129&y1=97&max=30"));
+  ASSERT_GT(coarse.step, 1);
+  for (int y = 0; y < coarse.h; ++y)
+    for (int x = 0; x < coarse.w; ++x) ASSERT_EQ(coarse.at(x, y), full.at(10 + x * coarse.step, 5 + y * coarse.step));
+  // a window reaching off the grid is clipped to it
+  const Layer clipped = layer(c.Get("/api/terrain.f32?x0=-50&y0=90&x1=500&y1=200"));
+  EXPECT_EQ(clipped.x0, 0);
+  EXPECT_EQ(clipped.w, 129);
+  EXPECT_EQ(clipped.h, 7);
+  auto bad = c.Get("/api/terrain.f32?x0=abc");
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 400);
+}
+
+TEST(StudioPreview, ANewStrokeShowsOnACoarseGridAndNothingIsRecorded) {
+  Studio s;
+  auto c = s.client();
+  const json before = test::body(c.Get("/api/state"));
+  const Layer p = preview(c, {{"op", kCrest}}, 33);
+  ASSERT_EQ(p.step, 4);  // 129 cells -> every 4th: 33 x 25
+  ASSERT_EQ(p.w, 33);
+  ASSERT_EQ(p.h, 25);
+  const json after = test::body(c.Get("/api/state"));
+  EXPECT_EQ(after["version"], before["version"]);
+  EXPECT_TRUE(after["operations"].empty());
+  // The stroke, recorded now, gives the full-resolution terrain; the preview agrees with it on the
+  // coarse cells to within a fraction of the crest's height (the same landform, solved coarser).
+  post(c, "/api/operations", {{"op", kCrest}});
+  const Layer full = layer(c.Get("/api/terrain.f32"));
+  float top_p = 0, top_f = 0;
+  double diff = 0;
+  for (int y = 0; y < p.h; ++y)
+    for (int x = 0; x < p.w; ++x) {
+      const float f = full.at(x * 4, y * 4);
+      top_p = std::max(top_p, p.at(x, y));
+      top_f = std::max(top_f, f);
+      diff += std::abs(p.at(x, y) - f);
+    }
+  EXPECT_GT(top_p, 40.f);
+  EXPECT_NEAR(top_p, top_f, 0.35 * top_f);
+  EXPECT_LT(diff / double(p.z.size()), 0.1 * top_f);
+  // The far corners stay on the plain.
+  EXPECT_NEAR(p.at(0, 0), 0.f, 0.5f);
+  EXPECT_NEAR(p.at(p.w - 1, p.h - 1), 0.f, 0.5f);
+}
+
+TEST(StudioPreview, ADraggedStrokeReplacesItsOperation) {
+  Studio s;
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", kCrest}});
+  const json st = test::body(c.Get("/api/state"));
+  json moved = kCrest;
+  moved["points"] = {{200, 120}, {1080, 80}};  // the crest dragged to the north edge
+  const Layer p = preview(c, {{"op", moved}, {"index", 0}}, 33);
+  // Where the crest was, the plain; where it went, the ridge.
+  EXPECT_NEAR(p.at(160 / 40, 480 / 40), 0.f, 2.f);
+  EXPECT_GT(p.at(640 / 40, 100 / 40), 40.f);
+  EXPECT_EQ(test::body(c.Get("/api/state"))["operations"], st["operations"]);
+  // Bad input: a message, and the session as it was.
+  json bad = kCrest;
+  bad["points"] = {{200, 480}};
+  auto r = c.Post("/api/preview", json{{"op", bad}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(json::parse(r->body)["error"].get<std::string>().find("points"), std::string::npos) << r->body;
+  r = c.Post("/api/preview", json{{"op", kCrest}, {"index", 5}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+  EXPECT_EQ(test::body(c.Get("/api/state"))["version"], st["version"]);
+}
+
+}  // namespace
+}  // namespace terracl
