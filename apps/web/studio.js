@@ -280,14 +280,23 @@ function scheduleDetail(delay = 150) {
 }
 async function fetchDetail() {
   if (!terr || drag || detailBusy) return;
-  if (terr.step * cam.s <= 1.5) { if (detail) { detail = null; draw(); } draw3d(terr, colours); return; }
+  if (terr.step * cam.s <= 1.5) {
+    if (detail) { detail = null; window.__terracl.detail = null; draw(); }
+    draw3d(terr, colours);
+    return;
+  }
   const x0 = Math.max(0, Math.floor(-cam.tx / cam.s)), y0 = Math.max(0, Math.floor(-cam.ty / cam.s));
   const x1 = Math.min(state.width, Math.ceil((map.width - cam.tx) / cam.s)), y1 = Math.min(state.height, Math.ceil((map.height - cam.ty) / cam.s));
   if (x1 - x0 < 2 || y1 - y0 < 2) return;
   detailBusy = true;
   try {
     const t = await fetchTerrain(DETAIL_MAX, `&x0=${x0}&y0=${y0}&x1=${x1}&y1=${y1}`);
-    if (state && t.version === state.version) { detail = t; draw(); draw3d(detail, colours); }
+    if (state && t.version === state.version) {
+      detail = t;
+      window.__terracl.detail = { x0: t.x0, y0: t.y0, w: t.w, h: t.h, step: t.step };
+      draw();
+      draw3d(detail, colours);
+    }
   } finally { detailBusy = false; }
 }
 
@@ -564,11 +573,14 @@ map.addEventListener('mousemove', (e) => {
   const [px, py] = evt(e);
   hover = { px, py };
   readout(px, py);
-  if (!drag) {
-    if ($('tool').value === 'select' && selected >= 0 && state.operations[selected]) hoverHandle = handleAt(state.operations[selected], px, py);
-    draw();
-    return;
-  }
+  if (drag) return;
+  if ($('tool').value === 'select' && selected >= 0 && state.operations[selected]) hoverHandle = handleAt(state.operations[selected], px, py);
+  draw();
+});
+// A gesture follows the mouse beyond the map's edge (a vertex dropped there is refused on release).
+window.addEventListener('mousemove', (e) => {
+  if (!drag) return;
+  const [px, py] = evt(e);
   const tool = $('tool').value, at = toScript(px, py);
   switch (drag.kind) {
     case 'pan':

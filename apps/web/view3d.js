@@ -55,7 +55,10 @@ export function draw3d(t, colours) {
     controls.target.set(0, 0, 0);
   }
   const [lo, hi] = colours;
-  const span = Math.max(hi - lo, 1e-6), mid = (lo + hi) / 2;
+  const span = Math.max(hi - lo, 1e-6);
+  let zlo = Infinity, zhi = -Infinity;  // the mesh is centred on its own relief, coloured on the map's scale
+  for (const v of t.z) { if (v < zlo) zlo = v; if (v > zhi) zhi = v; }
+  const mid = (zlo + zhi) / 2;
   const pos = mesh.geometry.attributes.position, col = mesh.geometry.attributes.color;
   const c = [0, 0, 0];
   for (let y = 0; y < h; y++)

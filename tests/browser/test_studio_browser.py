@@ -1,10 +1,12 @@
 #!/usr/bin/python3
 """terracl studio in a real browser: Debian's chromium, headless (no display), driven by
-python3-selenium through chromium-driver. Loads the page, draws a crest with mouse events, checks
-that the terrain changed (API state and the map canvas), undoes and redoes it, adds a lake at the
-elevation the cursor readout shows (blue on the map), saves the script from
-the page and replays it with `terracl edit`: the studio's export and the CLI's output must be equal
-bit for bit.
+python3-selenium through chromium-driver with real mouse events. Draws a crest (the terrain
+previews during the drag), zooms in with the wheel (the window shows every cell), pans with the
+right button, grabs the crest and drags a vertex (an update of the operation), undoes it, checks
+that bad gestures (a vertex off the map, a zero-length stroke) get a message and change nothing,
+paints a brush, adds amplify, drainage, layered rock and a lake, saves the script and exports
+from the Export dialog with masks; `terracl edit` replays the saved script and its output must
+equal the studio's export bit for bit.
 
 usage: test_studio_browser.py TERRACL_CLI [--screenshots DIR]
 """
@@ -27,6 +29,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import Select
+from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
 
 # Operations read files inside the workspace only: the exemplar is copied there.
 EXEMPLAR_SRC = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", "data", "crops", "presidential_128x96.tif"))
@@ -94,9 +97,44 @@ return [n, Math.sqrt(Math.max(0, s2 / (d.length / 4) - m * m))];
 """
 
 
+def page(driver, js):
+    return driver.execute_script("return " + js)
+
+
+def version(driver):
+    return page(driver, "document.body.dataset.version")
+
+
+def status_text(driver):
+    return driver.find_element(By.ID, "status").text
+
+
+def wheel(driver, canvas, dx, dy, notches, delta=-200):
+    for _ in range(notches):
+        ActionChains(driver).scroll_from_origin(ScrollOrigin.from_element(canvas, dx, dy), 0, delta).perform()
+
+
+def drag_path(driver, canvas, x, y, moves, pause=0.04, release=True):
+    """Left-button drag from (x, y) (offsets from the canvas centre) by each (dx, dy) of `moves`."""
+    chain = ActionChains(driver).move_to_element_with_offset(canvas, x, y).click_and_hold()
+    for dx, dy in moves:
+        chain.move_by_offset(dx, dy).pause(pause)
+    if release:
+        chain.release()
+    chain.perform()
+
+
+def shot(driver, shots, name):
+    if shots:
+        time.sleep(0.4)
+        driver.save_screenshot(os.path.join(shots, name))
+
+
 def main():
     cli = sys.argv[1]
     shots = sys.argv[sys.argv.index("--screenshots") + 1] if "--screenshots" in sys.argv else None
+    if shots:
+        os.makedirs(shots, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix="terracl-browser-")
     ws = os.path.join(tmp, "ws")
     studio, url = start_studio(cli, ws)
@@ -113,72 +151,124 @@ def main():
         v0 = wait_version(driver, None)
         lit, flat_std = driver.execute_script(CANVAS_STATS)
         check(lit > 0, f"the map canvas is drawn ({lit} lit pixels)")
-
-        # Draw a crest across the map with the mouse (offsets from the canvas centre).
         canvas = driver.find_element(By.ID, "map")
+
+        # A crest drawn with the mouse: the terrain previews during the drag, then the stroke posts.
         driver.find_element(By.CSS_SELECTOR, "#tool option[value=crest]").click()
-        chain = ActionChains(driver).move_to_element_with_offset(canvas, -220, 60).click_and_hold()
-        for i in range(1, 23):
-            chain.move_by_offset(20, -6 if i < 12 else 4)
-        chain.release().perform()
+        drag_path(driver, canvas, -220, 60, [(20, -6 if i < 12 else 4) for i in range(1, 23)], release=False)
+        time.sleep(0.5)
+        frames = page(driver, "window.__terracl.previewFrames")
+        check(frames >= 3, f"the terrain previewed during the drag ({frames} frames)")
+        shot(driver, shots, "studio_drawing.png")
+        ActionChains(driver).release().perform()
         v1 = wait_version(driver, v0)
         st = get_json(url + "api/state")
         check(len(st["operations"]) == 1 and st["operations"][0]["op"] == "crest", "the stroke posted a crest operation")
-        check(len(st["operations"][0]["points"]) >= 2, f"the crest has {len(st['operations'][0]['points'])} vertices")
+        crest = st["operations"][0]
+        check(len(crest["points"]) >= 2, f"the crest has {len(crest['points'])} vertices")
         with api_get(url + "api/terrain.f32") as r:
             z = np.frombuffer(r.read(), dtype=np.float32)
-        op0 = st["operations"][0]
-        check("elevation" not in op0, f"the crest is placed relative to the ground ({op0})")
+        check("elevation" not in crest, f"the crest is placed relative to the ground ({crest})")
         check(float(z.max() - z.min()) > 10.0 and float(z.min()) > -1.0,
               f"the crest rose above the plain and dug nothing (min {z.min():.2f} m, max {z.max():.2f} m)")
         lit, std = driver.execute_script(CANVAS_STATS)
         check(std > flat_std + 5, f"the map shows the crest (pixel std {flat_std:.1f} -> {std:.1f})")
         has3d = driver.execute_script("return !!document.querySelector('#view3d canvas')")
         print("3D view:", "WebGL canvas present" if has3d else "no WebGL in this browser")
-        if shots:
-            os.makedirs(shots, exist_ok=True)
-            driver.find_element(By.ID, "contours").click()
-            v1 = wait_version(driver, None)
-            time.sleep(1.0)
-            driver.save_screenshot(os.path.join(shots, "studio.png"))
 
-        driver.find_element(By.ID, "undo").click()
+        # Zoom in on the crest with the wheel: the map fetches the window on screen, cell for cell.
+        wheel(driver, canvas, 0, 40, 5)
+        time.sleep(1.0)
+        zoom = float(driver.find_element(By.ID, "zoom").text.split()[0])
+        check(zoom > 4, f"the wheel zoomed in ({zoom} px per cell)")
+        ActionChains(driver).move_to_element_with_offset(canvas, 5, 45).perform()
+        det = page(driver, "window.__terracl.detail")
+        check(det is not None and det["step"] == 1, f"the zoomed-in map shows every cell of its window ({det})")
+        m = re.match(r"^(-?[\d.]+), (-?[\d.]+) m: (-?[\d.]+) m$", driver.find_element(By.ID, "readout").text)
+        check(m is not None, "the readout shows x, y and z under the cursor when zoomed in")
+        shot(driver, shots, "studio_zoomed.png")
+        # Pan with the right button: the same point of the terrain moves with the mouse.
+        a = page(driver, "window.__terraclCanvas(1000, 1000)")
+        ActionChains(driver).move_to_element_with_offset(canvas, 0, 0).perform()
+        actions = ActionChains(driver)
+        actions.w3c_actions.pointer_action.move_to(canvas, 0, 0).pointer_down(button=2)
+        for _ in range(5):
+            actions.w3c_actions.pointer_action.move_by(20, 10)
+        actions.w3c_actions.pointer_action.pointer_up(button=2)
+        actions.perform()
+        b = page(driver, "window.__terraclCanvas(1000, 1000)")
+        check(abs(b[0] - a[0] - 100) < 2 and abs(b[1] - a[1] - 50) < 2, f"the right-button drag panned the map ({a} -> {b})")
+        driver.find_element(By.ID, "fit").click()
+        time.sleep(0.3)
+
+        # Grab the crest: select it, drag its last vertex; the change is an update of the operation.
+        Select(driver.find_element(By.ID, "tool")).select_by_value("select")
+        end = crest["points"][-1]
+        ex, ey = page(driver, f"window.__terraclCanvas({end[0]}, {end[1]})")
+        ActionChains(driver).move_to_element_with_offset(canvas, ex - 320, ey - 320).click().perform()
+        time.sleep(0.3)
+        f0 = page(driver, "window.__terracl.previewFrames")
+        drag_path(driver, canvas, ex - 320, ey - 320, [(0, 10)] * 8, release=False)
+        time.sleep(0.4)
+        check(page(driver, "window.__terracl.previewFrames") > f0, "dragging the vertex previews the terrain")
+        shot(driver, shots, "studio_vertex_drag.png")
+        ActionChains(driver).release().perform()
         v2 = wait_version(driver, v1)
-        st = get_json(url + "api/state")
-        check(len(st["operations"]) == 0 and st["can_redo"], "undo removed the crest")
-        driver.find_element(By.ID, "redo").click()
-        wait_version(driver, v2)
-        check(len(get_json(url + "api/state")["operations"]) == 1, "redo restored it")
+        moved = get_json(url + "api/state")["operations"]
+        check(len(moved) == 1 and moved[0]["points"][-1][1] > end[1] + 200 and moved[0]["points"][0] == crest["points"][0],
+              f"the drag moved the last vertex south ({end} -> {moved[0]['points'][-1]})")
+        driver.find_element(By.ID, "undo").click()
+        v3 = wait_version(driver, v2)
+        check(get_json(url + "api/state")["operations"][0] == crest, "undo put the vertex back")
+
+        # Bad gestures get a message and change nothing: a vertex dragged off the map, a click with
+        # a curve tool (a zero-length stroke).
+        ex, ey = page(driver, f"window.__terraclCanvas({end[0]}, {end[1]})")
+        ActionChains(driver).move_to_element_with_offset(canvas, ex - 320, ey - 320).click().perform()
+        drag_path(driver, canvas, ex - 320, ey - 320, [(60, 0)] * 8)
+        time.sleep(0.5)
+        check("left the map" in status_text(driver), f"a vertex dragged off the map is refused with a message ({status_text(driver)!r})")
+        Select(driver.find_element(By.ID, "tool")).select_by_value("crest")
+        ActionChains(driver).move_to_element_with_offset(canvas, 0, 0).click().perform()
+        time.sleep(0.3)
+        check("too short" in status_text(driver), f"a zero-length stroke gets a message ({status_text(driver)!r})")
+        check(version(driver) == v3 and get_json(url + "api/state")["operations"] == [crest], "and the session is unchanged")
+
+        # A painted brush: one noise operation along the whole drag.
+        Select(driver.find_element(By.ID, "tool")).select_by_value("noise")
+        drag_path(driver, canvas, -150, -180, [(25, 8)] * 12)
+        v4 = wait_version(driver, v3)
+        noise = get_json(url + "api/state")["operations"][-1]
+        check(noise["op"] == "noise" and len(noise.get("path", [])) >= 2 and noise["radius"] > 0,
+              f"the drag painted one noise operation along a path ({noise})")
+        shot(driver, shots, "studio_painted.png")
 
         # Amplify a dragged region with an exemplar DEM typed into the tool's parameters.
         Select(driver.find_element(By.ID, "tool")).select_by_value("amplify")
         ex = driver.find_element(By.ID, "p_exemplar")
         ex.clear()
         ex.send_keys(EXEMPLAR + Keys.TAB)
-        v = driver.execute_script("return document.body.dataset.version")
+        v = version(driver)
         ActionChains(driver).move_to_element_with_offset(canvas, -90, -30).click_and_hold() \
             .move_by_offset(90, 30).move_by_offset(90, 30).release().perform()
         wait_version(driver, v)
-        st = get_json(url + "api/state")
-        ops = st["operations"]
-        check(len(ops) == 2 and ops[1]["op"] == "amplify" and ops[1]["exemplar"] == EXEMPLAR and "radius" in ops[1],
+        ops = get_json(url + "api/state")["operations"]
+        check(len(ops) == 3 and ops[2]["op"] == "amplify" and ops[2]["exemplar"] == EXEMPLAR and "radius" in ops[2],
               f"the drag posted an amplify operation of a region ({ops[-1]})")
 
-        # Drainage over the whole map (a click) and layered rock on the crest (a click): their
-        # operations go into the saved script, so the replay below covers them too.
+        # Drainage over the whole map (a click) and layered rock on the crest (a click).
         for tool, dx, dy in (("drainage", 0, 0), ("strata", 0, 20)):
             Select(driver.find_element(By.ID, "tool")).select_by_value(tool)
-            v = driver.execute_script("return document.body.dataset.version")
+            v = version(driver)
             ActionChains(driver).move_to_element_with_offset(canvas, dx, dy).click().perform()
             wait_version(driver, v)
         ops = get_json(url + "api/state")["operations"]
-        check(len(ops) == 4 and ops[2]["op"] == "drainage" and "radius" not in ops[2],
-              f"the click posted a drainage operation of the whole map ({ops[2:]})")
-        check(ops[3]["op"] == "strata" and 10.0 < ops[3]["top"] <= float(z.max()) + 0.5,
-              f"the click posted a strata operation whose top is the highest cell in its disc ({ops[3:]})")
+        check(len(ops) == 5 and ops[3]["op"] == "drainage" and "radius" not in ops[3],
+              f"the click posted a drainage operation of the whole map ({ops[3:]})")
+        check(ops[4]["op"] == "strata" and 10.0 < ops[4]["top"] <= float(z.max()) + 0.5,
+              f"the click posted a strata operation whose top is the highest cell in its disc ({ops[4:]})")
 
-        # A lake: the readout names the terrain under the cursor, and a lake 15 m above it, seeded
-        # by a click there, fills the water around the click and tints the map blue.
+        # A lake 15 m above the elevation the readout shows, seeded by a click there.
         blue = "const d = document.getElementById('map').getContext('2d').getImageData(0, 0, 640, 640).data; " \
                "let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i + 2] > d[i] + 40 && d[i + 2] > d[i + 1]) n++; return n;"
         blue0 = driver.execute_script(blue)
@@ -190,7 +280,7 @@ def main():
         level = driver.find_element(By.ID, "p_level")
         level.clear()
         level.send_keys(f"{float(m.group(3)) + 15:.1f}" + Keys.TAB)
-        v = driver.execute_script("return document.body.dataset.version")
+        v = version(driver)
         ActionChains(driver).move_to_element_with_offset(canvas, 0, 200).click().perform()
         wait_version(driver, v)
         st = get_json(url + "api/state")
@@ -201,19 +291,35 @@ def main():
         with api_get(url + "api/water.f32") as r:
             w = np.frombuffer(r.read(), dtype=np.float32)
         check(int((w > 0).sum()) == st["lakes"][0]["cells"], "the water layer covers the lake's cells")
+        time.sleep(0.3)
         blue1 = driver.execute_script(blue)
         check(blue1 > blue0 + 100, f"the map shows the water in blue ({blue0} -> {blue1} blue pixels)")
 
+        # Save the script; export from the dialog with masks.
         name = driver.find_element(By.ID, "file")
         name.clear()
         name.send_keys("sketch.json")
         driver.find_element(By.ID, "save").click()
         driver.find_element(By.ID, "export").click()
+        xn = driver.find_element(By.ID, "x_name")
+        xn.clear()
+        xn.send_keys("sketch")
+        Select(driver.find_element(By.ID, "x_format")).select_by_value("tif")
+        for mask in ("slope", "flow", "water"):
+            driver.find_element(By.ID, "x_mask_" + mask).click()
+        check(not driver.find_element(By.ID, "x_mask_wear").is_enabled(), "the wear mask is offered only with an erosion layer")
+        shot(driver, shots, "studio_export.png")
+        driver.find_element(By.ID, "x_go").click()
         script, exported = os.path.join(ws, "sketch.json"), os.path.join(ws, "sketch.tif")
         t0 = time.time()
-        while not (os.path.exists(script) and os.path.exists(exported)) and time.time() - t0 < 60:
+        while not ("wrote" in driver.find_element(By.ID, "x_status").text or "error" in driver.find_element(By.ID, "x_status").text) \
+                and time.time() - t0 < 120:
             time.sleep(0.1)
-        check(os.path.exists(script) and os.path.exists(exported), "the page saved the script and exported the terrain")
+        xs = driver.find_element(By.ID, "x_status").text
+        check(xs.startswith("wrote") and os.path.exists(script) and os.path.exists(exported), f"the page saved the script and exported ({xs})")
+        masks = [f for f in os.listdir(ws) if f.startswith("sketch") and f.endswith(".png")]
+        check(len(masks) >= 3, f"the export wrote the three masks ({sorted(masks)})")
+        driver.find_element(By.ID, "x_close").click()
         out = os.path.join(tmp, "cli.tif")
         water = os.path.join(tmp, "water.tif")
         r = subprocess.run([cli, "-q", "edit", "--script", script, "-o", out, "--water", water], capture_output=True, text=True)
@@ -223,13 +329,11 @@ def main():
         check(a.shape == b.shape and np.array_equal(a, b), "the studio's export equals terracl edit's output bit for bit")
         check(int((gdal.Open(water).ReadAsArray() > 0).sum()) > 0, "the replay writes the lake's water (--water)")
 
-        if shots:  # a second picture: a mountain range being eroded live
+        if shots:  # a mountain range being eroded live
+            driver.find_element(By.ID, "contours").click()
             Select(driver.find_element(By.ID, "tool")).select_by_value("mountain_range")
-            v = driver.execute_script("return document.body.dataset.version")
-            chain = ActionChains(driver).move_to_element_with_offset(canvas, -200, -150).click_and_hold()
-            for i in range(1, 16):
-                chain.move_by_offset(12, 20)
-            chain.release().perform()
+            v = version(driver)
+            drag_path(driver, canvas, -200, -150, [(12, 20)] * 15)
             wait_version(driver, v)
             driver.find_element(By.ID, "erode_all").click()
             time.sleep(8)
