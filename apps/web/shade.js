@@ -37,27 +37,28 @@ export function shade(t, [lo, hi], contours) {
   const { w, h, z, cx, cy } = t;
   const img = new ImageData(w, h);
   const span = Math.max(hi - lo, 1e-6);
-  const az = (360 - 315 + 90) * Math.PI / 180, alt = 45 * Math.PI / 180;
+  // Horn's hillshade with the sun at azimuth 315 degrees, 45 degrees up, without trigonometry per
+  // cell: sin(alt) cos(slope) + cos(alt) sin(slope) cos(az - aspect) = (A + B (p + q)) / sqrt(1 + p^2 + q^2).
+  const A = Math.SQRT1_2, B = 0.5;
   const iv = niceStep(span / 15);
   const water = t.water;
   let deepest = 0;
   if (water) for (const d of water) if (d > deepest) deepest = d;
   const c = [0, 0, 0];
   const Z = (x, y) => z[Math.min(h - 1, Math.max(0, y)) * w + Math.min(w - 1, Math.max(0, x))];
+  const kx = 1 / (8 * cx), ky = 1 / (8 * cy);
   for (let y = 0; y < h; y++)
     for (let x = 0; x < w; x++) {
       const a = Z(x - 1, y - 1), b = Z(x, y - 1), cc = Z(x + 1, y - 1), d = Z(x - 1, y), f = Z(x + 1, y), g = Z(x - 1, y + 1), hh = Z(x, y + 1), i = Z(x + 1, y + 1);
-      const dzdx = ((cc + 2 * f + i) - (a + 2 * d + g)) / (8 * cx);
-      const dzdy = ((g + 2 * hh + i) - (a + 2 * b + cc)) / (8 * cy);
-      const slope = Math.atan(Math.hypot(dzdx, dzdy));
-      const aspect = Math.atan2(dzdy, -dzdx);
-      const hs = Math.max(0, Math.sin(alt) * Math.cos(slope) + Math.cos(alt) * Math.sin(slope) * Math.cos(az - aspect));
+      const p = ((cc + 2 * f + i) - (a + 2 * d + g)) * kx;
+      const q = ((g + 2 * hh + i) - (a + 2 * b + cc)) * ky;
+      const hs = Math.max(0, (A + B * (p + q)) / Math.sqrt(1 + p * p + q * q));
       const v = z[y * w + x];
       ramp((v - lo) / span, c);
       let k = 0.35 + 0.65 * hs;
       if (contours && x + 1 < w && y + 1 < h) {
-        const q = Math.floor((v - lo) / iv);
-        if (q !== Math.floor((z[y * w + x + 1] - lo) / iv) || q !== Math.floor((z[(y + 1) * w + x] - lo) / iv)) k *= 0.45;
+        const band = Math.floor((v - lo) / iv);
+        if (band !== Math.floor((z[y * w + x + 1] - lo) / iv) || band !== Math.floor((z[(y + 1) * w + x] - lo) / iv)) k *= 0.45;
       }
       const o = 4 * (y * w + x);
       if (water && water[y * w + x] > 0) { tintWater(c, k, water[y * w + x], deepest); k = 1; }

@@ -25,7 +25,7 @@ let hoverHandle = null;
 let clip = null;     // copy-paste clipboard {source, from}
 let eroding = false;
 // Figures the latency script reads (scripts/bench-studio-browser.py).
-window.__terracl = { latency: [], previewFrames: 0, previewMs: [] };
+window.__terracl = { latency: [], phases: [], previewFrames: 0, previewMs: [] };
 // Where a script point is drawn (canvas px), for tests that grab a vertex.
 window.__terraclCanvas = (x, y) => toCanvas(x, y);
 
@@ -163,13 +163,16 @@ async function fetchTerrain(max, win = '') {
 // and the latency figures measure release -> painted frame.
 async function change(method, path, body, t0 = performance.now()) {
   const s = await api(method, path, body);
+  const t1 = performance.now();
   await refresh(s);
+  const t2 = performance.now();
   const last = s.last || {};
   const warnings = (last.warnings || []).concat(...(s.lakes || []).map((l) => l.warnings || []));
   const warn = warnings.length ? ' | warning: ' + warnings.join('; ') : '';
   requestAnimationFrame(() => {
     const ms = performance.now() - t0;
     window.__terracl.latency.push(ms);
+    window.__terracl.phases.push({ change: t1 - t0, terrain: t2 - t1, paint: t0 + ms - t2 });
     const from = last.from !== undefined && last.from > 0 ? ` from layer ${last.from}` : '';
     status(`${last.mode || ''}${from} ${last.ms ? last.ms.toFixed(0) + ' ms solve' : ''}, ${ms.toFixed(0)} ms to the painted map${warn}`);
   });
@@ -272,6 +275,14 @@ function drawNow() {
   document.body.dataset.frame = (+(document.body.dataset.frame || 0) + 1).toString();
 }
 
+// The 3D view follows the map once the map's frame is out: the mesh update and its software
+// rendering must not delay the map (both share the cores with the server).
+let timer3d = null;
+function schedule3d(t) {
+  clearTimeout(timer3d);
+  timer3d = setTimeout(() => { if (!drag) draw3d(t, colours); }, 150);
+}
+
 // The visible window at one sample per screen pixel, fetched once the view stops moving.
 let detailTimer = null, detailBusy = false;
 function scheduleDetail(delay = 150) {
@@ -280,9 +291,10 @@ function scheduleDetail(delay = 150) {
 }
 async function fetchDetail() {
   if (!terr || drag || detailBusy) return;
-  if (terr.step * cam.s <= 1.5) {
+  // Only when the overview's samples show as blocks of more than 2.5 screen pixels.
+  if (terr.step * cam.s <= 2.5) {
     if (detail) { detail = null; window.__terracl.detail = null; draw(); }
-    draw3d(terr, colours);
+    schedule3d(terr);
     return;
   }
   const x0 = Math.max(0, Math.floor(-cam.tx / cam.s)), y0 = Math.max(0, Math.floor(-cam.ty / cam.s));
@@ -295,7 +307,7 @@ async function fetchDetail() {
       detail = t;
       window.__terracl.detail = { x0: t.x0, y0: t.y0, w: t.w, h: t.h, step: t.step };
       draw();
-      draw3d(detail, colours);
+      schedule3d(detail);
     }
   } finally { detailBusy = false; }
 }
@@ -888,7 +900,7 @@ $('load').onclick = () => change('POST', '/api/load', { path: $('file').value })
 $('contours').onchange = () => { for (const x of [terr, detail, prev]) if (x) x.canvas = null; draw(); };
 $('c_lo').onchange = coloursTyped;
 $('c_hi').onchange = coloursTyped;
-$('c_fit').onclick = () => { setColours(detail && detail.version === state.version ? detail : terr, true); draw(); draw3d(detail || terr, colours); };
+$('c_fit').onclick = () => { setColours(detail && detail.version === state.version ? detail : terr, true); draw(); schedule3d(detail || terr); };
 $('fit').onclick = () => { fitView(); detail = null; draw(); scheduleDetail(0); };
 $('tool').onchange = () => { hoverHandle = null; showParams(); draw(); };
 $('cancel').onclick = cancelRunning;
