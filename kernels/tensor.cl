@@ -470,7 +470,9 @@ ClosestV closest_v(__global const float* pr, __global const float4* verts, vf px
 // Weight of primitive i (alpha of the distance over the radius).
 vf prim_weight_v(__global const float* pr, const ClosestV* c) {
   const float r = pr[3];
-  return r > 0.0f ? alpha_v(c->dist / r) : select((vf)(0.0f), (vf)(1.0f), c->dist <= 0.0f);
+  // A polyline with an inner radius pr[7] (a painted region's band) weighs 1 within it; 0 for strokes.
+  const vf d = (int)pr[0] == SHAPE_POLYLINE ? fmax(c->dist - pr[7], (vf)(0.0f)) : c->dist;
+  return r > 0.0f ? alpha_v(d / r) : select((vf)(0.0f), (vf)(1.0f), d <= 0.0f);
 }
 
 typedef struct {

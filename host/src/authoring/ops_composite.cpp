@@ -74,6 +74,7 @@ void add_oriented_noise(EditState& s, const OrientedNoise& o, const Primitive& r
 // Drop profile with a scree share).
 Operation parse_mesa(Params& p) {
   const Region r = parse_region(p, false);
+  if (r.kind == Region::Path) param_error(p.where("path"), "a mesa takes center + radius or a polygon, not a painted path");
   const double top = p.vlength("elevation");
   const double height = p.vlength("height");
   if (!(height > 0)) param_error(p.where("height"), fmt::format("expected a drop > 0 m, got {}", height));

@@ -62,11 +62,14 @@ ErodeSpec parse_erode_spec(Params& p) {
 std::vector<float> erode_weight(const ErodeSpec& e, const Grid& g, const std::vector<float>& hard) {
   const size_t n = size_t(g.width) * g.height;
   std::vector<float> w(n, e.region.kind == Region::Everywhere ? 1.f : 0.f);
-  if (e.region.kind == Region::Disc) {
+  if (e.region.kind == Region::Disc || e.region.kind == Region::Path) {
     const double r0 = e.region.radius, r1 = e.region.radius + e.falloff;
     for (int y = 0; y < g.height; ++y)
       for (int x = 0; x < g.width; ++x) {
-        const double d = std::hypot(x * g.cell_x - e.region.center.x, y * g.cell_y - e.region.center.y);
+        // distance to the disc's centre or the path's line (the band is the disc swept along it)
+        const double d = e.region.kind == Region::Disc
+                             ? std::hypot(x * g.cell_x - e.region.center.x, y * g.cell_y - e.region.center.y)
+                             : e.region.distance(x * g.cell_x, y * g.cell_y) + r0;
         double v = d <= r0 ? 1.0 : (d >= r1 ? 0.0 : 1.0 - (d - r0) / (r1 - r0));
         v = v * v * (3 - 2 * v);  // smoothstep: no crease at the brush edge
         w[size_t(y) * g.width + x] = float(v);

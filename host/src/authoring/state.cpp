@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 namespace terracl::edit {
 
@@ -343,9 +344,21 @@ std::vector<Vec2> xy(const std::vector<Vec3>& pts) {
 
 Region parse_region(Params& p, bool allow_everywhere) {
   Region r;
-  const bool disc = p.has("center"), poly = p.has("polygon");
-  if (disc && poly) param_error(p.path(), "give either center + radius (a disc) or polygon, not both");
-  if (disc) {
+  const bool disc = p.has("center"), poly = p.has("polygon"), path = p.has("path");
+  if (int(disc) + int(poly) + int(path) > 1)
+    param_error(p.path(), "give one region: center + radius (a disc), polygon, or path + radius (a painted stroke)");
+  if (path) {
+    // A painted brush stroke: one vertex is a disc (the same operation, bit for bit).
+    const std::vector<Vec2> pts = xy(p.points("path", 1));
+    r.radius = p.hlength("radius", {}, 0, true);
+    if (pts.size() == 1) {
+      r.kind = Region::Disc;
+      r.center = pts[0];
+    } else {
+      r.kind = Region::Path;
+      r.path = pts;
+    }
+  } else if (disc) {
     r.kind = Region::Disc;
     r.center = p.point("center");
     r.radius = p.hlength("radius", {}, 0, true);
@@ -353,9 +366,32 @@ Region parse_region(Params& p, bool allow_everywhere) {
     r.kind = Region::Polygon;
     r.polygon = xy(p.points("polygon", 3));
   } else if (!allow_everywhere) {
-    param_error(p.path(), "needs a region: center + radius (a disc) or polygon");
+    param_error(p.path(), "needs a region: center + radius (a disc), polygon, or path + radius (a painted stroke)");
   }
   return r;
+}
+
+namespace {
+double segment_distance(const Vec2& a, const Vec2& b, double x, double y) {
+  const double ux = b.x - a.x, uy = b.y - a.y, l2 = ux * ux + uy * uy;
+  const double t = l2 > 0 ? std::clamp(((x - a.x) * ux + (y - a.y) * uy) / l2, 0.0, 1.0) : 0.0;
+  return std::hypot(x - a.x - t * ux, y - a.y - t * uy);
+}
+bool inside_polygon(const std::vector<Vec2>& poly, double x, double y);
+}  // namespace
+
+double Region::distance(double x, double y) const {
+  switch (kind) {
+    case Everywhere: return 0;
+    case Disc: return std::max(0.0, std::hypot(x - center.x, y - center.y) - radius);
+    case Polygon: return inside_polygon(polygon, x, y) ? 0.0 : std::numeric_limits<double>::infinity();
+    case Path: {
+      double d = std::numeric_limits<double>::infinity();
+      for (size_t i = 0; i + 1 < path.size(); ++i) d = std::min(d, segment_distance(path[i], path[i + 1], x, y));
+      return std::max(0.0, d - radius);
+    }
+  }
+  return 0;
 }
 
 HostRegion region_on_host(EditState& s, const Region& r, double falloff) {
@@ -380,6 +416,11 @@ Primitive region_primitive(const Region& r, const Grid& g, double falloff) {
   if (r.kind == Region::Disc) {
     p.shape = PrimitiveShape::Disc;
     p.points = {r.center};
+    p.disc_radius = r.radius;
+  } else if (r.kind == Region::Path) {
+    // The band around the polyline weighs 1 out to disc_radius (tensor.cl, prim_weight_v).
+    p.shape = PrimitiveShape::Polyline;
+    p.points = r.path;
     p.disc_radius = r.radius;
   } else {
     p.shape = PrimitiveShape::Polygon;
@@ -409,9 +450,11 @@ std::vector<size_t> region_cells(const Region& r, const Grid& g) {
   int x0 = 0, y0 = 0, x1 = g.width - 1, y1 = g.height - 1;
   if (r.kind != Region::Everywhere) {  // only the cells of the region's bounding box
     double bx0 = r.center.x - r.radius, bx1 = r.center.x + r.radius, by0 = r.center.y - r.radius, by1 = r.center.y + r.radius;
-    if (r.kind == Region::Polygon) {
+    if (r.kind == Region::Polygon || r.kind == Region::Path) {
+      const double m = r.kind == Region::Path ? r.radius : 0.0;
       bx0 = by0 = 1e300, bx1 = by1 = -1e300;
-      for (const auto& v : r.polygon) bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
+      for (const auto& v : r.kind == Region::Path ? r.path : r.polygon)
+        bx0 = std::min(bx0, v.x - m), bx1 = std::max(bx1, v.x + m), by0 = std::min(by0, v.y - m), by1 = std::max(by1, v.y + m);
     }
     x0 = std::max(x0, cell_index(std::floor(bx0 / g.cell_x))), x1 = std::min(x1, cell_index(std::ceil(bx1 / g.cell_x)));
     y0 = std::max(y0, cell_index(std::floor(by0 / g.cell_y))), y1 = std::min(y1, cell_index(std::ceil(by1 / g.cell_y)));
@@ -422,6 +465,7 @@ std::vector<size_t> region_cells(const Region& r, const Grid& g) {
       bool in = r.kind == Region::Everywhere;
       if (r.kind == Region::Disc) in = std::hypot(px - r.center.x, py - r.center.y) <= r.radius;
       if (r.kind == Region::Polygon) in = inside_polygon(r.polygon, px, py);
+      if (r.kind == Region::Path) in = r.distance(px, py) <= 0;
       if (in) out.push_back(size_t(y) * g.width + x);
     }
   return out;

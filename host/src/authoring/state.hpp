@@ -184,14 +184,20 @@ void add_lake_ops(std::vector<OpSpec>& ops);       // ops_lake.cpp
 
 // ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
 
-/// A region: a disc (center + radius) or a polygon, or the whole grid.
+/// A region: a disc (center + radius), a polygon, a painted path (the band swept by a disc of
+/// `radius` along the polyline `path`), or the whole grid.
 struct Region {
-  enum Kind { Everywhere, Disc, Polygon } kind = Everywhere;
+  enum Kind { Everywhere, Disc, Polygon, Path } kind = Everywhere;
   Vec2 center;
   double radius = 0;
   std::vector<Vec2> polygon;
+  std::vector<Vec2> path;
+  /// Distance (metres) from (x, y) to the disc or the path's band (0 inside); polygons: 0 inside,
+  /// infinity outside.
+  double distance(double x, double y) const;
 };
-/// Reads "center" + "radius" (a disc), or "polygon", or neither (`allow_everywhere`).
+/// Reads "center" + "radius" (a disc), or "polygon", or "path" + "radius" (a painted stroke), or
+/// none of them (`allow_everywhere`).
 Region parse_region(Params& p, bool allow_everywhere);
 /// The region as a skeleton primitive (falloff `falloff` metres beyond it); Everywhere: a polygon
 /// around the grid.

@@ -138,7 +138,8 @@ Box primitives_box(const std::vector<Primitive>& prims, int width, int height, d
   for (const auto& p : prims) {
     // Distances in the metric are at least min(1, ratio) times the real distance.
     const double shrink = std::min(1.0, std::max(1e-3, p.aniso_ratio));
-    const double ext = (p.radius + (p.shape == PrimitiveShape::Disc ? p.disc_radius : 0.0)) / shrink;
+    const double inner = p.shape == PrimitiveShape::Disc || p.shape == PrimitiveShape::Polyline ? p.disc_radius : 0.0;
+    const double ext = (p.radius + inner) / shrink;
     for (const auto& v : p.points) {
       x0 = std::min(x0, v.x - ext);
       x1 = std::max(x1, v.x + ext);
