@@ -193,7 +193,9 @@ async function refresh(s) {
   $('undo').disabled = !state.can_undo;
   $('redo').disabled = !state.can_redo;
   if (state.warming) status('compiling the device programs in the background...');
-  document.body.dataset.version = state.version;  // tests wait on this
+  // Tests wait on this: set in the frame after the map's (callbacks run in the order queued).
+  const v = state.version;
+  requestAnimationFrame(() => { document.body.dataset.version = v; });
 }
 
 // ---- colour scale: fixed at the first terrain, or typed in ----

@@ -110,6 +110,10 @@ class EditSession {
   /// rule, seed_cell, level_m, cells, area_m2, volume_m3, max_depth_m (spill: spill_cell,
   /// spills_off_map), warnings (an empty lake); an empty array without lakes.
   nlohmann::json lakes();
+  /// The elevation change (m) the script's `erode` operations made, each against the terrain it
+  /// eroded, summed: negative where they wore the ground down, positive where they deposited;
+  /// nullopt when no erode operation ran. Later operations' changes are not in it.
+  std::optional<Heightfield> erosion_change() const;
 
  private:
   std::unique_ptr<edit::EditState> m_state;

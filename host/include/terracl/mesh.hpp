@@ -17,6 +17,9 @@ struct Mesh {
   /// u, v per vertex (glTF TEXCOORD_0, v down): u = (column + 0.5) / width, v = (row + 0.5) / height,
   /// so a picture of the raster at its own size (terracl render) drapes pixel on cell.
   std::vector<float> texcoords;
+  /// A PNG to drape over the mesh by its texcoords (glTF: the material's base colour texture,
+  /// embedded); empty: a plain rough material.
+  std::vector<unsigned char> texture_png;
   size_t vertex_count() const { return positions.size() / 3; }
   size_t triangle_count() const { return indices.size() / 3; }
 };

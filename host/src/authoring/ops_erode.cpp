@@ -94,6 +94,7 @@ Operation parse_erode(Params& p) {
     const Heightfield bed = erode(s.device(), h, e.params, e.steps, &w, nullptr, stop);
     double mean = 0;
     for (float z : bed.z) mean += z;
+    s.add_erosion_change(h, bed);
     s.upload(extract_gradient(s.device(), bed));
     s.set_mean(mean / double(std::max<size_t>(1, bed.z.size())));
     s.changed();

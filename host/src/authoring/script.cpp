@@ -322,6 +322,15 @@ nlohmann::json EditSession::report() const {
   return r;
 }
 
+std::optional<Heightfield> EditSession::erosion_change() const {
+  const std::vector<float>& c = m_state->erosion_change();
+  if (c.empty()) return std::nullopt;
+  Heightfield out(m_state->grid().width, m_state->grid().height);
+  out.z = c;
+  out.georef = m_georef;
+  return out;
+}
+
 std::optional<Heightfield> EditSession::water() {
   const Heightfield* w = m_state->water();
   if (!w) return std::nullopt;

@@ -62,6 +62,14 @@ class EditState {
   /// Per-operation log (JSON objects), written into the edit report.
   nlohmann::json& log() { return m_log; }
 
+  /// The elevation change of the erode operations so far (bed after minus terrain before, summed
+  /// over them; metres, row-major); empty before the first one. Exports' wear and deposition masks.
+  const std::vector<float>& erosion_change() const { return m_erosion_change; }
+  void add_erosion_change(const Heightfield& before, const Heightfield& after) {
+    if (m_erosion_change.empty()) m_erosion_change.assign(before.z.size(), 0.f);
+    for (size_t i = 0; i < m_erosion_change.size(); ++i) m_erosion_change[i] += after.z[i] - before.z[i];
+  }
+
   // ---- locality (docs/authoring.md, "Locality") ----
   /// Local solves: only the cells within the falloff of the changed cells move (the change is
   /// solved there with the unchanged terrain as Dirichlet border); every other cell keeps the base
@@ -111,6 +119,7 @@ class EditState {
   ReconstructResult m_last;
   int m_solves = 0;
   nlohmann::json m_log = nlohmann::json::array();
+  std::vector<float> m_erosion_change;
   // Locality: the base terrain and its gradient (host copies), the falloff and the report.
   bool m_local = false;
   std::optional<double> m_falloff;

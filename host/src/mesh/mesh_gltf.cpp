@@ -41,7 +41,10 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   const std::vector<float> normals = vertex_normals(m);
   const bool uv = m.texcoords.size() == 2 * m.vertex_count();
   const size_t uv_bytes = uv ? m.texcoords.size() * sizeof(float) : 0;
-  buffer.data.resize(2 * pos_bytes + idx_bytes + uv_bytes);
+  const bool textured = uv && !m.texture_png.empty();
+  const size_t tex_offset = 2 * pos_bytes + idx_bytes + uv_bytes;
+  buffer.data.resize(tex_offset + (textured ? m.texture_png.size() : 0));
+  if (textured) std::memcpy(buffer.data.data() + tex_offset, m.texture_png.data(), m.texture_png.size());
   std::memcpy(buffer.data.data(), m.positions.data(), pos_bytes);
   std::memcpy(buffer.data.data() + pos_bytes, m.indices.data(), idx_bytes);
   std::memcpy(buffer.data.data() + pos_bytes + idx_bytes, normals.data(), pos_bytes);
@@ -65,6 +68,13 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   uv_view.byteLength = uv_bytes;
   model.bufferViews = {pos_view, idx_view, nrm_view};
   if (uv) model.bufferViews.push_back(uv_view);
+  if (textured) {
+    tinygltf::BufferView img_view;
+    img_view.buffer = 0;
+    img_view.byteOffset = tex_offset;
+    img_view.byteLength = m.texture_png.size();
+    model.bufferViews.push_back(img_view);
+  }
 
   tinygltf::Accessor pos;
   pos.bufferView = 0;
@@ -104,6 +114,34 @@ void write_gltf(const Mesh& m, const std::string& path, bool binary, const Metad
   if (uv) prim.attributes["TEXCOORD_0"] = 3;
   prim.indices = 1;
   prim.mode = TINYGLTF_MODE_TRIANGLES;
+  // A material: ground is rough and not metallic (glTF's default material is half-metallic, which
+  // renders terrain as grey plastic); with a texture, its colours draped by the texcoords.
+  tinygltf::Material mat;
+  mat.name = "terrain";
+  mat.pbrMetallicRoughness.metallicFactor = 0.0;
+  mat.pbrMetallicRoughness.roughnessFactor = 1.0;
+  mat.doubleSided = false;
+  if (textured) {
+    tinygltf::Image img;
+    img.name = "terrain";
+    img.mimeType = "image/png";
+    img.bufferView = int(model.bufferViews.size()) - 1;
+    model.images.push_back(img);
+    tinygltf::Sampler smp;
+    smp.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+    smp.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+    smp.wrapS = smp.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+    model.samplers.push_back(smp);
+    tinygltf::Texture tex;
+    tex.source = 0;
+    tex.sampler = 0;
+    model.textures.push_back(tex);
+    mat.pbrMetallicRoughness.baseColorTexture.index = 0;
+  } else {
+    mat.pbrMetallicRoughness.baseColorFactor = {0.55, 0.50, 0.42, 1.0};
+  }
+  model.materials.push_back(mat);
+  prim.material = 0;
   tinygltf::Mesh mesh;
   mesh.name = "terrain";
   mesh.primitives.push_back(prim);

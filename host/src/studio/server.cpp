@@ -342,7 +342,9 @@ void StudioServer::Impl::routes() {
   });
   s.Post("/api/export", [this, path_of](const httplib::Request& req, httplib::Response& res) {
     api(req, res, [&] {
-      const std::string p = session->export_to(path_of(parse_body(req)));
+      const json b = parse_body(req);
+      if (b.is_object() && b.contains("name")) return session->export_set(b);  // the Export dialog
+      const std::string p = session->export_to(path_of(b));
       return json{{"written", p}};
     });
   });

@@ -58,6 +58,9 @@ class Session {
   /// .tif .exr .png .r16 .glb, of the canonical terrain (the script replayed from the base, as
   /// `terracl edit` computes it).
   std::string export_to(const std::string& rel);
+  /// The Export dialog (export.cpp): {name, format: tif|png16|exr|r16|glb, preset?, masks?: [flow,
+  /// slope, wear, deposition, water]} -> {written: [paths], size, masks: {name: {max, unit}}}.
+  json export_set(const json& request);
   std::string resolve(const std::string& rel, bool must_exist) const;
 
   /// The live terrain (warm-solved after each edit).
