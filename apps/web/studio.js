@@ -557,6 +557,8 @@ let space = false;
 map.addEventListener('contextmenu', (e) => e.preventDefault());
 map.addEventListener('mousedown', (e) => {
   if (!state) return;
+  // The keys (Delete, [ ], Space) are the map's once it is clicked, not the tool list's.
+  if (document.activeElement && document.activeElement !== document.body) document.activeElement.blur();
   const [px, py] = evt(e);
   if (e.button === 1 || e.button === 2 || space) {  // pan
     e.preventDefault();

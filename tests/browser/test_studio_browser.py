@@ -221,6 +221,20 @@ def main():
         v3 = wait_version(driver, v2)
         check(get_json(url + "api/state")["operations"][0] == crest, "undo put the vertex back")
 
+        # Double-click the first segment: a vertex is inserted there; Delete over it removes it.
+        (ax, ay), (bx, by) = crest["points"][0], crest["points"][1]
+        mx, my = page(driver, f"window.__terraclCanvas({(ax + bx) / 2}, {(ay + by) / 2})")
+        ActionChains(driver).move_to_element_with_offset(canvas, mx - 320, my - 320).click().perform()
+        ActionChains(driver).move_to_element_with_offset(canvas, mx - 320, my - 320).double_click().perform()
+        v3b = wait_version(driver, v3)
+        pts = get_json(url + "api/state")["operations"][0]["points"]
+        check(len(pts) == len(crest["points"]) + 1, f"a double-click on a segment inserted a vertex ({len(crest['points'])} -> {len(pts)})")
+        nx, ny = page(driver, f"window.__terraclCanvas({pts[1][0]}, {pts[1][1]})")
+        ActionChains(driver).move_to_element_with_offset(canvas, nx - 320, ny - 320).perform()
+        ActionChains(driver).send_keys(Keys.DELETE).perform()
+        v3 = wait_version(driver, v3b)
+        check(get_json(url + "api/state")["operations"][0]["points"] == crest["points"], "Delete over the vertex removed it")
+
         # Bad gestures get a message and change nothing: a vertex dragged off the map, a click with
         # a curve tool (a zero-length stroke).
         ex, ey = page(driver, f"window.__terraclCanvas({end[0]}, {end[1]})")
