@@ -132,5 +132,32 @@ TEST(StudioPreview, ADraggedStrokeReplacesItsOperation) {
   EXPECT_EQ(test::body(c.Get("/api/state"))["version"], st["version"]);
 }
 
+TEST(StudioPreview, AnAppendNamesTheWindowOfCellsItMoved) {
+  Studio s("flat:385x289@10+300");
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", kCrest}});
+  const Layer before = layer(c.Get("/api/terrain.f32"));
+  json peak = {{"op", "peak"}, {"center", {1000, 250}}, {"height", 60}, {"radius", 120}};
+  const json st = post(c, "/api/operations", {{"op", peak}});
+  ASSERT_EQ(st["last"]["mode"], "append");
+  ASSERT_TRUE(st["last"]["window"].is_array() && st["last"]["window"].size() == 4) << st["last"].dump();
+  const int x0 = st["last"]["window"][0], y0 = st["last"]["window"][1], w = st["last"]["window"][2], h = st["last"]["window"][3];
+  EXPECT_LT(size_t(w) * h, size_t(385 * 289) / 2);  // local: not the whole map
+  const Layer after = layer(c.Get("/api/terrain.f32"));
+  size_t moved = 0;
+  for (int y = 0; y < after.h; ++y)
+    for (int x = 0; x < after.w; ++x) {
+      if (after.at(x, y) == before.at(x, y)) continue;
+      ++moved;
+      ASSERT_TRUE(x >= x0 && x < x0 + w && y >= y0 && y < y0 + h) << "cell " << x << "," << y << " moved outside the window";
+    }
+  EXPECT_GT(moved, 50u);
+  // The page patches its overview with ?step=k windows: the same samples as a whole fetch.
+  const Layer patch = layer(c.Get("/api/terrain.f32?step=3&x0=9&y0=6&x1=100&y1=70"));
+  EXPECT_EQ(patch.step, 3);
+  for (int y = 0; y < patch.h; ++y)
+    for (int x = 0; x < patch.w; ++x) ASSERT_EQ(patch.at(x, y), after.at(9 + 3 * x, 6 + 3 * y));
+}
+
 }  // namespace
 }  // namespace terracl

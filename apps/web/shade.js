@@ -32,10 +32,12 @@ function tintWater(c, k, d, deepest) {
 }
 
 // t: {w, h, cx, cy, z, water?}; [lo, hi]: the elevations at the two ends of the colour ramp (fixed
-// for the session, so that before and after an edit compare by eye).
-export function shade(t, [lo, hi], contours) {
+// for the session, so that before and after an edit compare by eye); r: the samples to shade
+// (inclusive; default all), the picture is of r's size.
+export function shade(t, [lo, hi], contours, r = { x0: 0, y0: 0, x1: t.w - 1, y1: t.h - 1 }) {
   const { w, h, z, cx, cy } = t;
-  const img = new ImageData(w, h);
+  const iw = r.x1 - r.x0 + 1;
+  const img = new ImageData(iw, r.y1 - r.y0 + 1);
   const span = Math.max(hi - lo, 1e-6);
   // Horn's hillshade with the sun at azimuth 315 degrees, 45 degrees up, without trigonometry per
   // cell: sin(alt) cos(slope) + cos(alt) sin(slope) cos(az - aspect) = (A + B (p + q)) / sqrt(1 + p^2 + q^2).
@@ -47,8 +49,8 @@ export function shade(t, [lo, hi], contours) {
   const c = [0, 0, 0];
   const Z = (x, y) => z[Math.min(h - 1, Math.max(0, y)) * w + Math.min(w - 1, Math.max(0, x))];
   const kx = 1 / (8 * cx), ky = 1 / (8 * cy);
-  for (let y = 0; y < h; y++)
-    for (let x = 0; x < w; x++) {
+  for (let y = r.y0; y <= r.y1; y++)
+    for (let x = r.x0; x <= r.x1; x++) {
       const a = Z(x - 1, y - 1), b = Z(x, y - 1), cc = Z(x + 1, y - 1), d = Z(x - 1, y), f = Z(x + 1, y), g = Z(x - 1, y + 1), hh = Z(x, y + 1), i = Z(x + 1, y + 1);
       const p = ((cc + 2 * f + i) - (a + 2 * d + g)) * kx;
       const q = ((g + 2 * hh + i) - (a + 2 * b + cc)) * ky;
@@ -60,7 +62,7 @@ export function shade(t, [lo, hi], contours) {
         const band = Math.floor((v - lo) / iv);
         if (band !== Math.floor((z[y * w + x + 1] - lo) / iv) || band !== Math.floor((z[(y + 1) * w + x] - lo) / iv)) k *= 0.45;
       }
-      const o = 4 * (y * w + x);
+      const o = 4 * ((y - r.y0) * iw + x - r.x0);
       if (water && water[y * w + x] > 0) { tintWater(c, k, water[y * w + x], deepest); k = 1; }
       img.data[o] = c[0] * k; img.data[o + 1] = c[1] * k; img.data[o + 2] = c[2] * k; img.data[o + 3] = 255;
     }

@@ -28,6 +28,8 @@ let eroding = false;
 window.__terracl = { latency: [], phases: [], previewFrames: 0, previewMs: [] };
 // Where a script point is drawn (canvas px), for tests that grab a vertex.
 window.__terraclCanvas = (x, y) => toCanvas(x, y);
+// The overview the page holds (tests compare it with the server's terrain after a patch).
+window.__terraclOverview = () => ({ w: terr.w, h: terr.h, step: terr.step, version: terr.version, z: Array.from(terr.z) });
 
 // ---- tool parameters (lengths in metres; scaled to the terrain on the first load) ----
 // Empty fields ('') are left out of the operation: terracl picks the default from the relief
@@ -182,7 +184,11 @@ async function refresh(s) {
   state = s || await api('GET', '/api/state');
   if (!scaled) { scaleTools(); showParams(); }
   if (selected >= state.operations.length) selected = -1;
-  terr = await fetchTerrain(PREVIEW_MAX);
+  const last = state.last || {};
+  // An append solved locally moved only the cells of its window: patch the overview there.
+  if (terr && state.version === terr.version + 1 && last.mode === 'append' && Array.isArray(last.window) &&
+      !(state.lakes || []).length && !terr.water) await patchTerrain(last.window);
+  else terr = await fetchTerrain(PREVIEW_MAX);
   if (!colours) setColours(terr);
   if (!cam.fitted) fitView();
   prev = null;
@@ -196,6 +202,28 @@ async function refresh(s) {
   // Tests wait on this: set in the frame after the map's (callbacks run in the order queued).
   const v = state.version;
   requestAnimationFrame(() => { document.body.dataset.version = v; });
+}
+
+// The overview's samples inside the cell window [x0, y0, w, h], fetched at the overview's step,
+// written into it and shaded again (with a sample of margin: hillshade reads the neighbours).
+async function patchTerrain(win) {
+  const t = terr, s = t.step;
+  if (win.length === 4) {
+    const [x0, y0, w, h] = win;
+    const jx0 = Math.ceil(x0 / s), jy0 = Math.ceil(y0 / s);
+    const jx1 = Math.min(t.w - 1, Math.floor((x0 + w - 1) / s)), jy1 = Math.min(t.h - 1, Math.floor((y0 + h - 1) / s));
+    if (jx1 >= jx0 && jy1 >= jy0) {
+      const r = await apiFetch(`/api/terrain.f32?step=${s}&x0=${jx0 * s}&y0=${jy0 * s}&x1=${jx1 * s + 1}&y1=${jy1 * s + 1}`);
+      const p = await decode(r);
+      if (p.w !== jx1 - jx0 + 1 || p.h !== jy1 - jy0 + 1) { terr = await fetchTerrain(PREVIEW_MAX); return; }
+      for (let y = 0; y < p.h; y++) t.z.set(p.z.subarray(y * p.w, (y + 1) * p.w), (jy0 + y) * t.w + jx0);
+      if (t.canvas) {
+        const rr = { x0: Math.max(0, jx0 - 1), y0: Math.max(0, jy0 - 1), x1: Math.min(t.w - 1, jx1 + 1), y1: Math.min(t.h - 1, jy1 + 1) };
+        t.canvas.getContext('2d').putImageData(shade(t, colours, $('contours').checked, rr), rr.x0, rr.y0);
+      }
+    }
+  }
+  t.version = state.version;
 }
 
 // ---- colour scale: fixed at the first terrain, or typed in ----

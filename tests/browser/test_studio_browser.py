@@ -124,6 +124,14 @@ def drag_path(driver, canvas, x, y, moves, pause=0.04, release=True):
     chain.perform()
 
 
+def check_overview(driver, url, when):
+    """The page's overview terrain equals the server's live terrain sampled the same way."""
+    ov = page(driver, "window.__terraclOverview()")
+    with api_get(url + f"api/terrain.f32?step={ov['step']}") as r:
+        z = np.frombuffer(r.read(), dtype=np.float32)
+    check(np.array_equal(np.array(ov["z"], dtype=np.float32), z), f"the page's terrain is the server's {when}")
+
+
 def shot(driver, shots, name):
     if shots:
         time.sleep(0.4)
@@ -171,6 +179,7 @@ def main():
         check("elevation" not in crest, f"the crest is placed relative to the ground ({crest})")
         check(float(z.max() - z.min()) > 10.0 and float(z.min()) > -1.0,
               f"the crest rose above the plain and dug nothing (min {z.min():.2f} m, max {z.max():.2f} m)")
+        check_overview(driver, url, "after the stroke (patched where the solve moved cells)")
         lit, std = driver.execute_script(CANVAS_STATS)
         check(std > flat_std + 5, f"the map shows the crest (pixel std {flat_std:.1f} -> {std:.1f})")
         has3d = driver.execute_script("return !!document.querySelector('#view3d canvas')")
@@ -255,6 +264,7 @@ def main():
         noise = get_json(url + "api/state")["operations"][-1]
         check(noise["op"] == "noise" and len(noise.get("path", [])) >= 2 and noise["radius"] > 0,
               f"the drag painted one noise operation along a path ({noise})")
+        check_overview(driver, url, "after the painted brush")
         shot(driver, shots, "studio_painted.png")
 
         # Amplify a dragged region with an exemplar DEM typed into the tool's parameters.

@@ -88,6 +88,10 @@ class EditSession {
   std::vector<std::string> warnings() const;
   /// Whether solves are local (only the cells within the falloff of the edits move).
   bool local() const;
+  /// What the last local solve did (docs/authoring.md, "Locality"): mode, falloff_m, changed_cells,
+  /// solved_cells and window [x0, y0, width, height] (the cells it may have moved; every other cell
+  /// kept its elevation bit for bit); an empty object before the first local solve.
+  nlohmann::json locality() const;
   /// The current terrain (reconstructs when an operation changed anything).
   const Heightfield& height();
   /// Reconstructs now (warm: from the previous solution, else from scratch), returning the

@@ -247,6 +247,7 @@ std::vector<std::string> EditSession::warnings() const {
 }
 
 bool EditSession::local() const { return m_state->local(); }
+nlohmann::json EditSession::locality() const { return m_state->locality_report(); }
 
 void EditSession::apply(const nlohmann::json& script) {
   const Parsed parsed = parse_script(script, script_grid(*m_state, m_options, m_georef));

@@ -80,10 +80,10 @@ struct Window {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
 };
 
-std::string f32_body(const Heightfield& h, int max_side, httplib::Response& res, Window win = {}) {
+std::string f32_body(const Heightfield& h, int max_side, httplib::Response& res, Window win = {}, int step = 0) {
   if (win.x1 <= win.x0 || win.y1 <= win.y0) win = {0, 0, h.width, h.height};
   const int side = std::max(win.x1 - win.x0, win.y1 - win.y0);
-  const int step = studio::sample_step(side, max_side);
+  if (step <= 0) step = studio::sample_step(side, max_side);
   const int w = (win.x1 - win.x0 - 1) / step + 1, hh = (win.y1 - win.y0 - 1) / step + 1;
   std::string out(size_t(w) * hh * sizeof(float), '\0');
   float* o = reinterpret_cast<float*>(out.data());
@@ -352,7 +352,9 @@ void StudioServer::Impl::routes() {
     api(req, res, [&] {
       const int max_side = int_param(req, "max", 1 << 16, 2, 1 << 16);
       const Heightfield& h = session->terrain();
-      res.set_content(f32_body(h, max_side, res, window_param(req, h)), "application/octet-stream");
+      // ?step=k: every k-th cell of the window (the page patches its overview with a window)
+      const int step = int_param(req, "step", 0, 1, 1 << 16);
+      res.set_content(f32_body(h, max_side, res, window_param(req, h), step), "application/octet-stream");
       res.set_header("X-Version", std::to_string(session->version()));
       return json();
     });

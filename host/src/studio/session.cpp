@@ -152,6 +152,11 @@ void Session::commit(const json& ops, bool record_undo) {
   m_ops = ops;
   ++m_version;
   m_last = {{"mode", mode}, {"ms", ms_since(t0)}, {"operations", m_ops.size()}, {"warnings", warnings}};
+  // An append solved locally moved only the cells of its window: the page fetches just those.
+  if (append && m_edit->local()) {
+    const json loc = m_edit->locality();
+    m_last["window"] = loc.value("solved_cells", 0) > 0 && loc.contains("window") ? loc["window"] : json::array();
+  }
 }
 
 namespace {
