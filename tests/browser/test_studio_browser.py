@@ -354,7 +354,6 @@ def main():
         check(int((gdal.Open(water).ReadAsArray() > 0).sum()) > 0, "the replay writes the lake's water (--water)")
 
         if shots:  # a mountain range being eroded live
-            driver.find_element(By.ID, "contours").click()
             Select(driver.find_element(By.ID, "tool")).select_by_value("mountain_range")
             v = version(driver)
             drag_path(driver, canvas, -200, -150, [(12, 20)] * 15)
@@ -363,6 +362,7 @@ def main():
             time.sleep(8)
             driver.find_element(By.ID, "erode_stop").click()
             time.sleep(1)
+            driver.execute_script("window.scrollTo(0, 0)")
             driver.save_screenshot(os.path.join(shots, "studio_erosion.png"))
             driver.find_element(By.ID, "erode_cancel").click()
 
