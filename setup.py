@@ -56,6 +56,8 @@ setup(
     name="terracl",
     version=version(),
     description="Terrain authoring in the gradient domain on OpenCL devices (Python bindings)",
+    license="Apache-2.0",
+    classifiers=["License :: OSI Approved :: Apache Software License"],
     packages=["terracl"],
     package_dir={"": "python"},
     ext_modules=[CMakeExtension("terracl._terracl")],

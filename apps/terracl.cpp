@@ -155,7 +155,8 @@ int run_cli(int argc, char** argv) {
   cli::disable_caches_if_unwritable();
 
   CLI::App app{"terracl: terrain authoring and amplification in the gradient domain, on any OpenCL device"};
-  app.set_version_flag("--version", std::string("terracl ") + terracl::version());
+  app.set_version_flag("--version", std::string("terracl ") + terracl::version() +
+                                        "\nLicensed under the Apache License, Version 2.0 (SPDX: Apache-2.0)");
   app.require_subcommand(1);
   app.fallthrough();
   app.add_option("--device", g.device, "OpenCL device: index or name substring (see `terracl devices`)")

@@ -22,6 +22,9 @@ if(TARGET terracl_cli)
   install(TARGETS terracl_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
 endif()
 
+# The licence (Apache-2.0) in every package, where Debian policy puts it.
+install(FILES ${CMAKE_SOURCE_DIR}/cmake/copyright DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl COMPONENT runtime)
+install(FILES ${CMAKE_SOURCE_DIR}/cmake/copyright DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl-dev COMPONENT development)
 install(EXPORT terraclTargets NAMESPACE terracl:: DESTINATION ${TERRACL_INSTALL_CMAKEDIR}
         COMPONENT development)
 configure_package_config_file(${CMAKE_SOURCE_DIR}/cmake/terraclConfig.cmake.in

@@ -88,6 +88,11 @@ for f in ./usr/include/terracl/reconstruct.hpp ./usr/include/terracl/version.hpp
   contents "$dev" | grep -qx "$f" || fail "$(basename "$dev") lacks $f"
 done
 ! contents "$rt" | grep -q '/include/' || fail "$(basename "$rt") ships headers"
+# The licence in every package (Debian policy: /usr/share/doc/<package>/copyright).
+for p in "$work"/deb/*.deb; do
+  name=$(dpkg-deb -f "$p" Package)
+  contents "$p" | grep -qx "./usr/share/doc/$name/copyright" || fail "$(basename "$p") lacks /usr/share/doc/$name/copyright"
+done
 depends=$(dpkg-deb -f "$rt" Depends)
 grep -q 'libgdal' <<<"$depends" && grep -q 'libopenimageio' <<<"$depends" ||
   fail "$(basename "$rt") Depends not computed by dpkg-shlibdeps: '$depends'"

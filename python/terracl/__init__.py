@@ -34,6 +34,8 @@ from ._terracl import (  # noqa: F401
 )
 from . import _terracl
 
+__license__ = "Apache-2.0"
+
 _STAGES = _terracl._stage_table()
 
 __all__ = [
