@@ -207,6 +207,13 @@ EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_
   m_state->set_local(m_options.locality.value_or(true));
 }
 
+EditSession::EditSession(std::unique_ptr<edit::EditState> state, EditOptions o, Georef g, bool auto_flat)
+    : m_state(std::move(state)), m_options(std::move(o)), m_georef(std::move(g)), m_auto_flat(auto_flat) {}
+
+std::unique_ptr<EditSession> EditSession::snapshot() const {
+  return std::unique_ptr<EditSession>(new EditSession(m_state->clone(), m_options, m_georef, m_auto_flat));
+}
+
 EditSession::~EditSession() = default;
 
 void validate_edit_script(const nlohmann::json& script, int width, int height, double cell, const std::string& base_dir) {
