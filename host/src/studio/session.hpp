@@ -94,7 +94,25 @@ class Session {
   void commit(const json& ops, bool record_undo = true);
   json appended_only(const json& ops) const;
   void apply_ops(const json& tail);
-  void replay(const json& ops);
+  /// Rebuilds m_edit for `ops` as `terracl edit` computes it: from the latest snapshot whose
+  /// prefix equals ops' (else from the base), keeping a snapshot after every expensive operation
+  /// it runs. Returns the index of the first operation it ran.
+  size_t replay(const json& ops);
+
+  // ---- snapshots (docs/studio.md, "Snapshots") ----
+  /// The EditSession right after operations [0, end) ran (a deep copy taken before any extra
+  /// solve, so it continues exactly as a replay of the whole script would), valid while those
+  /// operations and the script's header are unchanged (`key`: the JSON of that prefix script).
+  struct Snapshot {
+    std::string key;
+    size_t end = 0;
+    std::unique_ptr<EditSession> edit;
+    unsigned long long used = 0;  ///< for least-recently-used eviction
+  };
+  std::string prefix_key(const json& ops, size_t end) const;
+  void keep_snapshot(const json& ops, size_t end, const EditSession& e);
+  std::vector<Snapshot> m_snapshots;
+  unsigned long long m_snapshot_clock = 0;
 
   Device& m_device;
   std::string m_base_spec, m_workspace;
