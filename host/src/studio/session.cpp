@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -15,8 +16,15 @@
 #include <terracl/interrupt.hpp>
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
+#include <terracl/warm_up.hpp>
 
 #include "authoring/ops_erode.hpp"
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 namespace fs = std::filesystem;
 
@@ -59,9 +67,79 @@ Session::Session(Device& d, const std::string& base, const std::string& workspac
   m_header = {{"units", "m"}, {"seed", 1}};
   replay(m_ops);
   m_last = {{"mode", "start"}};
+  start_warm_up();
 }
 
-Session::~Session() = default;
+Session::~Session() {
+  m_warm_stop = true;
+  if (m_warm.joinable()) m_warm.join();
+}
+
+namespace {
+long long now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+constexpr long long kWarmIdleNs = 1'500'000'000;  // quiet time before the warm-up builds on
+}  // namespace
+
+Session::Busy::Busy(Session& s) : s(s) { ++s.m_busy; }
+Session::Busy::~Busy() {
+  s.m_quiet_since_ns = now_ns();
+  --s.m_busy;
+}
+
+void Session::start_warm_up() {
+  if (const char* v = std::getenv("TERRACL_STUDIO_WARMUP"); v && std::string(v) == "0") return;
+  // The programs in the order a first stroke needs them: the solver and the field, the stroke
+  // kernels, erosion as the erode operation and the live erosion build it on this grid (default
+  // parameters, with and without channel diffusion), then every other embedded kernel file.
+  std::vector<std::pair<std::string, std::string>> programs;
+  auto add = [&](const std::string& file, const std::string& options) {
+    for (const auto& p : programs)
+      if (p.first == file && p.second == options) return;
+    programs.emplace_back(file, options);
+  };
+  for (const char* f : {"multigrid", "multigrid_coarse", "gradient", "tensor", "noise", "raster"}) add(f, "");
+  try {
+    edit::Grid g;
+    g.width = m_base.width;
+    g.height = m_base.height;
+    g.cell_x = m_base.georef.cell_x;
+    g.cell_y = m_base.georef.cell_y;
+    const json op = {{"op", "erode"}, {"steps", 1}};
+    edit::Params p(op, "/warm_up", g);
+    p.string("op");
+    ErosionParams e = edit::parse_erode_spec(p).params;
+    add("erosion", erosion_program_options(m_device, m_base.width, e, true));
+    e.channel_diffusion = e.channel_diffusion > 0 ? 0.0 : 0.5;
+    add("erosion", erosion_program_options(m_device, m_base.width, e, true));
+  } catch (const std::exception&) {
+    // the defaults always parse; erosion then compiles on first use
+  }
+  for (const std::string& f : kernel_files()) add(f, "");
+  m_warming = true;
+  m_warm = std::thread([this, programs] {
+#ifdef __linux__
+    // The lowest CPU priority for this thread only (PoCL compiles in the calling thread): a
+    // request arriving meanwhile gets the cores.
+    setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 19);
+#endif
+    const auto t0 = std::chrono::steady_clock::now();
+    // Before each program: wait until no request has run on the device for kWarmIdleNs.
+    const auto stop = [this] {
+      while (!m_warm_stop && (m_busy > 0 || now_ns() - m_quiet_since_ns < kWarmIdleNs))
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      return m_warm_stop.load();
+    };
+    const size_t ready = warm_up(m_device, programs, stop);
+    if (!m_warm_stop) {
+      fmt::print("studio: {} OpenCL programs ready ({:.1f} s, compiled or loaded from the cache)\n", ready,
+                 ms_since(t0) / 1000.0);
+      std::fflush(stdout);
+    }
+    m_warming = false;
+  });
+}
 
 json Session::full_script(const json& ops) const {
   json s = m_header;
@@ -84,6 +162,8 @@ json Session::state() const {
           {"can_undo", !m_undo.empty()},
           {"can_redo", !m_redo.empty()},
           {"eroding", bool(m_erosion)},
+          // Compiling the OpenCL programs ahead in the background (start_warm_up).
+          {"warming", m_warming.load()},
           {"erosion_steps", m_erosion_steps},
           {"last", m_last},
           // Each lake's figures on the live terrain (cached until the next solve), so the page
@@ -196,6 +276,7 @@ size_t Session::replay(const json& ops) {
 }
 
 void Session::commit(const json& ops, bool record_undo) {
+  const Busy busy(*this);
   if (!ops.is_array()) throw RequestError(400, "/operations: expected an array of operations");
   if (ops.size() > kMaxOps) throw RequestError(413, fmt::format("/operations: at most {} operations", kMaxOps));
   const auto t0 = std::chrono::steady_clock::now();
@@ -396,9 +477,13 @@ std::string Session::export_to(const std::string& rel) {
   return path;
 }
 
-const Heightfield& Session::terrain() { return m_edit->height(); }
+const Heightfield& Session::terrain() {
+  const Busy busy(*this);
+  return m_edit->height();
+}
 
 const Heightfield& Session::canonical() {
+  const Busy busy(*this);
   if (!m_canonical) replay(m_ops);
   return m_edit->height();
 }
@@ -406,6 +491,7 @@ const Heightfield& Session::canonical() {
 // ---- live erosion ----
 
 void Session::erosion_start(const json& params) {
+  const Busy busy(*this);
   if (!params.is_object()) throw RequestError(400, "/: expected erosion parameters {\"rain\": ..., ...}");
   json op = params;
   op["op"] = "erode";
@@ -432,6 +518,7 @@ void Session::erosion_start(const json& params) {
 }
 
 Heightfield Session::erosion_step(int steps) {
+  const Busy busy(*this);
   if (!m_erosion) throw RequestError(409, "no erosion running (POST /api/erosion/start first)");
   if (steps < 1 || steps > 1000) throw RequestError(400, "/steps: expected an integer in [1, 1000]");
   m_erosion->run(steps);

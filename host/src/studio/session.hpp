@@ -3,10 +3,12 @@
 // of `terracl edit`), replayed on an EditSession that re-solves warm on the device. Every method
 // validates its input before changing anything, so a rejected request leaves the session as it was.
 // Not thread-safe by itself: the server serialises requests with one mutex.
+#include <atomic>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <thread>
 #include <terracl/device.hpp>
 #include <terracl/edit.hpp>
 #include <terracl/erosion.hpp>
@@ -130,6 +132,23 @@ class Session {
   std::optional<Heightfield> m_preview_ground;  ///< the coarse terrain a dragged stroke is drawn on
   json m_preview_key;
   double m_preview_ms = 0;
+
+  // ---- compiling ahead (docs/studio.md, "First strokes"): every OpenCL program the studio can
+  // use is built (or loaded from the cache) in the background at start; only the program cache is
+  // touched (under its own lock), so requests run meanwhile.
+  void start_warm_up();
+  std::thread m_warm;
+  std::atomic<bool> m_warming{false}, m_warm_stop{false};
+  /// Device work of requests (commit, preview, terrain, erosion) marks the session busy; the
+  /// warm-up starts its next program only after kWarmIdle of quiet (PoCL compiles one program at a
+  /// time, so a build in the background would hold up the request's own).
+  std::atomic<int> m_busy{0};
+  std::atomic<long long> m_quiet_since_ns{0};
+  struct Busy {
+    Session& s;
+    explicit Busy(Session& s);
+    ~Busy();
+  };
 
   std::unique_ptr<Erosion> m_erosion;
   json m_erosion_op;
