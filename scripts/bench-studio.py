@@ -2,6 +2,8 @@
 """Benchmark of terracl studio's API (docs/studio.md), as the page uses it.
 
   scripts/bench-studio.py [build/bin/terracl] [--size 1025] [--ops 30] [--erosion-size 513] [--frames 60]
+  scripts/bench-studio.py [build/bin/terracl] --after-erosion [--size 1025] [--changes 10] [--steps 60]
+  scripts/bench-studio.py [build/bin/terracl] --first-drainage [--size 1025]
 
 Starts `terracl studio flat:NxN@10` on a free port and measures
   * append: POST one operation at the end (one operation + warm solve) and GET the updated preview
@@ -9,6 +11,15 @@ Starts `terracl studio flat:NxN@10` on a free port and measures
   * replay: PUT a change to the FIRST operation (the script replayed from the base) + preview;
   * erosion: preview frames per second while eroding at --erosion-size (POST erosion/step?steps=1
     returning the bed, max 513 cells a side).
+
+--after-erosion measures only: change a layer after an erosion (issue #31). On flat:NxN@10 it
+builds [mountain_range, erode --steps, crest], then PUTs a changed last crest --changes times
+(+ the preview), median and p95 (server side: the replay from the erosion's snapshot).
+
+--first-drainage measures only: the first operation after start on empty kernel caches (a fresh
+$XDG_CACHE_HOME for terracl's program cache and $POCL_CACHE_DIR for PoCL's), a `drainage` on a
+range: at once after start, and once the studio's background warm-up is done ("warming": false in
+/api/state; a studio without warm-up has no such key).
 """
 import json
 import random
@@ -36,9 +47,9 @@ def request(base, method, path, body=None):
         return r.read()
 
 
-def start(cli, base):
+def start(cli, base, env=None):
     p = subprocess.Popen([cli, "-q", "studio", base, "--port", "0", "--workspace", "/tmp/terracl-bench-studio"],
-                         stdout=subprocess.PIPE, text=True, env={**os.environ, "TERRACL_STUDIO_TOKEN": TOKEN})
+                         stdout=subprocess.PIPE, text=True, env={**os.environ, **(env or {}), "TERRACL_STUDIO_TOKEN": TOKEN})
     for _ in range(50):
         m = re.search(r"(http://127\.0\.0\.1:\d+/)", p.stdout.readline())
         if m:
@@ -51,8 +62,74 @@ def pct(v, q):
     return v[min(len(v) - 1, int(round(q * (len(v) - 1))))]
 
 
+def after_erosion(cli):
+    n, changes, steps = arg("--size", 1025), arg("--changes", 10), arg("--steps", 60)
+    ext = (n - 1) * 10.0
+    p, base = start(cli, f"flat:{n}x{n}@10")
+    try:
+        rng = {"op": "mountain_range", "points": [[0.15 * ext, 0.5 * ext, 600], [0.85 * ext, 0.45 * ext, 800]],
+               "radius": 0.2 * ext}
+
+        def crest(i):
+            return {"op": "crest", "points": [[0.3 * ext, 0.2 * ext], [0.6 * ext, 0.15 * ext + 5 * i]],
+                    "elevation": 300 + 10 * i, "radius": 0.04 * ext}
+
+        request(base, "POST", "/api/operations", {"op": rng})
+        request(base, "POST", "/api/operations", {"op": {"op": "erode", "steps": steps}})
+        request(base, "POST", "/api/operations", {"op": crest(0)})
+        ms, server = [], []
+        for i in range(1, changes + 1):
+            t0 = time.perf_counter()
+            st = json.loads(request(base, "PUT", "/api/operations/2", {"op": crest(i)}))
+            request(base, "GET", "/api/terrain.f32?max=400")
+            ms.append((time.perf_counter() - t0) * 1e3)
+            server.append(st["last"]["ms"])
+            frm = st["last"].get("from", "-")
+    finally:
+        p.terminate()
+        p.wait()
+    print(f"{cli}: studio {n}x{n}: change the crest after an erosion ({steps} steps), {changes} changes: + preview median "
+          f"{statistics.median(ms):.0f} ms  p95 {pct(ms, 0.95):.0f} ms  (server side median {statistics.median(server):.0f} ms; "
+          f"replay from operation {frm})")
+
+
+def first_drainage(cli):
+    import tempfile
+    n = arg("--size", 1025)
+    ext = (n - 1) * 10.0
+    rng = {"op": "mountain_range", "points": [[0.15 * ext, 0.5 * ext, 600], [0.85 * ext, 0.45 * ext, 800]], "radius": 0.2 * ext}
+    out = []
+    for wait in (False, True):
+        with tempfile.TemporaryDirectory() as xdg, tempfile.TemporaryDirectory() as pocl:
+            t_start = time.perf_counter()
+            p, base = start(cli, f"flat:{n}x{n}@10", {"XDG_CACHE_HOME": xdg, "POCL_CACHE_DIR": pocl})
+            try:
+                warm_s = None
+                if wait:
+                    while json.loads(request(base, "GET", "/api/state")).get("warming", False):
+                        time.sleep(0.2)
+                    warm_s = time.perf_counter() - t_start
+                t0 = time.perf_counter()
+                request(base, "POST", "/api/operations", {"op": rng})
+                t1 = time.perf_counter()
+                request(base, "POST", "/api/operations", {"op": {"op": "drainage"}})
+                t2 = time.perf_counter()
+            finally:
+                p.terminate()
+                p.wait()
+        out.append((wait, (t1 - t0) * 1e3, (t2 - t1) * 1e3, warm_s))
+    for wait, a, d, w in out:
+        when = f"after the warm-up ({w:.1f} s after start)" if wait else "at once after start"
+        print(f"{cli}: studio {n}x{n}, empty kernel caches, {when}: first stroke (range) {a:.0f} ms, "
+              f"then first drainage {d:.0f} ms")
+
+
 def main():
     cli = sys.argv[1] if len(sys.argv) > 1 and not sys.argv[1].startswith("--") else "build/bin/terracl"
+    if "--after-erosion" in sys.argv:
+        return after_erosion(cli)
+    if "--first-drainage" in sys.argv:
+        return first_drainage(cli)
     n, nops, en, frames = arg("--size", 1025), arg("--ops", 30), arg("--erosion-size", 513), arg("--frames", 60)
     rng = random.Random(1)
     ext = (n - 1) * 10.0

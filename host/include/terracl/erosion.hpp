@@ -83,6 +83,9 @@ double erosion_pipe_area(const ErosionParams& p, double lx, double ly);
 /// Stability limit (s) of the pipe model for a cell of lx x ly metres:
 /// dt_max = sqrt(a / (g * (A/lx + A/ly))), i.e. sqrt(l*a / (2*A*g)) for square cells.
 double erosion_stability_limit(const ErosionParams& p, double lx, double ly);
+/// Build options of kernels/erosion.cl for an Erosion on a grid `width` cells wide with these
+/// parameters, with or without a weight (what the studio compiles ahead: Device::warm_up).
+std::string erosion_program_options(const Device& dev, int width, const ErosionParams& params, bool weight);
 
 /// The host copy of the state (row-major width x height, no halo).
 struct ErosionState {

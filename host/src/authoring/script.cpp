@@ -207,6 +207,13 @@ EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_
   m_state->set_local(m_options.locality.value_or(true));
 }
 
+EditSession::EditSession(std::unique_ptr<edit::EditState> state, EditOptions o, Georef g, bool auto_flat)
+    : m_state(std::move(state)), m_options(std::move(o)), m_georef(std::move(g)), m_auto_flat(auto_flat) {}
+
+std::unique_ptr<EditSession> EditSession::snapshot() const {
+  return std::unique_ptr<EditSession>(new EditSession(m_state->clone(), m_options, m_georef, m_auto_flat));
+}
+
 EditSession::~EditSession() = default;
 
 void validate_edit_script(const nlohmann::json& script, int width, int height, double cell, const std::string& base_dir) {
@@ -254,16 +261,6 @@ void EditSession::apply(const nlohmann::json& script) {
   if (parsed.local) m_state->set_local(*parsed.local), m_auto_flat = false;
   if (m_auto_flat && !landform_strokes_only(script)) m_state->set_local(false), m_auto_flat = false;
   if (parsed.falloff) m_state->set_falloff(parsed.falloff);
-  for (size_t i = 0; i < parsed.traces.size(); ++i) {
-    // A layer over the terrain (a lake) changes no cell: noting its support would only force a
-    // re-solve, and a lake's reach is its whole basin, not its seed.
-    if (!parsed.changes_terrain[i]) continue;
-    m_state->note_reach(parsed.traces[i].reach);
-    edit::EditState::Support sp{0, 0, m_state->grid().width - 1, m_state->grid().height - 1, parsed.traces[i].reach};
-    if (parsed.supports[i].is_array())
-      sp.x0 = parsed.supports[i][0], sp.y0 = parsed.supports[i][1], sp.x1 = parsed.supports[i][2], sp.y1 = parsed.supports[i][3];
-    m_state->note_support(sp);
-  }
   const size_t first = m_state->log().size();
   // The operations' launches are queued without a wait between them (on a GPU a clFinish per
   // operation cost more than its kernels); one finish after the last. An operation's "ms" is then
@@ -276,6 +273,19 @@ void EditSession::apply(const nlohmann::json& script) {
     report_progress(m_options.progress, "edit", double(i) / double(parsed.ops.size() + 1), parsed.ops[i].first);
     m_state->log().push_back({{"index", first + i}, {"op", parsed.ops[i].first}, {"support", parsed.supports[i]}});
     if (!parsed.traces[i].warnings.empty()) m_state->log().back()["warnings"] = parsed.traces[i].warnings;
+    // Each operation's reach and support are noted just before it runs, not all up front: an
+    // operation that reconstructs mid-script (erode, drainage, amplify read the terrain) then
+    // solves with the supports of the operations before it only, so the state after operation k
+    // of a replay is the state after replaying operations 0..k (the studio's snapshots rely on it).
+    // A layer over the terrain (a lake) changes no cell: noting its support would only force a
+    // re-solve, and a lake's reach is its whole basin, not its seed.
+    if (parsed.changes_terrain[i]) {
+      m_state->note_reach(parsed.traces[i].reach);
+      edit::EditState::Support sp{0, 0, m_state->grid().width - 1, m_state->grid().height - 1, parsed.traces[i].reach};
+      if (parsed.supports[i].is_array())
+        sp.x0 = parsed.supports[i][0], sp.y0 = parsed.supports[i][1], sp.x1 = parsed.supports[i][2], sp.y1 = parsed.supports[i][3];
+      m_state->note_support(sp);
+    }
     const auto t0 = std::chrono::steady_clock::now();
     parsed.ops[i].second(*m_state);
     if (per_op_wait) m_state->device().queue().finish();

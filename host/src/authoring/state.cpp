@@ -33,6 +33,33 @@ EditState::EditState(Device& d, const GradientField& g0, std::optional<Heightfie
   // The template only carries georef/metadata/mean; its arrays are reused for downloads.
 }
 
+std::unique_ptr<EditState> EditState::clone() const {
+  // The host state by member-wise copy; the device buffers (shared handles after that copy) are
+  // then replaced by copies of their contents.
+  auto c = std::unique_ptr<EditState>(new EditState(*this));
+  const GradientBuffers& b = m_buf;
+  GradientBuffers& n = c->m_buf;
+  const size_t bytes = b.cells() * sizeof(float);
+  auto& q = m_device.queue();
+  auto copy = [&](const cl::Buffer& from, const char* what) {
+    if (!from()) return cl::Buffer();
+    cl::Buffer to = m_device.buffer(bytes, CL_MEM_READ_WRITE, what);
+    q.enqueueCopyBuffer(from, to, 0, 0, bytes);
+    return to;
+  };
+  n.gx = copy(b.gx, "gradient x");
+  n.gy = copy(b.gy, "gradient y");
+  n.tx = copy(b.tx, "scratch x");
+  n.ty = copy(b.ty, "scratch y");
+  n.mask = copy(b.mask, "mask");
+  n.nv = copy(b.nv, "noise values");
+  n.nx = copy(b.nx, "noise d/dx");
+  n.ny = copy(b.ny, "noise d/dy");
+  n.skeleton.reset();  // a parameter upload buffer, rewritten by every tensor operation
+  q.finish();
+  return c;
+}
+
 double EditState::falloff() const {
   if (m_falloff) return *m_falloff;
   return std::max(kFalloffPerReach * m_reach, kMinFalloffCells * std::max(m_grid.cell_x, m_grid.cell_y));

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -25,6 +26,15 @@ class EditState {
   /// `g0` is the starting gradient (its georef, metadata and mean elevation are kept);
   /// `h0` the matching heightfield when known (becomes the first warm start).
   EditState(Device& d, const GradientField& g0, std::optional<Heightfield> h0, SolverOptions solver);
+
+  /// A deep copy that continues exactly as this state would: the field and scratch buffers are
+  /// copied on the device (clEnqueueCopyBuffer), everything else (constraints, solution, stale
+  /// flag, solver options, last solve, solve count, log, locality, lakes) on the host. Applying
+  /// the same operations to the copy and to this state gives bit-identical terrains. Device
+  /// memory: 20 bytes a cell (gx, gy, tx, ty, mask; 32 once noise allocated nv, nx, ny); host
+  /// memory: about 28 bytes a cell (download cache, constraints, solution, base and its field),
+  /// plus the water layer when lakes were filled.
+  std::unique_ptr<EditState> clone() const;
 
   Device& device() { return m_device; }
   const Grid& grid() const { return m_grid; }

@@ -4,6 +4,7 @@
 #include <terracl/device.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/warm_up.hpp>
 
 #include <fmt/format.h>
 
@@ -99,12 +100,21 @@ cl::Program& Device::program(const std::string& file, const std::string& extra_o
 
 cl::Program& Device::program_from_source(const std::string& file, const std::string& src,
                                          const std::string& extra_options) {
-  std::lock_guard<std::mutex> lock(m_mutex);
   std::string options = extra_options.empty() ? kBaseOptions : std::string(kBaseOptions) + " " + extra_options;
   // The launch shape is compiled in (kernels/launch.clh): the wide shape's kernels do one cell each.
   if (m_info.launch == "wide") options += " -DTERRACL_WIDE=1";
   const std::string mem_key = file + "\n" + options + "\n" + std::to_string(fnv1a(src));
-  if (auto it = m_programs.find(mem_key); it != m_programs.end()) return it->second;
+  {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    if (auto it = m_programs.find(mem_key); it != m_programs.end()) return it->second;
+  }
+  // The build itself runs outside the lock (OpenCL program calls are thread-safe): a program needed
+  // now does not wait for another thread's build of a different one (the studio's background
+  // warm-up, terracl/warm_up.hpp). Two threads building the same program keep the first.
+  auto keep = [&](const cl::Program& p) -> cl::Program& {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_programs.emplace(mem_key, p).first->second;
+  };
 
   uint64_t h = fnv1a(src);
   for (const std::string& part : {options, m_info.platform, m_info.name, m_info.driver_version, m_info.device_version})
@@ -121,7 +131,7 @@ cl::Program& Device::program_from_source(const std::string& file, const std::str
         cl::Program::Binaries bins{bin};
         cl::Program p(m_context, {m_device}, bins);
         p.build({m_device}, options.c_str());
-        return m_programs.emplace(mem_key, p).first->second;
+        return keep(p);
       } catch (const cl::Error&) {
         // Corrupt or incompatible binary: fall through to a source build that rewrites it.
       }
@@ -152,7 +162,22 @@ cl::Program& Device::program_from_source(const std::string& file, const std::str
       // A read-only or full cache folder only costs the next run a rebuild.
     }
   }
-  return m_programs.emplace(mem_key, p).first->second;
+  return keep(p);
+}
+
+size_t warm_up(Device& device, const std::vector<std::pair<std::string, std::string>>& programs,
+               const std::function<bool()>& stop) {
+  size_t ready = 0;
+  for (const auto& [file, options] : programs) {
+    if (stop && stop()) break;
+    try {
+      device.program(file, options);
+      ++ready;
+    } catch (const std::exception&) {
+      // Reported where the program is first used.
+    }
+  }
+  return ready;
 }
 
 }  // namespace terracl

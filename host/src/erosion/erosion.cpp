@@ -198,12 +198,10 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
   if (chunk < 0) fail(kStage, "cells_per_item must be >= 0, got {}", chunk);
   if (chunk == 0) chunk = dev.info().launch == "wide" ? 32 : 0;
   chunk = int(round_up(size_t(chunk), 8));
-  std::string split_opts;
   if (chunk > 0 && chunk < s.W) {
     s.local_rows = 1;
     s.local_chunks = dev.info().launch == "wide" ? 32 : 16;  // a whole warp on wide devices
     s.chunks = round_up((size_t(s.W) + chunk - 1) / chunk, s.local_chunks);
-    split_opts = fmt::format(" -DXCHUNK={}", chunk);
   }
 
   const size_t bytes = s.n_padded * sizeof(float);
@@ -239,11 +237,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
     std::vector<float> drain0(size_t(2) * s.H * s.chunks, 0.0f);
     dev.queue().enqueueWriteBuffer(s.drain, CL_TRUE, 0, drain0.size() * 4, drain0.data());
 
-    std::string opts = split_opts;
-    if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
-    if (s.has_weight) opts += " -DHAS_WEIGHT";
-    if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
-    if (channel) opts += " -DCHANNEL_DIFFUSION";
+    const std::string opts = erosion_program_options(dev, s.W, params, s.has_weight);
     s.k_flux = dev.kernel("erosion", "erosion_flux", opts);
     s.k_transport = dev.kernel("erosion", "erosion_transport", opts);
     s.k_thermal = dev.kernel("erosion", "erosion_thermal", opts);
@@ -556,6 +550,20 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
     outputs->substep_dt = sim.substep_dt();
   }
   return out;
+}
+
+std::string erosion_program_options(const Device& dev, int width, const ErosionParams& params, bool weight) {
+  // The work split (see XCHUNK in kernels/erosion.cl), as Erosion's constructor chooses it.
+  int chunk = params.cells_per_item;
+  if (chunk == 0) chunk = dev.info().launch == "wide" ? 32 : 0;
+  chunk = int(round_up(size_t(std::max(chunk, 0)), 8));
+  std::string opts;
+  if (chunk > 0 && chunk < width) opts = fmt::format(" -DXCHUNK={}", chunk);
+  if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
+  if (weight) opts += " -DHAS_WEIGHT";
+  if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
+  if (params.channel_diffusion > 0 && !params.thermal_only) opts += " -DCHANNEL_DIFFUSION";
+  return opts;
 }
 
 }  // namespace terracl

@@ -44,6 +44,7 @@ int sample_step(int side, int max_side) {
 int preview_step(const Heightfield& h, int max_side) { return sample_step(std::max(h.width, h.height), max_side); }
 
 Heightfield Session::preview(const json& op, std::optional<size_t> replace, int max_side) {
+  const Busy busy(*this);
   const auto t0 = std::chrono::steady_clock::now();
   if (!op.is_object()) throw RequestError(400, "/op: expected an operation object {\"op\": ...}");
   if (m_header.value("units", "m") != "m")

@@ -4,16 +4,27 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <terracl/error.hpp>
 #include <terracl/interrupt.hpp>
 #include <terracl/io.hpp>
 #include <terracl/mesh.hpp>
+#include <terracl/warm_up.hpp>
 
 #include "authoring/ops_erode.hpp"
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 namespace fs = std::filesystem;
 
@@ -56,9 +67,79 @@ Session::Session(Device& d, const std::string& base, const std::string& workspac
   m_header = {{"units", "m"}, {"seed", 1}};
   replay(m_ops);
   m_last = {{"mode", "start"}};
+  start_warm_up();
 }
 
-Session::~Session() = default;
+Session::~Session() {
+  m_warm_stop = true;
+  if (m_warm.joinable()) m_warm.join();
+}
+
+namespace {
+long long now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+constexpr long long kWarmIdleNs = 1'500'000'000;  // quiet time before the warm-up builds on
+}  // namespace
+
+Session::Busy::Busy(Session& s) : s(s) { ++s.m_busy; }
+Session::Busy::~Busy() {
+  s.m_quiet_since_ns = now_ns();
+  --s.m_busy;
+}
+
+void Session::start_warm_up() {
+  if (const char* v = std::getenv("TERRACL_STUDIO_WARMUP"); v && std::string(v) == "0") return;
+  // The programs in the order a first stroke needs them: the solver and the field, the stroke
+  // kernels, erosion as the erode operation and the live erosion build it on this grid (default
+  // parameters, with and without channel diffusion), then every other embedded kernel file.
+  std::vector<std::pair<std::string, std::string>> programs;
+  auto add = [&](const std::string& file, const std::string& options) {
+    for (const auto& p : programs)
+      if (p.first == file && p.second == options) return;
+    programs.emplace_back(file, options);
+  };
+  for (const char* f : {"multigrid", "multigrid_coarse", "gradient", "tensor", "noise", "raster"}) add(f, "");
+  try {
+    edit::Grid g;
+    g.width = m_base.width;
+    g.height = m_base.height;
+    g.cell_x = m_base.georef.cell_x;
+    g.cell_y = m_base.georef.cell_y;
+    const json op = {{"op", "erode"}, {"steps", 1}};
+    edit::Params p(op, "/warm_up", g);
+    p.string("op");
+    ErosionParams e = edit::parse_erode_spec(p).params;
+    add("erosion", erosion_program_options(m_device, m_base.width, e, true));
+    e.channel_diffusion = e.channel_diffusion > 0 ? 0.0 : 0.5;
+    add("erosion", erosion_program_options(m_device, m_base.width, e, true));
+  } catch (const std::exception&) {
+    // the defaults always parse; erosion then compiles on first use
+  }
+  for (const std::string& f : kernel_files()) add(f, "");
+  m_warming = true;
+  m_warm = std::thread([this, programs] {
+#ifdef __linux__
+    // The lowest CPU priority for this thread only (PoCL compiles in the calling thread): a
+    // request arriving meanwhile gets the cores.
+    setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 19);
+#endif
+    const auto t0 = std::chrono::steady_clock::now();
+    // Before each program: wait until no request has run on the device for kWarmIdleNs.
+    const auto stop = [this] {
+      while (!m_warm_stop && (m_busy > 0 || now_ns() - m_quiet_since_ns < kWarmIdleNs))
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      return m_warm_stop.load();
+    };
+    const size_t ready = warm_up(m_device, programs, stop);
+    if (!m_warm_stop) {
+      fmt::print("studio: {} OpenCL programs ready ({:.1f} s, compiled or loaded from the cache)\n", ready,
+                 ms_since(t0) / 1000.0);
+      std::fflush(stdout);
+    }
+    m_warming = false;
+  });
+}
 
 json Session::full_script(const json& ops) const {
   json s = m_header;
@@ -81,6 +162,8 @@ json Session::state() const {
           {"can_undo", !m_undo.empty()},
           {"can_redo", !m_redo.empty()},
           {"eroding", bool(m_erosion)},
+          // Compiling the OpenCL programs ahead in the background (start_warm_up).
+          {"warming", m_warming.load()},
           {"erosion_steps", m_erosion_steps},
           {"last", m_last},
           // Each lake's figures on the live terrain (cached until the next solve), so the page
@@ -102,35 +185,122 @@ void Session::apply_ops(const json& tail) {
   m_edit->height();
 }
 
-void Session::replay(const json& ops) {
-  EditOptions o;
-  o.base_dir = m_workspace;
-  o.file_roots = m_file_roots;
-  auto fresh = std::make_unique<EditSession>(m_device, m_base, o);
-  fresh->apply(full_script(ops));
-  fresh->height();
-  m_edit = std::move(fresh);
+namespace {
+// Operations that cost far more than a stroke (they reconstruct the terrain mid-script, simulate
+// on it, or rasterise many curves): a replay keeps a snapshot after each, so that changing a layer
+// after one replays from there. Hidden ones run nothing.
+bool snapshot_after(const json& op) {
+  static const std::set<std::string> names = {"erode", "drainage", "amplify", "strata", "fit"};
+  if (!op.is_object() || (op.contains("enabled") && op["enabled"] == false)) return false;
+  return op.contains("op") && op["op"].is_string() && names.count(op["op"].get<std::string>());
+}
+// At most this many snapshots (least recently used go first): each holds a deep copy of the edit
+// state, about 48 bytes a cell (60 once noise ran), 50 MB at 1025^2.
+constexpr size_t kMaxSnapshots = 4;
+
+// ops[0, end) with ops[0, start) as disabled placeholders (see Session::appended_only).
+json chunk(const json& ops, size_t start, size_t end) {
+  json c = json::array();
+  for (size_t i = 0; i < end; ++i) c.push_back(i < start ? json{{"op", "regularize"}, {"enabled", false}} : ops[i]);
+  return c;
+}
+}  // namespace
+
+std::string Session::prefix_key(const json& ops, size_t end) const {
+  json prefix = json::array();
+  for (size_t i = 0; i < end && i < ops.size(); ++i) prefix.push_back(ops[i]);
+  return full_script(prefix).dump();
+}
+
+void Session::keep_snapshot(const json& ops, size_t end, const EditSession& e) {
+  std::string key = prefix_key(ops, end);
+  for (Snapshot& sn : m_snapshots)
+    if (sn.key == key) {
+      sn.used = ++m_snapshot_clock;
+      return;
+    }
+  if (m_snapshots.size() >= kMaxSnapshots)
+    m_snapshots.erase(std::min_element(m_snapshots.begin(), m_snapshots.end(),
+                                       [](const Snapshot& a, const Snapshot& b) { return a.used < b.used; }));
+  m_snapshots.push_back({std::move(key), end, e.snapshot(), ++m_snapshot_clock});
+}
+
+size_t Session::replay(const json& ops) {
+  // The latest snapshot whose operations (and header) are this script's first ones.
+  Snapshot* best = nullptr;
+  for (Snapshot& sn : m_snapshots)
+    if (sn.end <= ops.size() && (!best || sn.end > best->end) && sn.key == prefix_key(ops, sn.end)) best = &sn;
+  std::unique_ptr<EditSession> e;
+  size_t from = 0;
+  if (best) {
+    e = best->edit->snapshot();  // the kept one stays as it is, for the next change
+    from = best->end;
+    best->used = ++m_snapshot_clock;
+  } else {
+    EditOptions o;
+    o.base_dir = m_workspace;
+    o.file_roots = m_file_roots;
+    e = std::make_unique<EditSession>(m_device, m_base, o);
+  }
+  // The script in chunks that end after each expensive operation, each applied with the operations
+  // before it as placeholders (indices and default seeds unchanged). With each operation's support
+  // noted when it runs (EditSession::apply), the state after a chunk is the state a replay of the
+  // whole script has at that point, so the snapshot taken there (before any extra solve: a solve
+  // would change the next warm start) continues bit for bit as `terracl edit` would.
+  size_t start = from;
+  bool ran = false;
+  for (size_t i = from; i < ops.size(); ++i) {
+    if (!snapshot_after(ops[i])) continue;
+    e->apply(full_script(chunk(ops, start, i + 1)));
+    ran = true;
+    start = i + 1;
+    keep_snapshot(ops, start, *e);
+  }
+  if (start < ops.size() || (!ran && !best)) e->apply(full_script(chunk(ops, start, ops.size())));
+  e->height();
+  if (from > 0 && std::getenv("TERRACL_STUDIO_VERIFY_SNAPSHOTS")) {
+    // Debugging aid: the full replay from the base must give the same bits.
+    EditOptions o;
+    o.base_dir = m_workspace;
+    o.file_roots = m_file_roots;
+    auto full = std::make_unique<EditSession>(m_device, m_base, o);
+    full->apply(full_script(ops));
+    const bool same = full->height().z == e->height().z;
+    fmt::print(stderr, "studio: replay from snapshot at operation {} {} the full replay\n", from,
+               same ? "matches" : "DIFFERS FROM");
+    if (!same) e = std::move(full), from = 0;
+  }
+  m_edit = std::move(e);
   m_canonical = true;
+  return from;
 }
 
 void Session::commit(const json& ops, bool record_undo) {
+  const Busy busy(*this);
   if (!ops.is_array()) throw RequestError(400, "/operations: expected an array of operations");
   if (ops.size() > kMaxOps) throw RequestError(413, fmt::format("/operations: at most {} operations", kMaxOps));
   const auto t0 = std::chrono::steady_clock::now();
   bool append = ops.size() > m_ops.size();
   for (size_t i = 0; append && i < m_ops.size(); ++i) append = ops[i] == m_ops[i];
+  // An appended expensive operation (an erosion, also the live erosion's commit) replays from the
+  // latest snapshot instead: the replay keeps a snapshot after it, so changing a later layer then
+  // starts there, and the terrain is canonical (the warm append is not: its warm starts differ).
+  for (size_t i = m_ops.size(); append && i < ops.size(); ++i)
+    if (snapshot_after(ops[i])) append = false;
   const json tail = append ? appended_only(ops) : json();
   // Throws with the JSON path (nothing changed yet); warnings (a support under one cell) are shown.
   const std::vector<std::string> warnings = m_edit->check(full_script(append ? tail : ops));
   erosion_cancel();
   std::string mode;
+  size_t from = 0;
   try {
     if (append) {
       apply_ops(tail);
       m_canonical = false;
       mode = "append";
+      from = m_ops.size();
     } else {
-      replay(ops);
+      from = replay(ops);
       mode = "replay";
     }
     // A validated script can still solve to non-finite elevations (extreme parameters): refuse it.
@@ -151,7 +321,9 @@ void Session::commit(const json& ops, bool record_undo) {
   }
   m_ops = ops;
   ++m_version;
-  m_last = {{"mode", mode}, {"ms", ms_since(t0)}, {"operations", m_ops.size()}, {"warnings", warnings}};
+  // from: the first operation that ran (a replay from a snapshot starts after its expensive layer).
+  m_last = {{"mode", mode}, {"from", from}, {"ms", ms_since(t0)}, {"operations", m_ops.size()},
+            {"snapshots", m_snapshots.size()}, {"warnings", warnings}};
   // An append solved locally moved only the cells of its window: the page fetches just those.
   if (append && m_edit->local()) {
     const json loc = m_edit->locality();
@@ -310,9 +482,13 @@ std::string Session::export_to(const std::string& rel) {
   return path;
 }
 
-const Heightfield& Session::terrain() { return m_edit->height(); }
+const Heightfield& Session::terrain() {
+  const Busy busy(*this);
+  return m_edit->height();
+}
 
 const Heightfield& Session::canonical() {
+  const Busy busy(*this);
   if (!m_canonical) replay(m_ops);
   return m_edit->height();
 }
@@ -320,6 +496,7 @@ const Heightfield& Session::canonical() {
 // ---- live erosion ----
 
 void Session::erosion_start(const json& params) {
+  const Busy busy(*this);
   if (!params.is_object()) throw RequestError(400, "/: expected erosion parameters {\"rain\": ..., ...}");
   json op = params;
   op["op"] = "erode";
@@ -346,6 +523,7 @@ void Session::erosion_start(const json& params) {
 }
 
 Heightfield Session::erosion_step(int steps) {
+  const Busy busy(*this);
   if (!m_erosion) throw RequestError(409, "no erosion running (POST /api/erosion/start first)");
   if (steps < 1 || steps > 1000) throw RequestError(400, "/steps: expected an integer in [1, 1000]");
   m_erosion->run(steps);

@@ -3,10 +3,12 @@
 // of `terracl edit`), replayed on an EditSession that re-solves warm on the device. Every method
 // validates its input before changing anything, so a rejected request leaves the session as it was.
 // Not thread-safe by itself: the server serialises requests with one mutex.
+#include <atomic>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <thread>
 #include <terracl/device.hpp>
 #include <terracl/edit.hpp>
 #include <terracl/erosion.hpp>
@@ -97,7 +99,25 @@ class Session {
   void commit(const json& ops, bool record_undo = true);
   json appended_only(const json& ops) const;
   void apply_ops(const json& tail);
-  void replay(const json& ops);
+  /// Rebuilds m_edit for `ops` as `terracl edit` computes it: from the latest snapshot whose
+  /// prefix equals ops' (else from the base), keeping a snapshot after every expensive operation
+  /// it runs. Returns the index of the first operation it ran.
+  size_t replay(const json& ops);
+
+  // ---- snapshots (docs/studio.md, "Snapshots") ----
+  /// The EditSession right after operations [0, end) ran (a deep copy taken before any extra
+  /// solve, so it continues exactly as a replay of the whole script would), valid while those
+  /// operations and the script's header are unchanged (`key`: the JSON of that prefix script).
+  struct Snapshot {
+    std::string key;
+    size_t end = 0;
+    std::unique_ptr<EditSession> edit;
+    unsigned long long used = 0;  ///< for least-recently-used eviction
+  };
+  std::string prefix_key(const json& ops, size_t end) const;
+  void keep_snapshot(const json& ops, size_t end, const EditSession& e);
+  std::vector<Snapshot> m_snapshots;
+  unsigned long long m_snapshot_clock = 0;
 
   Device& m_device;
   std::string m_base_spec, m_workspace;
@@ -115,6 +135,23 @@ class Session {
   std::optional<Heightfield> m_preview_ground;  ///< the coarse terrain a dragged stroke is drawn on
   json m_preview_key;
   double m_preview_ms = 0;
+
+  // ---- compiling ahead (docs/studio.md, "First strokes"): every OpenCL program the studio can
+  // use is built (or loaded from the cache) in the background at start; only the program cache is
+  // touched (under its own lock), so requests run meanwhile.
+  void start_warm_up();
+  std::thread m_warm;
+  std::atomic<bool> m_warming{false}, m_warm_stop{false};
+  /// Device work of requests (commit, preview, terrain, erosion) marks the session busy; the
+  /// warm-up starts its next program only after kWarmIdle of quiet (PoCL compiles one program at a
+  /// time, so a build in the background would hold up the request's own).
+  std::atomic<int> m_busy{0};
+  std::atomic<long long> m_quiet_since_ns{0};
+  struct Busy {
+    Session& s;
+    explicit Busy(Session& s);
+    ~Busy();
+  };
 
   std::unique_ptr<Erosion> m_erosion;
   json m_erosion_op;
