@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """pip install --no-build-isolation .  -> the `terracl` Python package (docs/python.md).
 
 Drives CMake (the top CMakeLists.txt with only the Python module enabled) and puts the built

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Shared pieces of the terracl CLI. Each apps/cmd_*.cpp registers its subcommands with a static
 // CommandRegistrar; they are linked straight into the executable, so registration always runs.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl metrics|sketch|render|mesh IN ...`: the analysis stages write files of their own (a
 // report, a picture, a mesh), so `-o` names that file instead of an output heightfield. The
 // options come from the stage table, so the CLI and pipelines accept the same names.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl dictionary learn|encode|evaluate`: dictionaries for amplification, the compression report of
 // the sparse terrain paper (table 1), and the amplification evaluation table (scripts/eval-amplify.sh).
 #include "cli.hpp"

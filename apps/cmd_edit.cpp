@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl edit BASE --script edits.json -o out.tif [--preview out.png]`: gradient-domain authoring.
 #include "cli.hpp"
 #include "stage_flags.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl run pipeline.json [--validate] [--set TAG.OPTION=VALUE ...]`: runs a JSON pipeline and
 // prints what it wrote with per-stage times (docs/pipelines.md).
 #include <fmt/format.h>

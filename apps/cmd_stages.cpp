@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl stages` and one auto-generated subcommand per stage, built from the stage table:
 // `terracl <stage> [IN] -o OUT [--option value ...]`.
 #include "cli.hpp"

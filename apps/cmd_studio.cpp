@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl studio [BASE] [--script S.json] [--port 8080] [--bind 127.0.0.1] [--workspace DIR]
 //  [--allow-dir DIR] [--allow-host NAME] [--time-limit S]`:
 // the interactive sketching page and its JSON API (docs/studio.md).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl warp` and `terracl resize`: GDAL's warper with gdalwarp's option names (--tr X Y, not
 // the pipeline's JSON arrays), and the engine import scale printed after a resize.
 #include "cli.hpp"

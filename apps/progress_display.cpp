@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Progress display (GDAL's convention: one callback, fraction + message). A bar on a terminal,
 // JSON lines for machines, nothing with -q. Ctrl-C turns the next callback into a cancel.
 #include "cli.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Command-line flags generated from a stage's option table, shared by every subcommand that
 // runs a stage, so the CLI and pipelines accept the same names, types and units.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl: one CLI with subcommands. Every subcommand is a thin call into the library; errors
 // print as `terracl ERROR: <stage>: <message>` and exit 1 (2 for usage errors).
 #include "cli.hpp"

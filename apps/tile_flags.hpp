@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // --tile / --halo / --memory-budget: out-of-core runs (docs/scale.md), for `terracl run` and the
 // subcommands of stages that tile. A subcommand builds the one-stage pipeline read -> stage ->

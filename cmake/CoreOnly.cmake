@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # TERRACL_CORE_ONLY=ON: the OpenCL core without the GIS stack (no GDAL, OpenImageIO, OpenEXR, FLANN,
 # tinygltf, lz4, cpp-httplib). Needs a C++17 compiler, CMake, OpenCL headers + ICD loader and the
 # header-only libraries (nlohmann-json, fmt, Eigen, CLI11). It is what runs on a machine that has

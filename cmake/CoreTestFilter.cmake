@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Core-build tests (cmake/CoreOnly.cmake): everything in the core test files except the cases that
 # read GeoTIFF DEMs, write EXR/PNG, or run CLI subcommands the core CLI lacks; each of these throws
 # "... is not available in the core build" there, which is the intended behaviour.

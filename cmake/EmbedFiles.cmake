@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Writes files into one C++ file as raw string literals: terracl::detail::${FUNC}() maps each file's
 # key to its text. OpenCL programs (*.cl) are keyed by file stem, everything else by file name (the
 # kernels' shared headers, pulled in with #include "x.clh"; the studio's page files).

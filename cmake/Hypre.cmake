@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # hypre's structured solver for `reconstruct --solver hypre` (docs/scale.md), under the MPI option
 # (cmake/Mpi.cmake declares the same option for the tile distribution). Defines TERRACL_HAVE_HYPRE
 # for the library sources and builds the hypre tests (ctest label `mpi`).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # TERRACL_MPI=ON: tiled runs distributed over MPI ranks (`mpirun -n N terracl run P.json --tile T`,
 # docs/scale.md). Debian's OpenMPI (libopenmpi-dev, openmpi-bin). The MPI code lives in
 # host/src/mpi/ (compiled only here); without the option the library runs tiles in one process.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # `cmake --install` and the CMake package (docs/cpp.md): headers, the static and the shared
 # library, the CLI, terraclConfig.cmake + terraclConfigVersion.cmake + the exported targets.
 #

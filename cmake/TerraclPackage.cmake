@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Debian packages with CPack (docs/cpp.md): `cd build && cpack -G DEB` makes one package per
 # install component of cmake/TerraclInstall.cmake:
 #   terracl          runtime: /usr/bin/terracl and libterracl.so.0 (Depends from dpkg-shlibdeps)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Virtual-pipe hydraulic erosion and thermal erosion. OpenCL C 1.2.
 //
 // Layout: every field is a float32 array with a zero halo: row pitch P (a multiple of 8), one pad

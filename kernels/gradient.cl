@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Gradient extraction and divergence on the staggered (face) grid.
 //   gx(x, y) = (h(x+1, y) - h(x, y)) / cx  for x < W-1, 0 in the last column (no face there)
 //   gy(x, y) = (h(x, y+1) - h(x, y)) / cy  for y < H-1, 0 in the last row

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Geometric multigrid for -Laplacian(u) = g with hard (Dirichlet) cells, on any W x H grid.
 //
 // Level 0 (the user's grid): 5-point operator with weights wx = 1/cx^2, wy = 1/cy^2 between in-grid

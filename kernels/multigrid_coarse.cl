@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The coarse part of a multigrid cycle in one launch: from a level that fits one
 // work-group down to the coarsest and back (zebra smoothing, residual restriction, the coarsest
 // pseudo-inverse, prolongation, zebra smoothing), with the corrections of every level in local memory and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Gradient noise with analytic derivatives (paper section 4.4: g' = g + grad n needs no finite
 // differences of n; the faces combine the cell-centre values and derivatives by the cubic Hermite
 // midpoint rule, fourth-order accurate). Perlin-style lattice gradient noise with a quintic fade, fBm and a ridged

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Elementary raster operations shared by launchers and used by the device-layer tests.
 // OpenCL C 1.2; no fast-math; FMA contraction off so results match a plain C++ loop bit for bit.
 #pragma OPENCL FP_CONTRACT OFF

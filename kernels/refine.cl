@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mixed-precision iterative refinement of the level-0 solution (host/src/reconstruct/refine.cpp,
 // docs/reconstruct.md): the solution is accumulated in double, its residual is computed in double,
 // and the float32 multigrid only solves for the correction. Needs cl_khr_fp64; the host compiles

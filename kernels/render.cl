@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Preview pictures, one work-item per row of a strip (fastest stencil layout on PoCL): hillshade
 // (gdaldem's standard, multidirectional, combined or Igor shading), colour relief, slope as grey,
 // shaded relief. Host reference: host/src/render/render.cpp (double precision; the two agree

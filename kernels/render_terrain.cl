@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // gdaldem's value rasters, one work-item per row of a strip: slope (degrees or percent), aspect,
 // TRI (Riley or Wilson), TPI, roughness, as float32 with NaN where gdaldem writes nodata. Each is
 // gdaldem's formula in the same operation order (host reference: host/src/render/terrain.cpp).

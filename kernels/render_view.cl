@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Perspective picture of a heightfield (render --mode perspective), one work-item per pixel: the
 // pixel's ray is clipped to the grid's box, marched against the bilinear surface in steps of half a
 // cell, the first crossing refined by bisection, shaded by the sun (Lambert + ambient on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Skeleton primitives for gradient-domain authoring (paper section 4.3):
 //   * apply_tensor_field: the composite tensor field A(p) = I + sum_i mu_i alpha(d_i/r_i) T_i(p, u(p))
 //     applied to a staggered gradient, g' = A g (or g += A delta to orient a noise layer);

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Python call overhead of terracl.reconstruct on an N x N grid (default 1025^2).
 
 Three timings of the same reconstruction, alternated call by call so that a loaded machine slows

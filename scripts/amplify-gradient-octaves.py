@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Where the slope of an amplified DEM comes from: the gradient's energy per octave of
 spatial frequency, output over truth, from `terracl dictionary evaluate --save PREFIX` files.
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Slices of the release test suite against a CLI whose chosen modules are built with ASan + UBSan
 # (the rest of the library uninstrumented): what fits a loaded 2-core machine when the whole
 # sanitized build (scripts/asan-suite.sh, ~150 units) does not. Needs the release build in build/.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The whole GoogleTest suite under AddressSanitizer + UndefinedBehaviorSanitizer, in its own build
 # folder (build-asan, -DTERRACL_SANITIZE=ON): the library, the CLI the tests start and the tests.
 # Slow (every source at -O1 with instrumentation; the suite runs ~3x slower): not part of CI, see

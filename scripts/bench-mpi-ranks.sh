@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # 1 vs 2 MPI ranks on the same tiled jobs (docs/scale.md, "MPI speed-up"): the tiled D8
 # accumulation of a 4096^2 epsilon-filled SRTM mosaic and its tiled slope render (float32 values),
 # --tile 1024, wall time of the whole run and CPU seconds of each rank (/usr/bin/time per rank),

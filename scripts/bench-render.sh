@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Render benchmark: an 8192 x 4400 raster made from the bundled N44W072 tile
 # (gdalwarp to UTM 19N, bilinear; nodata corners; kept in $WORK, never committed), then
 # `gdaldem hillshade` against `terracl render` (OpenCL device and --backend host) to an

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Latency of terracl studio as an artist feels it: headless chromium (Debian's chromium and
 chromium-driver through python3-selenium) driving the page with real mouse events, the browser
 sharing the machine with the server.

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Benchmark of terracl studio's API (docs/studio.md), as the page uses it.
 
   scripts/bench-studio.py [build/bin/terracl] [--size 1025] [--ops 30] [--erosion-size 513] [--frames 60]

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Tiled vs untiled erosion (and render) of an SRTM tile (docs/scale.md, "Erosion").
 
 Runs `terracl erode DEM --steps S` untiled and with --tile T (halo: one cell per sub-step, plus

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Figure of tiled amplify (docs/scale.md "Tiled amplify"): x4 with --tile 2048 of
 # 2048^2, 4096^2 and 8192^2 inputs (the SRTM tile resized), wall/CPU/peak RSS; outputs deleted after.
 # Usage: scripts/bench-tiled-amplify.sh [WORKDIR] (default /tmp/terracl-tiled-amplify; needs ~2.5 GB free)

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Tiled vs untiled fill_depressions / D8 drainage on a large raster (docs/scale.md).
 
 Builds an N x N mosaic of the bundled SRTM tile (a VRT of repeated copies, converted to a tiled

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # terracl warp / resize against the gdalwarp program on the bundled SRTM tile (docs/io.md):
 # wall time of each (best of 3) and the largest difference of their outputs.
 set -euo pipefail

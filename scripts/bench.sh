@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Reconstruction benchmark: builds, then runs `terracl bench reconstruct` on 513, 1025,
 # 2049 and 4097 squared grids (smooth terrain, 1 % random fixed cells, FMG + V(2,2) to relative
 # residual 1e-6). Extra arguments go to every run, e.g. `scripts/bench.sh --set cycle=v` or

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 import numpy
 if not hasattr(numpy, "bool"): numpy.bool = bool  # Debian: Blender 3.4 importer vs numpy >= 1.24
 import bpy, json

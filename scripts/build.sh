@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Configures and builds terracl (Release) into build/. Used by demo.sh, test.sh and bench.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."

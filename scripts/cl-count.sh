@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs a command with the OpenCL call counter (scripts/cl-count.c) preloaded; the counts go to
 # stderr when the command exits. Example:
 #   scripts/cl-count.sh build/bin/terracl bench edit --size 1025 --repeats 1

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The core build (TERRACL_CORE_ONLY: no GDAL/OIIO/OpenEXR/FLANN/tinygltf/httplib; docs/gpu.md) and
 # its test subset, in its own build folder beside the full build. Run by scripts/test.sh in CI.
 #   CORE_BUILD_DIR  build folder (default build-core-ci; gpu-check.sh rehearsals use build-core)

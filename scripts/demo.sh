@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The main job (the README's first command): installs what is missing, builds Release, runs the
 # pipelines below on the bundled SRTM data and prints what each wrote under out/ with per-stage
 # times. A pipeline that needs a stage not built yet is skipped with a message.

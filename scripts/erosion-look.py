@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Erosion look figures (docs/erosion.md): erodes a DEM with the default parameters, prints the
 measures an artist's complaints translate to, and draws before / after hillshades and the bed change.
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Evaluation of amplification (issues 6 and 16) against bicubic upsampling.
 # For each DEM in data/dem/: west half = exemplar, east half = truth, input = block means of the
 # truth (x4 and x16); prints, for --mode detail and --mode faithful, RMSE, PSNR, HF energy ratio above

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # libFuzzer campaigns over the raster readers, the edit-script parser and the pipeline parser
 # (ASan + UBSan), from the seed corpus in tests/fuzz/corpus/<target>.
 #   scripts/fuzz.sh               # CI: build the three targets, run each for FUZZ_SECONDS (default 20)

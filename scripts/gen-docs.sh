@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Regenerates docs/stages.md from the stage table (`terracl stages --markdown`). The test
 # StagesDoc.MatchesTheStageTable fails while the checked-in file differs from the built CLI's table:
 # run this after adding or changing a stage, and commit the result.

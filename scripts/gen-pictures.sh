@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Regenerates the small pictures under docs/img/ that the README shows, by running the picture
 # pipelines data/pipelines/pictures-*.json (each writes its PNGs and a resolved pipeline saying how
 # they were made). A pipeline that needs a stage not built yet (e.g. `render`) is skipped with a

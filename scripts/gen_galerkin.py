@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Generates the straight-line Galerkin coarse-operator formula used in kernels/multigrid.cl.
 
 A fine level is stored in "edge form": for node n, s(n) (diagonal excess) and the weights of the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Run THERE (the GPU machine: compiler, CMake, NVIDIA driver, no package registry), in the repo
 # root with .gpu/ carried (made HERE by scripts/gpu-pack.sh). One command: unpacks the .debs into a
 # prefix, points the ICD loader at the vendor's OpenCL library, builds the core

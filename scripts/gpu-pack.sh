@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Run HERE (a Debian machine with apt): downloads the .deb files the core build needs on the GPU
 # machine (no package registry there) into .gpu/ (git-ignored), to be carried with the device
 # tool's `carry: [".gpu"]` and unpacked by scripts/gpu-check.sh. See docs/gpu.md.

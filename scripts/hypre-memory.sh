@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Peak RSS per MPI rank of `terracl reconstruct --solver hypre` (band reads) on an N^2 gradient of
 # the SRTM tile, 1 and 2 ranks, and the largest difference to the device multigrid as a fraction
 # of the range (docs/scale.md, "Memory per cell of hypre itself"). Needs ~140 bytes per cell of

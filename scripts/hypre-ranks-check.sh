@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # ctest hypre_two_ranks (label mpi): `terracl reconstruct --solver hypre` under
 # `mpirun --oversubscribe -n 2` and `-n 3` (each rank reads only its band of the gradient file)
 # equals the single-process solve (to 1e-7 of the range: hypre's dot products sum in another

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs every Debian package the build, tests and demo need. Idempotent and non-interactive:
 # packages already installed are skipped, and `apt-get update` runs at most once per call.
 set -euo pipefail

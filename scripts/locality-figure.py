@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Before / after / difference of an edit on a real DEM (docs/authoring.md, "Locality").
 
 usage: scripts/locality-figure.py BASE EDITED OUT.png X0,Y0,X1,Y1 [VMIN,VMAX]

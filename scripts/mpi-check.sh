@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Tiled runs over MPI ranks (ctest label `mpi`, docs/scale.md): `mpirun -n 2` and `-n 3`
 # (--oversubscribe: CI has 2 cores) give files byte-identical (cmp) to the single-process tiled run,
 # for a pipeline with a render sink, the exact tiled fill (depressions across tile borders, a nodata

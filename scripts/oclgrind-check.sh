@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs every OpenCL stage of terracl on small grids under oclgrind (a simulated, strict OpenCL 1.2
 # device) with --data-races --uninitialized and fails on any report: a read of memory nobody wrote,
 # an out-of-bounds access or a data race. PoCL forgives those; a GPU gives garbage.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The installed package as a user gets it (docs/cpp.md; ctest `package_install`, label `package`):
 #   1. `cmake --install` into a temporary prefix; the files, the SONAME, and the shared library's
 #      exported interface naming no private dependency (GDAL, OpenImageIO, ...);

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs every edit script in data/examples/ with `terracl edit` (each names its own base terrain)
 # into out/examples/<name>.tif with a shaded-relief preview <name>.png and a report <name>.report.json.
 set -euo pipefail

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs what is missing, builds, and runs the whole test suite on the default OpenCL device
 # (PoCL's CPU device on a machine without a GPU).
 set -euo pipefail

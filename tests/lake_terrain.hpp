@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The terrain of the lake tests, with its answers known by construction, and the brute-force lake
 // the tests compare with (a plain breadth-first search, independent of host/src/authoring/lake.cpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Independent CPU references for the gradient/reconstruction tests: the 5-point Neumann
 // Laplacian in double and a sparse direct solve (Eigen) of the constrained Poisson problem.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // A real studio server on a free port of 127.0.0.1 and the client calls its API tests make.
 #include <httplib.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Numerics of the sparse-dictionary amplification: OMP, K-SVD, complete dictionaries, FLANN search,
 // block-mean correction, dictionary files.
 #include "test_helpers.hpp"

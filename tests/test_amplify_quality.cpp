@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Quality of amplification on real terrain: no trace of the patch grid, calibrated detail.
 #include "test_helpers.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Per-input HF calibration: the power-law prediction of the energy above the input's
 // Nyquist, and the first step's gain that matches it with the held-out folds' estimate.
 #include "test_helpers.hpp"

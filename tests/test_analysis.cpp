@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Known-answer tests for depression filling, breaching and flow routing.
 #include <cmath>
 #include <random>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Sketch extraction and the metrics / sketch commands as a user runs them.
 #include <OpenImageIO/imageio.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Painted brush strokes (docs/authoring.md, "Regions"): a region given as a `path` with a `radius`
 // is the band a disc sweeps along the polyline. A one-vertex path is the disc, bit for bit; a
 // painted stroke changes the field only within its band and falloff, and along all of it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CLI run as a user runs it: good and bad arguments, exit codes, messages, no partial files.
 #include "test_helpers.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Docs and CLI agree: info and metrics report the same slope, `run --validate`
 // keeps its columns aligned past /pipeline/10, and docs/pipelines.md describes the demo as it is.
 // (The "(pipeline only)" labels are checked in test_pipeline_cli.cpp, StagesCli.)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // ConstraintSet::band (hypre's band reader: each MPI rank rasterises only its rows): the bands of
 // a split, each given only its rows of the current / mask / elevation rasters, together hold
 // exactly the hard cells and values of the whole grid's set.

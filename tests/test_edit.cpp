@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Edit operations end to end with the reconstruction, against analytic expectations.
 #include "test_helpers.hpp"
 

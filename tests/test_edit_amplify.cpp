@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "amplify" edit operation (studio issue: amplification of the terrain or a region as an
 // operation): detail finer than the factor replaced by sparse-dictionary detail, block means kept,
 // nothing changed outside the region, replays bit for bit, bad parameters refused with their path.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "drainage" edit operation: stream-power channel incision carves a dendritic
 // network from the terrain's own flow, deeper and wider where more area drains, creates no closed
 // depression, leaves the outside of its region bit for bit, and matches the stream-power formula

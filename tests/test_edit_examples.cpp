@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every example edit script in data/examples/ runs with `terracl edit` as a user runs it (each
 // script names its own base terrain) and produces a finite terrain of the base's size. The gallery
 // examples on flat bases are 1025^2 in metres ("units": "m"); to keep the suite fast they run here

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "lake" edit operation: water fills exactly the cells below its level connected to its seed
 // (against a brute-force search), spills at the saddle, leaves the other basin dry and the
 // terrain's bits alone, follows the script's final terrain, and names the JSON path of a bad seed.

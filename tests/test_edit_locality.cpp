@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Locality of edits on real DEMs: a crest on a crop of each bundled DEM changes the
 // terrain near the crest only, and the same edit solved globally does not; map units, off-grid
 // primitives, zero widths and sub-cell supports.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every edit operation rejects bad parameters with an error naming the JSON path, before anything
 // runs; the CLI reports them and leaves no output behind.
 #include "test_helpers.hpp"

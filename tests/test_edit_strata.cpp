@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "strata" edit operation: layered rock turns a steep ramp into a staircase whose
 // risers and treads lie at the layer boundaries, leaves gentle ground and the outside of its
 // region untouched, and rejects bad layers with the JSON path.

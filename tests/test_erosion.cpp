@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Erosion T1-T8: conservation, non-negativity, sub-stepping, mirror symmetry, extreme
 // inputs, determinism, lake at rest and thermal talus. All on the real OpenCL device, small grids.
 #include "test_helpers.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Erosion T9 on the bundled SRTM data, with a small independent reference for the
 // geomorphic measures, and the `terracl erode` / `terracl bench erode` commands run as a user would.
 #include "test_helpers.hpp"

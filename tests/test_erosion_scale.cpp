@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Erosion in physical units: the suspended sediment settles back at the end so the output
 // keeps all the material, and the defaults give the same result in metres whatever the cell size
 // (the same terrain at SRTM3's ~80 m cells and upsampled 3x).

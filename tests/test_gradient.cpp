@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Gradient extraction, divergence and the central-difference format against CPU loops.
 #include "test_helpers.hpp"
 #include "recon_reference.hpp"

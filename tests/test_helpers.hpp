@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Helpers shared by the tests: the default device (a hard failure under CI when none exists),
 // temporary folders, and running the built CLI as a user would.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Round trips for every writable format (values, georeferencing, nodata) and reading the real
 // SRTM tiles. Reference facts about the tiles come from their README (and gdalinfo).
 #include "test_helpers.hpp"

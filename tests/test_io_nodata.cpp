@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Nodata round trips in every format terracl writes: code 0 reserved in PNG16/RAW16
 // and recorded in the sidecar, NaN in EXR, the GeoTIFF nodata tag (also for integer types);
 // GeoTIFF creation options and COG; the warning for 16-bit inputs without a sidecar.

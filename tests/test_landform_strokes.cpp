@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Strokes placed relative to the ground: the default stroke of every landform tool, on a flat base
 // and on a real DEM (N44W072), makes a finite landform of its sign and moves no cell against that
 // sign by more than 1 m (no moat beside a ridge, no lobe beside a valley); a relative crest sits

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Landform cross-sections: every profile against its analytic formula, C1 continuity of
 // the profile across a bent polyline, tapers, smoothing, and no default feature narrower than 3 cells.
 #include "test_helpers.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launch shapes: every cell kernel (kernels/launch.clh) gives the same bits in
 // the rows shape (PoCL's default: a row per work-item) and the wide shape (GPUs: a cell per
 // work-item in 2D groups), both run here on PoCL (TERRACL_LAUNCH forces the shape).

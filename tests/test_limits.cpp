@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Limits on the numbers terracl takes (issue #32): cell sizes on every reader, band and channel
 // counts, RAW16 sizes, edit-script amplitudes and operation counts. Every case is a clean error
 // naming the file or JSON path, the field and the accepted range; never a NaN output.

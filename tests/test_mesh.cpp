@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mesh export: files re-read (tinygltf, a plain OBJ parser) and checked; simplification error
 // bound and crack-freeness checked against the grid.
 #include <tiny_gltf.h>

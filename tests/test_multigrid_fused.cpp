@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The fused coarse cycle (kernels/multigrid_coarse.cl): the coarse levels of a
 // cycle in one work-group launch give the same bits as one launch per stage and level
 // (TERRACL_MG_FUSED=0), for every cycle kind, with and without hard cells, with dead coarse nodes;

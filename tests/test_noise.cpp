@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Gradient noise (kernels/noise.cl): analytic derivatives against finite differences of the values.
 #include "test_helpers.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // NumPy .npy read/write: fixtures written by numpy (data/npy/make_fixtures.py),
 // the refusals with their reasons, and a round trip with numpy itself (full build only, where
 // python3-numpy is installed; the core build runs the fixture cases).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Outputs that are right or absent: a failed run, a failed write or a failed rename never leaves a
 // wrong file under an output's name, and an earlier good file survives it (docs/reliability.md,
 // "Outputs: right or absent").

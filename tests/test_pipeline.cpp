@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pipelines through the library API: parsing and shorthands, tags, overrides, validation errors
 // with JSON paths (data-kind chaining checked with two test-only stages on a local registry), a
 // real run on a crop with provenance, cancellation, and the bit-for-bit re-run of the resolved file.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl run`, `terracl stages` and the stage subcommands, run as a user runs them: exit codes,
 // messages naming the JSON path, overrides, progress JSON lines, Ctrl-C, and docs/stages.md being
 // the built CLI's stage table.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Multigrid reconstruction against manufactured solutions, a sparse direct solve and real DEMs.
 #include "test_helpers.hpp"
 #include "recon_reference.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl extract` / `terracl reconstruct` / `terracl bench reconstruct` as a user runs them.
 #include "test_helpers.hpp"
 

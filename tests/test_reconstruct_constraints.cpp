@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Constraint rasterisation, the priority rule and the constraint JSON format.
 #include "test_helpers.hpp"
 

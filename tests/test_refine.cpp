@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mixed-precision iterative refinement: on a canyon held by a few hard cells
 // (large free regions) the float32 multigrid stops far from the exact discrete solution; with the
 // residual in double it reaches 1e-6 of the range. Reference: Eigen's sparse direct solve in double

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hostile input and interrupted runs, run as a careless or hostile user would: every
 // case here crashed, hung, destroyed data, wrapped a number or gave an unhelpful message before.
 // Each test states the exit code and the words of the message it expects, and that nothing

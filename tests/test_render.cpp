@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Preview rendering: hillshade against gdaldem on a real DEM, colour ramps, the render CLI.
 #include <OpenImageIO/imageio.h>
 #include <gdal_priv.h>

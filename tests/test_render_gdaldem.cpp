@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // render against the real `gdaldem` binary, pixel by pixel on a real DEM: every hillshade
 // shading, slope (degrees and percent), aspect (azimuth, trigonometric, zero for flat), TRI
 // (Riley, Wilson), TPI and roughness, with and without -compute_edges, on a projected crop that

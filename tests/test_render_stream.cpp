@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The streamed render (render_stream.cpp): a GDAL raster read and rendered strip by
 // strip writes the same file as the in-memory render (read_heightfield + render + write_image),
 // for every picture mode, both backends, PNG and GeoTIFF, with nodata, percentage ramps and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The perspective picture (render --mode perspective): analytic horizon and Lambert
 // brightness on a flat plane, left-right symmetry, occlusion, nodata holes, kernel against the
 // host reference, and the CLI's option errors. Small grids and pictures: well under 2 s in all.

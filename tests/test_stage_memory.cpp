@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stage table's memory column (terracl/stage_memory.hpp): every stage declares what
 // it needs from its options and its input's size, and a run that cannot fit is refused before
 // anything is read or written, by `run --validate` as by the run, by the stage subcommands and by

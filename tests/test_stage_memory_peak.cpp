@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The memory column against measurement: each stage's subcommand runs on a small and a large
 // raster, and the growth of its peak RSS per added cell (so that the process's fixed cost, the
 // OpenCL runtime and the program binaries, drops out) must stay within the estimate the

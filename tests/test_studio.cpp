@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl studio's JSON API end to end: a real server on a free port of 127.0.0.1 (in this
 // process), real httplib clients, and the saved script replayed by the real `terracl edit`.
 #include <httplib.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's Export dialog (POST /api/export {name, format, preset, masks}): the terrain at an
 // engine size and the masks the session can make, each checked against an independent answer.
 #include <httplib.h>

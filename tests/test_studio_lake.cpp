@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's lake tool through its JSON API: the state carries each lake's figures, the water
 // layer comes as float32 like the terrain, the terrain keeps its bits, and the saved script
 // replays the same water on the CLI (terracl edit --water).

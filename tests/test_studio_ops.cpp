@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two edit-script additions the studio relies on: the "erode" operation and "enabled": false.
 #include <cmath>
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's zoomed-in windows and its previews while drawing (docs/studio.md, "Feedback while
 // drawing"): a window is exactly the cells of the full terrain; a preview records nothing and shows
 // the stroke (new, or replacing one) on a coarse grid.

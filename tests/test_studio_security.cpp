@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio as a local app only its own page drives (docs/studio.md, "Threat model"), against a
 // real server on 127.0.0.1: hostile JSON, foreign Host / Origin, missing token, non-JSON bodies,
 // files outside the workspace, slow clients, and long operations cancelled or stopped by the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Snapshots (docs/studio.md, "Snapshots"): EditSession::snapshot() continues bit for bit, edit
 // scripts note each operation's support causally, and the studio replays a change after an
 // expensive layer from the snapshot taken after it, with the terrain `terracl edit` computes.

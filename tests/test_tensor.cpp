@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tensor fields (kernels/tensor.cl) against analytic answers.
 #include "test_helpers.hpp"
 

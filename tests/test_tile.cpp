@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled (out-of-core) pipeline runs against untiled ones: the same cells bit for bit, the same
 // georeferencing and provenance, on rasters with many tiles, odd sizes, nodata, a VRT mosaic and
 // a global stage (fill_depressions); refusals that name the stage and the limit.

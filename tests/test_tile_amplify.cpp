@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled amplify (docs/scale.md "Tiled amplify"): `run P.json --tile T` with an
 // amplify stage gives the untiled output bit for bit - x4 and x16, odd sizes, tiles whose borders
 // cut the patch grid (T f not a multiple of the spacing), behind a crop (the prepass reads through

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl run --tile` as a user runs it: the memory bound (peak RSS independent of the raster
 // size, under a deliberately small --memory-budget), progress per tile, and usage errors.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled erosion (a halo as far as water can travel in the run, docs/scale.md): no seam on the tile
 // borders by the seam metric, which does flag the seams of tiles eroded without a halo; the
 // remaining difference to the untiled run is small.

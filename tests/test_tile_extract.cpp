@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled extract (docs/scale.md, "Tiled extract"): the two-band gradient GeoTIFF written tile by
 // tile equals the untiled extract bit for bit (and the untiled EXR's cells and mean elevation),
 // on odd sizes and many tiles, behind a crop that leaves a nodata hole out; a raster with nodata

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact tiled Priority-Flood (Barnes 2016) against the untiled fill: bit for bit on rasters with
 // many tiles, odd sizes, nodata and depressions spanning tiles.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact tiled D8 flow accumulation (Barnes 2017) against the untiled `drainage`: bit for bit on
 // odd sizes, tiles down to 2 cells, nodata, flats and depressions resolved by the untiled epsilon
 // fill, a river crossing many tiles and a window of the real SRTM tile; through the pipeline; and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled metrics (docs/scale.md, "Tiled metrics"): the report's local statistics (elevation, slope
 // mean / max / quantiles / histogram, Laplacian curvature) equal to the untiled report bit for bit
 // on odd sizes, tiles that do not divide them, nodata and ties; the global figures left out with a

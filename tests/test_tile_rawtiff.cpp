@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The tiled GeoTIFF writer compresses blocks itself (libtiff in memory, io/tiff_blocks.cpp) and
 // appends them raw (TIFFWriteRawTile), so that under MPI the rank that computed a tile compresses
 // it (docs/scale.md, "MPI speed-up"). Its files must hold what GDAL's own writer would: the same

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled `render` against the untiled one: the same pictures (grey/RGB, with or without alpha) and
 // value rasters byte for byte, on an odd-sized SRTM crop with nodata, with several tile sizes
 // (tiles smaller than the 3x3 footprint included), behind a crop and a downsample.

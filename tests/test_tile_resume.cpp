@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `--resume` of tiled runs (docs/scale.md): a run killed after N tiles (SIGKILL from the test-only
 // hook TERRACL_TEST_KILL_AFTER_TILES, so nothing is cleaned up) leaves its partial outputs and
 // journals; the rerun skips the N tiles after verifying their checksums, runs only the rest and

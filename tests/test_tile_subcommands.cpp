@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `--tile N [--halo] [--memory-budget]` on subcommands (render, convert, downsample, erode; every
 // heightfield -> heightfield stage has the flags): the same one-stage pipeline through the tile runner, the same cells as
 // the untiled command; flags a tiled run cannot honour are refused.

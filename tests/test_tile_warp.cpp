@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled warp and resize (docs/scale.md, "Tiled warp"): the output grid of the whole input and
 // every cell equal to the untiled run bit for bit, for each resampling, a reprojection to UTM, odd
 // sizes, tiles that do not divide them, nodata, behind and before other stages, and under --resume.

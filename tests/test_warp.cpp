@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // warp and resize: the same values as the gdalwarp program with the same options,
 // nodata kept, engine presets' sizes and Z scale, and amplify's error naming the warp command.
 #include "test_helpers.hpp"

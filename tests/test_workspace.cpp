@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reconstruction's per-device buffer cache, pinned staging and threaded host passes (issue 19
 // point 5): every path gives the same bits as fresh buffers and direct transfers, the cache is
 // bounded to one grid size and releases its memory, and the peak figure stays honest.

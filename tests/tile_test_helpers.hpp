@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared by the tiled-pipeline tests: SRTM windows as inputs, pipelines run untiled and tiled, and
 // one comparison of two rasters (cells as stored, georeferencing, the metadata items each test names).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's Export dialog: the terrain in a format and an engine size, with the masks the
 // session can make as 16-bit PNGs (POST /api/export {name, format, preset, masks}; docs/studio.md).
 const $ = (id) => document.getElementById(id);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The geometry of edit operations in script coordinates (docs/authoring.md): what the studio draws
 // on the map, hit-tests, and moves when a stroke is grabbed. Every function returns a new operation
 // and leaves its argument alone, so a drag can be dropped without a trace.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shading of a float32 terrain for the studio's map: Horn hillshade (light from the north-west, 45
 // degrees up) times a colour relief over a fixed elevation range, optional contours, lakes tinted.
 const RAMP = [[0, [70, 120, 60]], [0.3, [140, 160, 90]], [0.55, [190, 170, 120]], [0.8, [140, 110, 90]], [1, [250, 250, 250]]];

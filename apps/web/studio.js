@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl studio page: a map you zoom and pan, strokes you draw, grab and reshape, posted as edit
 // operations to the JSON API (docs/studio.md); the terrain re-solves on the server and shows as a
 // shaded map and a three.js heightfield. While a stroke is drawn or dragged the page asks for a

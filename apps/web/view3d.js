@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's 3D view: a three.js heightfield of what the map shows (the zoomed-in window when
 // there is one, else the whole terrain), at most MESH_MAX vertices a side, coloured with the map's
 // fixed colour scale; lakes as a semi-transparent surface. Renders on demand only: a continuous loop

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl as a library: read a DEM, add a mesa and a crest as hard elevation constraints,
 // reconstruct from the DEM's own gradient, erode, write a GeoTIFF.
 //

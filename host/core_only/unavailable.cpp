@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The core build (TERRACL_CORE_ONLY, cmake/CoreOnly.cmake) leaves out every source that needs a
 // GIS, image, mesh or nearest-neighbour library. These definitions stand in for their entry
 // points so that everything else links unchanged; each says what is missing instead of crashing.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Heightfield, GradientField and Georef <-> numpy.
 //
 // Direction of copies: library -> numpy is zero-copy (`Heightfield.z`, `GradientField.gx/gy` are

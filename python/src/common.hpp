@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Shared pieces of the terracl Python module: conversions (JSON, numpy), the device table, and
 // the bridge that runs library work with the GIL released while progress callbacks run in Python.

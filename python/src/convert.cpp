@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Conversions between Python values and the library's JSON options, and the progress bridge.
 #include "common.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Devices: terracl.devices(), terracl.select_device(spec), and the table of opened devices that
 // every call's `device=` argument goes through (same rules as the CLI's --device).
 #include "common.hpp"

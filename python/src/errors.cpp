@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Library exceptions as Python exceptions carrying the stage and the message:
 //   terracl.Error(RuntimeError) .stage .message;  terracl.UsageError(Error, ValueError);
 //   terracl.Cancelled(Error) (a progress callback returned False or raised; Ctrl-C raises KeyboardInterrupt).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl._terracl: the compiled half of the `terracl` Python package (python/terracl/ holds the
 // pure-Python half: stage functions with keyword options, docs). One init function per area.
 #include "common.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl.Session: an editing session that keeps its state on the device between calls (the
 // EditSession the studio and `terracl edit` use): the gradient field, the constraints and the
 // multigrid hierarchy stay resident, and each solve starts warm from the previous solution.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stages from Python. Every stage runs exactly as `terracl <stage>` runs it (apps/cmd_stages.cpp):
 // the options go through the stage table's resolve_options (same names, defaults, ranges and
 // units as the CLI and pipelines), then the stage's own run function on the device. `edit`

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """terracl: terrain authoring in the gradient domain on OpenCL devices, from Python.
 
 Rasters are :class:`Heightfield` (float32 elevations in metres, NaN for nodata) and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Shared fixtures: the CLI (for bit-for-bit comparisons), a small real DEM, a temporary folder.
 
 Run by ctest (test `python_pytest`), which sets PYTHONPATH to build/python, TERRACL_CLI and

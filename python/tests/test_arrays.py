@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Heightfield / GradientField / Georef <-> numpy: dtype, strides, copies, views, refusals."""
 import gc
 import math

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """terracl.Error / UsageError / Cancelled, progress callbacks and cancellation, the GIL, devices."""
 import threading
 import time

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Limits of the Python module (issue #32): re-entrant calls from progress callbacks, Ctrl-C during
 a stage, the memory check of array copies, non-finite writes, out-of-range integers and
 non-callable progress arguments. Each is a clear Python exception, never a hang or a crash."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Each stage from Python gives the CLI's result on the same input, bit for bit (same device)."""
 import json
 

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """terracl studio in a real browser: Debian's chromium, headless (no display), driven by
 python3-selenium through chromium-driver with real mouse events. Draws a crest (the terrain
 previews during the drag), zooms in with the wheel (the window shows every cell), pans with the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: JSON text -> limited parser -> every edit operation's parameter parsing and
 // validation against a 65 x 49 grid (validate_edit_script: what `terracl edit --validate` runs,
 // without a device). Relative file names resolve in tests/fuzz/assets (TERRACL_FUZZ_ASSETS), which

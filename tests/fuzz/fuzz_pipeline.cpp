@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: JSON text -> limited parser -> Pipeline::parse -> validate -> resolved().
 // The registry holds stand-ins with every option type, unit, range and a check function, so the
 // harness links only the pipeline sources (the CI budget allows no full sanitizer build).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: the first byte picks a format (.tif .png .exr .r16 .asc .hgt .npy, with or without
 // a JSON sidecar), the rest is the file; read_heightfield, and read_gradient for EXR, must answer
 // with a heightfield or a terracl Error, never crash, hang or allocate what the header claims.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Fails when a public header includes something an installed package cannot promise: a private
 # header of host/src ("multigrid.hpp"), or a library terracl uses only inside (GDAL, OpenImageIO,
 # OpenEXR, FLANN, tinygltf, lz4, httplib). Allowed: <terracl/...>, the standard library (no

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hypre back end of the reconstruction (builds with -DTERRACL_MPI=ON; ctest label `mpi`): the
 // same discrete problem as the device multigrid, checked against an Eigen direct solve and
 // against the device on a real DEM crop. 2 ranks vs 1: scripts/hypre-ranks-check.sh.

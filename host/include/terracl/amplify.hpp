@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Sparse-dictionary terrain amplification (Guérin et al. 2016, "Sparse representation of terrains
 /// for procedural modeling", sections 4-5) with the block-mean bias correction of the gradient

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Terrain analysis on the host: depression filling and breaching, flow routing (D8, D-infinity),
 /// realism statistics and sketch extraction. All lengths are metres and all areas square metres,

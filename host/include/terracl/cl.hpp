@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Single include point for the Khronos C++ bindings, with the versions and exceptions we use.
 #ifndef CL_HPP_TARGET_OPENCL_VERSION

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Hard elevation constraints (Dirichlet cells) for reconstruction, and their rasterisation from
 /// points, polylines, polygons, mask/elevation rasters and constraint JSON files.

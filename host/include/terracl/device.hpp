@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// OpenCL device layer: device choice, context and queue, embedded kernels and program cache.
 #include <terracl/cl.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Tiled runs over MPI ranks (`mpirun -n N terracl run P.json --tile T`, docs/scale.md). In a build
 /// with TERRACL_MPI, start() joins MPI when the process was launched by mpirun / mpiexec; the tile

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Gradient-domain authoring with JSON edit scripts (docs/authoring.md).
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Hydraulic (virtual-pipe) and thermal erosion on the OpenCL device (kernels/erosion.cl).
 ///

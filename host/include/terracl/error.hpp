@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Errors thrown by the library. Every message starts with "<stage>: " so that the CLI can print
 /// `terracl ERROR: <stage>: <message>` without knowing where it came from.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Gradient extraction (h -> g), divergence (g -> f) and the paper's central-difference format.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Core raster values that flow between stages: Heightfield (elevations) and GradientField.
 #include <array>

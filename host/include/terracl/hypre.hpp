@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// hypre's structured solver as a reconstruction back end (SolverOptions::solver = Solver::Hypre):
 /// PFMG-preconditioned CG in double on the host, distributed by bands of rows over the MPI ranks

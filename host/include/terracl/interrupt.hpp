@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A process-wide stop request for long calls into libraries that run no code of ours but offer a
 /// progress callback of their own (GDAL's GeoTIFF writer: seconds of LZMA compression). The CLI

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Reading and writing heightfields and gradient fields. The format comes from the file's
 /// extension and is checked against the file's content:

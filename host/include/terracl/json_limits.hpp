@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Reading JSON documents written by users (pipelines, edit scripts, constraints, sidecars) with
 /// limits, so that a hostile file gives a clear error instead of exhausting the stack or memory:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// 2D launches of the cell kernels (kernels/launch.clh), one helper for every launcher.
 // The device's info().launch picks the shape: "rows" launches (1, rows) with the x-loop inside

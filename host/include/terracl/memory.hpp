@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// One place that checks sizes and memory before allocating. A stage (or a reader) states what it
 /// will need, in bytes of host RAM and of device memory, before it allocates anything; a request

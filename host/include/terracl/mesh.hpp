@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Triangle meshes of heightfields for 3D tools (Blender, game engines), in metres.
 /// Axes follow glTF (Y up, right-handed): X = column * cell_x (east), Y = elevation,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Gradient noise with analytic derivatives (kernels/noise.cl): Perlin-style lattice gradient noise,
 /// fBm and a ridged multifractal sum, added to a staggered gradient as the exact gradient of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Pipelines (PDAL's convention): an ordered JSON array of stages, each
 /// `{"type": "<stage>", "tag": "...", <options>...}`, run one after the other on the values that flow

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Progress reporting for long stages (GDAL's convention): the callback receives the completed
 /// fraction in [0, 1] and a message, and returns false to ask the stage to stop.

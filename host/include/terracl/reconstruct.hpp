@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Multigrid Poisson reconstruction: elevations from a gradient field (or a divergence) with hard
 /// elevation constraints.

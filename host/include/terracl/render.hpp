@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Preview pictures and gdaldem's terrain products of a heightfield: hillshade (Horn's method as
 /// `gdaldem hillshade`, with its -multidirectional, -combined and -igor shadings), colour relief

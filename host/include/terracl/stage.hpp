@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Self-describing stages (PDAL's convention). Each stage declares once its name, a one-line
 /// description and its options; that table drives `terracl <stage> --help`, `terracl stages`,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The stage table's memory column: what each stage needs, in host RAM and device
 /// memory, estimated from its resolved options and the size of its input, and the one checker

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// terracl studio: a local web server with the sketching page and its JSON API (docs/studio.md).
 /// One shared session (an edit script on a base terrain) for every client.

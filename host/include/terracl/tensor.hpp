@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Skeleton primitives and tensor fields for gradient-domain authoring (kernels/tensor.cl).
 ///

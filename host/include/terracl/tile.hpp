@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Tiled, out-of-core execution (docs/scale.md): pipelines run tile by tile through GDAL windows
 /// (`terracl run P.json --tile 2048`), and the exact tiled Priority-Flood fill (Barnes 2016) that

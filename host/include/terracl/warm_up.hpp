@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Compiling ahead: the programs a tool will use, built (or loaded from the disk cache) before
 /// their first use, e.g. in a background thread while the studio waits for its first stroke.

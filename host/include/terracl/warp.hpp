@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Resampling and reprojection on GDAL's warper (the library behind `gdalwarp`), and resizing to
 /// game-engine heightmap sizes. Nodata cells (NaN) stay nodata; cells outside the source's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Amplification by a multi-resolution dictionary (sparse terrain paper, section 5.3): each output
 // patch's low-resolution footprint is decomposed over L, the same coefficients applied to H, and the
 // patches blended with the disc weights; then the block means are corrected to match the input.

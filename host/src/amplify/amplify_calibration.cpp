@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What each step of an amplification measures on the whole input before any tile is made: the
 // detail blend's correlation and anisotropy, a later cascade step's relief scale, and the per-input
 // HF gain, so that tiled and untiled runs use the same values.

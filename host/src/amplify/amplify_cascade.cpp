@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Amplification with exemplars learned in the run (amplify_from_exemplars): one dictionary per
 // step at that step's cell size, and for x16 the first step's gain chosen end to end on the
 // exemplar's held-out folds (cascade_first_gain).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The detail gain of a dictionary, calibrated on its exemplar's held-out folds (calibrate_detail):
 // the gain whose output carries the truth's HF energy, capped by an RMSE budget against bicubic.
 #include <terracl/amplify.hpp>

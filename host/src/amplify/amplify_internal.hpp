@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // What the amplify sources share and do not export: one step's engine and its calibration, the
 // option checks, and the folds of the exemplar calibrations.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `amplify` stage and the `amplify` benchmark.
 #include "amplify/exemplar_warp.hpp"
 #include "pipeline/builtin.hpp"

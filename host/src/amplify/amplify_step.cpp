@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One step of amplification (amplify_step): the engine's blended patches, normalised for their
 // overlap, then the gain, the base and the bias correction.
 #include <terracl/amplify.hpp>

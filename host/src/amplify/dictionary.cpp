@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Multi-resolution dictionaries (H, L): learning from exemplars and the .tdic file format
 // (docs/amplify.md). L is the block mean of each H atom, masked to the low-resolution disc; both are
 // divided by |L| so that a coefficient found on L carries over to H unchanged.

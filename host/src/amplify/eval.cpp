@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Measures for amplification (scripts/eval-amplify.sh) and the compression report of section 5.1.
 #include <terracl/amplify.hpp>
 #include <terracl/analysis.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `amplify --resample-exemplar`: an exemplar at another resolution or CRS is warped by GDAL to the
 // output's cell size (and the input's CRS when both are known and differ). Averaging is the model
 // of a coarser DEM cell (the amplification's input is the block mean of its output). The warp is the

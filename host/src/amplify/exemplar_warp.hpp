@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to the amplify module: the exemplar warp of `amplify --resample-exemplar`.
 #include <terracl/heightfield.hpp>

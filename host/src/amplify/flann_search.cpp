@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Single-atom search (s = 1). For unit-norm zero-mean atoms, max |<q, d>| over d is the nearest
 // neighbour of q/|q| among {+d, -d}: |q^ - d|^2 = 2 - 2 <q^, d>. A FLANN randomized kd-tree forest
 // answers that approximately, far faster than the exact scan for large (complete) dictionaries.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // K-SVD dictionary learning (Aharon, Elad, Bruckstein 2006) and the constrained variant of the sparse
 // terrain paper (problem 2), whose atoms must be training signals so that a multi-resolution
 // dictionary made from them holds real terrain.

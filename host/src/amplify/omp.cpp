@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Batch-OMP (Rubinstein, Zibulevsky, Elad 2008). The projections D^T x of a block of signals are one
 // GEMM; each greedy step then costs O(N k) with the Gram matrix instead of O(N K), and the least-squares
 // solve on the active set reuses a Cholesky factor grown by one row per step.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A minimal fork-join over index ranges. std::thread rather than OpenMP: OMP_PROC_BIND-style
 // pinning halves PoCL's speed on the same machine, and the work here is coarse-grained anyway.
 #include <terracl/amplify.hpp>

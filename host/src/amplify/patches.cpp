@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Disc-support patches (section 4.1-4.2 of the sparse terrain paper): extraction with the disc mean
 // removed, and the weighted blend that turns patches back into a heightfield.
 #include <terracl/amplify.hpp>

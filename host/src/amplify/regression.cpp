@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Faithful amplification: a linear regression of each f x f output block from the input's
 // (2r+1)^2 neighbourhood around its cell, learned on the exemplar (its block means as input, itself
 // as target), one regression per class of local gradient direction. It is the least-squares

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block means, bicubic upsampling and the block-mean bias correction (gradient paper, section 5.3).
 #include <terracl/amplify.hpp>
 #include <terracl/error.hpp>

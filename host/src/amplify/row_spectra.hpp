@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The first half of a 2-D spectrum shared by the evaluation's HF measure (eval.cpp) and the
 // input-spectrum prediction (spectral.cpp), so both see the same windowing.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The HF energy a finer grid of the input's terrain should have, from the input's own spectrum
 // (detail calibrated per input, not only on the exemplar's average).
 #include <terracl/amplify.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // One x f step of amplification over a window: each output patch's low-resolution footprint is
 // matched against the dictionary's atoms (FLANN or exact search, or OMP for sparsity > 1), the same

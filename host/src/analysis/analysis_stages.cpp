@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage and benchmark registration for analysis, previews and export. `metrics`, `sketch`,
 // `render` and `mesh` write their own files (option `file` / `json`) and pass the heightfield
 // through unchanged, so they can sit anywhere in a pipeline; their CLI commands are hand-written

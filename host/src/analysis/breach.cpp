@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Complete breaching (Lindsay 2016, "Efficient hybrid breaching-filling sink removal methods for
 // flow path enforcement in digital elevation models", the complete-breaching variant): a priority
 // flood from the outlets records, for every cell, the cell it was reached from (its back-link,

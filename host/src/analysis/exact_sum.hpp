@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // An exact, order-independent sum of doubles: every finite double is an integer multiple of
 // 2^-1074 below 2^1024, so a fixed-point accumulator of 32-bit digits over that range holds any

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Priority-Flood depression filling (Barnes, Lehman & Mulla 2014, "Priority-Flood: An optimal
 // depression-filling and watershed-labeling algorithm for digital elevation models", Algorithms 2
 // and 3). Cells inside depressions and on flats are processed through a plain FIFO queue instead

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact tiled Priority-Flood (Barnes 2016, "Parallel priority-flood depression filling for
 // trillion cell DEMs", Algorithms 1-4). The filled surface is unique (every cell rises to the
 // lowest "highest point" of its paths to an outlet), so it can be assembled from tiles exactly:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Flow routing: D8 (O'Callaghan & Mark 1984) and D-infinity (Tarboton 1997) on the
 // Priority-Flood+epsilon surface, so that every valid cell has a strictly lower neighbour or is an
 // outlet (flats and depressions drain towards their spill points). Accumulation visits cells in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact tiled D8 flow accumulation (Barnes 2017, "Parallel non-divergent flow accumulation for
 // trillion cell digital elevation models on desktops or clusters"):
 //  1. each tile (plus a one-cell halo, so that every core cell sees all its neighbours) gets its

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Small shared pieces of the analysis modules: priority keys, outlet seeding, neighbour distances.
 #include <algorithm>

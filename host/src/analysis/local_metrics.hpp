@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The local statistics of the metrics report (elevation, slope, Laplacian curvature), gathered
 // window by window into exact accumulators, so that a tiled run's report equals the untiled one

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Realism statistics: the numbers the terrain-synthesis literature compares generated terrains
 // with (slope distribution, curvature, spectral slope, hypsometry, drainage concentration,
 // breaching volume as in Perche et al. 2023, section 5.4).

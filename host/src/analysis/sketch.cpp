@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Sketch extraction as in the terrain-GAN literature (Guerin et al. 2017; "Interactive adversarial
 // terrain erosion", section on sketches): rivers are cells whose D8 accumulation exceeds a
 // threshold, ridges the same on the inverted terrain, peaks and basins come from max/min filters

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The tile grid and the one-cell-halo window read shared by the exact tiled global algorithms
 // (fill_tiled.cpp, flow_tiled.cpp): both need each tile's core plus its neighbours' edge cells.

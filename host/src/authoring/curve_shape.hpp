@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The cross-section and path options shared by the landform curves (ops_curves.cpp) and the
 // mountain_range brush (ops_composite.cpp): width, profile, floor, taper, smoothing.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pipeline stage `edit` (option `script`) and `terracl bench edit`.
 #include "pipeline/builtin.hpp"
 

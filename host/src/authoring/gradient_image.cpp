@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Gradient images (paper section 3): two 16-bit channels (r, g) = 2^(p-1) (1 + g/m), so that image
 // tools can process gradients. m and the cell size travel in the JSON sidecar "<file>.json".
 #include <terracl/edit.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Lakes: the spill level of a basin, the cells a lake covers, and EditState's water layer, computed
 // from the terrain when asked (docs/authoring.md, "Lakes").
 #include "authoring/lake.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Lakes on a terrain (docs/authoring.md, "Lakes"): the spill level of the basin around a seed
 // cell and the cells a lake at a given level covers. Host code on a Heightfield; 4-connected

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "authoring/landform.hpp"
 
 #include <terracl/amplify.hpp>  // parallel_for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Landforms: a stroke becomes a change of elevation computed on the host (a raster over the box it
 // touches) and added to the field as its exact discrete gradient, so the solve reproduces

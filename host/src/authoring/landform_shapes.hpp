@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The landforms a stroke makes (ops_landforms.cpp parses them): each returns its change of
 // elevation as a magnitude >= 0 over the cells it touches (a lowering landform's caller negates

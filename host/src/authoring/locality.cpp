@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Distance transform for the locality of edits: the solve region is every cell within the
 // falloff of a changed cell, so it follows a diagonal stroke instead of filling its bounding box.
 #include "authoring/locality.hpp"

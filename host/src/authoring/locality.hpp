@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Locality of edits on a base DEM (docs/authoring.md, "Locality"): which cells an edit changed,
 // the region grown by the falloff, and the distance transform behind it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launchers of kernels/noise.cl.
 #include <terracl/error.hpp>
 #include <terracl/noise.hpp>

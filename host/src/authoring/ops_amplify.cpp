@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "amplify" operation (studio issue: "amplification of the current terrain or of a region as an
 // operation"): the relief finer than `factor` cells is replaced by detail synthesised with a sparse
 // dictionary (terracl/amplify.hpp) from the terrain's own f x f block means. Block means are kept

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Brushes: scale_slopes, noise, freeze, tensor (paper sections 4.1, 4.3, 4.4).
 #include "authoring/state.hpp"
 

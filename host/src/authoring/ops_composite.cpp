@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Composite brush (paper figure 8): mesa (plateau elevation constraints + a rim drop +
 // downslope-oriented noise). "Downslope oriented" = the noise's gradients are dragged across the
 // slope by a tensor aligned with the rim, so its crests and gullies run down the flanks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Landform curves (paper section 4.2, figure 4): a sketched polyline with a cross-section.
 // crest, cliff and river put elevation constraints on the curve plus a profile gradient on the
 // side(s); free_crest, fault and ravine are gradient-only. Profile gradients are added to the field,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Drainage: stream-power channel incision (dendritic valleys carved from the terrain).
 //
 // On the current terrain h (a solve when stale): fill its depressions (Priority-Flood+epsilon,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "erode" operation: solve, erode on the device, and replace the gradient field by the eroded
 // terrain's (its reconstruction is the eroded terrain; hard cells have weight 0 and keep their
 // elevation). Recorded in scripts like any operation, so a studio session with erosion replays.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The "erode" edit operation: virtual-pipe erosion (terracl/erosion.hpp) of the current terrain,
 // baked back into the gradient field. Shared with the studio's live erosion preview so that the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // fit (paper section 5.1, figures 10 and 11): contours with elevations and ridge / river polylines
 // become elevation constraints on a blank (null-Laplacian) gradient, with optional noise whose
 // gradients are dragged along the features (so its gullies run perpendicular to the ridges) and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "lake" operation: water filling the basin around a seed up to a level (its spill point by
 // default), kept as a water-depth layer over the terrain; the terrain itself is not changed
 // (docs/authoring.md, "Lakes"). The water is computed from the script's final terrain

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Landform strokes placed relative to the ground: mountain_range, peak, volcano, canyon, and the
 // relative forms of crest, river and cliff (no `elevation`). Each computes its change on the host
 // (landform_shapes.cpp) and adds it with the sign it promises (landform.hpp): raising landforms

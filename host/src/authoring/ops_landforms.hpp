@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The relative forms of crest, river and cliff (ops_curves.cpp hands them over when a stroke has
 // no `elevation` and no per-vertex z): placed relative to the terrain under them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // copy_paste (paper section 4.1): gradients of a region of a source DEM (or gradient .exr) placed
 // with an affine warp (translate, rotate, scale) into the target. Only gradients move, so the
 // solve blends the pasted relief into its surroundings with no step at the boundary.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Strata: layered rock of alternating hardness inside a region (canyon and cliff walls).
 //
 // The stack is a monotone map S of elevations (metres in -> metres out) built from the top down:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Typed access to one edit operation's JSON object. Every error names the JSON path
 // ("/operations/3/radius: expected ...") and unknown keys are errors (typos must not pass silently).

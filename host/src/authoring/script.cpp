@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Edit scripts: parsing (all operations validated before any runs) and the editing session.
 #include "authoring/state.hpp"
 #include <terracl/launch.hpp>

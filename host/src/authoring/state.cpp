@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "authoring/state.hpp"
 #include "authoring/ops_erode.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The state an edit script works on: the gradient field on the device, the hard elevation
 // constraints, and the last reconstruction (a cache, also the warm start of the next solve).

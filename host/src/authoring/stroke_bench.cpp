@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `terracl bench stroke`: the latency of one landform stroke, from the operation to the re-solved
 // terrain, as the studio pays it after each stroke (the session already solved, so warm-started).
 #include <terracl/edit.hpp>

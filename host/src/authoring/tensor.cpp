@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launchers of kernels/tensor.cl. Primitives are packed kStride (= PRIM_STRIDE) floats each:
 //   [0] shape  [1] first vertex  [2] vertex count  [3] radius r  [4] mu  [5] tensor kind  [6] angle
 //   [7] disc radius  [8..11] anisotropic metric M (row-major)  [12] profile  [13] profile amplitude

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Device bytes allocated by one piece of work, however other work's buffers come and go.
 #include <atomic>

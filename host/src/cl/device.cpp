@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Device enumeration and choice. Follows VexCL's environment conventions so that users of other
 // OpenCL tools can pick devices the same way.
 #include <terracl/device.hpp>

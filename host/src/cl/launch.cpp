@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launch shapes: see host/include/terracl/launch.hpp and kernels/launch.clh.
 #include <terracl/launch.hpp>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Program building with a two-level cache: in memory per Device, and on disk as device binaries
 // keyed by a hash of everything that can change the binary (source, options, platform, device,
 // driver). A stale or corrupt cache entry is ignored and rebuilt, never an error.

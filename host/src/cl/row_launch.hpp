@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // One work-item per row launches with a fixed local size: PoCL compiles a kernel once per
 // (kernel, local size), so letting the runtime pick a local size from each grid size would

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The per-device buffer cache of workspace.hpp.
 #include "workspace.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Per-device cache of the reconstruction's level-0 buffers: the studio, the
 // edit state and `terracl bench` solve the same grid again and again, and on a GPU the creation

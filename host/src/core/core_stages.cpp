@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stages that only need the data model: nodata filling.
 #include "pipeline/builtin.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Limited JSON reading. nlohmann's parser is iterative, but copying, comparing and dumping a
 // document recurse once per level, so a file nested 80,000 deep crashed whichever of those ran
 // first; the depth is therefore checked while parsing (the callback sees each level as it opens).

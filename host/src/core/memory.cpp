@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Size and memory checks made before allocating (terracl/memory.hpp).
 #include <terracl/device.hpp>
 #include <terracl/error.hpp>

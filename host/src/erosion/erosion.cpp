@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launcher of kernels/erosion.cl: state upload with a zero halo, automatic sub-stepping, the kernel
 // sequence per sub-step (no clFinish inside a run), totals in double on the host.
 #include <terracl/erosion.hpp>

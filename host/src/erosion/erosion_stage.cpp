@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `erode` stage, its brush / constraint inputs and `terracl bench erode`.
 #include "pipeline/builtin.hpp"
 

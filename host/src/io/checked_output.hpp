@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Writes whose every error is seen: a full disk or an I/O error while writing or closing an output
 // must fail the run (exit 1, no file under the output's name), never commit a truncated file.

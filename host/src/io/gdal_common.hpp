@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // GDAL helpers shared by the GeoTIFF reader/writer (gdal_io.cpp) and warp/resize (warp.cpp).
 // Private to host/src/io; like them, left out of the core build.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // GDAL backend: every georeferenced raster on read (GeoTIFF, SRTM .hgt, ESRI ASCII grid, ...),
 // float32 GeoTIFF on write. GDAL's own error messages are captured and passed on, so the user
 // sees why a file was refused.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Windowed GDAL reading and writing (gdal_window.hpp). The header (georef, nodata, metadata) is
 // read by the same code as a whole-raster read, so a tile carries exactly what the untiled run
 // would see; only the geotransform moves to the window.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Window-by-window raster I/O through GDAL, for tiled (out-of-core) runs: a reader that reads any
 // window of a GDAL raster (a VRT mosaic included) and a writer that fills a tiled GeoTIFF window by

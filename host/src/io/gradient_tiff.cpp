@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Gradient fields as a two-band float32 GeoTIFF (gradient_tiff.hpp).
 #include "io/gradient_tiff.hpp"
 

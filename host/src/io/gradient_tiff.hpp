@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Gradient fields as a two-band float32 GeoTIFF (band 1 "gx", band 2 "gy"): the format tiled runs
 // write window by window (docs/io.md, "Gradient fields"). The EXR path stays; readers accept both.

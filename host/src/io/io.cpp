@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Format dispatch: the extension names the format and the content must agree, so that a PNG
 // renamed .tif is refused with a clear message rather than silently read by whichever library
 // recognises it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "io/io_common.hpp"
 #include "io/checked_output.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Shared helpers of the I/O backends (private to host/src/io).
 #include <terracl/heightfield.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // NumPy .npy arrays (format versions 1, 2 and 3): a 2-D array, C order, little-endian float32,
 // float64, int16 or uint16; rows are north to south as in every terracl raster. No GDAL needed:
 // with RAW16 this is what the core build reads and writes. The optional JSON

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "io/oiio_checked.hpp"
 
 #include "io/checked_output.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // OpenImageIO outputs through a file whose every write and close is checked: OIIO's PNG writer
 // closes its FILE without looking at the result, so a full disk gave a truncated PNG, exit 0.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // OpenImageIO backend: PNG (8/16-bit codes mapped to a vertical range) and float EXR with
 // terracl attributes. PNG16 output is linear: integer codes written as-is, so no gamma or dither.
 #include "io/io_common.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // RAW16: headerless little-endian uint16 (Unreal/Unity heightmaps). Size and vertical range live
 // in the JSON sidecar "<file>.json" or come from options; without a size the file is ambiguous.
 #include "io/io_common.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `resize` to a size or an engine preset (over the same extent, through warp), and the scale an
 // engine needs to import a 16-bit heightmap at true size. Kept in the core build: the engine
 // scale is recorded in every PNG16/RAW16 sidecar.

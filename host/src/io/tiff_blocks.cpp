@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // encode_float_block (gdal_window.hpp): a 256^2 float32 block compressed by libtiff itself, in a
 // TIFF held in memory, with the tags GDAL's GTiff driver sets for the window writer's files
 // (tiled 256^2, float32, one band, DEFLATE, PREDICTOR=3, no ZLEVEL): libtiff then runs the same

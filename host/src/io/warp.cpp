@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `warp` on GDAL's warper through gdal_utils' GDALWarp (the code of the gdalwarp program), so the
 // options mean and do exactly what they do in gdalwarp; no resampler of our own. The heightfield
 // goes in as an in-memory (MEM) dataset and comes out of gdalwarp's virtual (VRT) output.

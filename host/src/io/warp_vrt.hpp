@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // GDAL's warper as a virtual raster, shared by the untiled warp (io/warp.cpp) and the tiled one
 // (tile/warp_tiles.cpp), so that both compute every cell by the same block warps.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Heightfield meshes. The simplified mesh is a right-triangulated irregular network (RTIN): the
 // square is split recursively at hypotenuse midpoints, which keeps the mesh crack-free as long as
 // both triangles sharing a hypotenuse take the same decision (they read the same error entry) and

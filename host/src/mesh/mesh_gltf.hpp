@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // glTF output through tinygltf, apart from the triangulation so that the core build
 // (TERRACL_CORE_ONLY) keeps meshes and .obj without tinygltf.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Greedy-insertion simplification (Garland & Heckbert 1995, "Fast polygonal approximation of
 // terrains and height fields", algorithm III; the half-edge layout follows Mapbox's Delatin).
 // Start with the two triangles of the grid's corners; repeatedly insert the grid point furthest

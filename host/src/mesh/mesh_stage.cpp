@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `mesh` stage: a triangle mesh of the heightfield (full grid, greedy or RTIN simplification)
 // written as .glb/.gltf/.obj; the heightfield passes through.
 #include <terracl/mesh.hpp>

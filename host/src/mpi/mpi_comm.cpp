@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled runs over MPI ranks (TERRACL_MPI, docs/scale.md): the communicator the tile runner uses
 // (tile_comm.hpp) on MPI_COMM_WORLD, and distributed.hpp. Messages are byte strings sent as a
 // 64-bit length and chunks of at most 1 GiB (MPI counts are int). Every wait is a nonblocking

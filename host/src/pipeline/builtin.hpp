@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Each stage module exposes one registration function; builtin_stages.cpp calls them all.
 // Add yours here and in builtin_stages.cpp (one line each).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `crop`: a window of a heightfield, keeping its georeferencing. Demos and tests use it to run
 // heavy stages (amplify, erode) on a part of a tile.
 #include <terracl/error.hpp>

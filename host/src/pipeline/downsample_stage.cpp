@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `downsample`: block-mean reduction by an integer factor. It makes the low-resolution inputs of
 // the amplification demo and evaluation (the same block mean that amplify's bias correction
 // matches), so amplify(downsample(h)) can be compared with h.

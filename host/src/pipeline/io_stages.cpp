@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The pipeline's reader and writer stages (`"in.tif"` and `"out.exr"` in a pipeline are shorthands
 // for them). Pipeline-only: on the command line, `terracl convert` and every stage's IN/-o do this.
 #include <filesystem>

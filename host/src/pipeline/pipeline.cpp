@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pipeline parsing, overrides and validation. Everything that can be checked without running is
 // checked here, so that `terracl run --validate` catches a typo before a long run starts; every
 // error names the pipeline file and the JSON path of the value at fault.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pipeline::check_memory: the memory column (terracl/stage_memory.hpp) applied to every stage
 // before any work, sizes flowing from the readers' headers; the same pass serves `--validate`.
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Running a validated pipeline: one StageData flows through the stages; every stage gets the
 // provenance of the chain that produced its input, so that each output names the terracl version,
 // the pipeline hash and the options of every stage behind it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stage table's memory column (terracl/stage_memory.hpp). One table, beside the tiling column
 // (host/src/tile/tiling.cpp), so that every stage's figure is read and kept up to date together;
 // a stage missing here gets a conservative default (its input and output plus one copy) rather

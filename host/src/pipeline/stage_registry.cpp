@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Option validation and unit conversion for self-describing stages. Every error names the JSON
 // path of the offending value, so that a pipeline author can find it.
 #include <terracl/error.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `warp` and `resize` stages: GDAL's warper (host/src/io/warp.cpp) in pipelines. On the command
 // line `terracl warp` / `terracl resize` (apps/cmd_warp.cpp) take gdalwarp's spelling
 // (--tr X Y) and print the engine scale, so the stage table marks them cli = false.

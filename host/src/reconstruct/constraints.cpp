@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hard-constraint rasterisation and the constraint JSON format (priority rule in constraints.hpp).
 #include <terracl/constraints.hpp>
 #include <terracl/amplify.hpp>  // parallel_for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launcher for kernels/gradient.cl: extraction, divergence and central-difference conversion.
 #include <terracl/error.hpp>
 #include <terracl/gradient.hpp>

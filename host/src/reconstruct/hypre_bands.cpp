@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The band reader of the hypre reconstruction: each MPI rank reads only the rows of each input
 // file that its band of the system needs (gradient or divergence, start heightfield, fixed
 // rasters) and rasterises only its rows of the constraints, so that no rank holds a whole field

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hypre back end of the reconstruction: the same discrete problem as the device multigrid (5-point
 // Laplacian with natural Neumann border, hard cells as Dirichlet nodes) assembled on hypre's Struct
 // interface and solved by PFMG-preconditioned CG in double. Under mpirun every rank owns a band of

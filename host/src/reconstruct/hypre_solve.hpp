@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Internal entry of the hypre back end (reconstruct.cpp dispatches here after validating the
 // options and resolving the hard cells).

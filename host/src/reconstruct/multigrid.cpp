@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Multigrid hierarchy and cycles. See kernels/multigrid.cl for the discretisation and
 // docs/reconstruct.md for the design choices and measurements.
 #include "reconstruct/multigrid.hpp"

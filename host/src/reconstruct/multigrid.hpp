@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Launcher for kernels/multigrid.cl (internal): the level hierarchy, smoothers, cycles and the
 // published cascade, all enqueued without host waits except one norm read per cycle.

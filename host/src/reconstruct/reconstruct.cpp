@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Public reconstruction API: uploads the problem (divergence computed on the device, constraint
 // values scattered into the solution buffer), runs the multigrid launcher and reads the result.
 #include <terracl/amplify.hpp>  // parallel_for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage table entries `extract` and `reconstruct`, and the `terracl bench reconstruct` benchmark.
 #include "pipeline/builtin.hpp"
 #include "reconstruct/hypre_solve.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mixed-precision iterative refinement (docs/reconstruct.md). The float32
 // multigrid stops where float rounding of u hides the residual; on problems with large free
 // regions the remaining smooth error is then far above the residual (2.6e-4 of the range at a

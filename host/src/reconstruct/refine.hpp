@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Mixed-precision iterative refinement of a multigrid solve (internal; kernels/refine.cl).
 #include "reconstruct/multigrid.hpp"

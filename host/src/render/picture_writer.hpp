@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Row-by-row picture output (render_png.cpp): PNG through OpenImageIO's scanlines, GeoTIFF through
 // GDAL. write_image writes all rows at once and the streamed render (render_stream.cpp) one strip

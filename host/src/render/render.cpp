@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Preview rendering on the host. Hillshade follows gdaldem's Horn algorithm term by term (same
 // constants, same 1 + 254 * cos mapping, same rounding) so that `gdaldem hillshade` and
 // `terracl render --mode hillshade` agree within one grey level (gdaldem uses an approximate

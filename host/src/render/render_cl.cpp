@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launchers of kernels/render.cl (pictures) and kernels/render_terrain.cl (value rasters). The
 // grid goes to the device one strip of rows at a time (with its one-row halo), so device memory
 // stays bounded by the strip size whatever the raster, and progress is reported per strip.

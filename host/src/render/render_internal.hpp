@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Shared by the host and device paths of render: argument checks and the picture's layout.
 #include <cmath>

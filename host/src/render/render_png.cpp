@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Picture output: PNG through OpenImageIO, GeoTIFF through GDAL. The only part of rendering that
 // needs an image library, kept apart so the core build (TERRACL_CORE_ONLY) renders to arrays
 // without them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `render` stage: its option table (gdaldem's options under terracl's names) and its run
 // function. Pictures (hillshade, relief, slope, shaded-relief) go to .png or a georeferenced .tif;
 // value rasters (slope, aspect, tri, tpi, roughness) to a float32 GeoTIFF like gdaldem's. The

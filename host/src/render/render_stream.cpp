@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The streamed `render`: a GDAL raster read strip by strip (a one-row halo each side),
 // each strip rendered on the device or the host and written before the next one is needed, so the
 // memory held is a few strips, not the raster and its picture. The picture's layout depends on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Host mirror of kernels/render_window.clh in double precision: gdaldem's 3x3 window with its
 // edge and nodata rules, its shadings and Horn's slope. The host reference of render.cl and

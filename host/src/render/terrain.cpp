@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Host reference of gdaldem's value rasters (kernels/render_terrain.cl): slope, aspect, TRI, TPI
 // and roughness in double precision, with gdaldem's window rules (render_window.hpp).
 #include <terracl/error.hpp>

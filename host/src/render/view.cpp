@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The perspective picture (render --mode perspective): camera framing and the host reference ray
 // marcher in double precision. kernels/render_view.cl is the same algorithm in float, step for step
 // (same march samples, same bisection count), so the two differ only where rounding flips a hit.

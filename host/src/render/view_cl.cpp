@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Launcher of kernels/render_view.cl: the whole heightfield goes to the device once (a ray may cross
 // all of it), the picture comes back in one read. One work-item per pixel in a 2D range: rays take
 // very different numbers of steps, so small groups balance better than rows.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The perspective picture's camera, sun and look, computed once on the host (double) and shared by
 // the host reference (view.cpp) and the kernel launcher (view_cl.cpp, as float slots).

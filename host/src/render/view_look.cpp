@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The perspective view's looks beyond the ramp: the natural material (albedo from slope and
 // elevation broken by world-space value noise) and the water surface (Beer-Lambert body, Fresnel
 // sky reflection, sun glint). kernels/render_material.clh and render_view.cl are the same formulas

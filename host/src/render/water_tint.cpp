@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Water over a rendered picture (edit previews with lakes): the picture's own shading stays
 // visible under the tint, so a lake reads as water over its bed rather than as a flat blue shape.
 #include <terracl/error.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's Export dialog (docs/studio.md): the canonical terrain in a format and an engine
 // size, and the masks the session can make, as 16-bit PNGs of the same size whose sidecars give the
 // value of code 65535.

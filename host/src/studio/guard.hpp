@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // What keeps the studio a local app that only its own page drives (docs/studio.md, "Threat
 // model"): every request must name this server in Host (DNS rebinding), API calls must come from

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio's feedback while drawing (docs/studio.md, "Feedback while drawing"): a coarse-level
 // solve of the stroke being drawn or dragged, on a grid of at most `max_side` cells a side. Nothing
 // is recorded; the release then posts the operation and the full-resolution terrain replaces it.

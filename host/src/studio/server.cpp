@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // terracl studio's HTTP server (cpp-httplib): the embedded page, three.js from libjs-three, and
 // the JSON API of docs/studio.md over one shared Session, serialised by one mutex (the OpenCL
 // queue and the session are not thread-safe). Requests pass the guard first (studio/guard.hpp);

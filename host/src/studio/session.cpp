@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The studio session: operation list, undo/redo, warm incremental edits and replays, workspace
 // files, live erosion.
 #include "studio/session.hpp"

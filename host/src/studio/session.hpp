@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The studio's one shared session (docs/studio.md): the operation list IS an edit script (the JSON
 // of `terracl edit`), replayed on an EditSession that re-solves warm on the device. Every method

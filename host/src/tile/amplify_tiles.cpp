@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How `amplify` tiles (docs/scale.md, "Tiled amplify"). Every per-patch choice follows global output
 // coordinates (amplify.cpp), so a tile needs only (1) its window with a halo of amplify_halo input
 // cells, (2) the window's place in the whole input, and (3) the detail blend's correlations, which

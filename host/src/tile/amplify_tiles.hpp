@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The amplify stage's tiling column (amplify_tiles.cpp, docs/scale.md "Tiled amplify").
 #include <terracl/stage.hpp>

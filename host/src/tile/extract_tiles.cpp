@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled extract (extract_tiles.hpp). The gradient of a cell reads its right and lower neighbours
 // (staggered) or both neighbours (central): a halo of one cell gives every core cell the values
 // the untiled kernel sees, and the window's edge rules are the raster's only where the window edge

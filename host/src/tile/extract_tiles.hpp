@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The extract stage's tiling column (extract_tiles.cpp, docs/scale.md "Tiled extract").
 #include <terracl/stage.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Resume journals (journal.hpp).
 #include "tile/journal.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Resume journals of tiled runs (`--resume`, docs/scale.md): one text file beside each output,
 // "<output>.journal", that names the run (a key: pipeline hash, tile size, halo, sizes, source) and

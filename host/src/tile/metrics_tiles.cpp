@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled `metrics` (docs/scale.md, "Tiled metrics"): a sink with a 3x3 footprint that gathers the
 // report's local statistics tile by tile into exact accumulators (analysis/local_metrics.hpp) and
 // spills the slopes to a temporary file, from which the quantiles are selected exactly in two

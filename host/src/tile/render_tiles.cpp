@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The tiled `render` stage. Every product of render is a function of gdaldem's 3x3 window (halo 1)
 // except two things that depend on the whole raster: whether a picture has an alpha band (any
 // nodata cell in the raster, or gdaldem's nodata border) and a colour ramp given in percentages of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The seam metric of tiled runs whose stages are not exact (erosion): a seam is a kink along a tile
 // border, so it shows as second differences larger on the border rows/columns than elsewhere.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The single-process side of tiled runs over ranks (tile_comm.hpp): one rank that computes and
 // applies every tile, and, in a build without TERRACL_MPI, the distributed.hpp functions for a
 // process that is the only rank. The MPI side is host/src/mpi/mpi_comm.cpp.

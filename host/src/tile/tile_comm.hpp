@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // How a tiled run shares its tiles between processes (docs/scale.md, "Tiles over MPI ranks"). The
 // tile runner and the exact tiled fill / D8 talk only to this interface: one process is the only

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled, out-of-core pipeline runs (`terracl run P.json --tile N`, docs/scale.md).
 //
 // A chain (a reader and the stages after it) is cut into segments at its global stages. A segment

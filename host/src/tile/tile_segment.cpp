@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One segment of a tiled run, tile by tile: the windows every level needs, found backwards from
 // the tile's core at each writer; the read; each stage on its window; each sink's core; then the
 // segment's global stage, if any, from the segment's output into the next segment's source.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Sinks of tiled runs other than `write`: stages that write their own file from a window of their
 // input (render). Each receives, per tile, the tile's core at its level plus the halo its footprint

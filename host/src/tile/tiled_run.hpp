@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The state and helpers of a tiled run (tile_run.cpp: the chains and segments; tile_segment.cpp:
 // one segment tile by tile; tiled_run_parts.cpp: windows, sink calls between ranks, journals).

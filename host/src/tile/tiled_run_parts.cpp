@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Helpers of a tiled run: windows, the sink calls that travel between ranks, provenance keys.
 #include "tile/tiled_run.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stage table's tiling column (terracl/tile.hpp): how each stage runs in a tiled pipeline.
 // Kept in one table beside the tile engine so that a stage's footprint and the engine that
 // honours it are read together; a stage added to the registry is untileable until it is listed

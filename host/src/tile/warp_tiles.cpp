@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tiled `warp` and `resize` (docs/scale.md, "Tiled warp"): the output grid is GDAL's for the whole
 // input (the warped VRT of the level before the stage, as the untiled warp builds it), and the
 // output is read from that VRT window by window into a tiled GeoTIFF. The VRT warps each of its

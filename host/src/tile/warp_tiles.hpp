@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Tiled warp / resize (warp_tiles.cpp): run by the tile engine as a stage between segments.
 #include <string>
