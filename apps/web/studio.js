@@ -176,7 +176,7 @@ async function change(method, path, body, t0 = performance.now()) {
     const ms = performance.now() - t0;
     window.__terracl.latency.push(ms);
     window.__terracl.phases.push({ change: t1 - t0, terrain: t2 - t1, paint: t0 + ms - t2 });
-    const from = last.from !== undefined && last.from > 0 ? ` from layer ${last.from}` : '';
+    const from = last.mode === 'replay' && last.from > 0 ? ` from layer ${last.from}` : '';
     status(`${last.mode || ''}${from} ${last.ms ? last.ms.toFixed(0) + ' ms solve' : ''}, ${ms.toFixed(0)} ms to the painted map${warn}`);
   });
 }
