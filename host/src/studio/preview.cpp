@@ -7,18 +7,17 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <set>
 
 #include "studio/session.hpp"
 
 namespace terracl::studio {
 namespace {
 
-// Operations too slow to rerun for every frame of a drag: when they follow the changed one they
-// are left out of the preview (the release replays them).
-bool expensive(const json& op) {
-  static const std::set<std::string> names = {"erode", "drainage", "amplify", "fit", "copy_paste", "strata"};
-  return op.is_object() && names.count(op.value("op", std::string()));
+// Operations too slow to rerun for every frame of a drag (and copy_paste, which reads its file
+// each time): when they follow the changed one they are left out of the preview (the release
+// replays them).
+bool slow_for_a_drag(const json& op) {
+  return expensive_operation(op) || (op.is_object() && op.value("op", std::string()) == "copy_paste");
 }
 
 // Every `step`-th cell of `h` (the cells the coarse grid's centres fall on, so script coordinates
@@ -81,7 +80,7 @@ Heightfield Session::preview(const json& op, std::optional<size_t> replace, int 
   ops.push_back(op);
   for (size_t i = at + (replace ? 1 : 0); i < m_ops.size(); ++i) {
     json later = m_ops[i];
-    if (expensive(later)) later["enabled"] = false;
+    if (slow_for_a_drag(later)) later["enabled"] = false;
     ops.push_back(later);
   }
   EditOptions o;

@@ -186,15 +186,15 @@ void Session::apply_ops(const json& tail) {
   m_edit->height();
 }
 
-namespace {
-// Operations that cost far more than a stroke (they reconstruct the terrain mid-script, simulate
-// on it, or rasterise many curves): a replay keeps a snapshot after each, so that changing a layer
-// after one replays from there. Hidden ones run nothing.
-bool snapshot_after(const json& op) {
+// A replay keeps a snapshot after each expensive operation, so that changing a layer after one
+// replays from there. Hidden ones run nothing.
+bool expensive_operation(const json& op) {
   static const std::set<std::string> names = {"erode", "drainage", "amplify", "strata", "fit"};
   if (!op.is_object() || (op.contains("enabled") && op["enabled"] == false)) return false;
   return op.contains("op") && op["op"].is_string() && names.count(op["op"].get<std::string>());
 }
+
+namespace {
 // At most this many snapshots (least recently used go first): each holds a deep copy of the edit
 // state, about 48 bytes a cell (60 once noise ran), 50 MB at 1025^2.
 constexpr size_t kMaxSnapshots = 4;
@@ -251,7 +251,7 @@ size_t Session::replay(const json& ops) {
   size_t start = from;
   bool ran = false;
   for (size_t i = from; i < ops.size(); ++i) {
-    if (!snapshot_after(ops[i])) continue;
+    if (!expensive_operation(ops[i])) continue;
     e->apply(full_script(chunk(ops, start, i + 1)));
     ran = true;
     start = i + 1;
@@ -287,7 +287,7 @@ void Session::commit(const json& ops, bool record_undo) {
   // latest snapshot instead: the replay keeps a snapshot after it, so changing a later layer then
   // starts there, and the terrain is canonical (the warm append is not: its warm starts differ).
   for (size_t i = m_ops.size(); append && i < ops.size(); ++i)
-    if (snapshot_after(ops[i])) append = false;
+    if (expensive_operation(ops[i])) append = false;
   const json tail = append ? appended_only(ops) : json();
   // Throws with the JSON path (nothing changed yet); warnings (a support under one cell) are shown.
   const std::vector<std::string> warnings = m_edit->check(full_script(append ? tail : ops));

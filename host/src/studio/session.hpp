@@ -26,6 +26,10 @@ struct RequestError : std::runtime_error {
   int status;
 };
 
+/// Operations that cost far more than a stroke (they reconstruct the terrain mid-script, simulate
+/// on it, or rasterise many curves): replays keep a snapshot after them, previews leave them out.
+bool expensive_operation(const json& op);
+
 /// The sampling step k that keeps every k-th of `side` cells, at most `max_side` of them.
 int sample_step(int side, int max_side);
 /// The sampling step of `h`'s longer side (as /api/terrain.f32 and the previews sample).
