@@ -54,6 +54,9 @@ CommandRegistrar reg(11, [](CLI::App& app) {
                           {"mean_slope_deg", s.mean_slope_deg}, {"max_slope_deg", s.max_slope_deg}};
       if (g.has_geotransform) j["geotransform"] = g.geotransform;
       if (g.nodata) j["nodata_value"] = *g.nodata;
+      j["vertical_units"] = g.vertical_units;
+      if (auto it = h.metadata.find("terracl:source_vertical_units"); it != h.metadata.end())
+        j["source_vertical_units"] = it->second;  // converted to metres on read
       fmt::print("{}\n", j.dump(2));
       return;
     }

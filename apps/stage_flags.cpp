@@ -78,12 +78,14 @@ ReadOptions InputScaleFlags::read_options(bool fill_nodata) const {
 }
 
 void OutputFlags::add(CLI::App* sub) {
-  sub->add_option("--co", creation_options, "GeoTIFF output: GDAL creation option KEY=VALUE (repeatable; as gdal_translate -co)")
+  sub->add_option("--co", creation_options, "GDAL output (.tif and other GDAL formats): creation option KEY=VALUE (repeatable; as gdal_translate -co)")
       ->type_name("KEY=VALUE");
   sub->add_flag("--cog", cog, "GeoTIFF output: write a Cloud Optimized GeoTIFF (GDAL's COG driver)");
-  sub->add_option("--ot", output_type, "GeoTIFF output: band type (rounded for integer types)")
+  sub->add_option("--ot", output_type, "GDAL output (.tif and other GDAL formats): band type (rounded for integer types)")
       ->check(CLI::IsMember({"Float32", "Float64", "Int16", "UInt16", "Int32"}))
       ->capture_default_str();
+  sub->add_option("--of", driver, "Output format: a GDAL raster driver (AAIGrid, HFA, GPKG, netCDF, ...; as gdal_translate -of); "
+                  "default: from the extension");
 }
 
 WriteOptions OutputFlags::write_options() const {
@@ -91,6 +93,7 @@ WriteOptions OutputFlags::write_options() const {
   wo.creation_options = creation_options;
   wo.cog = cog;
   wo.output_type = output_type;
+  wo.driver = driver;
   return wo;
 }
 

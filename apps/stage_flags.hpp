@@ -35,6 +35,7 @@ struct OutputFlags {
   std::vector<std::string> creation_options;
   bool cog = false;
   std::string output_type = "Float32";
+  std::string driver;  ///< --of
   void add(CLI::App* sub);
   WriteOptions write_options() const;
 };

@@ -14,6 +14,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
+#include <string>
+#include <vector>
 
 namespace terracl::cli {
 
@@ -184,8 +187,18 @@ int run_cli(int argc, char** argv) {
   for (auto& [order, setup] : setups) setup(app);
 
   cli::install_interrupt_handler();
+  // GDAL's programs spell their options with one dash (gdalwarp -t_srs EPSG:4326 -tr 30 30 -of
+  // AAIGrid): the same words are accepted here as aliases of terracl's options.
+  static const std::map<std::string, std::string> gdal_spellings = {
+      {"-t_srs", "--t-srs"}, {"-tr", "--tr"}, {"-ts", "--ts"}, {"-of", "--of"},
+      {"-co", "--co"},       {"-ot", "--ot"}, {"-projwin", "--projwin"}};
+  std::vector<std::string> words(argv, argv + argc);
+  for (size_t i = 1; i < words.size(); ++i)
+    if (auto it = gdal_spellings.find(words[i]); it != gdal_spellings.end()) words[i] = it->second;
+  std::vector<char*> args;
+  for (std::string& w : words) args.push_back(w.data());
   try {
-    app.parse(argc, argv);
+    app.parse(int(args.size()), args.data());
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {

@@ -32,6 +32,11 @@ namespace io {
 Heightfield read_gdal(const std::string& path) { unavailable("GDAL reading", path); }
 std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string&) { return std::nullopt; }
 void write_geotiff(const Heightfield&, const std::string& tmp_path, const WriteOptions&) { unavailable("GeoTIFF writing", tmp_path); }
+std::string gdal_driver_for_output(const std::string& path, const std::string&) { unavailable("GDAL writing", path); }
+std::vector<std::string> write_gdal_copy(const Heightfield&, const std::string& tmp_path, const std::string&,
+                                         const WriteOptions&) {
+  unavailable("GDAL writing", tmp_path);
+}
 Heightfield read_oiio(const std::string& path, const ReadOptions&) { unavailable("PNG/EXR reading", path); }
 void write_png16(const Heightfield&, const std::string& tmp_path, double, double) {
   unavailable("PNG writing", tmp_path);

@@ -45,6 +45,10 @@ struct WriteOptions {
   /// GeoTIFF only: band type, Float32 (default), Float64, Int16, UInt16 or Int32 (values are
   /// rounded; NaN cells get the nodata value, -32768 / 65535 / -2147483648 when there is none).
   std::string output_type = "Float32";
+  /// A GDAL raster driver by name (gdal_translate's -of: "AAIGrid", "HFA", "GPKG", ...) for an
+  /// output terracl does not write itself; empty: from the extension (.tif .exr .png .r16 .npy are
+  /// terracl's, any other extension goes to the one GDAL driver that claims it).
+  std::string driver;
 };
 
 /// Non-fatal I/O warnings (a 16-bit PNG read without its sidecar) go to this handler; by default
@@ -87,6 +91,10 @@ bool same_file(const std::string& a, const std::string& b);
 /// std::filesystem::exists throws on a name too long or a loop of links, which for a user's
 /// path means "not there" (the caller's own not-found message then names the field).
 bool path_exists(const std::string& path, bool regular = false) noexcept;
+/// Whether `path` is one of GDAL's virtual file systems (/vsizip/, /vsicurl/, /vsis3/, /vsimem/,
+/// ...). Such paths are opened by GDAL alone: there is no folder to check, and a missing file is
+/// reported by GDAL's open. path_exists() answers true for them.
+bool is_virtual_path(const std::string& path) noexcept;
 /// The one check every command and pipeline makes before running: refuses (UsageError naming the
 /// labels) an output that is also an input or another output, and an output that exists and is
 /// not a regular file (a device such as /dev/null, a folder, a pipe), which a rename would replace.

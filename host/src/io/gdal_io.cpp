@@ -13,12 +13,15 @@
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
+#include <cpl_vsi.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -36,7 +39,44 @@ bool looks_like_degrees(const std::array<double, 6>& gt, int w, int h) {
          std::fabs(y1) <= 90;
 }
 
+// Metres per unit of a band's unit type, for the vertical units GIS files use; nullopt for units
+// terracl does not convert (they are kept as they are, and named by `info`).
+std::optional<double> metres_per_unit(const std::string& units) {
+  std::string u;
+  for (unsigned char c : units)
+    if (std::isalpha(c)) u += char(std::tolower(c));
+  if (u.empty() || u == "m" || u == "metre" || u == "meter" || u == "metres" || u == "meters") return 1.0;
+  if (u == "ft" || u == "foot" || u == "feet" || u == "internationalfoot" || u == "footinternational") return 0.3048;
+  if (u == "ftus" || u == "usft" || u == "ussurveyfoot" || u == "ussurveyfeet" || u == "footus" || u == "usfoot" ||
+      u == "surveyfoot")
+    return 1200.0 / 3937.0;
+  if (u == "cm" || u == "centimetre" || u == "centimeter" || u == "centimetres" || u == "centimeters") return 0.01;
+  if (u == "mm" || u == "millimetre" || u == "millimeter" || u == "millimetres" || u == "millimeters") return 0.001;
+  if (u == "dm" || u == "decimetre" || u == "decimeter" || u == "decimetres" || u == "decimeters") return 0.1;
+  return std::nullopt;
+}
+
+// The geotransform write_local_geotransform gives a raster without georeferencing: read back, it
+// is no georeferencing again (the cell size comes from terracl_cell_x/y as before), so a round
+// trip through a GeoTIFF leaves the heightfield as it was.
+bool is_local_geotransform(GDALDataset& ds, const double* gt) {
+  const char* cx = ds.GetMetadataItem("terracl_cell_x");
+  const char* cy = ds.GetMetadataItem("terracl_cell_y");
+  if (!cx || !cy || ds.GetSpatialRef()) return false;
+  const double x = std::strtod(cx, nullptr), y = std::strtod(cy, nullptr);
+  return gt[0] == 0.0 && gt[1] == x && gt[2] == 0.0 && gt[3] == y * ds.GetRasterYSize() && gt[4] == 0.0 && gt[5] == -y;
+}
+
 }  // namespace
+
+void set_geotransform_for_writing(GDALDataset& ds, const Georef& g, int height) {
+  // A raster without georeferencing (a flat: base, a PNG source) still has metric cells: GDAL,
+  // QGIS and GRASS read them from a geotransform, so one is written, with no CRS: the grid
+  // covers [0, width * cell_x] x [0, height * cell_y] in metres, north up.
+  double gt[6] = {0.0, g.cell_x, 0.0, g.cell_y * height, 0.0, -g.cell_y};
+  if (g.has_geotransform) std::copy(g.geotransform.begin(), g.geotransform.end(), gt);
+  ds.SetGeoTransform(gt);
+}
 
 void init_gdal() {
   static std::once_flag once;
@@ -70,7 +110,7 @@ void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
   const double nd = band->GetNoDataValue(&has_nodata);
   if (has_nodata) g.nodata = nd;
   double gt[6];
-  if (ds->GetGeoTransform(gt) == CE_None) {
+  if (ds->GetGeoTransform(gt) == CE_None && !is_local_geotransform(*ds, gt)) {
     std::copy(gt, gt + 6, g.geotransform.begin());
     g.has_geotransform = true;
   }
@@ -91,7 +131,16 @@ void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
     g.geographic = true;
     out.metadata["terracl:crs_assumed"] = "WGS 84 (the file has no CRS; its coordinates look like degrees)";
   }
-  if (const char* units = band->GetUnitType(); units && *units) g.vertical_units = units;
+  if (const char* units = band->GetUnitType(); units && *units) {
+    // Elevations are metres in memory: a band in feet (or cm, ...) is converted on read
+    // (apply_band_scaling), and the unit it had is kept for provenance.
+    if (const auto f = metres_per_unit(units); f && *f != 1.0) {
+      g.vertical_units = "m";
+      out.metadata["terracl:source_vertical_units"] = units;
+    } else {
+      g.vertical_units = units;
+    }
+  }
   g.update_metric_cell_size(w, h);
   if (char** md = ds->GetMetadata()) {
     for (char** p = md; *p; ++p) {
@@ -102,6 +151,22 @@ void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
         out.metadata["terracl:" + kv.substr(8, eq - 8)] = kv.substr(eq + 1);
     }
   }
+}
+
+void apply_band_scaling(GDALRasterBand& band, Heightfield& h) {
+  // GDAL's convention: nodata is a raw value (compared before scaling, convert_nodata), and the
+  // value a cell means is raw * scale + offset in the band's unit.
+  int has_scale = 0, has_offset = 0;
+  const double scale = band.GetScale(&has_scale), offset = band.GetOffset(&has_offset);
+  const char* units = band.GetUnitType();
+  const double to_metres = metres_per_unit(units ? units : "").value_or(1.0);
+  const double a = (has_scale ? scale : 1.0) * to_metres, b = (has_offset ? offset : 0.0) * to_metres;
+  if (a == 1.0 && b == 0.0) return;
+  if (!std::isfinite(a) || !std::isfinite(b) || a == 0.0)
+    fail("io", "band 1 has scale {} and offset {} (unit '{}'); expected a finite non-zero scale and a finite offset",
+         has_scale ? scale : 1.0, has_offset ? offset : 0.0, units ? units : "");
+  for (float& v : h.z)
+    if (std::isfinite(v)) v = float(double(v) * a + b);
 }
 
 void convert_nodata(Heightfield& out) {
@@ -171,7 +236,12 @@ Heightfield read_gdal(const std::string& path) {
   init_gdal();
   CPLErrorReset();
   DatasetPtr ds(static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
-  if (!ds) fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
+  if (!ds) {
+    VSIStatBufL st;
+    if (is_virtual_path(path) && VSIStatL(path.c_str(), &st) != 0)
+      fail("io", "{}: no such file in GDAL's virtual file system (gdalinfo {} would say the same)", path, path);
+    fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
+  }
   if (ds->GetRasterXSize() > 0 && ds->GetRasterYSize() > 0)
     require_raster_size("io", path, ds->GetRasterXSize(), ds->GetRasterYSize(), 8);  // before counting its blocks
   check_tiff_blocks(*ds, path);
@@ -210,6 +280,11 @@ Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
     fail("io", "{}: reading band 1 failed ({})", path, last_gdal_error());
   read_gdal_header(*ds, out);
   convert_nodata(out);
+  try {
+    apply_band_scaling(*band, out);
+  } catch (const Error& e) {
+    fail("io", "{}: {}", path, std::string(e.what()).substr(e.stage().size() + 2));
+  }
   return out;
 }
 
@@ -221,11 +296,7 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   DatasetPtr ds(mem->Create("", h.width, h.height, 1, type, nullptr));
   if (!ds) fail("io", "cannot create an in-memory raster of {} x {} ({})", h.width, h.height, last_gdal_error());
   const Georef& g = h.georef;
-  if (g.has_geotransform) {
-    double gt[6];
-    std::copy(g.geotransform.begin(), g.geotransform.end(), gt);
-    ds->SetGeoTransform(gt);
-  }
+  set_geotransform_for_writing(*ds, g, h.height);
   if (!g.crs_wkt.empty()) ds->SetProjection(g.crs_wkt.c_str());
   GDALRasterBand* band = ds->GetRasterBand(1);
   const bool is_int = GDALDataTypeIsInteger(type);
@@ -311,6 +382,87 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   // Closing flushes the last blocks, after GDAL's last callback: a stop asked then still wins.
   if (stop_requested())
     throw Cancelled("io", "the GeoTIFF write was stopped (Ctrl-C); no output was written");
+}
+
+}  // namespace terracl::io
+
+namespace terracl::io {
+
+std::string gdal_driver_for_output(const std::string& path, const std::string& asked) {
+  init_gdal();
+  GDALDriverManager* dm = GetGDALDriverManager();
+  auto can_write = [](GDALDriver* d) {
+    return d->GetMetadataItem(GDAL_DCAP_RASTER) &&
+           (d->GetMetadataItem(GDAL_DCAP_CREATECOPY) || d->GetMetadataItem(GDAL_DCAP_CREATE));
+  };
+  if (!asked.empty()) {
+    GDALDriver* d = dm->GetDriverByName(asked.c_str());
+    if (!d) fail("io", "{}: GDAL has no driver named '{}' (gdalinfo --formats lists them)", path, abbreviate(asked, 40));
+    if (!can_write(d)) fail("io", "{}: GDAL's {} driver cannot write rasters (gdalinfo --formats: rw)", path, asked);
+    return asked;
+  }
+  std::string ext = std::filesystem::path(path).extension().string();
+  if (!ext.empty()) ext = ext.substr(1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::vector<std::string> found;
+  for (int i = 0; i < dm->GetDriverCount() && !ext.empty(); ++i) {
+    GDALDriver* d = dm->GetDriver(i);
+    const char* exts = d->GetMetadataItem(GDAL_DMD_EXTENSIONS);
+    if (!exts || !can_write(d)) continue;
+    std::string list = std::string(" ") + exts + " ";
+    std::transform(list.begin(), list.end(), list.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (list.find(" " + ext + " ") != std::string::npos) found.push_back(d->GetDescription());
+  }
+  // Several drivers claim a few extensions (.grd: GSAG, GSBG, NWT_GRD); GDAL's own programs ask
+  // for -of then, and so does terracl.
+  if (found.size() == 1) return found[0];
+  if (found.empty())
+    fail("io", "{}: no GDAL driver writes rasters with the extension '.{}'; name one with --of (gdalinfo --formats "
+         "lists those marked rw)", path, ext);
+  fail("io", "{}: several GDAL drivers write '.{}' ({}); choose one with --of", path, ext, fmt::join(found, ", "));
+}
+
+std::vector<std::string> write_gdal_copy(const Heightfield& h, const std::string& tmp_path, const std::string& driver,
+                                         const WriteOptions& wo) {
+  init_gdal();
+  GDALDriver* drv = GetGDALDriverManager()->GetDriverByName(driver.c_str());
+  if (!drv) fail("io", "GDAL has no {} driver", driver);
+  const GDALDataType type = GDALGetDataTypeByName(wo.output_type.c_str());
+  if (type != GDT_Float32 && type != GDT_Float64 && type != GDT_Int16 && type != GDT_UInt16 && type != GDT_Int32)
+    fail("io", "output type '{}' is not one terracl writes; use Float32, Float64, Int16, UInt16 or Int32",
+         abbreviate(wo.output_type, 30));
+  char** opts = nullptr;
+  for (const std::string& kv : wo.creation_options) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      fail("io", "creation option '{}' must be KEY=VALUE (as gdal_translate -co)", abbreviate(kv, 60));
+    const std::string key = kv.substr(0, eq);
+    if (const char* list = drv->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
+        !list || std::string(list).find("name='" + key + "'") == std::string::npos) {
+      CSLDestroy(opts);
+      fail("io", "creation option {} is not one the {} driver knows (gdalinfo --format {} lists them)", key, driver,
+           driver);
+    }
+    opts = CSLSetNameValue(opts, key.c_str(), kv.substr(eq + 1).c_str());
+  }
+  DatasetPtr mem = to_mem_dataset(h, type);
+  GdalFirstError first;
+  CPLErrorReset();
+  GDALDataset* out = drv->CreateCopy(tmp_path.c_str(), mem.get(), FALSE, opts, nullptr, nullptr);
+  CSLDestroy(opts);
+  if (!out) fail("io", "cannot write {} as {} ({})", output_name(tmp_path), driver, name_output(first.message(), tmp_path));
+  // Formats of several files (a .prj beside an .asc, a .hdr beside a .bil): all of them are
+  // renamed into place with the main file.
+  std::vector<std::string> files;
+  if (char** list = out->GetFileList()) {
+    for (char** p = list; *p; ++p) files.emplace_back(*p);
+    CSLDestroy(list);
+  }
+  CPLErrorReset();
+  GDALClose(out);
+  if (CPLGetLastErrorType() >= CE_Failure)
+    fail("io", "writing {} as {} failed ({})", output_name(tmp_path), driver, name_output(first.message(), tmp_path));
+  return files;
 }
 
 }  // namespace terracl::io

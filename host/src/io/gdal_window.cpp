@@ -97,6 +97,11 @@ Heightfield GdalWindowReader::read(int x, int y, int w, int h, int band) const {
   if (m_ds->GetRasterBand(band)->RasterIO(GF_Read, x, y, w, h, out.z.data(), w, h, GDT_Float32, 0, 0) != CE_None)
     fail("io", "{}: reading window {},{} {} x {} failed ({})", m_path, x, y, w, h, last_gdal_error());
   convert_nodata(out);
+  try {
+    apply_band_scaling(*m_ds->GetRasterBand(band), out);
+  } catch (const Error& e) {
+    fail("io", "{}: {}", m_path, std::string(e.what()).substr(e.stage().size() + 2));
+  }
   auto& gt = out.georef.geotransform;
   if (out.georef.has_geotransform) {
     gt[0] += x * gt[1] + y * gt[2];
@@ -168,11 +173,7 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
     if (!m_resumable) discard_temporary(m_tmp);
     fail("io", "cannot create GeoTIFF {} ({})", path, name_output(last_gdal_error(), m_tmp));
   }
-  if (g.has_geotransform) {
-    double gt[6];
-    std::copy(g.geotransform.begin(), g.geotransform.end(), gt);
-    m_ds->SetGeoTransform(gt);
-  }
+  set_geotransform_for_writing(*m_ds, g, height);
   if (!g.crs_wkt.empty()) m_ds->SetProjection(g.crs_wkt.c_str());
   for (int b = 1; b <= m_bands; ++b) {
     GDALRasterBand* band = m_ds->GetRasterBand(b);

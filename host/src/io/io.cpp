@@ -82,7 +82,11 @@ void check_ascii_grid(const std::string& path) {
 
 Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
   io::require_readable(path);
-  const FileFormat f = format_from_extension(path);
+  // A GDAL virtual path (/vsizip/, /vsicurl/, ...) has no local bytes to sniff: GDAL reads it,
+  // whatever its extension.
+  const FileFormat f = is_virtual_path(path) && format_from_extension(path) != FileFormat::Unknown
+                           ? FileFormat::GDALOther
+                           : format_from_extension(path);
   Heightfield h;
   switch (f) {
     case FileFormat::GeoTIFF:
@@ -115,10 +119,15 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
       h = io::read_npy(path, opts);
       break;
     default:
-      fail("io", "{}: unknown raster extension; expected one of {}", path, kKnown);
+      // Any other raster GDAL opens (.gpkg, .grd, .bt, ...), by its content.
+      try {
+        h = io::read_gdal(path);
+      } catch (const Error&) {
+        fail("io", "{}: unknown raster extension and not a raster GDAL opens; expected one of {}", path, kKnown);
+      }
   }
   if (h.width <= 0 || h.height <= 0) fail("io", "{}: raster has no cells", path);
-  if (f == FileFormat::GeoTIFF && !h.georef.has_geotransform) {
+  if ((f == FileFormat::GeoTIFF || f == FileFormat::GDALOther) && !h.georef.has_geotransform) {
     // Our own non-georeferenced outputs keep their metric cell size as metadata.
     // strtod, not stod: a hostile tag is ignored rather than an "internal: stod".
     auto cell = [&](const char* key, double& v) {
@@ -174,17 +183,53 @@ void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_im
   commit_temporary(sc_tmp, sc_path);
 }
 
+// A GDAL format of several files (.asc + .prj, .bil + .hdr): written under a temporary name, then
+// every file renamed to the output's name, the main file last so that it never stands beside
+// stale companions.
+void write_gdal_files(const Heightfield& h, const std::string& path, const std::string& driver, const WriteOptions& opts) {
+  const std::string tmp = temporary_path_for(path);
+  std::vector<std::string> files;
+  try {
+    files = io::write_gdal_copy(h, tmp, driver, opts);
+  } catch (...) {
+    discard_temporary(tmp);
+    throw;
+  }
+  const fs::path tp(tmp), pp(path);
+  const std::string tmp_stem = (tp.parent_path() / tp.stem()).string(), stem = (pp.parent_path() / pp.stem()).string();
+  for (const std::string& file : files) {
+    if (fs::path(file) == tp) continue;
+    std::string target;
+    if (file.rfind(tmp, 0) == 0) target = path + file.substr(tmp.size());  // dem.asc.aux.xml
+    else if (file.rfind(tmp_stem, 0) == 0) target = stem + file.substr(tmp_stem.size());  // dem.prj
+    else continue;  // not ours to move
+    std::error_code ec;
+    fs::rename(file, target, ec);
+    if (ec) {
+      for (const std::string& other : files) fs::remove(other, ec);
+      discard_temporary(tmp);
+      fail("io", "cannot move {} into place at {}", file, target);
+    }
+  }
+  commit_temporary(tmp, path);
+}
+
 }  // namespace
 
 void write_heightfield(const Heightfield& h, const std::string& path, const WriteOptions& opts) {
-  const FileFormat f = format_from_extension(path);
-  if (f == FileFormat::Unknown || f == FileFormat::HGT || f == FileFormat::AsciiGrid || f == FileFormat::GDALOther)
-    fail("io", "{}: cannot write this extension; terracl writes .tif/.tiff (GeoTIFF float32), .exr (float), "
-         ".png (16-bit + JSON sidecar), .r16/.raw (RAW16 + JSON sidecar), .npy (float32 + JSON sidecar)", path);
+  const std::string& drv = opts.driver;
+  const FileFormat f = drv == "GTiff" || drv == "COG" ? FileFormat::GeoTIFF : format_from_extension(path);
+  // Any other extension, or a driver named with --of: GDAL's driver for it.
+  const bool by_gdal = (!drv.empty() && drv != "GTiff" && drv != "COG") || f == FileFormat::Unknown ||
+                       f == FileFormat::HGT || f == FileFormat::AsciiGrid || f == FileFormat::GDALOther;
   if (h.width <= 0 || h.height <= 0 || h.z.size() != size_t(h.width) * h.height)
     fail("io", "{}: refusing to write an empty or inconsistent heightfield ({} x {})", path, h.width, h.height);
-  if (f != FileFormat::GeoTIFF && (!opts.creation_options.empty() || opts.cog || opts.output_type != "Float32"))
-    fail("io", "{}: creation options, COG and output types apply to GeoTIFF outputs (.tif) only", path);
+  if (f != FileFormat::GeoTIFF && !by_gdal && (!opts.creation_options.empty() || opts.cog || opts.output_type != "Float32"))
+    fail("io", "{}: creation options, COG and output types apply to GDAL outputs (.tif and other GDAL formats) only",
+         path);
+  if (by_gdal && opts.cog) fail("io", "{}: --cog writes a GeoTIFF (.tif)", path);
+  WriteOptions tiff = opts;
+  if (drv == "COG") tiff.cog = true;
   // The reader's rules, so that nothing terracl writes (from the CLI or Python) is refused on reading.
   // Bad data handed to a writer is the caller's (Python: ValueError), as bad options are.
   try {
@@ -193,8 +238,17 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   } catch (const Error& e) {
     throw UsageError(e.stage(), std::string(e.what()).substr(e.stage().size() + 2));
   }
+  const std::string driver = by_gdal ? io::gdal_driver_for_output(path, drv) : std::string();
+  if (is_virtual_path(path)) {
+    // No folder to rename in (an object store, an archive, memory): GDAL writes the final name.
+    if (by_gdal) return (void)io::write_gdal_copy(h, path, driver, opts);
+    if (f != FileFormat::GeoTIFF)
+      fail("io", "{}: GDAL virtual paths (/vsi...) are written through GDAL: .tif or another GDAL format", path);
+    return io::write_geotiff(h, path, tiff);
+  }
   io::require_writable_folder(path);
-  if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t, opts); });
+  if (by_gdal) return write_gdal_files(h, path, driver, opts);
+  if (f == FileFormat::GeoTIFF) return write_atomically(path, [&](const std::string& t) { io::write_geotiff(h, t, tiff); });
   if (f == FileFormat::EXR) return write_atomically(path, [&](const std::string& t) { io::write_exr(h, t); });
   if (f == FileFormat::NPY) {
     // float32 as it is (NaN = nodata); the sidecar keeps the cell size, georeferencing and metadata.

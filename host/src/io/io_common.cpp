@@ -120,6 +120,7 @@ void check_exr_header(const std::string& path) {
 }
 
 void require_readable(const std::string& path) {
+  if (is_virtual_path(path)) return;  // GDAL's open says what is wrong
   std::error_code ec;
   if (!fs::exists(path, ec)) fail("io", "{}: no such file", path);
   if (fs::is_directory(path, ec)) fail("io", "{}: is a folder, expected a raster file", path);
@@ -128,6 +129,7 @@ void require_readable(const std::string& path) {
 }
 
 void require_writable_folder(const std::string& path) {
+  if (is_virtual_path(path)) return;
   fs::path dir = fs::path(path).parent_path();
   if (dir.empty()) dir = ".";
   std::error_code ec;
@@ -350,7 +352,10 @@ bool exists_not_regular(const std::string& path) {
 
 }  // namespace
 
+bool is_virtual_path(const std::string& path) noexcept { return path.rfind("/vsi", 0) == 0; }
+
 bool path_exists(const std::string& path, bool regular) noexcept {
+  if (is_virtual_path(path)) return true;
   struct stat s {};
   return !path.empty() && ::stat(path.c_str(), &s) == 0 && (!regular || S_ISREG(s.st_mode));
 }

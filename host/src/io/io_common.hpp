@@ -12,6 +12,7 @@
 #include <utility>
 
 class GDALDataset;
+class GDALRasterBand;
 
 namespace terracl::io {
 
@@ -90,6 +91,19 @@ std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string&
 void read_gdal_header(GDALDataset& ds, Heightfield& out);
 /// Cells equal to georef.nodata become NaN.
 void convert_nodata(Heightfield& h);
+/// After convert_nodata: the band's scale/offset (GDAL: value = raw * scale + offset) and a vertical
+/// unit in feet, US survey feet, cm, mm or dm applied to the cells, so that they are metres.
+void apply_band_scaling(GDALRasterBand& band, Heightfield& h);
+/// The geotransform of `g`, or for a raster without one the local metric grid (origin 0, cells of
+/// cell_x by cell_y metres, north up) that read_gdal_header recognises as "not georeferenced".
+void set_geotransform_for_writing(GDALDataset& ds, const Georef& g, int height);
+/// The GDAL driver that writes `path`: `asked` (an -of name) when given, else the one driver whose
+/// extensions include the path's; throws naming the path when none or several do.
+std::string gdal_driver_for_output(const std::string& path, const std::string& asked);
+/// Writes `h` with GDAL's `driver` (CreateCopy) at tmp_path; returns every file the dataset is
+/// made of (tmp_path first or among them: a .prj, a .hdr, an .aux.xml).
+std::vector<std::string> write_gdal_copy(const Heightfield& h, const std::string& tmp_path, const std::string& driver,
+                                         const WriteOptions& opts);
 void write_geotiff(const Heightfield& h, const std::string& tmp_path, const WriteOptions& opts = {});
 
 Heightfield read_oiio(const std::string& path, const ReadOptions& opts);

@@ -16,17 +16,9 @@ void drop_terracl_keys(Metadata& md) {
   for (auto it = md.begin(); it != md.end();) it = it->first.rfind("terracl:", 0) == 0 ? md.erase(it) : std::next(it);
 }
 
-const char* kHeightExtensions =
-    ".tif/.tiff (GeoTIFF float32), .exr (float), .png (16-bit + JSON sidecar), .r16/.raw (RAW16 + sidecar), .npy "
-    "(float32)";
 
 DataKind check_read(const json& o, DataKind, const std::string& where) {
   const std::string f = o.at("filename").get<std::string>();
-  if (format_from_extension(f) == FileFormat::Unknown)
-    fail("pipeline",
-         "{}/filename: {}: unknown raster extension; terracl reads .tif .tiff .hgt .asc .png .exr .r16 .raw .npy "
-         "and other GDAL rasters",
-         where, f);
   const bool quantised = format_from_extension(f) == FileFormat::PNG || format_from_extension(f) == FileFormat::RAW16;
   for (const char* k : {"zmin", "zmax"})
     if (!o.at(k).is_null() && !quantised)
@@ -67,18 +59,19 @@ DataKind check_write(const json& o, DataKind input, const std::string& where) {
   if (input == DataKind::Gradient && fmt != FileFormat::EXR && fmt != FileFormat::GeoTIFF)
     fail("pipeline", "{}/filename: {}: a gradient is written as .exr (two float channels) or .tif (two float32 bands)",
          where, f);
-  if (input == DataKind::Heightfield && fmt != FileFormat::GeoTIFF && fmt != FileFormat::EXR &&
-      fmt != FileFormat::PNG && fmt != FileFormat::RAW16 && fmt != FileFormat::NPY)
-    fail("pipeline", "{}/filename: {}: cannot write a heightfield with this extension; terracl writes {}", where, f,
-         kHeightExtensions);
+  // Other extensions go to the GDAL driver that claims them (.asc, .img, .gpkg, ...), checked when
+  // written (the core build has no GDAL to ask now).
   const bool quantised = fmt == FileFormat::PNG || fmt == FileFormat::RAW16;
   for (const char* k : {"zmin", "zmax"})
     if (!o.at(k).is_null() && (!quantised || input != DataKind::Heightfield))
       fail("pipeline", "{}/{}: only PNG16 and RAW16 heightfield outputs take a vertical range", where, k);
   const bool gdal_options = !o.at("creation_options").is_null() || o.at("cog").get<bool>() ||
                             o.at("output_type").get<std::string>() != "Float32";
-  if (gdal_options && (fmt != FileFormat::GeoTIFF || input != DataKind::Heightfield))
-    fail("pipeline", "{}: creation_options, cog and output_type apply to GeoTIFF heightfield outputs (.tif) only", where);
+  const bool terracl_format = fmt == FileFormat::EXR || fmt == FileFormat::PNG || fmt == FileFormat::RAW16 ||
+                              fmt == FileFormat::NPY;
+  if (gdal_options && (terracl_format || input != DataKind::Heightfield))
+    fail("pipeline", "{}: creation_options, cog and output_type apply to heightfield outputs written by GDAL (.tif, .asc, "
+         ".img, ...) only", where);
   if (!o.at("zmin").is_null() && !o.at("zmax").is_null() && !(o.at("zmax").get<double>() > o.at("zmin").get<double>()))
     fail("pipeline", "{}/zmax: must be above zmin ({} <= {})", where, o.at("zmax").get<double>(),
          o.at("zmin").get<double>());

@@ -1,0 +1,146 @@
+// SPDX-License-Identifier: Apache-2.0
+// GDAL's conventions on read and write: virtual file systems (/vsizip/, /vsimem/), band
+// scale/offset and vertical units (values are metres in memory), and a geotransform carrying the
+// cell size in GeoTIFFs of rasters that have no georeferencing (flat: bases).
+#include "test_helpers.hpp"
+
+#include <terracl/error.hpp>
+#include <terracl/io.hpp>
+
+#include <cpl_vsi.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <optional>
+
+using namespace terracl;
+
+namespace {
+
+struct Closer {
+  void operator()(GDALDataset* d) const { GDALClose(d); }
+};
+using Dataset = std::unique_ptr<GDALDataset, Closer>;
+
+Heightfield ramp(int w, int h, double cell) {
+  Heightfield f(w, h);
+  f.georef.cell_x = f.georef.cell_y = cell;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) f.at(x, y) = float(100 + 3 * x + 7 * y);
+  return f;
+}
+
+// A GeoTIFF written by GDAL directly: raw band values, with the given type, scale, offset, unit.
+void write_raw_tif(const std::string& path, GDALDataType type, const std::vector<double>& raw, int w, int h,
+                   double scale, double offset, const char* unit, std::optional<double> nodata) {
+  GDALAllRegister();
+  Dataset ds(GetGDALDriverManager()->GetDriverByName("GTiff")->Create(path.c_str(), w, h, 1, type, nullptr));
+  ASSERT_TRUE(ds);
+  double gt[6] = {300000, 30, 0, 4950000, 0, -30};
+  ds->SetGeoTransform(gt);
+  OGRSpatialReference srs;
+  srs.importFromEPSG(32619);
+  ds->SetSpatialRef(&srs);
+  GDALRasterBand* b = ds->GetRasterBand(1);
+  b->SetScale(scale);
+  b->SetOffset(offset);
+  if (unit) b->SetUnitType(unit);
+  if (nodata) b->SetNoDataValue(*nodata);
+  std::vector<double> v = raw;
+  ASSERT_EQ(b->RasterIO(GF_Write, 0, 0, w, h, v.data(), w, h, GDT_Float64, 0, 0), CE_None);
+}
+
+}  // namespace
+
+TEST(GdalConventions, ReadsAndWritesGdalVirtualPaths) {
+  test::TempDir dir;
+  const Heightfield h = ramp(40, 30, 10.0);
+  // /vsimem/: written by GDAL under its final name (there is no folder to rename in) and read back.
+  write_heightfield(h, "/vsimem/terracl-test/dem.tif");
+  const Heightfield back = read_heightfield("/vsimem/terracl-test/dem.tif");
+  EXPECT_EQ(back.z, h.z);
+  EXPECT_DOUBLE_EQ(back.georef.cell_x, 10.0);
+  VSIUnlink("/vsimem/terracl-test/dem.tif");
+
+  // /vsizip/: a GeoTIFF inside a zip archive, as gdalinfo opens it.
+  const std::string tif = dir.path("dem.tif"), zip = dir.path("dem.zip");
+  write_heightfield(h, tif);
+  std::ifstream in(tif, std::ios::binary);
+  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  VSILFILE* f = VSIFOpenL(("/vsizip/" + zip + "/inner/dem.tif").c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  ASSERT_EQ(VSIFWriteL(bytes.data(), 1, bytes.size(), f), bytes.size());
+  VSIFCloseL(f);
+  const Heightfield zipped = read_heightfield("/vsizip/" + zip + "/inner/dem.tif");
+  EXPECT_EQ(zipped.z, h.z);
+  EXPECT_TRUE(path_exists("/vsizip/" + zip + "/inner/dem.tif"));
+
+  // A missing member is "no such file", named; a format GDAL does not write there is refused.
+  try {
+    read_heightfield("/vsizip/" + zip + "/inner/missing.tif");
+    FAIL() << "a missing member was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.tif: no such file"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(write_heightfield(h, "/vsimem/terracl-test/dem.png"), Error);
+}
+
+TEST(GdalConventions, BandScaleOffsetAndNodataFollowGdal) {
+  test::TempDir dir;
+  const std::string path = dir.path("scaled.tif");
+  // Int16 decimetres above a 100 m datum; -9999 is nodata as a raw value.
+  write_raw_tif(path, GDT_Int16, {6280, -9999, 16720, 0}, 2, 2, 0.1, 100.0, "m", -9999.0);
+  const Heightfield h = read_heightfield(path);
+  EXPECT_FLOAT_EQ(h.z[0], 728.0f);
+  EXPECT_TRUE(std::isnan(h.z[1]));
+  EXPECT_FLOAT_EQ(h.z[2], 1772.0f);
+  EXPECT_FLOAT_EQ(h.z[3], 100.0f);
+  EXPECT_EQ(h.georef.vertical_units, "m");
+}
+
+TEST(GdalConventions, VerticalUnitsInFeetBecomeMetres) {
+  test::TempDir dir;
+  const std::string ft = dir.path("feet.tif"), us = dir.path("usft.tif"), cm = dir.path("cm.tif");
+  write_raw_tif(ft, GDT_Float32, {1000, 2000, 3000, 4000}, 2, 2, 1.0, 0.0, "ft", std::nullopt);
+  write_raw_tif(us, GDT_Float32, {1000, 2000, 3000, 4000}, 2, 2, 1.0, 0.0, "US survey foot", std::nullopt);
+  write_raw_tif(cm, GDT_Int32, {100000, 200000, 300000, 400000}, 2, 2, 1.0, 0.0, "cm", std::nullopt);
+  const Heightfield a = read_heightfield(ft), b = read_heightfield(us), c = read_heightfield(cm);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_FLOAT_EQ(a.z[i], float((i + 1) * 1000 * 0.3048)) << i;
+    EXPECT_FLOAT_EQ(b.z[i], float((i + 1) * 1000 * 1200.0 / 3937.0)) << i;
+    EXPECT_FLOAT_EQ(c.z[i], float((i + 1) * 1000.0)) << i;
+  }
+  EXPECT_EQ(a.georef.vertical_units, "m");
+  EXPECT_EQ(a.metadata.at("terracl:source_vertical_units"), "ft");
+  EXPECT_EQ(b.metadata.at("terracl:source_vertical_units"), "US survey foot");
+  // The output is metres and says so; reading it again converts nothing.
+  write_heightfield(a, dir.path("out.tif"));
+  const Heightfield again = read_heightfield(dir.path("out.tif"));
+  EXPECT_EQ(again.z, a.z);
+  Dataset ds(static_cast<GDALDataset*>(GDALOpen(dir.path("out.tif").c_str(), GA_ReadOnly)));
+  EXPECT_STREQ(ds->GetRasterBand(1)->GetUnitType(), "m");
+}
+
+TEST(GdalConventions, GeoTiffOfAnUngeoreferencedRasterCarriesItsCellSize) {
+  test::TempDir dir;
+  const Heightfield h = ramp(50, 20, 12.5);  // as a flat: base: cell size, no geotransform, no CRS
+  ASSERT_FALSE(h.georef.has_geotransform);
+  write_heightfield(h, dir.path("flat.tif"));
+  // GDAL (and so QGIS, GRASS) reads 12.5 m cells, north up, over [0, 625] x [0, 250] m.
+  Dataset ds(static_cast<GDALDataset*>(GDALOpen(dir.path("flat.tif").c_str(), GA_ReadOnly)));
+  double gt[6];
+  ASSERT_EQ(ds->GetGeoTransform(gt), CE_None);
+  EXPECT_EQ(gt[0], 0.0);
+  EXPECT_EQ(gt[1], 12.5);
+  EXPECT_EQ(gt[3], 250.0);
+  EXPECT_EQ(gt[5], -12.5);
+  // terracl reads it back as it was: not georeferenced, same cells.
+  const Heightfield back = read_heightfield(dir.path("flat.tif"));
+  EXPECT_FALSE(back.georef.has_geotransform);
+  EXPECT_EQ(back.georef.cell_x, 12.5);
+  EXPECT_EQ(back.z, h.z);
+}
