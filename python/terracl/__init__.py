@@ -34,8 +34,82 @@ from ._terracl import (  # noqa: F401
     select_device,
 )
 from . import _terracl
+from . import _interop
 
 __license__ = "Apache-2.0"
+
+# --- Georeferencing, masks, rasterio and xarray (python/terracl/_interop.py) --------------------
+# The C++ constructors stay the one place that checks and copies arrays; these wrappers first turn
+# masked arrays, nodata values, DataArrays and rasterio's Affine/CRS into what they take, and refuse
+# a raster whose cell size would be a guess.
+_interop._CPP_HEIGHTFIELD_INIT = Heightfield.__init__
+_interop._CPP_GEOREF_INIT = Georef.__init__
+_CPP_SESSION_INIT = Session.__init__
+
+
+def _heightfield_init(self, array, georef=None, cell_size=None, *, transform=None, crs=None, nodata=None):
+    """Heightfield(array, georef=None, cell_size=None, *, transform=None, crs=None, nodata=None).
+
+    array: a 2-D float32 array (or int8/int16/uint8/uint16, exact in float32), a numpy masked array
+    (masked cells become NaN), an xarray DataArray (georeferencing from its coordinates, attrs or rio
+    accessor) or a rasterio dataset. The cell size must be known: cell_size= (metres; a number or
+    (x, y)), transform= (rasterio's Affine) with crs= (a rasterio/pyproj CRS, WKT, 'EPSG:n'), or georef=.
+    nodata=: cells equal to it become NaN."""
+    _interop.as_heightfield(array, georef=georef, cell_size=cell_size, transform=transform, crs=crs, nodata=nodata,
+                            into=self)
+
+
+def _georef_init(self, geotransform=None, crs_wkt="", geographic=None, nodata=None, vertical_units="m",
+                 cell_size=None, *, transform=None, crs=None):
+    """Georef(geotransform=None, crs_wkt='', geographic=None, nodata=None, vertical_units='m', cell_size=None,
+    *, transform=None, crs=None): geotransform in GDAL's order (c, a, b, f, d, e) or transform= as
+    rasterio's Affine; crs= a rasterio/pyproj CRS, WKT, 'EPSG:n' or an EPSG code (crs_wkt= the same).
+    A transform needs a CRS (its units) unless cell_size= (metres) is given; no transform needs cell_size=."""
+    _interop.make_georef(geotransform=geotransform, transform=transform, crs=crs, crs_wkt=crs_wkt or None,
+                         geographic=geographic, nodata=nodata, vertical_units=vertical_units, cell_size=cell_size,
+                         into=self)
+
+
+def _session_init(self, base, *, device=None, progress=None, base_dir=None, local=None, cell_size=None,
+                  transform=None, crs=None, nodata=None):
+    if _interop.is_raster_like(base):
+        base = _interop.as_heightfield(base, cell_size=cell_size, transform=transform, crs=crs, nodata=nodata,
+                                       what="Session base")
+    _CPP_SESSION_INIT(self, base, device=device, progress=progress, base_dir=base_dir, local=local)
+
+
+_heightfield_init.__name__ = _georef_init.__name__ = _session_init.__name__ = "__init__"
+Heightfield.__init__ = _heightfield_init
+Georef.__init__ = _georef_init
+Session.__init__ = _session_init
+Heightfield.transform = property(lambda h: _interop.transform_of(h.georef.geotransform),
+                                 doc="The geotransform as rasterio's affine.Affine (the GDAL tuple without the "
+                                     "affine package; None without georeferencing)")
+Heightfield.crs = property(lambda h: _interop.crs_of(h.georef.crs_wkt),
+                           doc="The CRS as a rasterio CRS (WKT without rasterio; None when unknown)")
+Heightfield.profile = property(_interop.profile_of,
+                               doc="rasterio's profile for writing .z: rasterio.open(path, 'w', **h.profile)")
+Heightfield.to_xarray = _interop.to_xarray
+Heightfield.from_rasterio = staticmethod(_interop.from_rasterio)
+GradientField.transform = property(lambda g: _interop.transform_of(g.georef.geotransform))
+GradientField.crs = property(lambda g: _interop.crs_of(g.georef.crs_wkt))
+Georef.transform = property(lambda g: _interop.transform_of(g.geotransform),
+                            doc="The geotransform as rasterio's affine.Affine (GDAL tuple without affine; or None)")
+Georef.crs = property(lambda g: _interop.crs_of(g.crs_wkt), doc="rasterio CRS (WKT without rasterio; or None)")
+
+
+def _input(value, what, cell_size=None, transform=None, crs=None, nodata=None):
+    """A stage's input: arrays, masked arrays, DataArrays and rasterio datasets as a Heightfield (the cell
+    size must be known); a Heightfield or GradientField as it is (it has its own georeferencing)."""
+    if _interop.is_raster_like(value):
+        return _interop.as_heightfield(value, cell_size=cell_size, transform=transform, crs=crs, nodata=nodata,
+                                       what=what)
+    given = [n for n, v in (("cell_size", cell_size), ("transform", transform), ("crs", crs), ("nodata", nodata))
+             if v is not None]
+    if given and isinstance(value, (Heightfield, GradientField)):
+        raise ValueError("%s: %s= is for an array input; a %s has its own georeferencing (set h.cell_size or "
+                         "h.georef)" % (what, given[0], type(value).__name__))
+    return value
 
 _STAGES = _terracl._stage_table()
 
@@ -73,11 +147,16 @@ def _materialise(name, options, tmp):
     return out
 
 
-def stage(name, input=None, *, device=None, progress=None, **options):
-    """Runs stage `name` of the stage table on `input` (a Heightfield, a float32 array, a
-    GradientField or None) with `options`, as `terracl <name> IN -o OUT --options` does, and returns
-    what the stage produces (a Heightfield or a GradientField; stages that only write files return
-    their input)."""
+def stage(name, input=None, *, device=None, progress=None, cell_size=None, transform=None, crs=None, nodata=None,
+          **options):
+    """Runs stage `name` of the stage table on `input` with `options`, as `terracl <name> IN -o OUT
+    --options` does, and returns what the stage produces (a Heightfield or a GradientField; stages
+    that only write files return their input).
+
+    input: a Heightfield, a GradientField, None, or an array / masked array / xarray DataArray /
+    rasterio dataset, which needs a known cell size: cell_size= (metres), transform= with crs=, or
+    georeferencing of its own. nodata=: cells equal to it become NaN (masked cells always do)."""
+    input = _input(input, "%s input" % name, cell_size, transform, crs, nodata)
     if name not in _STAGES:
         return _terracl._run_stage(name, input, options, device, progress)  # raises UsageError naming the stages
     needs_files = any(
@@ -98,12 +177,16 @@ def _doc(name):
         choices = " one of %s" % "|".join(o["choices"]) if o["choices"] else ""
         lines.append("  %s: %s%s%s%s - %s" % (o["name"], o["type"], unit, choices, default, o["help"]))
     lines.append("  device, progress: see the module's documentation")
+    if s["input"] == "heightfield":
+        lines.append("  cell_size, transform, crs, nodata: for an array input (its cell size must be known)")
     return "\n".join(lines)
 
 
 def _make_stage_function(name, public):
-    def f(input=None, *, device=None, progress=None, **options):
-        return stage(name, input, device=device, progress=progress, **options)
+    def f(input=None, *, device=None, progress=None, cell_size=None, transform=None, crs=None, nodata=None,
+          **options):
+        return stage(name, input, device=device, progress=progress, cell_size=cell_size, transform=transform,
+                     crs=crs, nodata=nodata, **options)
     f.__name__ = f.__qualname__ = public
     f.__doc__ = _doc(name)
     return f
@@ -131,23 +214,37 @@ def write(data, path, **options):
     _terracl._run_stage("write", data, dict(options, filename=_os.fspath(path)))
 
 
-def edit(base, script, *, base_dir=None, device=None, progress=None, return_report=False):
+def edit(base, script, *, base_dir=None, device=None, progress=None, return_report=False, cell_size=None,
+         transform=None, crs=None, nodata=None):
     """Applies an edit script (docs/authoring.md) to `base` and reconstructs, as `terracl edit`.
 
     base: a Heightfield, a float32 array, a raster file, 'flat:WxH[@cell]', or None when the script
     names its base. script: a dict ({"units", "seed", "operations": [...]}), a list of operations or
     a script file. Warnings (an operation that may do nothing visible) go through `warnings`.
+    An array base needs cell_size= (metres) or transform= with crs=.
     Returns the Heightfield, or (Heightfield, report) with return_report=True."""
+    if _interop.is_raster_like(base):
+        base = _interop.as_heightfield(base, cell_size=cell_size, transform=transform, crs=crs, nodata=nodata,
+                                       what="edit base")
     h, report = _terracl._edit(base, script, base_dir, device, progress)
     for w in report.get("warnings", []):
         _warnings.warn("terracl edit: " + w, stacklevel=2)
     return (h, report) if return_report else h
 
 
-def render(input, *, device=None, progress=None, **options):
-    """The `render` stage's picture as a (height, width, 3) uint8 array (also written to `file`
-    when given). Options: mode (hillshade|relief|slope|shaded-relief), azimuth, altitude, z_factor,
-    ramp, slope_max, backend (device|host), file."""
+def render(input, *, device=None, progress=None, cell_size=None, transform=None, crs=None, nodata=None, **options):
+    """The `render` stage on `input` (a Heightfield, or an array with cell_size= / transform= and crs=).
+
+    Pictures (mode hillshade, relief, shaded-relief, perspective) come back as a (rows, columns, 3) RGB
+    uint8 array, or (rows, columns, 4) RGBA where the picture has alpha (nodata cells, and the border
+    cells unless compute_edges=True); grey pictures have three equal channels. Values (mode slope,
+    aspect, tri, tpi, roughness) come back as a (rows, columns) float32 array, NaN where undefined:
+    slope in degrees (percent with slope_format="percent"), aspect in degrees clockwise from north
+    (counter-clockwise from east with trigonometric=True; NaN on flat cells unless zero_for_flat=True),
+    TRI, TPI and roughness in metres. file= writes what `terracl render IN --file FILE` writes: a
+    value mode to .tif is gdaldem's Float32 raster, slope to .png the grey picture, a picture to .png
+    or a georeferenced .tif. Options: those of the render stage (help(terracl.stage) / terracl.stages())."""
+    input = _input(input, "render input", cell_size, transform, crs, nodata)
     return _terracl._render(input, options, device, progress)
 
 
