@@ -57,6 +57,8 @@ def gdal_from_transform(t, what="transform"):
     if all(hasattr(t, k) for k in "abcdef"):
         return (float(t.c), float(t.a), float(t.b), float(t.f), float(t.d), float(t.e))
     try:
+        if isinstance(t, (str, bytes)):
+            raise TypeError
         seq = [float(x) for x in t]
     except TypeError:
         raise TypeError("%s: expected an affine.Affine (rasterio's transform), got %s" % (what, _type_name(t))) from None
@@ -77,6 +79,8 @@ def gdal_geotransform(gt, what="geotransform"):
     if hasattr(gt, "to_gdal") or all(hasattr(gt, k) for k in "abcdef"):
         return gdal_from_transform(gt, what)
     try:
+        if isinstance(gt, (str, bytes)):
+            raise TypeError
         seq = [float(x) for x in gt]
     except TypeError:
         raise TypeError("%s: expected 6 numbers in GDAL's order (or an affine.Affine), got %s"
