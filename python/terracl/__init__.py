@@ -45,6 +45,7 @@ __license__ = "Apache-2.0"
 _interop._CPP_HEIGHTFIELD_INIT = Heightfield.__init__
 _interop._CPP_GEOREF_INIT = Georef.__init__
 _CPP_SESSION_INIT = Session.__init__
+_CPP_GRADIENT_INIT = GradientField.__init__
 
 
 def _heightfield_init(self, array, georef=None, cell_size=None, *, transform=None, crs=None, nodata=None):
@@ -78,7 +79,21 @@ def _session_init(self, base, *, device=None, progress=None, base_dir=None, loca
     _CPP_SESSION_INIT(self, base, device=device, progress=progress, base_dir=base_dir, local=local)
 
 
-_heightfield_init.__name__ = _georef_init.__name__ = _session_init.__name__ = "__init__"
+def _gradient_init(self, gx, gy, georef=None, cell_size=None, mean_elevation=float("nan"), *, transform=None,
+                   crs=None):
+    """GradientField(gx, gy, georef=None, cell_size=None, mean_elevation=nan, *, transform=None, crs=None):
+    gx, gy float32 arrays in m/m. The cell size must be known (it turns slopes into heights):
+    cell_size= (metres), transform= with crs=, or georef=."""
+    if georef is None and (transform is not None or crs is not None):
+        georef = _interop.make_georef(transform=transform, crs=crs, cell_size=cell_size, what="GradientField")
+        cell_size = None
+    _CPP_GRADIENT_INIT(self, gx, gy, georef, cell_size, mean_elevation)  # checks the arrays
+    if georef is None and cell_size is None:
+        raise ValueError(_interop._NO_CELL.format(what="GradientField"))
+
+
+_heightfield_init.__name__ = _georef_init.__name__ = _session_init.__name__ = _gradient_init.__name__ = "__init__"
+GradientField.__init__ = _gradient_init
 Heightfield.__init__ = _heightfield_init
 Georef.__init__ = _georef_init
 Session.__init__ = _session_init

@@ -78,7 +78,7 @@ def test_gradient_field_views_and_shape_check():
     g.gx[0, 0] = 1
     assert g.gx[0, 0] == 1
     with pytest.raises(ValueError, match="gy"):
-        terracl.GradientField(gx, np.zeros((5, 4), np.float32))
+        terracl.GradientField(gx, np.zeros((5, 4), np.float32), cell_size=1)
 
 
 def test_georef_of_a_real_dem_and_nodata_as_nan(dem, tmp_path):
