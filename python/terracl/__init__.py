@@ -14,6 +14,7 @@ CLI's ``--device``; default: :func:`select_device`'s choice, else OCL_* / the fi
 :class:`Error` (``.stage``, ``.message``). See docs/python.md.
 """
 
+import inspect as _inspect
 import json as _json
 import os as _os
 import tempfile as _tempfile
@@ -171,7 +172,18 @@ def stage(name, input=None, *, device=None, progress=None, cell_size=None, trans
     input: a Heightfield, a GradientField, None, or an array / masked array / xarray DataArray /
     rasterio dataset, which needs a known cell size: cell_size= (metres), transform= with crs=, or
     georeferencing of its own. nodata=: cells equal to it become NaN (masked cells always do)."""
-    input = _input(input, "%s input" % name, cell_size, transform, crs, nodata)
+    return _stage(name, name, input, device, progress, cell_size, transform, crs, nodata, options)
+
+
+def _stage(name, public, input, device, progress, cell_size, transform, crs, nodata, options):
+    own = {o["name"] for o in _STAGES[name]["options"]} if name in _STAGES else set()
+    if own & {"cell_size", "transform", "crs", "nodata"}:  # the stage's own option (read's cell_size)
+        given = dict(cell_size=cell_size, transform=transform, crs=crs, nodata=nodata)
+        for key in own & set(given):
+            if given[key] is not None:
+                options = dict(options, **{key: given[key]})
+        cell_size, transform, crs, nodata = (None if k in own else given[k] for k in given)
+    input = _input(input, "%s input" % public, cell_size, transform, crs, nodata)
     if name not in _STAGES:
         return _terracl._run_stage(name, input, options, device, progress)  # raises UsageError naming the stages
     needs_files = any(
@@ -197,13 +209,39 @@ def _doc(name):
     return "\n".join(lines)
 
 
+_ANNOTATIONS = {"bool": "bool", "int": "int", "float": "float | str", "enum": "str", "string": "str",
+                "json": "dict | list | str", "input file": "str | os.PathLike | Heightfield | GradientField | dict",
+                "output file": "str | os.PathLike"}
+
+
+def _signature(name):
+    """The stage's real signature: its options (the CLI's names, defaults) as keyword-only parameters, so
+    that help(), inspect.signature() and editors show them; a float option also takes a value with a
+    unit ("36000 mm/h"), as the CLI does."""
+    P = _inspect.Parameter
+    s = _STAGES[name]
+    params = [P("input", P.POSITIONAL_OR_KEYWORD, default=None)]
+    reserved = {"input", "device", "progress", "cell_size", "transform", "crs", "nodata"}
+    for o in s["options"]:
+        if o["name"].isidentifier() and o["name"] not in reserved:
+            params.append(P(o["name"], P.KEYWORD_ONLY, default=o["default"], annotation=_ANNOTATIONS.get(o["type"], "object")))
+    params += [P("device", P.KEYWORD_ONLY, default=None, annotation="int | str | None"),
+               P("progress", P.KEYWORD_ONLY, default=None, annotation="Callable[[float, str], bool] | None")]
+    if s["input"] == "heightfield":
+        params += [P("cell_size", P.KEYWORD_ONLY, default=None, annotation="float | tuple[float, float] | None"),
+                   P("transform", P.KEYWORD_ONLY, default=None, annotation="affine.Affine | None"),
+                   P("crs", P.KEYWORD_ONLY, default=None, annotation="rasterio.crs.CRS | str | int | None"),
+                   P("nodata", P.KEYWORD_ONLY, default=None, annotation="float | None")]
+    return _inspect.Signature(params, return_annotation="Heightfield | GradientField")
+
+
 def _make_stage_function(name, public):
     def f(input=None, *, device=None, progress=None, cell_size=None, transform=None, crs=None, nodata=None,
           **options):
-        return stage(name, input, device=device, progress=progress, cell_size=cell_size, transform=transform,
-                     crs=crs, nodata=nodata, **options)
+        return _stage(name, public, input, device, progress, cell_size, transform, crs, nodata, options)
     f.__name__ = f.__qualname__ = public
     f.__doc__ = _doc(name)
+    f.__signature__ = _signature(name)
     return f
 
 
