@@ -269,3 +269,22 @@ def test_render_slope_of_a_known_plane():
     np.testing.assert_allclose(a[1:-1, 1:-1], 270, atol=1e-3)  # faces west (downhill)
     with pytest.raises(terracl.Error, match=r"\.tif"):
         terracl.render(plane, mode="aspect", cell_size=30, file="aspect.png")
+
+
+# --- typed stub --------------------------------------------------------------------------------
+
+def test_the_typed_stub_is_current_and_complete():
+    import os
+    import subprocess
+    import sys
+    here = os.path.dirname(os.path.abspath(__file__))
+    package = os.path.dirname(terracl.__file__)
+    assert os.path.exists(os.path.join(package, "py.typed")) and os.path.exists(os.path.join(package, "__init__.pyi"))
+    p = subprocess.run([sys.executable, os.path.join(here, "..", "gen_stubs.py"), "--check"], capture_output=True,
+                       text=True, env=dict(os.environ, PYTHONPATH=os.path.dirname(package)))
+    assert p.returncode == 0, p.stdout + p.stderr
+    import ast
+    with open(os.path.join(package, "__init__.pyi")) as f:
+        stub = {n.name for n in ast.parse(f.read()).body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    missing = [n for n in terracl.__all__ if n not in stub and n not in ("Progress",)]
+    assert not missing, missing
