@@ -102,6 +102,8 @@ def test_georef_takes_rasterio_affine_and_crs():
     assert terracl.Georef(geotransform=TRANSFORM, crs=UTM19).geotransform == g.geotransform
     for crs in ("EPSG:32619", 32619, UTM19.to_wkt(), UTM19):
         assert terracl.Georef(transform=TRANSFORM, crs=crs).crs == UTM19
+    # The issue's spelling: GDAL's names given rasterio's objects.
+    assert terracl.Georef(geotransform=TRANSFORM, crs_wkt=UTM19).crs == UTM19
     h = terracl.Heightfield(terrain(8), transform=TRANSFORM, crs=UTM19)
     assert h.transform == TRANSFORM and h.crs == UTM19 and h.cell_size == (30.0, 30.0)
     geo = terracl.Heightfield(terrain(8), transform=Affine(1 / 1200, 0, -72, 0, -1 / 1200, 45), crs="EPSG:4326")
@@ -183,6 +185,19 @@ def test_rasterio_elevations_in_feet_become_metres(tmp_path):
         dst.units = ("furlong",)
     with pytest.raises(ValueError, match="furlong"):
         terracl.Heightfield.from_rasterio(path)
+
+
+def test_terracl_read_and_crop_of_a_crs_in_feet(tmp_path):
+    """The library's own reader and crop: cells of 100 US survey feet are 30.48 m, not 100 m."""
+    path = tmp_path / "feet32.tif"
+    z = terrain(40)
+    with rasterio.open(path, "w", driver="GTiff", width=40, height=40, count=1, dtype="float32",
+                       crs=CRS.from_epsg(2249), transform=Affine(100, 0, 700000, 0, -100, 3000000)) as dst:
+        dst.write(z, 1)
+    h = terracl.read(path)
+    assert h.cell_size == pytest.approx((30.480061, 30.480061))
+    assert terracl.crop(h, x=3, y=4, width=20, height=20).cell_size == h.cell_size
+    assert np.array_equal(terracl.flow(h).z, terracl.flow(z, cell_size=h.cell_size).z)
 
 
 def test_rasterio_dataset_without_crs_is_refused(tmp_path):
