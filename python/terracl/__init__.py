@@ -261,9 +261,11 @@ def read(path, *, device=None, progress=None, **options):
     return _terracl._run_stage("read", None, dict(options, filename=_os.fspath(path)), device, progress)
 
 
-def write(data, path, **options):
+def write(data, path, *, cell_size=None, transform=None, crs=None, nodata=None, **options):
     """Writes a Heightfield (.tif .exr .png .r16) or a GradientField (.exr, .tif), atomically (a temporary
-    name, then a rename). Options of the `write` stage: zmin, zmax (PNG16/RAW16 range)."""
+    name, then a rename). Options of the `write` stage: zmin, zmax (PNG16/RAW16 range). An array needs
+    cell_size= (metres) or transform= with crs=, as everywhere: the file records its cell size."""
+    data = _input(data, "write", cell_size, transform, crs, nodata)
     _terracl._run_stage("write", data, dict(options, filename=_os.fspath(path)))
 
 

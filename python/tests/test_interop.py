@@ -64,12 +64,13 @@ def test_masked_int16_is_converted_exactly():
     lambda z: terracl.render(z),
     lambda z: terracl.edit(z, {"operations": []}),
     lambda z: terracl.Session(z),
+    lambda z: terracl.write(z, "/nonexistent/never-written.tif"),
     lambda z: terracl.Heightfield(np.ma.masked_array(z)),
     lambda z: terracl.fill(xr.DataArray(z)),
     lambda z: terracl.GradientField(z, z),
     lambda z: terracl.Georef(),
     lambda z: terracl.Georef(geotransform=(0, 30, 0, 0, 0, -30)),  # map units unknown without a CRS
-], ids=["Heightfield", "fill", "flow", "extract", "stage", "render", "edit", "Session", "masked", "DataArray",
+], ids=["Heightfield", "fill", "flow", "extract", "stage", "render", "edit", "Session", "write", "masked", "DataArray",
         "GradientField", "Georef", "Georef-no-crs"])
 def test_a_bare_array_without_cell_size_is_refused(call):
     with pytest.raises(ValueError) as e:
