@@ -11,6 +11,7 @@ when an input is one of theirs or a result is asked for in their types.
 
 import math
 import os
+import warnings
 
 import numpy as np
 
@@ -117,11 +118,13 @@ def _osr_info(text, what):
         from osgeo import osr
     except ImportError:
         return None
-    srs = osr.SpatialReference()
-    try:
-        ok = srs.SetFromUserInput(text) == 0
-    except Exception:  # osr raises when exceptions are enabled
-        ok = False
+    with warnings.catch_warnings():  # newer GDALs warn until UseExceptions() is chosen: not ours to choose
+        warnings.simplefilter("ignore", FutureWarning)
+        srs = osr.SpatialReference()
+        try:
+            ok = srs.SetFromUserInput(text) == 0
+        except Exception:  # osr raises when the application enabled exceptions
+            ok = False
     if not ok:
         raise ValueError("%s: not a CRS GDAL understands: %r" % (what, text[:80]))
     geographic = bool(srs.IsGeographic())

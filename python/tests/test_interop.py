@@ -8,10 +8,12 @@ import pytest
 
 import terracl
 
-rasterio = pytest.importorskip("rasterio")  # python3-rasterio (scripts/install-deps.sh)
-xr = pytest.importorskip("xarray")          # python3-xarray
-from affine import Affine  # noqa: E402  (rasterio's dependency)
-from rasterio.crs import CRS  # noqa: E402
+# python3-rasterio and python3-xarray (scripts/install-deps.sh): imported, not skipped, so that a CI
+# machine without them fails instead of passing without these checks.
+import rasterio
+import xarray as xr
+from affine import Affine  # rasterio's dependency
+from rasterio.crs import CRS
 
 UTM19 = CRS.from_epsg(32619)
 TRANSFORM = Affine(30.0, 0.0, 500000.0, 0.0, -30.0, 4900000.0)
