@@ -61,9 +61,11 @@ setup(
     classifiers=["License :: OSI Approved :: Apache Software License"],
     packages=["terracl"],
     package_dir={"": "python"},
+    package_data={"terracl": ["__init__.pyi", "py.typed"]},
     ext_modules=[CMakeExtension("terracl._terracl")],
     cmdclass={"build_ext": CMakeBuild},
     python_requires=">=3.9",
     install_requires=["numpy"],
+    extras_require={"geo": ["rasterio", "xarray"]},  # Heightfield.from_rasterio, to_xarray, .transform/.crs types
     zip_safe=False,
 )

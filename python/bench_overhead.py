@@ -88,7 +88,7 @@ def main():
               % (med(py_cpu), med(cpp_cpu), med(py_cpu) - med(cpp_cpu), 100 * (med(py_cpu) - med(cpp_cpu)) / med(cpp_cpu)))
         t0 = time.perf_counter()
         for _ in range(a.repeats):
-            terracl.Heightfield(h.z)
+            terracl.Heightfield(h.z, cell_size=h.cell_size)
         print("one %dx%d float32 copy: %.2f ms (for scale)" % (a.size, a.size, (time.perf_counter() - t0) * 1e3 / a.repeats))
 
 

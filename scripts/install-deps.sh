@@ -18,6 +18,7 @@ PACKAGES=(
   libtinygltf-dev
   libcpp-httplib-dev libjs-three
   chromium chromium-driver python3-selenium python3-gdal python3-numpy
+  python3-rasterio python3-xarray  # python/tests/test_interop.py: rasterio and xarray round trips (docs/python.md)
   clang libclang-rt-14-dev
   dpkg-dev file
   strace  # fault injection in the tests: ENOSPC / EIO on an output's writes and renames (docs/reliability.md)

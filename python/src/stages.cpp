@@ -14,9 +14,12 @@
 #include <terracl/stage.hpp>
 #include <terracl/stage_memory.hpp>
 
+#include "pipeline/builtin.hpp"
+
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 
@@ -223,74 +226,73 @@ py::tuple edit(py::object base_obj, py::object script_obj, py::object base_dir_o
   return py::make_tuple(py::cast(std::move(h)), from_json(report));
 }
 
-// The picture of the `render` stage as a (height, width, channels) uint8 array (1 grey, 2 grey +
-// alpha, 3 RGB, 4 RGBA: render::Image); also written to `file`
-// when given. Options are resolved by the stage table; the mapping below is run_render's
-// (host/src/analysis/analysis_stages.cpp), which keeps its image private.
-py::array_t<uint8_t> render_image(py::object input, const py::dict& kwargs, py::object device, py::object progress) {
+// The `render` stage from Python: pictures as (height, width, 3) RGB or (height, width, 4) RGBA uint8
+// arrays (grey pictures expanded to three equal channels, so that every picture displays as it is),
+// value modes (slope, aspect, tri, tpi, roughness) as (height, width) float32 arrays, NaN where
+// gdaldem writes nodata. `file` is written exactly as `terracl render IN --file FILE` writes it: a
+// value mode to .tif is gdaldem's Float32 raster, slope to .png the grey picture. The options are
+// resolved by the stage table and mapped by render_stage_options, as the stage itself maps them.
+py::array render_image(py::object input, const py::dict& kwargs, py::object device, py::object progress) {
   const StageInfo& s = find_stage("render");
   json opts = options_of(kwargs);
   const bool to_file = opts.contains("file");
   if (!to_file) opts["file"] = "unused.png";  // required by the table; nothing is written
   const json r = resolve(s, opts);
   Heightfield h = to_heightfield(input, "render input");
-  render::Options o;
-  o.mode = render::mode_from_name(r.at("mode").get<std::string>());
-  o.azimuth_deg = r.at("azimuth").get<double>();
-  o.altitude_deg = r.at("altitude").get<double>();
-  o.z_factor = r.at("z_factor").get<double>();
-  o.slope_max_deg = r.at("slope_max").get<double>();
-  if (!r.at("ramp").is_null()) o.ramp = render::ColorRamp::from_spec(r.at("ramp").get<std::string>());
-  o.shading = render::shading_from_name(r.at("shading").get<std::string>());
-  o.compute_edges = r.at("compute_edges").get<bool>();
-  o.slope_percent = r.at("slope_format").get<std::string>() == "percent";
-  o.tri_alg = r.at("tri_alg").get<std::string>() == "wilson" ? render::TriAlg::Wilson : render::TriAlg::Riley;
-  o.aspect_trigonometric = r.at("trigonometric").get<bool>();
-  o.zero_for_flat = r.at("zero_for_flat").get<bool>();
-  // The perspective view's camera (render_stage.cpp's render_stage_options).
-  o.view.azimuth_deg = r.at("view_azimuth").get<double>();
-  o.view.elevation_deg = r.at("view_elevation").get<double>();
-  o.view.fov_deg = r.at("fov").get<double>();
-  o.view.zoom = r.at("view_zoom").get<double>();
-  o.view.haze = r.at("haze").get<double>();
-  o.view.shadows = r.at("shadows").get<bool>();
-  // The natural material is the perspective default unless a ramp is asked for (render_stage.cpp).
-  o.view.material = !r.at("material").is_null() ? render::material_from_name(r.at("material").get<std::string>())
-                    : !r.at("ramp").is_null()    ? render::Material::Ramp
-                                                 : render::Material::Natural;
-  o.view.water = r.at("water").get<bool>();
-  if (!r.at("water_level").is_null()) {
-    o.view.has_water_level = true;
-    o.view.water_level = r.at("water_level").get<double>();
-  }
-  o.view.water_clarity = r.at("water_clarity").get<double>();
-  {
-    const std::string size = r.at("size").get<std::string>();
-    char x = 0, extra = 0;
-    if (std::sscanf(size.c_str(), "%d%c%d%c", &o.view.width, &x, &o.view.height, &extra) != 3 || (x != 'x' && x != 'X'))
-      fail("render", "size must be WxH in pixels, e.g. 1024x640; got '{}'", size);
-  }
-  if (!r.at("view_target").is_null()) {
-    const std::string t = r.at("view_target").get<std::string>();
-    char comma = 0, extra = 0;
-    if (std::sscanf(t.c_str(), "%lf%c%lf%c", &o.view.target[0], &comma, &o.view.target[1], &extra) != 3 || comma != ',')
-      fail("render", "view_target must be COL,ROW in cells; got '{}'", t);
-    o.view.has_target = true;
-  }
-  if (o.mode == render::Mode::Perspective && to_file &&
-      format_from_extension(r.at("file").get<std::string>()) != FileFormat::PNG)
-    fail("render", "{}: a perspective picture has no georeferencing; write it as .png", r.at("file").get<std::string>());
+  StageData unused;
+  StageContext ctx{unused, r, nullptr, Progress{}, "render", Metadata{}};
+  render::Options o = render_stage_options(ctx);
+  const std::string file = r.at("file").get<std::string>();
+  const bool tif = to_file && format_from_extension(file) == FileFormat::GeoTIFF;
+  if (o.mode == render::Mode::Perspective && to_file && format_from_extension(file) != FileFormat::PNG)
+    fail("render", "{}: a perspective picture has no georeferencing; write it as .png", file);
+  const bool values = render::is_value_mode(o.mode);
+  if (values && to_file && !tif && o.mode != render::Mode::Slope)
+    fail("render", "{}: mode {} writes values; use a .tif name", file, r.at("mode").get<std::string>());
   const bool host = r.at("backend").get<std::string>() == "host";
   DeviceSlot* slot = host ? nullptr : &device_slot(device);
   ProgressBridge bridge(progress);
-  render::Image img = run_released(slot, bridge, [&] {
-    render::Image im = host ? render::render(h, o) : render::render(h, o, *slot->device);
-    if (to_file) render::write_image(im, r.at("file").get<std::string>(), provenance("terracl.render()"));
-    return im;
+  o.progress = bridge.progress();
+  Metadata prov = provenance("terracl.render()");
+  prov["terracl:stages"] = json::array({json{{"type", "render"}, {"options", r}}}).dump();
+  Heightfield v;
+  render::Image img;
+  run_released(slot, bridge, [&] {
+    auto picture = [&] { return host ? render::render(h, o) : render::render(h, o, *slot->device); };
+    if (values) {
+      v = host ? render::values(h, o) : render::values(h, o, *slot->device);
+      if (tif) {
+        for (const auto& [k, val] : prov) v.metadata[k] = val;
+        write_heightfield(v, file);
+      } else if (to_file) {
+        render::write_image(picture(), file, prov);  // slope to .png: the CLI's grey picture
+      }
+    } else {
+      img = picture();
+      if (to_file) render::write_image(img, file, prov);
+    }
+    return 0;
   });
-  py::array_t<uint8_t> out({py::ssize_t(img.height), py::ssize_t(img.width), py::ssize_t(img.channels)});
-  std::memcpy(out.mutable_data(), img.pixels.data(), img.pixels.size());
-  return out;
+  if (values) {
+    py::array_t<float> out({py::ssize_t(v.height), py::ssize_t(v.width)});
+    std::memcpy(out.mutable_data(), v.z.data(), v.z.size() * sizeof(float));
+    return std::move(out);
+  }
+  const int c = img.channels, oc = (c == 2 || c == 4) ? 4 : 3;
+  py::array_t<uint8_t> out({py::ssize_t(img.height), py::ssize_t(img.width), py::ssize_t(oc)});
+  uint8_t* dst = out.mutable_data();
+  const size_t n = size_t(img.width) * size_t(img.height);
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t* p = img.pixels.data() + i * size_t(c);
+    uint8_t* q = dst + i * size_t(oc);
+    if (c <= 2) {
+      q[0] = q[1] = q[2] = p[0];
+      if (c == 2) q[3] = p[1];
+    } else {
+      std::memcpy(q, p, size_t(c));
+    }
+  }
+  return std::move(out);
 }
 
 py::dict run_pipeline(py::object doc_obj, std::vector<std::string> overrides, std::string name, bool write_resolved,

@@ -151,7 +151,7 @@ def test_session_lake_is_a_water_layer_over_the_untouched_terrain():
     # A bowl whose lowest rim cell is on the grid's edge: the spill level is that cell's elevation.
     y, x = np.mgrid[0:33, 0:33]
     bowl = (((x - 16.2) ** 2 + (y - 15.8) ** 2) * 0.25).astype(np.float32)
-    s = terracl.Session(bowl)
+    s = terracl.Session(bowl, cell_size=1)  # 1 m cells, said explicitly
     assert s.water() is None
     s.apply({"units": "cells", "operations": [{"op": "lake", "seed": [16, 16]}]})
     w = s.water()

@@ -142,6 +142,14 @@ void read_gdal_header(GDALDataset& dataset, Heightfield& out) {
     }
   }
   g.update_metric_cell_size(w, h);
+  // A projected CRS in feet (US State Plane): the geotransform is in feet, the cell size in metres.
+  if (const OGRSpatialReference* srs = ds->GetSpatialRef(); srs && srs->IsProjected()) {
+    const double metres_per_unit = srs->GetLinearUnits();
+    if (metres_per_unit > 0 && metres_per_unit != 1.0) {
+      g.cell_x *= metres_per_unit;
+      g.cell_y *= metres_per_unit;
+    }
+  }
   if (char** md = ds->GetMetadata()) {
     for (char** p = md; *p; ++p) {
       std::string kv(*p);

@@ -29,7 +29,9 @@ void run_crop(StageContext& c) {
     auto& gt = out.georef.geotransform;
     gt[0] += x0 * gt[1] + y0 * gt[2];
     gt[3] += x0 * gt[4] + y0 * gt[5];
-    out.georef.update_metric_cell_size(int(w), int(ht));  // a geographic window has its own centre latitude
+    // A geographic window has its own centre latitude; a projected one keeps the metric cell size,
+    // which update_metric_cell_size would reset to map units (feet in a US State Plane CRS).
+    if (out.georef.geographic) out.georef.update_metric_cell_size(int(w), int(ht));
   }
   h = std::move(out);
 }

@@ -209,7 +209,7 @@ void TiledRun::run_chain(size_t first, size_t last) {
                                 "tag '{}')",
                                 x0, x0 + w - 1, y0, y0 + h - 1, level.w, level.h, st.where, st.tag));
       Georef g = georef_at(level.georef, int(x0), int(y0));
-      if (g.has_geotransform) g.update_metric_cell_size(int(w), int(h));  // as crop: the window's centre latitude
+      if (g.has_geotransform && g.geographic) g.update_metric_cell_size(int(w), int(h));  // as crop: the window's centre latitude
       level = {int(w), int(h), g};
       ++li;
     } else if (tl.kind == TileKind::Local) {

@@ -20,7 +20,7 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
       const int w = o.at("width").is_null() ? l.w - x0 : o.at("width").get<int>();
       const int h = o.at("height").is_null() ? l.h - y0 : o.at("height").get<int>();
       Georef g = georef_at(l.georef, x0, y0);
-      if (g.has_geotransform) g.update_metric_cell_size(w, h);
+      if (g.has_geotransform && g.geographic) g.update_metric_cell_size(w, h);  // as crop
       levels.push_back({w, h, g});
     } else if (op.tiling.kind == TileKind::Local) {
       levels.push_back(next_level(l, op.tiling.down, op.tiling.up));
