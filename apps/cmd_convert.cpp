@@ -63,7 +63,7 @@ CommandRegistrar reg(12, [](CLI::App& app) {
     ro.fill_nodata = a->fill;
     Heightfield h = read_heightfield(a->input, ro);
     for (const auto& [k, v] : provenance()) h.metadata[k] = v;
-    WriteOptions wo = a->out.write_options();
+    WriteOptions wo = a->out.write_options_keeping_type(a->input, a->output);
     wo.zmin = a->out_zmin;
     wo.zmax = a->out_zmax;
     write_heightfield(h, a->output, wo);

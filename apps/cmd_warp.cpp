@@ -94,7 +94,7 @@ CommandRegistrar reg(13, [](CLI::App& app) {
       Heightfield r = warp(h, o, make_progress("warp"));
       finish_progress();
       for (const auto& [k, v] : provenance()) r.metadata[k] = v;
-      write_heightfield(r, a->output, a->out.write_options());
+      write_heightfield(r, a->output, a->out.write_options_keeping_type(a->input, a->output));
     });
   }
   {
@@ -132,7 +132,7 @@ CommandRegistrar reg(13, [](CLI::App& app) {
       finish_progress();
       const EngineScale s = record_engine_scale(r);
       for (const auto& [k, v] : provenance()) r.metadata[k] = v;
-      write_heightfield(r, a->output, a->out.write_options());
+      write_heightfield(r, a->output, a->out.write_options_keeping_type(a->input, a->output));
       print_engine_scale(r, s);
     });
   }

@@ -81,11 +81,21 @@ void OutputFlags::add(CLI::App* sub) {
   sub->add_option("--co", creation_options, "GDAL output (.tif and other GDAL formats): creation option KEY=VALUE (repeatable; as gdal_translate -co)")
       ->type_name("KEY=VALUE");
   sub->add_flag("--cog", cog, "GeoTIFF output: write a Cloud Optimized GeoTIFF (GDAL's COG driver)");
-  sub->add_option("--ot", output_type, "GDAL output (.tif and other GDAL formats): band type (rounded for integer types)")
+  m_ot = sub->add_option("--ot", output_type, "GDAL output (.tif and other GDAL formats): band type (rounded for integer types)")
       ->check(CLI::IsMember({"Float32", "Float64", "Int16", "UInt16", "Int32"}))
       ->capture_default_str();
   sub->add_option("--of", driver, "Output format: a GDAL raster driver (AAIGrid, HFA, GPKG, netCDF, ...; as gdal_translate -of); "
                   "default: from the extension");
+}
+
+WriteOptions OutputFlags::write_options_keeping_type(const std::string& input, const std::string& output) const {
+  WriteOptions wo = write_options();
+  const FileFormat f = format_from_extension(output);
+  const bool terracl_format = driver.empty() && (f == FileFormat::PNG || f == FileFormat::EXR ||
+                                                 f == FileFormat::RAW16 || f == FileFormat::NPY);
+  if (m_ot && m_ot->count() == 0 && !terracl_format && !cog)
+    if (const std::string t = stored_band_type(input); !t.empty()) wo.output_type = t;
+  return wo;
 }
 
 WriteOptions OutputFlags::write_options() const {

@@ -38,6 +38,12 @@ struct OutputFlags {
   std::string driver;  ///< --of
   void add(CLI::App* sub);
   WriteOptions write_options() const;
+  /// write_options(), with the band type of `input` (stored_band_type) when --ot was not given and
+  /// `output` is written by GDAL: as gdal_translate and gdalwarp, an Int16 DEM stays Int16.
+  WriteOptions write_options_keeping_type(const std::string& input, const std::string& output) const;
+
+ private:
+  CLI::Option* m_ot = nullptr;
 };
 
 class StageFlags {

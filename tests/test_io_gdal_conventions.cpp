@@ -12,6 +12,7 @@
 #include <ogr_spatialref.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -143,4 +144,53 @@ TEST(GdalConventions, GeoTiffOfAnUngeoreferencedRasterCarriesItsCellSize) {
   EXPECT_FALSE(back.georef.has_geotransform);
   EXPECT_EQ(back.georef.cell_x, 12.5);
   EXPECT_EQ(back.z, h.z);
+}
+
+TEST(GdalConventions, CliWritesAnyGdalFormatWithGdalSpellings) {
+  test::TempDir dir;
+  const std::string hgt = test::data_path("dem/N44W072.hgt");
+  // .asc is GDAL's AAIGrid: its .prj companion is renamed into place beside it, nothing else left.
+  auto r = test::run_cli("convert '" + hgt + "' '" + dir.path("dem.asc") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(dir.path("dem.prj")));
+  for (const auto& e : std::filesystem::directory_iterator(dir.dir()))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  const Heightfield a = read_heightfield(dir.path("dem.asc")), src = read_heightfield(hgt);
+  EXPECT_EQ(a.z, src.z);
+  EXPECT_TRUE(a.georef.geographic);
+  // -of names the driver (an extension several drivers claim); -ot and -co as gdal_translate's.
+  r = test::run_cli("convert '" + hgt + "' '" + dir.path("dem.grd") + "' -of GS7BG -ot Float32");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  Dataset ds(static_cast<GDALDataset*>(GDALOpen(dir.path("dem.grd").c_str(), GA_ReadOnly)));
+  ASSERT_TRUE(ds);
+  EXPECT_STREQ(ds->GetDriver()->GetDescription(), "GS7BG");  // a Float64 format whatever -ot says
+  r = test::run_cli("convert '" + hgt + "' '" + dir.path("dem.img") + "' -ot Float32");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  Dataset img(static_cast<GDALDataset*>(GDALOpen(dir.path("dem.img").c_str(), GA_ReadOnly)));
+  EXPECT_STREQ(img->GetDriver()->GetDescription(), "HFA");
+  EXPECT_EQ(img->GetRasterBand(1)->GetRasterDataType(), GDT_Float32);
+  r = test::run_cli("convert '" + hgt + "' '" + dir.path("dem2.grd") + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.out.find("choose one with --of"), std::string::npos) << r.out;
+  // warp with gdalwarp's spellings; the input's Int16 is kept unless -ot says otherwise.
+  r = test::run_cli("warp '" + hgt + "' -o '" + dir.path("utm.tif") + "' -t_srs EPSG:32619 -tr 200 200 -co COMPRESS=LZW");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  Dataset w(static_cast<GDALDataset*>(GDALOpen(dir.path("utm.tif").c_str(), GA_ReadOnly)));
+  EXPECT_EQ(w->GetRasterBand(1)->GetRasterDataType(), GDT_Int16);
+  EXPECT_STREQ(w->GetMetadataItem("COMPRESSION", "IMAGE_STRUCTURE"), "LZW");
+  // info and a stage read a DEM inside a zip archive.
+  const std::string zip = dir.path("dem.zip");
+  {
+    std::ifstream in(dir.path("utm.tif"), std::ios::binary);
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    VSILFILE* f = VSIFOpenL(("/vsizip/" + zip + "/utm.tif").c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    VSIFWriteL(bytes.data(), 1, bytes.size(), f);
+    VSIFCloseL(f);
+  }
+  r = test::run_cli("info /vsizip/" + zip + "/utm.tif");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("WGS 84 / UTM zone 19N"), std::string::npos) << r.out;
+  r = test::run_cli("fill_depressions /vsizip/" + zip + "/utm.tif -o '" + dir.path("filled.tif") + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
 }

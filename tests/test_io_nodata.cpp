@@ -127,7 +127,7 @@ TEST(IONodata, CreationOptionsAndCog) {
   const std::vector<std::pair<std::string, std::string>> bad = {
       {q(dir.path("x.tif")) + " --co COMPRES=LZW", "COMPRES is not one the GTiff driver knows"},
       {q(dir.path("x.tif")) + " --co COMPRESS", "KEY=VALUE"},
-      {q(dir.path("x.png")) + " --co COMPRESS=LZW", "GeoTIFF outputs (.tif) only"},
+      {q(dir.path("x.png")) + " --co COMPRESS=LZW", "apply to GDAL outputs"},
       {q(dir.path("x.tif")) + " --ot Byte", "Byte"},
   };
   for (const auto& [args, expected] : bad) {

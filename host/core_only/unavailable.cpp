@@ -28,6 +28,7 @@ namespace {
 
 }  // namespace
 
+std::string stored_band_type(const std::string&) { return {}; }
 namespace io {
 Heightfield read_gdal(const std::string& path) { unavailable("GDAL reading", path); }
 std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string&) { return std::nullopt; }

@@ -95,6 +95,11 @@ bool path_exists(const std::string& path, bool regular = false) noexcept;
 /// ...). Such paths are opened by GDAL alone: there is no folder to check, and a missing file is
 /// reported by GDAL's open. path_exists() answers true for them.
 bool is_virtual_path(const std::string& path) noexcept;
+/// The band type a GDAL raster stores when terracl would write it back unchanged (Int16, UInt16,
+/// Int32, Float64: what `--ot` can name), so that convert/warp/resize keep the input's type as
+/// gdal_translate and gdalwarp do; "" for Float32, other types, scaled bands, units converted on
+/// read, and files GDAL does not read.
+std::string stored_band_type(const std::string& path);
 /// The one check every command and pipeline makes before running: refuses (UsageError naming the
 /// labels) an output that is also an input or another output, and an output that exists and is
 /// not a regular file (a device such as /dev/null, a folder, a pipe), which a rename would replace.

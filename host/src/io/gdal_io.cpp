@@ -396,6 +396,32 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
 
 namespace terracl::io {
 
+}  // namespace terracl::io
+
+namespace terracl {
+
+std::string stored_band_type(const std::string& path) {
+  const FileFormat f = format_from_extension(path);
+  if (f == FileFormat::PNG || f == FileFormat::EXR || f == FileFormat::RAW16 || f == FileFormat::NPY) return {};
+  io::init_gdal();
+  CPLErrorReset();
+  io::DatasetPtr ds(
+      static_cast<GDALDataset*>(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  if (!ds || ds->GetRasterCount() != 1) return {};
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  const GDALDataType t = band->GetRasterDataType();
+  if (t != GDT_Int16 && t != GDT_UInt16 && t != GDT_Int32 && t != GDT_Float64) return {};
+  // Values changed on read (scale, offset, feet to metres) are no longer the stored integers.
+  const char* units = band->GetUnitType();
+  if (band->GetScale() != 1.0 || band->GetOffset() != 0.0 || io::metres_per_unit(units ? units : "").value_or(1.0) != 1.0)
+    return {};
+  return GDALGetDataTypeName(t);
+}
+
+}  // namespace terracl
+
+namespace terracl::io {
+
 std::string gdal_driver_for_output(const std::string& path, const std::string& asked) {
   init_gdal();
   GDALDriverManager* dm = GetGDALDriverManager();

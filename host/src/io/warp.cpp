@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // `warp` on GDAL's warper through gdal_utils' GDALWarp (the code of the gdalwarp program), so the
 // options mean and do exactly what they do in gdalwarp; no resampler of our own. The heightfield
-// goes in as an in-memory (MEM) dataset and comes out of gdalwarp's virtual (VRT) output.
+// goes in as an in-memory (MEM) dataset and comes out of an in-memory one (tiled: a VRT).
 #include "io/gdal_common.hpp"
 #include "io/warp_vrt.hpp"
 
@@ -114,16 +114,16 @@ std::vector<std::string> gdalwarp_arguments(const WarpOptions& o, bool source_ha
 }
 
 io::DatasetPtr io::warped_vrt(GDALDatasetH in, const WarpOptions& o, bool source_has_nodata,
-                              const std::string& stage, bool whole) {
+                              const std::string& stage, bool whole, const char* format) {
   check_output_size(in, o, stage, whole);
   std::vector<std::string> args = gdalwarp_arguments(o, source_has_nodata);
-  // A virtual (VRT) output: nothing is warped until a window is read, and each of its blocks is
-  // warped on its own (its own source window and approximate transformer along the block's rows),
-  // so a cell's value depends on its block only, not on which window asked for it. That makes the
-  // untiled warp (one read of the whole) and the tiled one (windows; tile/warp_tiles.cpp) equal
-  // bit for bit; a one-shot GDALWarp to MEM chunks by its memory limit instead, and its
-  // transformer's row interpolation then depends on the chunk (differences of ~1e-3 m).
-  args.insert(args.begin(), {"-of", "VRT"});
+  // MEM (the untiled warp): GDALWarp chunks the output by its memory limit exactly as the gdalwarp
+  // program does, so the cells equal gdalwarp's bit for bit. VRT (the tiled warp): nothing is
+  // warped until a window is read, and each block is warped on its own (its own source window and
+  // approximate transformer along the block's rows), so a cell depends on its block only, not on
+  // the window that asked for it; it differs from gdalwarp by the transformer's -et 0.125 px
+  // approximation (~1e-3 m on a 30 m DEM).
+  args.insert(args.begin(), {"-of", format});
   CPLStringList argv;
   for (const auto& s : args) argv.AddString(s.c_str());
   GDALWarpAppOptions* wo = GDALWarpAppOptionsNew(argv.List(), nullptr);
@@ -165,7 +165,7 @@ Heightfield warp(const Heightfield& h, const WarpOptions& o, const Progress& pro
   if (progress && !progress(0.0, "warping")) throw Cancelled(stage, "cancelled");
   Heightfield r;
   {
-    io::DatasetPtr dst = io::warped_vrt(GDALDataset::ToHandle(mem.get()), o, has_nodata, stage, true);
+    io::DatasetPtr dst = io::warped_vrt(GDALDataset::ToHandle(mem.get()), o, has_nodata, stage, true, "MEM");
     CPLErrorReset();
     r = io::from_dataset(*dst, "warp output");
     if (CPLGetLastErrorType() >= CE_Failure) fail(stage, "GDAL's warp failed ({})", io::last_gdal_error());
