@@ -137,7 +137,7 @@ TEST(Pipeline, ValidationErrorsNameTheJsonPath) {
       {R"([{"type": "write", "filename": "o.tif"}])",
        "/0: stage 'write' (write) needs a heightfield or gradient as input, but nothing comes before it"},
       {R"([")" + c + R"("])", "the pipeline writes nothing"},
-      {R"([")" + c + R"(", "o.xyz"])", "/1/filename: o.xyz: cannot write a heightfield with this extension"},
+      {R"([")" + c + R"(", "o.xyz1"])", "/1/filename: cannot write a heightfield there: o.xyz1: no GDAL driver writes"},
       {R"([")" + c + R"(", "o.tif", "./o.tif"])", "/2/filename: ./o.tif is also written by /1/filename"},
       {R"([")" + c + R"(", ")" + c + R"("])", "is an input of this pipeline (/0/filename)"},
       {R"([")" + c + R"(", "fill_nodta", "o.tif"])", "/1: 'fill_nodta' is neither a stage nor a file name"},

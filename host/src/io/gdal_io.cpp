@@ -170,8 +170,8 @@ void apply_band_scaling(GDALRasterBand& band, Heightfield& h) {
   const double to_metres = metres_per_unit(units ? units : "").value_or(1.0);
   const double a = (has_scale ? scale : 1.0) * to_metres, b = (has_offset ? offset : 0.0) * to_metres;
   if (a == 1.0 && b == 0.0) return;
-  if (!std::isfinite(a) || !std::isfinite(b) || a == 0.0)
-    fail("io", "band 1 has scale {} and offset {} (unit '{}'); expected a finite non-zero scale and a finite offset",
+  if (!std::isfinite(a) || !std::isfinite(b))
+    fail("io", "band 1 has scale {} and offset {} (unit '{}'); expected a finite scale and offset",
          has_scale ? scale : 1.0, has_offset ? offset : 0.0, units ? units : "");
   for (float& v : h.z)
     if (std::isfinite(v)) v = float(double(v) * a + b);

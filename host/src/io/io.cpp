@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -160,27 +161,71 @@ namespace {
 // sidecar, which the reader refuses (check_sidecar_size) rather than decoding it with the wrong
 // range (the sidecar used to be renamed first, so a failed image rename did exactly that).
 template <typename F>
-void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_image) {
-  const std::string sc_path = io::sidecar_path(path);
+void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_image, const std::string& aux_xml = {}) {
+  const std::string sc_path = io::sidecar_path(path), aux_path = path + ".aux.xml";
   const std::string tmp = temporary_path_for(path), sc_tmp = temporary_path_for(sc_path);
+  const std::string aux_tmp = aux_xml.empty() ? std::string() : temporary_path_for(aux_path);
+  auto discard_companions = [&] {
+    discard_temporary(sc_tmp);
+    if (!aux_tmp.empty()) discard_temporary(aux_tmp);
+  };
   try {
     write_image(tmp);
     const io::FileDigest d = io::file_digest(tmp);
     sc["image_bytes"] = d.bytes;
     sc["image_fnv1a64"] = io::hex64(d.fnv1a);
     io::write_file_checked(sc_tmp, sc.dump(2) + "\n");
+    if (!aux_tmp.empty()) io::write_file_checked(aux_tmp, aux_xml);
   } catch (...) {
     discard_temporary(tmp);
-    discard_temporary(sc_tmp);
+    discard_companions();
     throw;
   }
   try {
     commit_temporary(tmp, path);
   } catch (...) {
-    discard_temporary(sc_tmp);
+    discard_companions();
     throw;
   }
+  if (!aux_tmp.empty()) commit_temporary(aux_tmp, aux_path);
   commit_temporary(sc_tmp, sc_path);
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// GDAL's auxiliary metadata (PAM) for a 16-bit PNG: its geotransform (the local metric grid when
+// the raster has none), CRS, and the code -> metres mapping as band scale/offset with code 0 as
+// nodata, so that GDAL, QGIS and rasterio read the PNG in metres where terracl's JSON sidecar is
+// invisible to them.
+std::string png_aux_xml(const Heightfield& h, const io::Quantiser& q) {
+  const Georef& g = h.georef;
+  std::array<double, 6> gt = {0.0, g.cell_x, 0.0, g.cell_y * h.height, 0.0, -g.cell_y};
+  if (g.has_geotransform) gt = g.geotransform;
+  const double lo = q.reserve_nodata ? 1.0 : 0.0;
+  const double scale = (q.zmax - q.zmin) / (q.max_code - lo), offset = q.zmin - lo * scale;
+  std::string x = "<PAMDataset>\n";
+  if (!g.crs_wkt.empty()) x += "  <SRS dataAxisToSRSAxisMapping=\"" + std::string(g.geographic ? "2,1" : "1,2") + "\">" +
+                               xml_escape(g.crs_wkt) + "</SRS>\n";
+  x += fmt::format("  <GeoTransform>{:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g}</GeoTransform>\n", gt[0], gt[1],
+                   gt[2], gt[3], gt[4], gt[5]);
+  x += "  <PAMRasterBand band=\"1\">\n";
+  if (q.reserve_nodata) x += fmt::format("    <NoDataValue>{}</NoDataValue>\n", io::kNodataCode);
+  x += "    <UnitType>" + xml_escape(g.vertical_units) + "</UnitType>\n";
+  x += fmt::format("    <Offset>{:.17g}</Offset>\n    <Scale>{:.17g}</Scale>\n", offset, scale);
+  x += "  </PAMRasterBand>\n</PAMDataset>\n";
+  return x;
 }
 
 // A GDAL format of several files (.asc + .prj, .bil + .hdr): written under a temporary name, then
@@ -284,12 +329,19 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
   Metadata md = h.metadata;
   for (const auto& [k, v] : engine_scale_entries(es)) md.erase("engine:" + k);
   sc["metadata"] = md;
-  write_with_sidecar(path, sc, [&](const std::string& tmp) {
-    if (f == FileFormat::PNG)
-      io::write_png16(h, tmp, zmin, zmax);
-    else
-      io::write_raw16(h, tmp, zmin, zmax);
-  });
+  io::Quantiser q;
+  q.zmin = zmin;
+  q.zmax = zmax;
+  q.reserve_nodata = has_nodata;
+  write_with_sidecar(
+      path, sc,
+      [&](const std::string& tmp) {
+        if (f == FileFormat::PNG)
+          io::write_png16(h, tmp, zmin, zmax);
+        else
+          io::write_raw16(h, tmp, zmin, zmax);
+      },
+      f == FileFormat::PNG ? png_aux_xml(h, q) : std::string());
 }
 
 }  // namespace terracl

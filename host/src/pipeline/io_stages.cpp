@@ -2,6 +2,8 @@
 // The pipeline's reader and writer stages (`"in.tif"` and `"out.exr"` in a pipeline are shorthands
 // for them). Pipeline-only: on the command line, `terracl convert` and every stage's IN/-o do this.
 #include <filesystem>
+#include "io/io_common.hpp"
+
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 
@@ -59,8 +61,17 @@ DataKind check_write(const json& o, DataKind input, const std::string& where) {
   if (input == DataKind::Gradient && fmt != FileFormat::EXR && fmt != FileFormat::GeoTIFF)
     fail("pipeline", "{}/filename: {}: a gradient is written as .exr (two float channels) or .tif (two float32 bands)",
          where, f);
-  // Other extensions go to the GDAL driver that claims them (.asc, .img, .gpkg, ...), checked when
-  // written (the core build has no GDAL to ask now).
+  // Other extensions go to the GDAL driver that claims them (.asc, .img, .gpkg, ...).
+  const bool terracl_written = fmt == FileFormat::GeoTIFF || fmt == FileFormat::EXR || fmt == FileFormat::PNG ||
+                               fmt == FileFormat::RAW16 || fmt == FileFormat::NPY;
+  if (input == DataKind::Heightfield && !terracl_written) {
+    try {
+      (void)io::gdal_driver_for_output(f, "");
+    } catch (const Error& e) {
+      fail("pipeline", "{}/filename: cannot write a heightfield there: {}", where,
+           std::string(e.what()).substr(e.stage().size() + 2));
+    }
+  }
   const bool quantised = fmt == FileFormat::PNG || fmt == FileFormat::RAW16;
   for (const char* k : {"zmin", "zmax"})
     if (!o.at(k).is_null() && (!quantised || input != DataKind::Heightfield))
