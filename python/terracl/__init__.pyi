@@ -386,6 +386,7 @@ def drainage(
     *,
     method: str = 'd8',
     units: str = 'm2',
+    product: str = 'area',
     device: DeviceSpec = None,
     progress: Progress = None,
     cell_size: CellSize = None,
@@ -393,7 +394,7 @@ def drainage(
     crs: Crs = None,
     nodata: Optional[float] = None,
 ) -> Heightfield:
-    """Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells."""
+    """Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells, or by its D8 flow directions in ESRI or GRASS coding."""
 
 def erode(
     input: Optional[Union[Heightfield, RasterLike]] = None,
@@ -461,6 +462,7 @@ def flow(
     *,
     method: str = 'd8',
     units: str = 'm2',
+    product: str = 'area',
     device: DeviceSpec = None,
     progress: Progress = None,
     cell_size: CellSize = None,
@@ -468,7 +470,7 @@ def flow(
     crs: Crs = None,
     nodata: Optional[float] = None,
 ) -> Heightfield:
-    """Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells."""
+    """Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells, or by its D8 flow directions in ESRI or GRASS coding."""
 
 def render(
     input: Optional[Union[Heightfield, RasterLike]] = None,

@@ -48,7 +48,28 @@ void run_sketch(StageContext& c) {
   if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), analysis::sketch_to_json(s, h).dump(1) + "\n");
 }
 
+// A D8 pointer raster in a GIS's coding: ESRI (ArcGIS Flow Direction: 1 east, then clockwise
+// doubling to 128 north-east) or GRASS (r.watershed's drainage: 1 north-east, counter-clockwise to
+// 8 east). 0 where water leaves the grid (a border or nodata-side outlet), nodata where the
+// elevation is nodata.
+void write_d8_pointer(StageContext& c, bool esri) {
+  Heightfield& h = c.height();
+  if (c.get<std::string>("method") != "d8")
+    throw UsageError("drainage", "product " + c.get<std::string>("product") + " is a D8 pointer raster; use method d8");
+  const analysis::D8Result d8 = analysis::d8_flow(h, c.progress);
+  Heightfield out = h;
+  for (size_t i = 0; i < out.size(); ++i) {
+    const uint8_t d = d8.dir[i];
+    out.z[i] = d == analysis::kNoFlow ? NAN : d == analysis::kOutlet ? 0.0f : esri ? float(1u << d) : float(8 - d);
+  }
+  out.georef.vertical_units = "";
+  out.metadata["terracl:quantity"] = esri ? "D8 flow direction (ESRI: 1 E, 2 SE, 4 S, 8 SW, 16 W, 32 NW, 64 N, 128 NE; 0 outlet)"
+                                          : "D8 flow direction (GRASS: 1 NE, 2 N, 3 NW, 4 W, 5 SW, 6 S, 7 SE, 8 E; 0 outlet)";
+  h = std::move(out);
+}
+
 void run_drainage(StageContext& c) {
+  if (const std::string p = c.get<std::string>("product"); p != "area") return write_d8_pointer(c, p == "d8_esri");
   Heightfield& h = c.height();
   Heightfield out = h;
   const bool dinf = c.get<std::string>("method") == "dinf";
@@ -165,11 +186,20 @@ void register_analysis_stages(StageRegistry& r) {
            h = analysis::breach_depressions(h, c.get<bool>("raise_pits"), c.progress).breached;
          }});
   r.add({"drainage",
-         "Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells.",
+         "Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells, or by "
+         "its D8 flow directions in ESRI or GRASS coding.",
          H,
          H,
          {{"method", OptionType::Enum, "d8", "", "Flow routing", {"d8", "dinf"}, false},
-          {"units", OptionType::Enum, "m2", "", "Drainage area in square metres or in cells", {"m2", "cells"}, false}},
+          {"units", OptionType::Enum, "m2", "", "Drainage area in square metres or in cells", {"m2", "cells"}, false},
+          {"product",
+           OptionType::Enum,
+           "area",
+           "",
+           "What to write: the drainage area, or the D8 flow direction raster in ESRI (1..128) or GRASS (1..8) "
+           "coding (0: flows off the grid)",
+           {"area", "d8_esri", "d8_grass"},
+           false}},
          run_drainage});
 }
 

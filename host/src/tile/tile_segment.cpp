@@ -428,6 +428,9 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   std::shared_ptr<io::GdalWindowReader> in = to_temp ? std::make_shared<io::GdalWindowReader>(global_in) : seg.source;
   const bool drainage = global->type == "drainage";
   Georef out_georef = L.georef;
+  if (drainage && global->options.value("product", std::string("area")) != "area")
+    throw UsageError("drainage", "product " + global->options.value("product", std::string()) +
+                                     " (a D8 pointer raster) runs untiled only; the tiled drainage writes the area");
   if (drainage) {  // as run_drainage labels its output
     const bool cells = global->options.value("units", std::string("m2")) == "cells";
     out_georef.vertical_units = cells ? "cells" : "m2";
