@@ -305,7 +305,7 @@ TEST(Reliability, SignalsDuringAWriteLeaveNoTemporary) {
     const std::string out = dir.path("slow.tif");
     int fd = -1;
     const pid_t pid = spawn_cli({"convert", "-q", test::data_path("dem/N44W072.hgt"), out, "--co", "COMPRESS=LZMA", "--co",
-                                 "LZMA_PRESET=9", "--co", "PREDICTOR=3"},
+                                 "LZMA_PRESET=9", "--co", "PREDICTOR=3", "--ot", "Float32"},
                                 fd);
     ASSERT_GT(pid, 0);
     const bool writing = wait_for_temporary(dir.dir(), 120);

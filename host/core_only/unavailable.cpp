@@ -11,6 +11,7 @@
 #include "render/render_internal.hpp"
 #include "tile/amplify_tiles.hpp"
 
+#include <terracl/analysis.hpp>
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -29,6 +30,10 @@ namespace {
 }  // namespace
 
 std::string stored_band_type(const std::string&) { return {}; }
+bool analysis::is_sketch_vector_path(const std::string&) { return false; }
+void analysis::write_sketch_vectors(const analysis::Sketch&, const Heightfield&, const std::string& path) {
+  unavailable("vector (OGR) writing", path);
+}
 namespace io {
 Heightfield read_gdal(const std::string& path) { unavailable("GDAL reading", path); }
 std::optional<std::pair<int64_t, int64_t>> raster_header_size(const std::string&) { return std::nullopt; }

@@ -159,5 +159,11 @@ Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt = {}, const
 
 /// The JSON document described in docs/analysis.md ("terracl-sketch", version 1).
 nlohmann::json sketch_to_json(const Sketch& s, const Heightfield& h);
+/// Whether `path` names a vector file write_sketch_vectors writes (.geojson, .gpkg, .kml).
+bool is_sketch_vector_path(const std::string& path);
+/// Rivers and ridges (3-D lines), peaks and basins (points) as one layer "sketch" with fields kind,
+/// drainage_area_m2, elevation_m, relief_m, in map coordinates of `h` (GeoJSON: WGS 84 per RFC 7946),
+/// written atomically through OGR.
+void write_sketch_vectors(const Sketch& s, const Heightfield& h, const std::string& path);
 
 }  // namespace terracl::analysis

@@ -45,7 +45,13 @@ void run_sketch(StageContext& c) {
   img.height = s.height;
   img.pixels = s.rgb;
   render::write_image(img, c.get<std::string>("file"), c.provenance);
-  if (c.has("json")) write_text_file_atomic(c.get<std::string>("json"), analysis::sketch_to_json(s, h).dump(1) + "\n");
+  if (c.has("json")) {
+    const std::string out = c.get<std::string>("json");
+    if (analysis::is_sketch_vector_path(out))
+      analysis::write_sketch_vectors(s, h, out);
+    else
+      write_text_file_atomic(out, analysis::sketch_to_json(s, h).dump(1) + "\n");
+  }
 }
 
 // A D8 pointer raster in a GIS's coding: ESRI (ArcGIS Flow Direction: 1 east, then clockwise
@@ -112,7 +118,14 @@ void register_analysis_stages(StageRegistry& r) {
          H,
          H,
          {{"file", OptionType::OutputPath, nullptr, "", "Sketch picture (.png)", {}, true},
-          {"json", OptionType::OutputPath, nullptr, "", "Polylines/points JSON (docs/analysis.md)", {}, false},
+          {"json",
+           OptionType::OutputPath,
+           nullptr,
+           "",
+           "Polylines/points: .json (terracl's, pixel coordinates; docs/analysis.md) or a GIS vector file in map "
+           "coordinates (.geojson, .gpkg, .kml)",
+           {},
+           false},
           {"river_fraction",
            OptionType::Float,
            0.002,

@@ -187,8 +187,14 @@ void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_im
     discard_companions();
     throw;
   }
+  try {
+    commit_temporary(sc_tmp, sc_path);
+  } catch (...) {
+    if (!aux_tmp.empty()) discard_temporary(aux_tmp);
+    throw;
+  }
+  // GDAL's view last: terracl's own pair is already consistent when this rename fails.
   if (!aux_tmp.empty()) commit_temporary(aux_tmp, aux_path);
-  commit_temporary(sc_tmp, sc_path);
 }
 
 std::string xml_escape(const std::string& s) {
