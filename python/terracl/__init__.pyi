@@ -396,6 +396,20 @@ def drainage(
 ) -> Heightfield:
     """Replace the heightfield by its drainage area (D8 or D-infinity, flats resolved), in m2 or cells, or by its D8 flow directions in ESRI or GRASS coding."""
 
+def watershed(
+    input: Optional[Union[Heightfield, RasterLike]] = None,
+    *,
+    points: Optional[str] = None,
+    snap: int = 0,  # [cells]
+    device: DeviceSpec = None,
+    progress: Progress = None,
+    cell_size: CellSize = None,
+    transform: Optional[Transform] = None,
+    crs: Crs = None,
+    nodata: Optional[float] = None,
+) -> Heightfield:
+    """Replace the heightfield by the watersheds of pour points on the D8 directions: each cell the number (1, 2, ...) of the point it drains to, nodata elsewhere; nested points cut their basin out."""
+
 def erode(
     input: Optional[Union[Heightfield, RasterLike]] = None,
     *,

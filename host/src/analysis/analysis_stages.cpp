@@ -6,12 +6,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <cstdio>
 #include <chrono>
 #include <ctime>
 #include <random>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/json_limits.hpp>
 #include <terracl/mesh.hpp>
 #include <terracl/render.hpp>
 
@@ -71,6 +74,89 @@ void write_d8_pointer(StageContext& c, bool esri) {
   out.georef.vertical_units = "";
   out.metadata["terracl:quantity"] = esri ? "D8 flow direction (ESRI: 1 E, 2 SE, 4 S, 8 SW, 16 W, 32 NW, 64 N, 128 NE; 0 outlet)"
                                           : "D8 flow direction (GRASS: 1 NE, 2 N, 3 NW, 4 W, 5 SW, 6 S, 7 SE, 8 E; 0 outlet)";
+  h = std::move(out);
+}
+
+// Pour points "X,Y[;X,Y...]" in the raster's map coordinates (its CRS; local metres from the
+// south-west corner for a raster without georeferencing) to cell indices.
+std::vector<std::pair<int, int>> pour_cells(const Heightfield& h, const std::string& text) {
+  const Georef& g = h.georef;
+  std::array<double, 6> gt = {0.0, g.cell_x, 0.0, g.cell_y * h.height, 0.0, -g.cell_y};
+  if (g.has_geotransform) gt = g.geotransform;
+  const double det = gt[1] * gt[5] - gt[2] * gt[4];
+  std::vector<std::pair<int, int>> cells;
+  size_t at = 0;
+  while (at <= text.size()) {
+    const size_t end = std::min(text.find(';', at), text.size());
+    const std::string item = text.substr(at, end - at);
+    at = end + 1;
+    if (item.find_first_not_of(" ") == std::string::npos) continue;
+    double X = 0, Y = 0;
+    char comma = 0, extra = 0;
+    if (std::sscanf(item.c_str(), " %lf %c %lf %c", &X, &comma, &Y, &extra) != 3 || comma != ',' || !std::isfinite(X) ||
+        !std::isfinite(Y))
+      throw UsageError("watershed", fmt::format("points: '{}' is not X,Y (map coordinates of the raster's CRS; several "
+                                                "separated by ';')", abbreviate(item, 40)));
+    const double dx = X - gt[0], dy = Y - gt[3];
+    const double col = (gt[5] * dx - gt[2] * dy) / det, row = (-gt[4] * dx + gt[1] * dy) / det;
+    const int x = int(std::floor(col)), y = int(std::floor(row));
+    if (x < 0 || y < 0 || x >= h.width || y >= h.height)
+      throw UsageError("watershed", fmt::format("points: {},{} lies outside the raster (cell {}, {} of {} x {})", X, Y, x,
+                                                y, h.width, h.height));
+    cells.push_back({x, y});
+  }
+  if (cells.empty()) throw UsageError("watershed", "points: expected at least one X,Y");
+  return cells;
+}
+
+// Watersheds of pour points on the D8 directions: cell i gets the 1-based number of the pour point
+// it drains to, NaN when it drains elsewhere. A pour point upstream of another cuts its basin out
+// of the other's (nested basins, as r.water.outlet / Watershed tools give them).
+void run_watershed(StageContext& c) {
+  Heightfield& h = c.height();
+  std::vector<std::pair<int, int>> pours = pour_cells(h, c.get<std::string>("points"));
+  const analysis::D8Result d8 = analysis::d8_flow(h, c.progress);
+  const int w = h.width, H = h.height, snap = int(c.get<int64_t>("snap"));
+  // Snapping: the cell of largest accumulation within `snap` cells (a point clicked beside the
+  // river channel).
+  for (auto& [px, py] : pours) {
+    int bx = px, by = py;
+    for (int y = std::max(0, py - snap); y <= std::min(H - 1, py + snap); ++y)
+      for (int x = std::max(0, px - snap); x <= std::min(w - 1, px + snap); ++x)
+        if (d8.cells[size_t(y) * w + x] > d8.cells[size_t(by) * w + bx]) bx = x, by = y;
+    px = bx, py = by;
+  }
+  std::vector<int> label(h.size(), 0);
+  for (size_t k = 0; k < pours.size(); ++k) {
+    const size_t i = size_t(pours[k].second) * w + pours[k].first;
+    if (d8.dir[i] == analysis::kNoFlow)
+      throw UsageError("watershed", fmt::format("points: pour point {} is on a nodata cell", k + 1));
+    label[i] = int(k + 1);
+  }
+  std::vector<size_t> stack;
+  for (size_t k = 0; k < pours.size(); ++k) {
+    const size_t start = size_t(pours[k].second) * w + pours[k].first;
+    if (label[start] != int(k + 1)) continue;  // two points snapped to one cell: the first keeps it
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const size_t i = stack.back();
+      stack.pop_back();
+      const int x = int(i % w), y = int(i / w);
+      for (int d = 0; d < 8; ++d) {
+        const int u = x - analysis::kDx[d], v = y - analysis::kDy[d];  // the neighbour that would flow here along d
+        if (u < 0 || v < 0 || u >= w || v >= H) continue;
+        const size_t j = size_t(v) * w + u;
+        if (d8.dir[j] != d || label[j] != 0) continue;  // not a donor, or another pour point / done
+        label[j] = int(k + 1);
+        stack.push_back(j);
+      }
+    }
+  }
+  Heightfield out = h;
+  for (size_t i = 0; i < out.size(); ++i) out.z[i] = label[i] ? float(label[i]) : NAN;
+  out.georef.vertical_units = "";
+  out.georef.nodata = -1.0;
+  out.metadata["terracl:quantity"] = "watershed number (1-based, in the order of points; nodata: drains elsewhere)";
   h = std::move(out);
 }
 
@@ -214,6 +300,21 @@ void register_analysis_stages(StageRegistry& r) {
            {"area", "d8_esri", "d8_grass"},
            false}},
          run_drainage});
+  r.add({"watershed",
+         "Replace the heightfield by the watersheds of pour points on the D8 directions: each cell the number "
+         "(1, 2, ...) of the point it drains to, nodata elsewhere; nested points cut their basin out.",
+         H,
+         H,
+         {{"points",
+           OptionType::String,
+           nullptr,
+           "",
+           "Pour points X,Y in the raster's map coordinates (local metres for a raster without georeferencing), "
+           "several separated by ';'",
+           {},
+           true},
+          {"snap", OptionType::Int, int64_t(0), "cells", "Move each point to the largest accumulation within this many cells", {}, false}},
+         run_watershed});
 }
 
 namespace {

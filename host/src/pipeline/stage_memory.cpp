@@ -91,6 +91,7 @@ PerCell per_cell(const std::string& type, const json& o) {
   if (type == "fill_depressions") return {20};         // measured 15.3
   if (type == "breach") return {21};                   // 16.4
   if (type == "drainage") return {o.value("method", std::string("d8")) == "dinf" ? 40.0 : 31.0};  // 31.2, 24.7
+  if (type == "watershed") return {35};                // drainage's D8 and a label per cell (not measured)
   if (type == "metrics") return {52};                  // 42.2
   if (type == "sketch") return {40};                   // 31.5
   // 16.3 (hillshade PNG); its device buffers are small and --backend cpu uses none, so no device
