@@ -2,6 +2,7 @@
 // `terracl stages` and one auto-generated subcommand per stage, built from the stage table:
 // `terracl <stage> [IN] -o OUT [--option value ...]`.
 #include "cli.hpp"
+#include "cli_reference.hpp"
 #include "stage_flags.hpp"
 #include "tile_flags.hpp"
 
@@ -136,7 +137,7 @@ bool has_subcommand(const CLI::App& app, const std::string& name) {
 }
 
 struct StagesArgs {
-  bool markdown = false;
+  bool markdown = false, man = false, completion = false;
 };
 
 CommandRegistrar reg(50, [](CLI::App& app) {
@@ -144,7 +145,11 @@ CommandRegistrar reg(50, [](CLI::App& app) {
   auto* sub = app.add_subcommand("stages", "List the pipeline stages and their options");
   CLI::App* app_ptr = &app;
   sub->add_flag("--markdown", a->markdown, "Print docs/stages.md");
+  sub->add_flag("--man", a->man, "Print the terracl(1) man page (roff), generated from the commands");
+  sub->add_flag("--bash-completion", a->completion, "Print a bash completion script for terracl");
   sub->callback([a, app_ptr] {
+    if (a->man) return (void)fmt::print("{}", man_page(*app_ptr));
+    if (a->completion) return (void)fmt::print("{}", bash_completion(*app_ptr));
     if (a->markdown) {
       std::vector<std::string> commands;
       for (const CLI::App* c : app_ptr->get_subcommands({})) commands.push_back(c->get_name());

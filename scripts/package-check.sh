@@ -81,7 +81,8 @@ deb() { local f; for f in "$work"/deb/"$1"_*.deb; do [ -e "$f" ] && echo "$f"; d
 rt=$(deb terracl); dev=$(deb terracl-dev)
 [ -n "$rt" ] && [ -n "$dev" ] || fail "cpack made $(ls "$work"/deb/*.deb 2>/dev/null | xargs -n1 basename | tr '\n' ' ')"
 contents() { dpkg-deb -c "$1" | awk '{print $6}'; }
-for f in ./usr/bin/terracl "./usr/$libdir/libterracl.so.$version" "./usr/$libdir/libterracl.so.0"; do
+for f in ./usr/bin/terracl "./usr/$libdir/libterracl.so.$version" "./usr/$libdir/libterracl.so.0" \
+         ./usr/share/man/man1/terracl.1.gz ./usr/share/bash-completion/completions/terracl; do
   contents "$rt" | grep -qx "$f" || fail "$(basename "$rt") lacks $f"
 done
 for f in ./usr/include/terracl/reconstruct.hpp ./usr/include/terracl/version.hpp "./usr/$libdir/libterracl.a" \

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -70,4 +71,26 @@ TEST(CliDocs, PipelinesDocDescribesTheDemoAsItIs) {
     if (st.is_object())
       EXPECT_NE(main_job.find("`" + st["type"].get<std::string>() + "`"), std::string::npos)
           << "docs/pipelines.md's main job does not name stage " << st["type"];
+}
+
+// terracl(1) and the bash completion are generated from the command tree the CLI parses with.
+TEST(CliDocs, ManPageAndBashCompletionFollowTheCommands) {
+  const auto man = test::run_cli("stages --man");
+  ASSERT_EQ(man.exit_code, 0) << man.out;
+  for (const char* want : {".TH TERRACL 1", ".SS warp", ".SS watershed", "\\-\\-t\\-srs", ".SS studio"})
+    EXPECT_NE(man.out.find(want), std::string::npos) << want;
+  const auto comp = test::run_cli("stages --bash-completion");
+  ASSERT_EQ(comp.exit_code, 0) << comp.out;
+  test::TempDir dir;
+  const std::string script = dir.path("terracl.bash");
+  std::ofstream(script) << comp.out;
+  // Completing "terracl wat" gives the command; "terracl warp --t" its options.
+  const std::string run = "bash -c 'source " + script + "; COMP_WORDS=(terracl wat); COMP_CWORD=1; _terracl; "
+                          "echo \"${COMPREPLY[*]}\"; COMP_WORDS=(terracl warp --t); COMP_CWORD=2; _terracl; "
+                          "echo \"${COMPREPLY[*]}\"' > " + dir.path("out.txt") + " 2>&1";
+  ASSERT_EQ(std::system(run.c_str()), 0);
+  const std::string out = test::file_bytes(dir.path("out.txt"));
+  EXPECT_NE(out.find("watershed"), std::string::npos) << out;
+  EXPECT_NE(out.find("--t-srs"), std::string::npos) << out;
+  EXPECT_NE(out.find("--tr"), std::string::npos) << out;
 }
