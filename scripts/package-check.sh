@@ -25,6 +25,11 @@ for d in lib/x86_64-linux-gnu lib64 lib; do
   if [ -e "$prefix/$d/libterracl.a" ]; then libdir=$d; break; fi
 done
 [ -n "$libdir" ] || fail "no libterracl.a under $prefix/lib*"
+# Debian policy: libraries in the multiarch folder (what docs/cpp.md names).
+if [ -e /etc/debian_version ] && command -v dpkg-architecture >/dev/null 2>&1; then
+  ma=$(dpkg-architecture -qDEB_HOST_MULTIARCH)
+  [ "$libdir" = "lib/$ma" ] || fail "libraries installed in $libdir, not Debian's multiarch lib/$ma"
+fi
 version=$(sed -n 's/^#define TERRACL_VERSION "\(.*\)"$/\1/p' "$prefix/include/terracl/version.hpp")
 for f in bin/terracl "$libdir/libterracl.a" "$libdir/libterracl.so" "$libdir/libterracl.so.0" \
          "$libdir/libterracl.so.$version" include/terracl/reconstruct.hpp include/terracl/version.hpp \
