@@ -3,7 +3,9 @@
 #include <OpenImageIO/imageio.h>
 
 #include <cmath>
+#include <algorithm>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
@@ -274,4 +276,32 @@ TEST(AnalysisCli, FillBreachAndDrainageStages) {
   r = test::run_cli("-q drainage " + in + " -o " + tmp.path("x.tif") + " --method mfd");
   EXPECT_EQ(r.exit_code, 2) << r.out;
   EXPECT_NE(r.out.find("mfd"), std::string::npos) << r.out;
+}
+
+// Strahler order of the river segments: heads are 1, and at each confluence the segment that
+// starts there has the largest order flowing in, plus one when two or more inflows share it
+// (Strahler 1957). Segments meet at shared cell-centre end points (first point of the downstream
+// segment = last point of each inflow).
+TEST(AnalysisSketch, StrahlerOrderFollowsItsRuleAtEveryConfluence) {
+  const Heightfield h = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+  SketchOptions o;
+  o.river_fraction = 0.003;
+  const Sketch s = extract_sketch(h, o);
+  auto key = [](const Sketch::Point& p) { return std::pair{std::lround(p.x * 4), std::lround(p.y * 4)}; };
+  std::map<std::pair<long, long>, std::vector<int>> inflows;
+  for (const auto& l : s.rivers) inflows[key(l.points.back())].push_back(l.strahler);
+  int checked = 0, top = 0;
+  for (const auto& l : s.rivers) {
+    ASSERT_GE(l.strahler, 1);
+    top = std::max(top, l.strahler);
+    const auto it = inflows.find(key(l.points.front()));
+    if (it == inflows.end()) continue;  // a head (or an end point moved by smoothing)
+    const std::vector<int>& in = it->second;
+    const int mx = *std::max_element(in.begin(), in.end());
+    const int n_mx = int(std::count(in.begin(), in.end(), mx));
+    EXPECT_EQ(l.strahler, mx + (n_mx >= 2 ? 1 : 0));
+    ++checked;
+  }
+  EXPECT_GT(checked, 10) << "confluences found";
+  EXPECT_GE(top, 3) << "a real DEM's network reaches order 3";
 }

@@ -142,6 +142,7 @@ struct Sketch {
   struct Line {
     std::vector<Point> points;  ///< upstream to downstream (rivers), crest to foot end (ridges)
     double drainage_area_m2;    ///< at the last point (rivers) / on the inverted terrain (ridges)
+    int strahler = 0;           ///< Strahler order of the segment in the D8 network (heads: 1)
   };
   struct Extremum {
     Point p;

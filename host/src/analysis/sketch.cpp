@@ -256,6 +256,25 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
       const ptrdiff_t j = receiver(i);
       if (j >= 0) donors[size_t(j)]++;
     }
+  // Strahler order of every network cell, heads first (Kahn's order over the network's donors): a
+  // cell takes the largest order flowing in, plus one where two or more inflows share it.
+  std::vector<uint8_t> order(n, 0), max_in(n, 0), n_max(n, 0), pending = donors;
+  std::vector<size_t> ready;
+  for (size_t i = 0; i < n; ++i)
+    if (mask[i] && donors[i] == 0) order[i] = 1, ready.push_back(i);
+  while (!ready.empty()) {
+    const size_t i = ready.back();
+    ready.pop_back();
+    const ptrdiff_t r = receiver(i);
+    if (r < 0 || !mask[size_t(r)]) continue;
+    const size_t j = size_t(r);
+    if (order[i] > max_in[j]) max_in[j] = order[i], n_max[j] = 1;
+    else if (order[i] == max_in[j]) ++n_max[j];
+    if (--pending[j] == 0) {
+      order[j] = uint8_t(std::min(255, max_in[j] + (n_max[j] >= 2 ? 1 : 0)));
+      ready.push_back(j);
+    }
+  }
   std::vector<Sketch::Line> lines;
   std::vector<std::vector<Sketch::Point>> smoothed;
   std::vector<Sketch::Point> pts;
@@ -287,6 +306,7 @@ std::vector<Sketch::Line> trace_network(const Heightfield& surface, const Height
     }
     simplify(pts, simplify_tol, line.points);
     line.drainage_area_m2 = d8.area_m2(last);
+    line.strahler = order[i];  // a segment's cells share its start's order (no confluence inside)
     lines.push_back(std::move(line));
     smoothed.push_back(pts);
   }
@@ -410,7 +430,7 @@ json sketch_to_json(const Sketch& s, const Heightfield& h) {
     for (const auto& l : lines) {
       json pts = json::array();
       for (const auto& p : l.points) pts.push_back({p.x, p.y, p.z});
-      a.push_back({{"points", pts}, {"drainage_area_m2", l.drainage_area_m2}});
+      a.push_back({{"points", pts}, {"drainage_area_m2", l.drainage_area_m2}, {"strahler", l.strahler}});
     }
     return a;
   };

@@ -64,15 +64,16 @@ void write_sketch_vectors(const Sketch& s, const Heightfield& h, const std::stri
     OGRLayer* layer = ds->CreateLayer("sketch", has_crs ? &srs : nullptr, wkbUnknown, lco);
     CSLDestroy(lco);
     if (!layer) fail("sketch", "cannot create a layer in {} ({})", path, first.message());
-    for (const auto& [name, type] : {std::pair{"kind", OFTString}, {"drainage_area_m2", OFTReal},
+    for (const auto& [name, type] : {std::pair{"kind", OFTString}, {"drainage_area_m2", OFTReal}, {"strahler", OFTInteger},
                                      {"elevation_m", OFTReal}, {"relief_m", OFTReal}}) {
       OGRFieldDefn f(name, type);
       if (layer->CreateField(&f) != OGRERR_NONE) fail("sketch", "cannot add field {} to {}", name, path);
     }
-    auto add = [&](const char* kind, OGRGeometry* geom, double area, double z, double relief) {
+    auto add = [&](const char* kind, OGRGeometry* geom, double area, double z, double relief, int strahler = 0) {
       OGRFeature f(layer->GetLayerDefn());
       f.SetField("kind", kind);
       if (area >= 0) f.SetField("drainage_area_m2", area);
+      if (strahler > 0) f.SetField("strahler", strahler);
       f.SetField("elevation_m", z);
       if (relief >= 0) f.SetField("relief_m", relief);
       f.SetGeometryDirectly(geom);
@@ -83,7 +84,7 @@ void write_sketch_vectors(const Sketch& s, const Heightfield& h, const std::stri
         if (l.points.size() < 2) continue;
         auto* ls = new OGRLineString();
         for (const auto& p : l.points) ls->addPoint(map_x(p), map_y(p), p.z);
-        add(kind, ls, l.drainage_area_m2, l.points.front().z, -1);
+        add(kind, ls, l.drainage_area_m2, l.points.front().z, -1, l.strahler);
       }
     for (const auto& [kind, points] : {std::pair{"peak", &s.peaks}, {"basin", &s.basins}})
       for (const Sketch::Extremum& e : *points) add(kind, new OGRPoint(map_x(e.p), map_y(e.p), e.p.z), -1, e.p.z, e.relief_m);
