@@ -9,6 +9,10 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
+#include <memory>
+
+#include <ogr_spatialref.h>
 
 using namespace terracl;
 
@@ -69,4 +73,41 @@ TEST(Watershed, BasinsHoldTheirAccumulationAndNest) {
     EXPECT_EQ(r.exit_code, 2) << points << "\n" << r.out;
     EXPECT_NE(r.out.find(why), std::string::npos) << r.out;
   }
+}
+
+// Pour points from a vector file in another CRS: a GeoJSON (WGS 84 longitude/latitude) point on
+// the outlet of a UTM raster gives the same basin as its UTM coordinates.
+TEST(Watershed, PourPointsFromAGeoJsonInAnotherCrs) {
+  test::TempDir dir;
+  const std::string utm = dir.path("utm.tif");
+  auto r = test::run_cli("warp " + q(test::data_path("crops/presidential_128x96.tif")) + " -o " + q(utm) +
+                         " -t_srs EPSG:32619 -tr 100 100 -ot Float32");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const Heightfield h = read_heightfield(utm);
+  const analysis::D8Result d8 = analysis::d8_flow(h);
+  size_t outer = 0;
+  for (size_t i = 0; i < d8.cells.size(); ++i)
+    if (d8.cells[i] > d8.cells[outer]) outer = i;
+  const auto& gt = h.georef.geotransform;
+  double x = gt[0] + (double(outer % h.width) + 0.5) * gt[1], y = gt[3] + (double(outer / h.width) + 0.5) * gt[5];
+  OGRSpatialReference from, to;
+  from.importFromEPSG(32619);
+  to.importFromEPSG(4326);
+  from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  to.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> t(OGRCreateCoordinateTransformation(&from, &to));
+  ASSERT_TRUE(t && t->Transform(1, &x, &y));
+  std::ofstream(dir.path("pour.geojson")) << fmt::format(
+      R"({{"type": "FeatureCollection", "features": [{{"type": "Feature", "properties": {{}},
+          "geometry": {{"type": "Point", "coordinates": [{:.12f}, {:.12f}]}}}}]}})", x, y);
+  r = test::run_cli("watershed " + q(utm) + " -o " + q(dir.path("ws.tif")) + " --points " + q(dir.path("pour.geojson")));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_EQ(double(count(read_heightfield(dir.path("ws.tif")), 1.0f)), d8.cells[outer]);
+  // A file of lines is not pour points.
+  std::ofstream(dir.path("line.geojson"))
+      << R"({"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {},
+            "geometry": {"type": "LineString", "coordinates": [[-71.3, 44.3], [-71.2, 44.3]]}}]})";
+  r = test::run_cli("watershed " + q(utm) + " -o " + q(dir.path("ws2.tif")) + " --points " + q(dir.path("line.geojson")));
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("pour points are points"), std::string::npos) << r.out;
 }

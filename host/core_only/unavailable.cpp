@@ -31,6 +31,9 @@ namespace {
 
 std::string stored_band_type(const std::string&) { return {}; }
 bool analysis::is_sketch_vector_path(const std::string&) { return false; }
+std::vector<std::array<double, 2>> analysis::read_pour_points(const std::string& path, const Georef&) {
+  unavailable("vector (OGR) reading", path);
+}
 void analysis::write_sketch_vectors(const analysis::Sketch&, const Heightfield&, const std::string& path) {
   unavailable("vector (OGR) writing", path);
 }

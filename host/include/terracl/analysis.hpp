@@ -14,6 +14,7 @@
 #include <string>
 #include <terracl/heightfield.hpp>
 #include <terracl/progress.hpp>
+#include <array>
 #include <vector>
 
 namespace terracl::analysis {
@@ -160,6 +161,9 @@ Sketch extract_sketch(const Heightfield& h, const SketchOptions& opt = {}, const
 
 /// The JSON document described in docs/analysis.md ("terracl-sketch", version 1).
 nlohmann::json sketch_to_json(const Sketch& s, const Heightfield& h);
+/// The points (and multipoints) of the first layer of an OGR vector file, in the CRS of `g` (transformed
+/// from the layer's when both are known); UsageError naming the file otherwise.
+std::vector<std::array<double, 2>> read_pour_points(const std::string& path, const Georef& g);
 /// Whether `path` names a vector file write_sketch_vectors writes (.geojson, .gpkg, .kml).
 bool is_sketch_vector_path(const std::string& path);
 /// Rivers and ridges (3-D lines), peaks and basins (points) as one layer "sketch" with fields kind,

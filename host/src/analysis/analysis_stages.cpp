@@ -85,6 +85,20 @@ std::vector<std::pair<int, int>> pour_cells(const Heightfield& h, const std::str
   if (g.has_geotransform) gt = g.geotransform;
   const double det = gt[1] * gt[5] - gt[2] * gt[4];
   std::vector<std::pair<int, int>> cells;
+  auto to_cell = [&](double X, double Y) {
+    const double dx = X - gt[0], dy = Y - gt[3];
+    const double col = (gt[5] * dx - gt[2] * dy) / det, row = (-gt[4] * dx + gt[1] * dy) / det;
+    const int x = int(std::floor(col)), y = int(std::floor(row));
+    if (!(col >= 0 && row >= 0 && col < h.width && row < h.height))
+      throw UsageError("watershed", fmt::format("points: {},{} lies outside the raster (cell {}, {} of {} x {})", X, Y,
+                                                std::floor(col), std::floor(row), h.width, h.height));
+    cells.push_back({x, y});
+  };
+  // A vector file (any OGR source) rather than coordinates.
+  if (text.find(',') == std::string::npos && path_exists(text, true)) {
+    for (const auto& p : analysis::read_pour_points(text, g)) to_cell(p[0], p[1]);
+    return cells;
+  }
   size_t at = 0;
   while (at <= text.size()) {
     const size_t end = std::min(text.find(';', at), text.size());
@@ -97,13 +111,7 @@ std::vector<std::pair<int, int>> pour_cells(const Heightfield& h, const std::str
         !std::isfinite(Y))
       throw UsageError("watershed", fmt::format("points: '{}' is not X,Y (map coordinates of the raster's CRS; several "
                                                 "separated by ';')", abbreviate(item, 40)));
-    const double dx = X - gt[0], dy = Y - gt[3];
-    const double col = (gt[5] * dx - gt[2] * dy) / det, row = (-gt[4] * dx + gt[1] * dy) / det;
-    const int x = int(std::floor(col)), y = int(std::floor(row));
-    if (x < 0 || y < 0 || x >= h.width || y >= h.height)
-      throw UsageError("watershed", fmt::format("points: {},{} lies outside the raster (cell {}, {} of {} x {})", X, Y, x,
-                                                y, h.width, h.height));
-    cells.push_back({x, y});
+    to_cell(X, Y);
   }
   if (cells.empty()) throw UsageError("watershed", "points: expected at least one X,Y");
   return cells;
@@ -310,7 +318,8 @@ void register_analysis_stages(StageRegistry& r) {
            nullptr,
            "",
            "Pour points X,Y in the raster's map coordinates (local metres for a raster without georeferencing), "
-           "several separated by ';'",
+           "several separated by ';', or a vector file of points (GeoJSON, GeoPackage, Shapefile; transformed to the "
+           "raster's CRS)",
            {},
            true},
           {"snap", OptionType::Int, int64_t(0), "cells", "Move each point to the largest accumulation within this many cells", {}, false}},
