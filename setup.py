@@ -4,7 +4,10 @@
 Drives CMake (the top CMakeLists.txt with only the Python module enabled) and puts the built
 extension beside python/terracl/*.py. Needs Debian's python3-setuptools, pybind11-dev and the
 build dependencies of scripts/install-deps.sh; no PyPI access (hence --no-build-isolation).
-Environment: TERRACL_CMAKE_ARGS (extra cmake arguments), TERRACL_BUILD_JOBS (default 2).
+Environment: TERRACL_CMAKE_ARGS (extra cmake arguments), TERRACL_BUILD_JOBS (default 2),
+TERRACL_BUILD_DIR (a build folder that already holds the module, python/terracl/_terracl*.so:
+the wheel takes it as it is and compiles nothing). MPI/hypre are left out unless
+TERRACL_CMAKE_ARGS asks for them (-DTERRACL_MPI=ON).
 """
 import os
 import shlex
@@ -33,6 +36,18 @@ class CMakeExtension(Extension):
 class CMakeBuild(build_ext):
     def build_extension(self, ext):
         out_dir = os.path.dirname(os.path.abspath(self.get_ext_fullpath(ext.name)))
+        prebuilt = os.environ.get("TERRACL_BUILD_DIR")
+        if prebuilt:
+            built = os.path.join(os.path.abspath(prebuilt), "python", "terracl")
+            modules = [n for n in (os.listdir(built) if os.path.isdir(built) else [])
+                       if n.startswith("_terracl") and n.endswith(".so")]
+            if not modules:
+                sys.exit("TERRACL_BUILD_DIR=%s: no python/terracl/_terracl*.so there; build the target "
+                         "terracl_python first (cmake --build %s --target terracl_python)" % (prebuilt, prebuilt))
+            os.makedirs(out_dir, exist_ok=True)
+            for name in modules:
+                self.copy_file(os.path.join(built, name), os.path.join(out_dir, name))
+            return
         build_dir = os.path.abspath(os.path.join(self.build_temp, "cmake"))
         os.makedirs(build_dir, exist_ok=True)
         args = [
@@ -42,6 +57,7 @@ class CMakeBuild(build_ext):
             "-DTERRACL_BUILD_TESTS=OFF",
             "-DTERRACL_BUILD_APPS=OFF",
             "-DTERRACL_BUILD_BENCHMARKS=OFF",
+            "-DTERRACL_MPI=OFF",
         ] + shlex.split(os.environ.get("TERRACL_CMAKE_ARGS", ""))
         subprocess.check_call(["cmake", "-S", ROOT, "-B", build_dir] + args)
         subprocess.check_call(["cmake", "--build", build_dir, "--target", "terracl_python",
