@@ -67,6 +67,36 @@ bool is_local_geotransform(GDALDataset& ds, const double* gt) {
   return gt[0] == 0.0 && gt[1] == x && gt[2] == 0.0 && gt[3] == y * ds.GetRasterYSize() && gt[4] == 0.0 && gt[5] == -y;
 }
 
+// The band type --ot names, among those terracl writes.
+GDALDataType output_band_type(const WriteOptions& wo) {
+  const GDALDataType type = GDALGetDataTypeByName(wo.output_type.c_str());
+  if (type != GDT_Float32 && type != GDT_Float64 && type != GDT_Int16 && type != GDT_UInt16 && type != GDT_Int32)
+    fail("io", "output type '{}' is not one terracl writes; use Float32, Float64, Int16, UInt16 or Int32",
+         abbreviate(wo.output_type, 30));
+  return type;
+}
+
+// The user's --co KEY=VALUE added to (and overriding) `opts`. A key the driver does not list is
+// refused instead of writing a file without it (GDAL only warns); `opts` is freed on a refusal.
+char** add_creation_options(char** opts, GDALDriver& drv, const std::string& driver, const WriteOptions& wo) {
+  const char* list = drv.GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
+  for (const std::string& kv : wo.creation_options) {
+    const auto eq = kv.find('=');
+    const std::string key = eq == std::string::npos ? std::string() : kv.substr(0, eq);
+    if (key.empty()) {
+      CSLDestroy(opts);
+      fail("io", "creation option '{}' must be KEY=VALUE (as gdal_translate -co)", abbreviate(kv, 60));
+    }
+    if (!list || std::string(list).find("name='" + key + "'") == std::string::npos) {
+      CSLDestroy(opts);
+      fail("io", "creation option {} is not one the {} driver knows (gdalinfo --format {} lists them)", key, driver,
+           driver);
+    }
+    opts = CSLSetNameValue(opts, key.c_str(), kv.substr(eq + 1).c_str());
+  }
+  return opts;
+}
+
 }  // namespace
 
 void set_geotransform_for_writing(GDALDataset& ds, const Georef& g, int height) {
@@ -345,10 +375,7 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
 
 void write_geotiff(const Heightfield& h, const std::string& tmp_path, const WriteOptions& wo) {
   init_gdal();
-  const GDALDataType type = GDALGetDataTypeByName(wo.output_type.c_str());
-  if (type != GDT_Float32 && type != GDT_Float64 && type != GDT_Int16 && type != GDT_UInt16 && type != GDT_Int32)
-    fail("io", "output type '{}' is not one terracl writes; use Float32, Float64, Int16, UInt16 or Int32",
-         abbreviate(wo.output_type, 30));
+  const GDALDataType type = output_band_type(wo);
   const char* driver = wo.cog ? "COG" : "GTiff";
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName(driver);
   if (!drv) fail("io", "GDAL has no {} driver", driver);
@@ -360,18 +387,7 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   // DEFLATE on every core (GDAL compresses blocks in parallel; the bytes are the same): 4.3 s of an
   // 8193^2 slope write was single-threaded compression.
   opts = CSLSetNameValue(opts, "NUM_THREADS", "ALL_CPUS");
-  for (const std::string& kv : wo.creation_options) {
-    const auto eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0)
-      fail("io", "creation option '{}' must be KEY=VALUE (as gdal_translate -co)", abbreviate(kv, 60));
-    const std::string key = kv.substr(0, eq);
-    // Refuse a misspelt key instead of writing a file without it (GDAL only warns).
-    if (const char* list = drv->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
-        list && std::string(list).find("name='" + key + "'") == std::string::npos)
-      fail("io", "creation option {} is not one the {} driver knows (gdalinfo --format {} lists them)", key, driver,
-           driver);
-    opts = CSLSetNameValue(opts, key.c_str(), kv.substr(eq + 1).c_str());
-  }
+  opts = add_creation_options(opts, *drv, driver, wo);
   DatasetPtr mem = to_mem_dataset(h, type);
   GdalFirstError first;
   auto gdal_error = [&] { return name_output(first.message(), tmp_path); };
@@ -464,24 +480,8 @@ std::vector<std::string> write_gdal_copy(const Heightfield& h, const std::string
   init_gdal();
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName(driver.c_str());
   if (!drv) fail("io", "GDAL has no {} driver", driver);
-  const GDALDataType type = GDALGetDataTypeByName(wo.output_type.c_str());
-  if (type != GDT_Float32 && type != GDT_Float64 && type != GDT_Int16 && type != GDT_UInt16 && type != GDT_Int32)
-    fail("io", "output type '{}' is not one terracl writes; use Float32, Float64, Int16, UInt16 or Int32",
-         abbreviate(wo.output_type, 30));
-  char** opts = nullptr;
-  for (const std::string& kv : wo.creation_options) {
-    const auto eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0)
-      fail("io", "creation option '{}' must be KEY=VALUE (as gdal_translate -co)", abbreviate(kv, 60));
-    const std::string key = kv.substr(0, eq);
-    if (const char* list = drv->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
-        !list || std::string(list).find("name='" + key + "'") == std::string::npos) {
-      CSLDestroy(opts);
-      fail("io", "creation option {} is not one the {} driver knows (gdalinfo --format {} lists them)", key, driver,
-           driver);
-    }
-    opts = CSLSetNameValue(opts, key.c_str(), kv.substr(eq + 1).c_str());
-  }
+  const GDALDataType type = output_band_type(wo);
+  char** opts = add_creation_options(nullptr, *drv, driver, wo);
   DatasetPtr mem = to_mem_dataset(h, type);
   GdalFirstError first;
   CPLErrorReset();
