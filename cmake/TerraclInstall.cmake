@@ -35,6 +35,16 @@ if(TARGET terracl_cli)
           RENAME terracl COMPONENT runtime)
 endif()
 
+# Debian's changelog.Debian.gz in every package (cmake/debian/changelog, gzip -n: reproducible).
+set(_changelog ${CMAKE_BINARY_DIR}/share/changelog.Debian.gz)
+add_custom_command(OUTPUT ${_changelog}
+  COMMAND ${CMAKE_COMMAND} -E make_directory ${CMAKE_BINARY_DIR}/share
+  COMMAND sh -c "gzip -9n -c '${CMAKE_SOURCE_DIR}/cmake/debian/changelog' > '${_changelog}'"
+  DEPENDS ${CMAKE_SOURCE_DIR}/cmake/debian/changelog VERBATIM)
+add_custom_target(terracl_changelog ALL DEPENDS ${_changelog})
+install(FILES ${_changelog} DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl COMPONENT runtime)
+install(FILES ${_changelog} DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl-dev COMPONENT development)
+
 # The licence (Apache-2.0) in every package, where Debian policy puts it.
 install(FILES ${CMAKE_SOURCE_DIR}/cmake/copyright DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl COMPONENT runtime)
 install(FILES ${CMAKE_SOURCE_DIR}/cmake/copyright DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl-dev COMPONENT development)

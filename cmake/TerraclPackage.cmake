@@ -15,6 +15,11 @@ set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+# Debian policy (lintian): stripped binaries, an ldconfig trigger for the shared library.
+set(CPACK_STRIP_FILES ON)
+file(WRITE ${CMAKE_BINARY_DIR}/debian-control/triggers "activate-noawait ldconfig\n")
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/debian-control/triggers)
+set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 # Components that have files are packaged; `python` appears once python/ installs into it.
 
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME terracl)
