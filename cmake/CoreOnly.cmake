@@ -35,7 +35,7 @@ file(GLOB_RECURSE TERRACL_CORE_SOURCES CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/hos
 # Sources that need a GIS / image / mesh / web library, and the features built on them
 # (amplify/resample.cpp and parallel.cpp stay: the downsample stage uses them).
 list(FILTER TERRACL_CORE_SOURCES EXCLUDE REGEX
-     "/host/src/(mpi/.*|reconstruct/hypre_bands|io/gdal_io|io/gdal_window|io/tiff_blocks|io/gradient_tiff|io/oiio_io|io/oiio_checked|render/render_stream|io/warp|tile/tile_run|tile/tile_segment|tile/tiled_run_parts|tile/render_tiles|tile/warp_tiles|tile/metrics_tiles|tile/amplify_tiles|authoring/gradient_image|analysis/sketch_vectors|analysis/pour_points|authoring/ops_amplify|render/render_png|mesh/mesh_gltf|studio/.*|amplify/(amplify|amplify_stage|amplify_step|amplify_calibration|amplify_cascade|amplify_gain|dictionary|eval|exemplar_warp|flann_search|ksvd|omp|patches|regression|spectral))\\.cpp$")
+     "/host/src/(mpi/.*|reconstruct/hypre_bands|io/gdal_io|io/gdal_window|io/tiff_blocks|io/gradient_tiff|io/oiio_io|io/oiio_checked|render/render_stream|io/warp|tile/tile_run|tile/tile_segment|tile/tiled_run_parts|tile/render_tiles|tile/warp_tiles|tile/metrics_tiles|tile/amplify_tiles|authoring/gradient_image|authoring/landform_detail|analysis/sketch_vectors|analysis/pour_points|authoring/ops_amplify|render/render_png|mesh/mesh_gltf|studio/.*|amplify/(amplify|amplify_stage|amplify_step|amplify_calibration|amplify_cascade|amplify_gain|dictionary|eval|exemplar_warp|flann_search|ksvd|omp|patches|regression|spectral))\\.cpp$")
 list(APPEND TERRACL_CORE_SOURCES ${CMAKE_SOURCE_DIR}/host/core_only/unavailable.cpp)
 
 add_library(terracl STATIC ${TERRACL_CORE_SOURCES} ${EMBEDDED_KERNELS_CPP})

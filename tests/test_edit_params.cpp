@@ -89,6 +89,8 @@ TEST(EditParams, EveryOperationRejectsBadParameters) {
       {{{"op", "strata"}, {"center", {150, 150}}, {"radius", 50}, {"top", 100}, {"thickness", -2}}, "/operations/0/thickness"},
       {{{"op", "drainage"}, {"depth", -4}}, "/operations/0/depth"},
       {{{"op", "lake"}, {"seed", {1000, 50}}}, "/operations/0/seed"},
+      {{{"op", "style"}, {"style", "marble"}, {"center", {50, 50}}, {"radius", 20}}, "/operations/0/style"},
+      {{{"op", "style"}, {"style", "alpine"}}, "/operations/0"},
   };
   std::set<std::string> covered;
   for (const auto& c : cases) {

@@ -4,6 +4,7 @@
 // points so that everything else links unchanged; each says what is missing instead of crashing.
 // RAW16 (.r16/.raw, host/src/io/raw16.cpp) stays available.
 #include "authoring/state.hpp"
+#include "authoring/landform_detail.hpp"
 #include "reconstruct/hypre_solve.hpp"
 #include "io/io_common.hpp"
 #include "mesh/mesh_gltf.hpp"
@@ -109,3 +110,15 @@ ReconstructResult reconstruct_hypre_files(const HypreBandFiles& f, const SolverO
 Heightfield read_heightfield_rows(const std::string& path, int, int, int*, int*) { unavailable("row reading", path); }
 
 }  // namespace terracl
+
+namespace terracl::edit {
+// No dictionaries in the core build: strokes keep their procedural detail, and a painted style
+// only records its region for them.
+bool add_real_detail(EditState&, ShapeRaster&, const DetailSpec&, uint32_t, const std::vector<Vec2>*) { return false; }
+ShapeRaster paint_style(EditState& s, const std::string& style, const HostRegion& weight, bool retexture, double, uint32_t) {
+  s.add_style({style, weight});
+  if (retexture) fail("edit", "style '{}': retexturing needs the sparse dictionaries, not available in the core build "
+                      "(TERRACL_CORE_ONLY); set \"retexture\": false or use the full build", style);
+  return {};
+}
+}  // namespace terracl::edit

@@ -52,6 +52,9 @@ struct EditOptions {
   /// Local solves (docs/authoring.md, "Locality"): true = local, false = global, nullopt = local
   /// unless the base is flat (every cell equal, e.g. flat:WxH). A script's "solve" overrides it.
   std::optional<bool> locality;
+  /// Landform strokes draw sparse-dictionary detail (docs/authoring.md, "Detail and styles"); the
+  /// studio's coarse previews turn it off (their grid is a sample of the terrain).
+  bool landform_detail = true;
 };
 
 /// "flat:WIDTHxHEIGHT[@CELLSIZE][+ELEVATION]" -> a level heightfield (cell size in metres, default 1; elevation in metres, default 0); nullopt

@@ -7,11 +7,13 @@
 #include "authoring/ops_landforms.hpp"
 
 #include "authoring/curve_shape.hpp"
+#include "authoring/landform_detail.hpp"
 #include "authoring/landform_shapes.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -63,6 +65,10 @@ std::optional<double> full_width(Params& p) {
   return opt_h(p, "width");
 }
 
+// The landform's change with real detail (landform_detail.hpp), added with its sign and logged.
+void finish(EditState& s, ShapeRaster& c, int sign, const DetailSpec& det, uint32_t seed, double size, double width,
+            const std::vector<Vec2>* keep = nullptr);
+
 void log_change(EditState& s, const ShapeRaster& c, double size, double width) {
   size_t n = 0;
   float peak = 0;
@@ -73,6 +79,16 @@ void log_change(EditState& s, const ShapeRaster& c, double size, double width) {
   e["width_m"] = width;
   e["changed_cells"] = n;
   e["max_change_m"] = peak;
+}
+
+void finish(EditState& s, ShapeRaster& c, int sign, const DetailSpec& det, uint32_t seed, double size, double width,
+            const std::vector<Vec2>* keep) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool real = add_real_detail(s, c, det, seed, keep);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  log_change(s, add_change(s, c, sign), size, width);
+  s.log().back()["detail"] = real ? "dictionary" : "procedural";
+  if (real) s.log().back()["detail_ms"] = ms;
 }
 
 // The bed of a valley never rises downstream: the depth below the terrain at each vertex is at
@@ -91,6 +107,7 @@ struct MonotoneBed {
 };
 
 Operation parse_range_like(Params& p, bool point, double def_spurs, double size_factor, double width_factor) {
+  const DetailSpec det = parse_detail(p, "alpine");
   // A range's points may carry its crest height per vertex, [x, y, height above the ground].
   std::vector<double> per_vertex;
   std::vector<Vec2> stroke;
@@ -124,7 +141,7 @@ Operation parse_range_like(Params& p, bool point, double def_spurs, double size_
     r.spurs = spurs;
     r.look = look;
     ShapeRaster c = ridge_system(s.grid(), r);
-    log_change(s, add_change(s, c, +1), h, r.width);
+    finish(s, c, +1, det, look.seed, h, r.width);
   };
 }
 
@@ -136,6 +153,7 @@ Operation parse_volcano(Params& p) {
   const auto height = opt_v(p, "height");
   const auto radius = opt_h(p, "radius");
   const double crater = p.number("crater", 0.15, 0.0, 0.5);
+  const DetailSpec det = parse_detail(p, "eroded_hills");
   const LandformLook look = parse_look(p, 0.5, 0.3);
   if (radius) p.note_reach(*radius);
   else if (height) p.note_reach(3.5 * *height);
@@ -147,12 +165,13 @@ Operation parse_volcano(Params& p) {
     v.crater = crater;
     v.look = look;
     ShapeRaster ch = volcano(s.grid(), v);
-    log_change(s, add_change(s, ch, +1), v.height, v.radius);
+    finish(s, ch, +1, det, look.seed, v.height, v.radius);
   };
 }
 
 Operation parse_valley_like(Params& p, double size_factor, double width_factor, int def_bands, double def_branches,
-                            double floor, double meander) {
+                            double floor, double meander, const std::string& style) {
+  const DetailSpec det = parse_detail(p, style);
   const auto stroke = stroke_of(p, "points", 2);
   const auto depth = opt_v(p, "depth");
   const auto width = full_width(p);
@@ -175,11 +194,11 @@ Operation parse_valley_like(Params& p, double size_factor, double width_factor, 
     v.look = look;
     ShapeRaster c = valley_system(s.grid(), v);
     for (float& x : c.v) x = -x;
-    log_change(s, add_change(s, c, -1), d, v.width);
+    finish(s, c, -1, det, look.seed, d, v.width);
   };
 }
 
-Operation parse_canyon(Params& p) { return parse_valley_like(p, 0.6, 2.2, 4, 1.0, 0.22, 0.12); }
+Operation parse_canyon(Params& p) { return parse_valley_like(p, 0.6, 2.2, 4, 1.0, 0.22, 0.12, "dissected_plateau"); }
 
 }  // namespace
 
@@ -191,6 +210,7 @@ Operation relative_crest(Params& p) {
   const double spurs = p.number("spurs", 0.5, 0.0, 2.0);
   const auto taper = p.has("taper") ? std::optional<double>(p.hlength("taper", 0.0)) : std::nullopt;
   const LandformLook look = parse_look(p, 0.4, 0.0);
+  const DetailSpec det = parse_detail(p, "alpine");
   if (width) p.note_reach(0.5 * *width);
   else if (height) p.note_reach(2.2 * *height);
   const double sharpness = profile == "sharp" || profile == "v" ? 1.0 : profile == "u" ? 0.3 : 0.0;
@@ -206,12 +226,13 @@ Operation relative_crest(Params& p) {
     r.taper = taper.value_or(-1.0);
     r.look = look;
     ShapeRaster c = ridge_system(s.grid(), r);
-    log_change(s, add_change(s, c, +1), h, r.width);
+    // A crest keeps the line and height it was drawn with: the detail leaves the line itself.
+    finish(s, c, +1, det, look.seed, h, r.width, &stroke);
   };
 }
 
 Operation relative_river(Params& p) {
-  return parse_valley_like(p, 0.15, 4.0, 0, 0.6, 0.12, 0.25);
+  return parse_valley_like(p, 0.15, 4.0, 0, 0.6, 0.12, 0.25, "eroded_hills");
 }
 
 Operation relative_cliff(Params& p) {
@@ -223,6 +244,7 @@ Operation relative_cliff(Params& p) {
   const int bands = p.integer("bands", 3, 0, 12);
   const double talus = p.number("scree", 0.3, 0.0, 0.9);
   const LandformLook look = parse_look(p, 0.5, 0.25);
+  const DetailSpec det = parse_detail(p, "dissected_plateau");
   if (back) p.note_reach(*back);
   else if (drop) p.note_reach(6 * *drop);
   return [=](EditState& s) {
@@ -235,7 +257,7 @@ Operation relative_cliff(Params& p) {
     e.talus = talus;
     e.look = look;
     ShapeRaster c = escarpment(s.grid(), e);
-    log_change(s, add_change(s, c, +1), e.drop, e.back);
+    finish(s, c, +1, det, look.seed, e.drop, e.back);
   };
 }
 

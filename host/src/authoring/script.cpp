@@ -172,9 +172,10 @@ Parsed parse_script(const json& script, Grid grid) {
 
 namespace {
 // True when every enabled operation is a landform stroke placed relative to the ground (its change
-// is computed whole and fades to nothing) or a lake (no change at all).
+// is computed whole and fades to nothing), a lake (no change at all) or a painted style (a change of
+// the relief finer than 4 cells that keeps the block means, inside its region).
 bool landform_strokes_only(const nlohmann::json& script) {
-  static const std::set<std::string> always = {"mountain_range", "peak", "volcano", "canyon", "lake"};
+  static const std::set<std::string> always = {"mountain_range", "peak", "volcano", "canyon", "lake", "style"};
   static const std::set<std::string> when_relative = {"crest", "river", "cliff"};
   if (!script.is_object() || !script.contains("operations")) return true;
   for (const auto& op : script["operations"]) {
@@ -206,6 +207,7 @@ EditSession::EditSession(Device& d, const Heightfield& base, EditOptions o) : m_
   for (float v : base.z) flat = flat && v == base.z.front();
   m_auto_flat = flat && !m_options.locality;
   m_state->set_local(m_options.locality.value_or(true));
+  m_state->set_landform_detail(m_options.landform_detail);
 }
 
 EditSession::EditSession(std::unique_ptr<edit::EditState> state, EditOptions o, Georef g, bool auto_flat)

@@ -30,6 +30,9 @@ EditState::EditState(Device& d, const GradientField& g0, std::optional<Heightfie
     m_base = *m_solution;
     m_base_gx = g0.gx;
     m_base_gy = g0.gy;
+    // A base with relief is the "local" style's exemplar (landform_detail.cpp); a level one has none.
+    const auto [lo, hi] = std::minmax_element(m_base.z.begin(), m_base.z.end());
+    if (lo != m_base.z.end() && *hi - *lo > 1.0f) m_start = std::make_shared<const Heightfield>(m_base);
   }
   // The template only carries georef/metadata/mean; its arrays are reused for downloads.
 }
@@ -589,6 +592,7 @@ const std::vector<OpSpec>& operations() {
     add_brush_ops(v);
     add_curve_ops(v);
     add_landform_ops(v);
+    add_style_ops(v);
     add_composite_ops(v);
     add_paste_ops(v);
     add_fit_ops(v);

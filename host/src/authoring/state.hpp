@@ -22,6 +22,18 @@ namespace terracl::edit {
 /// point far off the grid (a vertex at 1e11 m) must not overflow int.
 inline int cell_index(double v) { return std::isfinite(v) ? int(std::clamp(v, -1e9, 1e9)) : 0; }
 
+/// A region's weight (1 inside, fading over its falloff) on the host, over the box of cells it
+/// touches: what operations that work on the host (strata, drainage) read once.
+struct HostRegion {
+  Box box;
+  std::vector<float> w;  ///< box.w x box.h, row by row
+  bool contains(int x, int y) const { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; }
+  /// Index into box-sized arrays (the cell must be in the box).
+  size_t at(int x, int y) const { return size_t(y - box.y0) * box.w + (x - box.x0); }
+  /// The weight at a grid cell, 0 outside the box.
+  double weight(int x, int y) const { return contains(x, y) ? double(w[at(x, y)]) : 0.0; }
+};
+
 class EditState {
  public:
   /// `g0` is the starting gradient (its georef, metadata and mean elevation are kept);
@@ -69,6 +81,22 @@ class EditState {
   void upload(const GradientField& g);
   /// Mean elevation reconstruction keeps when no cell is hard.
   void set_mean(double m) { m_template.mean_elevation = m; }
+
+  // ---- landform detail (landform_detail.hpp) ----
+  /// Whether landform strokes draw dictionary detail (off in the studio's coarse previews, where
+  /// the grid is a sample and the detail would be lost anyway).
+  bool landform_detail() const { return m_landform_detail; }
+  void set_landform_detail(bool on) { m_landform_detail = on; }
+  /// The terrain the state started from when it has relief (a real base: the exemplar of the
+  /// "local" style); nullptr on a level base.
+  const std::shared_ptr<const Heightfield>& start_terrain() const { return m_start; }
+  /// A painted style region (the `style` operation): later strokes inside it take its detail.
+  struct StyleLayer {
+    std::string style;
+    HostRegion region;
+  };
+  void add_style(StyleLayer l) { m_styles.push_back(std::move(l)); }
+  const std::vector<StyleLayer>& styles() const { return m_styles; }
 
   /// Per-operation log (JSON objects), written into the edit report.
   nlohmann::json& log() { return m_log; }
@@ -139,6 +167,9 @@ class EditState {
   Heightfield m_base;
   std::vector<float> m_base_gx, m_base_gy;
   nlohmann::json m_locality = nlohmann::json::object();
+  bool m_landform_detail = true;
+  std::shared_ptr<const Heightfield> m_start;
+  std::vector<StyleLayer> m_styles;
 
  public:
   // ---- lakes (lake.cpp; docs/authoring.md, "Lakes") ----
@@ -201,6 +232,7 @@ void add_strata_ops(std::vector<OpSpec>& ops);     // ops_strata.cpp
 void add_drainage_ops(std::vector<OpSpec>& ops);   // ops_drainage.cpp
 void add_landform_ops(std::vector<OpSpec>& ops);   // ops_landforms.cpp
 void add_lake_ops(std::vector<OpSpec>& ops);       // ops_lake.cpp
+void add_style_ops(std::vector<OpSpec>& ops);      // ops_style.cpp
 
 // ---- geometry shared by the operations (metres, cell (x, y) at (x * cell_x, y * cell_y)) ----
 
@@ -222,17 +254,6 @@ Region parse_region(Params& p, bool allow_everywhere);
 /// The region as a skeleton primitive (falloff `falloff` metres beyond it); Everywhere: a polygon
 /// around the grid.
 Primitive region_primitive(const Region& r, const Grid& g, double falloff);
-/// A region's weight (1 inside, fading over its falloff) on the host, over the box of cells it
-/// touches: what operations that work on the host (strata, drainage) read once.
-struct HostRegion {
-  Box box;
-  std::vector<float> w;  ///< box.w x box.h, row by row
-  bool contains(int x, int y) const { return x >= box.x0 && y >= box.y0 && x < box.x0 + box.w && y < box.y0 + box.h; }
-  /// Index into box-sized arrays (the cell must be in the box).
-  size_t at(int x, int y) const { return size_t(y - box.y0) * box.w + (x - box.x0); }
-  /// The weight at a grid cell, 0 outside the box.
-  double weight(int x, int y) const { return contains(x, y) ? double(w[at(x, y)]) : 0.0; }
-};
 /// The region (falloff `falloff` metres) evaluated on the device and read back; an empty box (and
 /// no weights) when it touches no cell.
 HostRegion region_on_host(EditState& s, const Region& r, double falloff);

@@ -66,6 +66,7 @@ Heightfield Session::preview(const json& op, std::optional<size_t> replace, int 
       EditOptions o;
       o.base_dir = m_workspace;
       o.file_roots = m_file_roots;
+      o.landform_detail = false;
       EditSession coarse(m_device, sample(m_base, step), o);
       coarse.apply(full_script(prefix));
       m_preview_ground = coarse.height();
@@ -87,6 +88,7 @@ Heightfield Session::preview(const json& op, std::optional<size_t> replace, int 
   o.base_dir = m_workspace;
   o.file_roots = m_file_roots;
   o.locality = m_edit->local();
+  o.landform_detail = false;
   EditSession s(m_device, *m_preview_ground, o);
   s.apply(full_script(ops));  // bad parameters throw with their JSON path (400)
   Heightfield h = s.height();
