@@ -37,16 +37,19 @@ window.__terraclOverview = () => ({ w: terr.w, h: terr.h, step: terr.step, versi
 // around the stroke (docs/authoring.md, "Landform strokes"). Strokes sit relative to the ground.
 const TOOLS = {
   select: {},
-  crest: { height: '', radius: '' },
-  mountain_range: { height: '', radius: '', roughness: 0.5, age: 0.3, spurs: 1 },
-  river: { depth: '', radius: '' },
-  canyon: { depth: '', radius: '', bands: 4, roughness: 0.5 },
+  // detail: '' (auto: the painted style, else the base DEM's own texture, else the tool's style),
+  // procedural, or a style name (docs/authoring.md, "Detail and styles").
+  crest: { height: '', radius: '', detail: '' },
+  mountain_range: { height: '', radius: '', roughness: 0.5, age: 0.3, spurs: 1, detail: '' },
+  river: { depth: '', radius: '', detail: '' },
+  canyon: { depth: '', radius: '', bands: 4, roughness: 0.5, detail: '' },
   ravine: { radius: 0.05, depth: 60 },
-  cliff: { drop: '', side: 'right', bands: 3 },
+  cliff: { drop: '', side: 'right', bands: 3, detail: '' },
   fault: { radius: 0.03, throw: 40 },
   free_crest: { radius: 0.08, height: 100 },
-  peak: { height: '', radius: '' },
-  volcano: { height: '', radius: '', crater: 0.15, age: 0.3 },
+  peak: { height: '', radius: '', detail: '' },
+  volcano: { height: '', radius: '', crater: 0.15, age: 0.3, detail: '' },
+  style: { style: 'alpine', radius: 0.06, falloff: 0.02 },
   scale_slopes: { radius: 0.04, factor: 2, falloff: 0.03 },
   noise: { radius: 0.05, amplitude: 20, wavelength: 0.05 },
   freeze: { radius: 0.03 },
@@ -60,11 +63,11 @@ const TOOLS = {
 };
 // The field a brush's strength is ([ and ] change the radius, { and } the strength).
 const STRENGTH = { scale_slopes: 'factor', noise: 'amplitude', tensor: 'strength' };
-const WORDS = new Set(['exemplar', 'side']);
+const WORDS = new Set(['exemplar', 'side', 'detail', 'style']);
 const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength', 'channel_width']);
 const AREAS = new Set(['threshold']);
 const CURVES = new Set(['crest', 'river', 'ravine', 'cliff', 'fault', 'free_crest', 'mountain_range', 'canyon']);
-const PAINTED = new Set(['scale_slopes', 'noise', 'freeze', 'tensor']);
+const PAINTED = new Set(['scale_slopes', 'noise', 'freeze', 'tensor', 'style']);
 const REGIONS = new Set(['copy_paste', 'erode', 'amplify', 'drainage']);
 let scaled = false;
 
@@ -108,6 +111,7 @@ const HELP = {
   noise: 'drag to paint, click to stamp; [ ] radius, { } strength',
   freeze: 'drag to paint, click to stamp; [ ] radius',
   tensor: 'drag to paint along the stroke, click for a disc; [ ] radius, { } strength',
+  style: 'paint a style of real detail (alpine, eroded_hills, dissected_plateau, local): the ground under it is re-detailed and later strokes there take it; [ ] radius',
 };
 
 // ---- API ----
@@ -524,6 +528,7 @@ function paintOp(tool, pts) {
   const op = { op: tool, path, radius: L(p.radius) };
   if (tool === 'scale_slopes') Object.assign(op, { factor: p.factor, falloff: L(p.falloff) });
   if (tool === 'noise') Object.assign(op, { amplitude: p.amplitude, wavelength: L(p.wavelength) });
+  if (tool === 'style') Object.assign(op, { style: p.style, falloff: L(p.falloff) });
   return op;
 }
 

@@ -283,6 +283,9 @@ def main():
 
         # Drainage over the whole map (a click) and layered rock on the crest (a click).
         for tool, dx, dy in (("drainage", 0, 0), ("strata", 0, 20)):
+            if tool == "strata":  # the terrain the strata's top is read from
+                with api_get(url + "api/terrain.f32") as r:
+                    z = np.frombuffer(r.read(), dtype=np.float32)
             Select(driver.find_element(By.ID, "tool")).select_by_value(tool)
             v = version(driver)
             ActionChains(driver).move_to_element_with_offset(canvas, dx, dy).click().perform()
