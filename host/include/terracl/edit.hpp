@@ -81,6 +81,11 @@ class EditSession {
   EditSession(const EditSession&) = delete;
   EditSession& operator=(const EditSession&) = delete;
 
+  /// The current terrain (solved when stale) becomes the base of later local solves, which then
+  /// re-solve only the windows of the operations applied after it. The studio rebases after each
+  /// append (docs/studio.md, "Latency"); a replay of the whole script does not, so its terrain can
+  /// differ from the rebased one within the solver's tolerance.
+  void rebase();
   /// A deep copy (docs/studio.md, "Snapshots"): the copy continues exactly as this session would,
   /// so applying the same operations to both gives bit-identical terrains. Copies the field and
   /// scratch buffers on the device (20 bytes a cell, 32 once noise ran) and the host state

@@ -299,6 +299,7 @@ void EditSession::apply(const nlohmann::json& script) {
 }
 
 const Heightfield& EditSession::height() { return m_state->height(); }
+void EditSession::rebase() { m_state->rebase(); }
 const ReconstructResult& EditSession::solve(bool warm) {
   m_state->solve(warm);
   return m_state->last_solve();

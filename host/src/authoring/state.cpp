@@ -70,11 +70,13 @@ double EditState::falloff() const {
 }
 
 void EditState::rebase() {
-  if (!m_solution) solve();
+  if (!m_solution || m_stale) solve();
   m_base = *m_solution;
-  download();
+  if (m_field_changed) download();  // a local solve left the current field in m_template
   m_base_gx = m_template.gx;
   m_base_gy = m_template.gy;
+  // Every change so far is in the base now: later local solves see only their own operations.
+  m_supports.clear();
 }
 
 size_t EditState::hard_count() const {
@@ -95,7 +97,7 @@ void EditState::upload(const GradientField& g) {
   const size_t bytes = g.size() * sizeof(float);
   m_device.queue().enqueueWriteBuffer(m_buf.gx, CL_FALSE, 0, bytes, g.gx.data());
   m_device.queue().enqueueWriteBuffer(m_buf.gy, CL_TRUE, 0, bytes, g.gy.data());
-  m_stale = true;
+  m_stale = m_field_changed = true;
 }
 
 const Heightfield& EditState::height() {
@@ -178,6 +180,7 @@ void EditState::solve_local(bool warm) {
   const double cx = m_grid.cell_x, cy = m_grid.cell_y;
   const auto t0 = std::chrono::steady_clock::now();
   download();
+  m_field_changed = false;
   const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
   // Changed cells: a changed face changes the divergence of both cells it separates; a hard cell
   // changes the terrain only where it differs from the base (freeze holds, it does not move).

@@ -62,7 +62,7 @@ class EditState {
   void clear_hard();
 
   /// Call after every change of the gradient or of the constraints.
-  void changed() { m_stale = true; }
+  void changed() { m_stale = m_field_changed = true; }
   bool stale() const { return m_stale; }
   /// Declares the cached solution consistent with the field again (after regularize).
   void mark_fresh() { m_stale = false; }
@@ -168,6 +168,8 @@ class EditState {
   std::vector<float> m_base_gx, m_base_gy;
   nlohmann::json m_locality = nlohmann::json::object();
   bool m_landform_detail = true;
+  /// False while m_template's gradient is the device field (a local solve just downloaded it).
+  bool m_field_changed = true;
   std::shared_ptr<const Heightfield> m_start;
   std::vector<StyleLayer> m_styles;
 

@@ -307,6 +307,10 @@ void Session::commit(const json& ops, bool record_undo) {
     // A validated script can still solve to non-finite elevations (extreme parameters): refuse it.
     for (float z : m_edit->height().z)
       if (!std::isfinite(z)) throw RequestError(400, "/operations: these operations give non-finite elevations");
+    // The live terrain becomes the base of the next append's local solve, which then re-solves
+    // only its own stroke's window instead of every edit since the session's base (the export
+    // replays the script canonically, docs/studio.md "Latency").
+    if (append && m_edit->local()) m_edit->rebase();
   } catch (...) {
     // Validated operations can still fail while running (a file vanished, a cancel, the time
     // budget): go back to the previous list so the session stays consistent. That replay rebuilds
