@@ -105,10 +105,10 @@ std::shared_ptr<const Style> cached(const std::string& key, const std::function<
   return st;
 }
 
-// The dictionary of `style` for a stroke around cell (cx, cy); nullptr when "local" has no base.
-std::shared_ptr<const Style> style_dictionary(EditState& s, const std::string& style, int cx, int cy) {
+// The dictionary of `style` for a stroke around cell (cx, cy) of `base` (the start terrain);
+// nullptr when "local" has no base.
+std::shared_ptr<const Style> style_dictionary(const Heightfield* base, const std::string& style, int cx, int cy) {
   if (style != "local") return cached("bundled:" + style, [&] { return bundled_exemplar(style); });
-  const auto& base = s.start_terrain();
   if (!base) return nullptr;
   const int side = std::min({kLocalWindow, base->width, base->height}), half = std::max(1, side / 2);
   const int x0 = std::clamp((cx - half) / half * half, 0, base->width - side);
@@ -187,7 +187,7 @@ std::optional<Heightfield> mixed_detail(EditState& s, const Heightfield& t, cons
   std::optional<Heightfield> out;
   for (const auto& [name, w] : mix) {
     if (*std::max_element(w.begin(), w.end()) <= 1e-3f) continue;
-    const auto dict = style_dictionary(s, name, box.x0 + box.w / 2, box.y0 + box.h / 2);
+    const auto dict = style_dictionary(s.start_terrain().get(), name, box.x0 + box.w / 2, box.y0 + box.h / 2);
     if (!dict) continue;
     const Heightfield u = dictionary_detail(t, *dict, s.grid(), seed, strength);
     if (!out) out = Heightfield(t.width, t.height, 0.f);
@@ -218,6 +218,11 @@ double distance_to(const std::vector<Vec2>& line, double x, double y) {
 }
 
 }  // namespace
+
+void warm_style(const std::string& style, const Heightfield* base) {
+  if (base) style_dictionary(base, style, base->width / 2, base->height / 2);
+  else if (style != "local") style_dictionary(nullptr, style, 0, 0);
+}
 
 bool add_real_detail(EditState& s, ShapeRaster& change, const DetailSpec& d, uint32_t seed, const std::vector<Vec2>* keep) {
   if (d.style == "procedural" || !s.landform_detail() || change.box.empty() || d.strength <= 0) return false;

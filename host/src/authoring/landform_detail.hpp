@@ -40,6 +40,10 @@ DetailSpec parse_detail(Params& p, const std::string& fallback);
 bool add_real_detail(EditState& s, ShapeRaster& change, const DetailSpec& d, uint32_t seed,
                      const std::vector<Vec2>* keep = nullptr);
 
+/// Learns `style`'s dictionary ahead of the first stroke (the studio's background warm-up): a
+/// bundled style, or "local" for the window of `base` around its centre. A no-op when cached.
+void warm_style(const std::string& style, const Heightfield* base);
+
 /// The `style` operation's work: records a painted style region (`weight` over its box, 1 inside)
 /// for later strokes and, with `retexture`, replaces the relief finer than 4 cells of the terrain
 /// under it with the style's detail (block means kept). Returns the change to add (empty box when

@@ -19,6 +19,8 @@
 #include <terracl/mesh.hpp>
 #include <terracl/warm_up.hpp>
 
+#include "authoring/landform_detail.hpp"
+
 #include "authoring/ops_erode.hpp"
 
 #ifdef __linux__
@@ -136,6 +138,26 @@ void Session::start_warm_up() {
     if (!m_warm_stop) {
       fmt::print("studio: {} OpenCL programs ready ({:.1f} s, compiled or loaded from the cache)\n", ready,
                  ms_since(t0) / 1000.0);
+      std::fflush(stdout);
+    }
+    // The landform tools' detail dictionaries (docs/authoring.md, "Detail and styles"): the base's
+    // own texture on a real DEM, and the bundled styles the tools fall back to.
+    const auto t1 = std::chrono::steady_clock::now();
+    const auto [lo, hi] = std::minmax_element(m_base.z.begin(), m_base.z.end());
+    std::vector<std::string> styles = edit::bundled_styles();
+    if (lo != m_base.z.end() && *hi - *lo > 1.0f) styles.insert(styles.begin(), "local");
+    size_t learned = 0;
+    for (const auto& st : styles) {
+      if (stop()) break;
+      try {
+        edit::warm_style(st, st == "local" ? &m_base : nullptr);
+        ++learned;
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "studio: style {}: {}\n", st, e.what());
+      }
+    }
+    if (!m_warm_stop) {
+      fmt::print("studio: {} detail styles ready ({:.1f} s)\n", learned, ms_since(t1) / 1000.0);
       std::fflush(stdout);
     }
     m_warming = false;
