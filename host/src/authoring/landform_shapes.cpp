@@ -334,16 +334,29 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
       const Vec2 tan = unit({main.pts[i + 1].x - main.pts[i].x, main.pts[i + 1].y - main.pts[i].y});
       side = rng.uniform() < 0.7 ? -side : side;
       const Vec2 dir = rotate({-tan.x, -tan.y}, side * rng.uniform(0.7, 1.3));
-      Piece s;
-      const double len = W * rng.uniform(1.5, 3.2);
-      s.pts = branch_path(main.pts[i], dir, len, rng.uniform(-0.6, 0.6), 0.08 + 0.1 * rough, uint32_t(rng.next()));
-      const double d0 = 0.85 * main.depth[i], w0 = main.w[i] * rng.uniform(0.3, 0.5);
-      for (size_t k = 0; k < s.pts.size(); ++k) {
-        const double t = double(k) / (s.pts.size() - 1);
-        s.depth.push_back(d0 * std::pow(1 - t, 0.8));
-        s.w.push_back(w0 * (1 - 0.6 * t));
-      }
+      // A side valley keeps most of its depth and width up its course and ends in a rounded head
+      // (no tapering spike), and its own tributaries fork off it, so the network is dendritic.
+      const auto side_valley = [&](Vec2 mouth, Vec2 d, double len, double d0, double w0, uint32_t seed) {
+        Piece s;
+        s.pts = branch_path(mouth, d, len, rng.uniform(-0.9, 0.9), 0.12 + 0.12 * rough, seed);
+        for (size_t k = 0; k < s.pts.size(); ++k) {
+          const double t = double(k) / (s.pts.size() - 1);
+          s.depth.push_back(d0 * (1 - std::pow(t, 2.2)) * (0.85 + 0.15 * (1 - t)));
+          s.w.push_back(w0 * (0.55 + 0.45 * (1 - t)));
+        }
+        return s;
+      };
+      const double len = W * rng.uniform(1.3, 3.0);
+      const Piece s = side_valley(main.pts[i], dir, len, 0.85 * main.depth[i], main.w[i] * rng.uniform(0.22, 0.38), uint32_t(rng.next()));
       pieces.push_back(s);
+      const int forks = len > 1.8 * W ? 1 + int(rng.uniform() < 0.5) : int(rng.uniform() < 0.5);
+      for (int f = 0; f < forks; ++f) {
+        const size_t k = std::min(s.pts.size() - 2, size_t(rng.uniform(0.3, 0.75) * double(s.pts.size() - 1)));
+        const Vec2 t2 = unit({s.pts[k + 1].x - s.pts[k].x, s.pts[k + 1].y - s.pts[k].y});
+        const double turn = (rng.uniform() < 0.5 ? -1 : 1) * rng.uniform(0.5, 1.1);
+        pieces.push_back(side_valley(s.pts[k], rotate(t2, turn), len * rng.uniform(0.3, 0.55), 0.8 * s.depth[k], 0.7 * s.w[k],
+                                     uint32_t(rng.next())));
+      }
     }
   }
   const int blur = int(std::lround(age * 0.08 * W / cell));
@@ -394,8 +407,13 @@ ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
     double at, half, cut;
   };
   std::vector<Chute> chutes;
-  for (double a = D * rng.uniform(0.3, 1.0); a < L; a += D * rng.uniform(0.5, 1.6))
-    chutes.push_back({a, D * rng.uniform(0.12, 0.3), face * rng.uniform(0.8, 2.2)});
+  // Their sizes are heavy-tailed, as gullies on a real scarp: many small notches, a few deep
+  // re-entrants cut far back into the plateau, with the spacing growing with the size.
+  for (double a = D * rng.uniform(0.3, 1.0); a < L;) {
+    const double size = std::pow(rng.uniform(0.05, 1.0), 2.5);
+    chutes.push_back({a, D * (0.1 + 0.5 * size) * rng.uniform(0.8, 1.2), face * (0.5 + 3.5 * size)});
+    a += D * (0.4 + 2.0 * rng.uniform()) * (0.7 + 1.5 * size);
+  }
   const double reach = std::max(p.back, face + apron) + face * 2.5;
   const int blur = int(std::lround(age * 0.08 * D / cell));
   ShapeRaster out(box_around(g, line, reach + (2 * blur + 2) * cell));
