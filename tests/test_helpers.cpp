@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "test_helpers.hpp"
 
+#include <terracl/io.hpp>
+
 #include <algorithm>
 #include <sstream>
 #include <fstream>
@@ -60,6 +62,16 @@ CmdResult run_cli(const std::string& args) {
 }
 
 std::string data_path(const std::string& rel) { return std::string(TERRACL_SOURCE_DIR) + "/data/" + rel; }
+
+Heightfield n44_window(int x0, int y0, int n) {
+  Heightfield h = read_heightfield(data_path("dem/N44W072.hgt"));
+  if (h.count_nodata()) fill_nodata_harmonic(h);
+  Heightfield c(n, n);
+  c.georef = h.georef;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) c.at(x, y) = h.at(x0 + x, y0 + y);
+  return c;
+}
 
 Heightfield smooth_terrain(int w, int h, double cell, double relief, unsigned seed) {
   Heightfield t(w, h);

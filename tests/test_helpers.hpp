@@ -44,6 +44,10 @@ std::string file_bytes(const std::string& path);
 /// Path of a file under the repository's data/ folder.
 std::string data_path(const std::string& rel);
 
+/// The n x n window of data/dem/N44W072.hgt at cell (x0, y0), nodata filled, with the tile's georef
+/// (its cell size): a real DEM for tests of operations on real terrain.
+Heightfield n44_window(int x0, int y0, int n);
+
 /// A smooth synthetic terrain (sum of sines) with the given cell size, for numerics tests.
 Heightfield smooth_terrain(int w, int h, double cell = 10.0, double relief = 500.0, unsigned seed = 1);
 

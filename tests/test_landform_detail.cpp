@@ -16,16 +16,6 @@ using nlohmann::json;
 
 namespace {
 
-Heightfield n44_window(int x0, int y0, int n) {
-  Heightfield h = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  if (h.count_nodata()) fill_nodata_harmonic(h);
-  Heightfield c(n, n);
-  c.georef = h.georef;
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) c.at(x, y) = h.at(x0 + x, y0 + y);
-  return c;
-}
-
 struct Result {
   Heightfield h;
   json log;
@@ -76,7 +66,7 @@ TEST(LandformDetail, DictionaryDetailStaysInTheFootprintAndKeepsItsVolume) {
 }
 
 TEST(LandformDetail, LocalStyleIsTheBaseDemsOwnAndNeedsOne) {
-  const Heightfield dem = n44_window(300, 600, 200);
+  const Heightfield dem = test::n44_window(300, 600, 200);
   const Result local = run(dem, {kRange});
   const Result alpine = run(dem, {with(kRange, "detail", "alpine")});
   EXPECT_EQ(local.log[0]["detail"], "dictionary");
@@ -104,7 +94,7 @@ TEST(LandformDetail, PaintedStyleGovernsTheStrokesInsideIt) {
 }
 
 TEST(LandformDetail, RetextureStaysInItsRegionAndKeepsTheGroundsLevel) {
-  const Heightfield dem = n44_window(300, 600, 160);
+  const Heightfield dem = test::n44_window(300, 600, 160);
   const double cx = 80, cy = 80, r = 30, falloff = 8;
   const Result t = run(dem, {json{{"op", "style"}, {"style", "alpine"}, {"center", {cx, cy}}, {"radius", r}, {"falloff", falloff}}});
   double far = 0, near = 0, mean = 0;

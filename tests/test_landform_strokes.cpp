@@ -19,16 +19,6 @@ using nlohmann::json;
 
 namespace {
 
-Heightfield n44(int x0, int y0, int n) {
-  Heightfield h = read_heightfield(test::data_path("dem/N44W072.hgt"));
-  if (h.count_nodata()) fill_nodata_harmonic(h);
-  Heightfield c(n, n);
-  c.georef = h.georef;
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) c.at(x, y) = h.at(x0 + x, y0 + y);
-  return c;
-}
-
 struct Tool {
   std::string name;
   int sign;  // +1 raises, -1 lowers
@@ -77,7 +67,7 @@ TEST(LandformStrokes, DefaultStrokesKeepTheirSignOnAFlatBase) {
 
 TEST(LandformStrokes, DefaultStrokesKeepTheirSignOnARealDem) {
   const int n = 300;
-  const Heightfield base = n44(500, 400, n);
+  const Heightfield base = test::n44_window(500, 400, n);
   for (const Tool& t : kTools) {
     EditSession s(test::device(), base);
     s.apply({{"units", "cells"}, {"operations", {default_stroke(t, n)}}});
@@ -87,7 +77,7 @@ TEST(LandformStrokes, DefaultStrokesKeepTheirSignOnARealDem) {
 
 TEST(LandformStrokes, RelativeCrestSitsItsHeightAboveTheGround) {
   const int n = 240;
-  const Heightfield base = n44(300, 600, n);
+  const Heightfield base = test::n44_window(300, 600, n);
   EditSession s(test::device(), base);
   const double cx = base.georef.cell_x, cy = base.georef.cell_y;
   // Vertices on cell centres (metres), where the crest line passes exactly.
@@ -121,7 +111,7 @@ TEST(LandformStrokes, MountainRangeHeightsPerVertexAndSeedsAreRepeatable) {
 }
 
 TEST(LandformStrokes, ConstraintsCuttingTheTerrainWarn) {
-  const Heightfield base = n44(300, 600, 200);
+  const Heightfield base = test::n44_window(300, 600, 200);
   float lo = 1e30f;
   for (float z : base.z) lo = std::min(lo, z);
   EditSession s(test::device(), base);
