@@ -119,7 +119,8 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
                                 const float dry_depth, const float evap_factor, const float cell_area,
                                 __global const float* restrict r, __global float* restrict r_out,
                                 const float rock_factor, __global float* restrict q_out, const float ws_dt,
-                                const float conc_max, const float shear_depth) {
+                                const float conc_max, const float shear_depth,
+                                __global const float* restrict b0) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -209,6 +210,17 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     V delta = select(select(kd * (cap - s1), 0.0f, cap > s1), ks_dt * (pick - s1), pick > s1);
     delta = select(delta, -s1, d1 <= dry_depth);  // a dry cell deposits all it carries
     delta = fmin(fmax(delta, -max_change), max_change);
+#ifdef BANK_ROOM
+    // Deposits build no rim: the bed may rise above its input height b0 only on low ground, by at
+    // most the water depth there (sediment settles out of the water column), tapering to nothing at
+    // a steepest slope of 0.1 (6 deg): valley floors and fans aggrade, banks and slopes refill their
+    // cuts only. The load that may not settle stays suspended and travels on.
+    {
+      const V g2b = gx * gx + gy * gy;
+      const V allow = d1 * fmax(1.0f - sqrt(g2b / (1.0f + g2b)) * 10.0f, 0.0f);
+      delta = fmax(delta, -fmax((LD(b0, i) + allow) - bc, 0.0f));
+    }
+#endif
 #ifdef HAS_WEIGHT
     delta = delta * LD(w, i);
 #endif
@@ -256,8 +268,9 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 // elevation before the erosion: each of its 8 pairs may bring at most 1/8 of the room left below it
 // (room = max(0, b0 - b) / 8, computed from the receiver's bits by both cells of the pair). Banks
 // slump into the channel they undercut; nothing of theirs builds up above the ground beside it.
-// The creep kd runs only into a receiver with room (below its input height), at its plain rate: so
-// the input's hillslopes keep their heights and creep heals the cuts. (Capping its amount at the
+// With CREEP_INTO_CUTS the creep kd runs only into a receiver with room (below its input height), at
+// its plain rate: the input's hillslopes keep their heights (a raw DEM's one-cell pits and steps are
+// not smoothed away) and creep heals the cuts. Without it, creep is the plain hillslope diffusion. (Capping its amount at the
 // room too made the float32 rounding of the many small capped gathers create material: 5e-4 of
 // the volume moved in 300 steps.)
 #ifdef DEPOSIT_LAYER
@@ -265,9 +278,13 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 #else
 #define TALUS(diff, t, td, rs) fmax((diff) - (t), 0.0f)
 #endif
+#ifdef CREEP_INTO_CUTS
+#define CREEP(kd, diff, room) select(z, (kd) * fmax((diff), 0.0f), (room) > 0.0f)
+#else
+#define CREEP(kd, diff, room) ((kd) * fmax((diff), 0.0f))
+#endif
 #define XFER(diff, t, td, rs, kd, kq, rr, room) \
-  (fmin((rr) * TALUS(diff, t, td, rs) + (kq) * fmax((diff), 0.0f), (room)) + \
-   select(z, (kd) * fmax((diff), 0.0f), (room) > 0.0f))
+  (fmin((rr) * TALUS(diff, t, td, rs) + (kq) * fmax((diff), 0.0f), (room)) + CREEP(kd, diff, room))
 
 // Thermal erosion: material above the talus slope moves to lower neighbours (4 at distance l, 4 at
 // the diagonal), rho times the excess height per pair and sub-step, plus linear diffusion (kd times

@@ -57,6 +57,8 @@ struct ErosionParams {
   bool thermal_banks_only = false;  ///< with water: the talus exchange runs only on pairs where the flow
                                     ///< cuts at one of the two cells (bank failure into a stream); the
                                     ///< input's cliffs away from the water stand. Not with thermal_only
+  bool creep_into_cuts = false;  ///< with water: creep (diffusion) runs only into cells below their input
+                                 ///< height, healing cuts; the input's hillslope texture stays
   bool deposit_layer = false;  ///< track a softer deposit layer on top of the rock
   double rock_erodibility = 0.3;   ///< with a deposit layer: rock dissolves at this fraction of K_s
   double deposit_talus_deg = 30.0; ///< deg, with a deposit layer: talus of the deposit

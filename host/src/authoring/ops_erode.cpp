@@ -20,10 +20,10 @@ void apply_preset(ErosionParams& q, const std::string& name) {
   // cut grows with discharge; diffusion (m^2/s) the creep of the slopes between the channels.
   if (name == "young_alpine") {  // deep narrow gullies, sharp ridges, banks slumping at a steep repose
     q.rain = 0.004, q.dissolve = 0.012, q.deposit = 0.001, q.diffusion = 0.2, q.channel_diffusion = 1;
-    q.thermal_rate = 0.08, q.talus_deg = 40;
+    q.thermal_rate = 0.08, q.talus_deg = 40, q.creep_into_cuts = false;
   } else if (name == "old_hills") {  // rounded slopes (creep), wide shallow channels, valleys filling
     q.rain = 0.002, q.dissolve = 0.005, q.deposit = 0.004, q.diffusion = 6, q.channel_diffusion = 2;
-    q.thermal_rate = 0.03, q.talus_deg = 25;
+    q.thermal_rate = 0.03, q.talus_deg = 25, q.creep_into_cuts = false;  // creep rounds the whole relief
   } else if (name == "badlands") {  // dense sharp rills on soft rock (a low threshold), little creep
     q.rain = 0.005, q.dissolve = 0.015, q.deposit = 0.001, q.diffusion = 0.1;
     q.channel_diffusion = 0.5, q.thermal_rate = 0.06, q.talus_deg = 45, q.critical_shear = 50;
@@ -58,6 +58,7 @@ ErodeSpec parse_erode_spec(Params& p) {
   e.params.min_sin_slope = p.number("min_slope", e.params.min_sin_slope, 0.0, 1.0);
   e.params.deposit_layer = p.boolean("deposit_layer", e.params.deposit_layer);
   e.params.thermal_banks_only = p.boolean("thermal_banks_only", e.params.thermal_banks_only);
+  e.params.creep_into_cuts = p.boolean("creep_into_cuts", e.params.creep_into_cuts);
   // Creep and channel widening (docs/erosion.md): on a steep range the default channel diffusion
   // planes the sheet-flow flanks smooth; a gallery pass lowers both to keep the gullies it cuts.
   e.params.diffusion = p.number("diffusion", e.params.diffusion, 0.0, 1e4);

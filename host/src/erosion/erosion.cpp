@@ -80,6 +80,7 @@ ErosionParams ErosionParams::defaults() {
   // cuts. Bank failure only where water cuts: the input's own cliffs and scarps stand.
   p.critical_shear = 200.0;
   p.thermal_banks_only = true;
+  p.creep_into_cuts = true;
   p.max_change = 0.5;  // m/s: 0.5 m per ~1 s sub-step of the SRTM3 tiles it was tuned on
   p.thermal_rate = 0.05;
   p.talus_deg = 35.0;
@@ -302,6 +303,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(35, 0.0f);  // no settling velocity while it rains; 36: the pick-up bound (1e30 = none)
       k.setArg(36, float(p.max_concentration > 0 ? p.max_concentration : 1e30));
       k.setArg(37, float(p.critical_shear / (kWaterDensity * p.gravity)));  // tau_c/(rho_w g), m
+      k.setArg(38, s.b0);
     }
     {
       cl::Kernel& k = s.k_thermal;
@@ -729,6 +731,8 @@ std::string erosion_program_options(const Device& dev, int width, const ErosionP
   if ((params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only) opts += " -DCHANNEL_DIFFUSION";
   if ((params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only) opts += " -DBANK_ROOM";
   if (params.thermal_banks_only && !params.thermal_only) opts += " -DBANK_THERMAL";
+  if (params.creep_into_cuts && (params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only)
+    opts += " -DCREEP_INTO_CUTS";
   return opts;
 }
 

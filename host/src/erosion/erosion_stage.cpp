@@ -135,6 +135,8 @@ ErosionParams params_from(const json& o) {
   if (o.contains("settle") && o.at("settle").is_boolean()) p.settle = o.at("settle").get<bool>();
   if (o.contains("thermal_banks_only") && o.at("thermal_banks_only").is_boolean())
     p.thermal_banks_only = o.at("thermal_banks_only").get<bool>();
+  if (o.contains("creep_into_cuts") && o.at("creep_into_cuts").is_boolean())
+    p.creep_into_cuts = o.at("creep_into_cuts").get<bool>();
   if (o.contains("boundary") && o.at("boundary").is_string())
     p.boundary = o.at("boundary").get<std::string>() == "open" ? ErosionBoundary::Open : ErosionBoundary::Closed;
   return p;
@@ -327,6 +329,9 @@ void register_erosion_stages(StageRegistry& r) {
              opt("thermal_banks_only", OptionType::Bool, d.thermal_banks_only, "",
                  "With water: the talus exchange only where the flow cuts at either cell of a pair (banks slump "
                  "into streams; the input's cliffs away from water stand)"),
+             opt("creep_into_cuts", OptionType::Bool, d.creep_into_cuts, "",
+                 "With water: creep only into cells below their input height (heals cuts, keeps the input's "
+                 "hillslope texture); off: plain diffusion everywhere"),
              opt("deposit_layer", OptionType::Bool, false, "",
                  "Track a softer deposit layer on the rock (own talus, rock dissolves slower)"),
              opt("rock_erodibility", OptionType::Float, d.rock_erodibility, "",
