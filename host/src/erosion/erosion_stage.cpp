@@ -323,12 +323,12 @@ void register_erosion_stages(StageRegistry& r) {
              opt("diffusion", OptionType::Float, d.diffusion, "m2/s",
                  "Bed diffusion D (hillslope creep): smooths features of width w in w^2/D s (0 = off)"),
              opt("channel_diffusion", OptionType::Float, d.channel_diffusion, "",
-                 "Channel diffusion K_q: extra bed diffusion K_q * q where water flows (q = speed x depth, m2/s); "
-                 "widens channels (0 = off)"),
+                 "Channel diffusion K_q: banks slump into water that cuts at K_q * q (q = speed x depth above the "
+                 "critical shear, m2/s); widens channels with discharge (0 = off)"),
              opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
              opt("thermal_banks_only", OptionType::Bool, d.thermal_banks_only, "",
-                 "With water: the talus exchange only where the flow cuts at either cell of a pair (banks slump "
-                 "into streams; the input's cliffs away from water stand)"),
+                 "With water: the talus exchange only into cells where the flow cuts (banks slump into streams; "
+                 "the input's cliffs away from water stand)"),
              opt("creep_into_cuts", OptionType::Bool, d.creep_into_cuts, "",
                  "With water: creep only into cells below their input height (heals cuts, keeps the input's "
                  "hillslope texture); off: plain diffusion everywhere"),
