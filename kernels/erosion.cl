@@ -119,7 +119,8 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
                                 const float dry_depth, const float evap_factor, const float cell_area,
                                 __global const float* restrict r, __global float* restrict r_out,
                                 const float rock_factor, __global float* restrict q_out, const float ws_dt,
-                                const float conc_max) {
+                                const float conc_max, const float shear_depth,
+                                __global const float* restrict b0) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -170,10 +171,6 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     u = fmin(fmax(u, -vcap), vcap);
     v = fmin(fmax(v, -vcap), vcap);
     const V speed = select((V)(0.0f), sqrt(u * u + v * v), dm > dry_depth);
-#ifdef CHANNEL_DIFFUSION
-    // Unit discharge (m^2/s) for the channel diffusion of erosion_thermal.
-    ST(select((V)(0.0f), speed * dm, valid), q_out, i);
-#endif
 
     // Local slope from central differences (one-sided at the border).
     const V bc = LD(b, i);
@@ -183,20 +180,47 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
     if (y == 0) bt = bc;
     if (y == H - 1) bb = bc;
     const V gx = (br - bl) * inv_2lx, gy = (bb - bt) * inv_2ly;
-    const V g2 = gx * gx + gy * gy;
-    const V sin_slope = sqrt(g2 / (1.0f + g2));
+    // The slope that drives the flow is the bed's fall along the velocity, not the steepest slope of
+    // the cell: across a channel the steepest slope is the bank's, which would put the capacity's
+    // maximum at the toes of the banks and leave the thalweg as a raised rib between two grooves.
+    // gx*u + gy*v pairs up the same way under a flip or a transpose (mirror symmetry holds).
+    // (Divided by the raw speed, at least 1e-6 m/s: the quotient is at most |grad b|.)
+    const V fall = fmax(-((gx * u) + (gy * v)) / fmax(sqrt(u * u + v * v), 1e-6f), 0.0f);
+    const V sin_slope = fall / sqrt(1.0f + fall * fall);
 
     // Transport capacity (m of sediment) and the exchange with the bed: delta > 0 dissolves.
     // ws_dt (settling velocity x dt, m) settles the excess at w_s/d in the recession phase (0 while it
     // rains; docs/erosion.md, "The valley ribbon: recession phase and a depth-bounded pick-up").
     // conc_max bounds only the pick-up (a load of conc_max x depth picks up no more); a load above the
     // capacity still settles at the slow rate, so valleys do not fill at once.
-    const V cap = ((kc * fmax(sin_slope, sin_min)) * speed) * fmin(d1 * inv_dramp, 1.0f);
+    // Excess shear: the bed shear stress rho*g*d*S must pass the critical tau_c before the flow
+    // detaches anything, written as S - (tau_c/(rho*g))/d (shear_depth = tau_c/(rho*g), m): thin
+    // sheet flow on hillslopes carries what it is given but cuts nothing, deep channel flow cuts.
+    const V sin_eff = fmax(fmax(sin_slope, sin_min) - shear_depth / fmax(d1, dry_depth), 0.0f);
+    const V cap = ((kc * sin_eff) * speed) * fmin(d1 * inv_dramp, 1.0f);
+#ifdef CHANNEL_DIFFUSION
+    // Unit discharge (m^2/s) for the channel diffusion of erosion_thermal (banks slumping into the
+    // flow), times the flow's share of excess shear (sin_eff over the slope term, in [0, 1]): only
+    // water that cuts its bed undermines its banks, so sheet flow on hillslopes leaves them alone.
+    const V cutting = sin_eff / fmax(fmax(sin_slope, sin_min), TINY);
+    ST(select((V)(0.0f), (speed * dm) * fmin(cutting, 1.0f), valid), q_out, i);
+#endif
     const V pick = fmin(cap, conc_max * d1);
     const V kd = fmax(fmin(ws_dt / fmax(d1, dry_depth), 1.0f), kd_dt);
     V delta = select(select(kd * (cap - s1), 0.0f, cap > s1), ks_dt * (pick - s1), pick > s1);
     delta = select(delta, -s1, d1 <= dry_depth);  // a dry cell deposits all it carries
     delta = fmin(fmax(delta, -max_change), max_change);
+#ifdef BANK_ROOM
+    // Deposits build no rim: the bed may rise above its input height b0 only on low ground, by at
+    // most the water depth there (sediment settles out of the water column), tapering to nothing at
+    // a steepest slope of 0.1 (6 deg): valley floors and fans aggrade, banks and slopes refill their
+    // cuts only. The load that may not settle stays suspended and travels on.
+    {
+      const V g2b = gx * gx + gy * gy;
+      const V allow = d1 * fmax(1.0f - sqrt(g2b / (1.0f + g2b)) * 10.0f, 0.0f);
+      delta = fmax(delta, -fmax((LD(b0, i) + allow) - bc, 0.0f));
+    }
+#endif
 #ifdef HAS_WEIGHT
     delta = delta * LD(w, i);
 #endif
@@ -240,12 +264,27 @@ __kernel void erosion_transport(__global const float* restrict b, __global const
 // higher ones; the neighbour evaluates the same expressions on the same bits with diff negated,
 // so each pair's exchange is exactly antisymmetric.
 // kd adds linear diffusion (hillslope creep): kd * diff for every downhill pair, talus or not.
+// With water (BANK_ROOM), the talus and channel shares (rr, kq) fill a receiver no higher than its
+// elevation before the erosion: each of its 8 pairs may bring at most 1/8 of the room left below it
+// (room = max(0, b0 - b) / 8, computed from the receiver's bits by both cells of the pair). Banks
+// slump into the channel they undercut; nothing of theirs builds up above the ground beside it.
+// With CREEP_INTO_CUTS the creep kd runs only into a receiver with room (below its input height), at
+// its plain rate: the input's hillslopes keep their heights (a raw DEM's one-cell pits and steps are
+// not smoothed away) and creep heals the cuts. Without it, creep is the plain hillslope diffusion. (Capping its amount at the
+// room too made the float32 rounding of the many small capped gathers create material: 5e-4 of
+// the volume moved in 300 steps.)
 #ifdef DEPOSIT_LAYER
-#define XFER(diff, t, td, rs, kd) \
-  (rho * fmax(fmax((diff) - (t), 0.0f), fmin(fmax((diff) - (td), 0.0f), (rs))) + (kd) * fmax((diff), 0.0f))
+#define TALUS(diff, t, td, rs) fmax(fmax((diff) - (t), 0.0f), fmin(fmax((diff) - (td), 0.0f), (rs)))
 #else
-#define XFER(diff, t, td, rs, kd) (rho * fmax((diff) - (t), 0.0f) + (kd) * fmax((diff), 0.0f))
+#define TALUS(diff, t, td, rs) fmax((diff) - (t), 0.0f)
 #endif
+#ifdef CREEP_INTO_CUTS
+#define CREEP(kd, diff, room) select(z, (kd) * fmax((diff), 0.0f), (room) > 0.0f)
+#else
+#define CREEP(kd, diff, room) ((kd) * fmax((diff), 0.0f))
+#endif
+#define XFER(diff, t, td, rs, kd, kq, rr, room) \
+  (fmin((rr) * TALUS(diff, t, td, rs) + (kq) * fmax((diff), 0.0f), (room)) + CREEP(kd, diff, room))
 
 // Thermal erosion: material above the talus slope moves to lower neighbours (4 at distance l, 4 at
 // the diagonal), rho times the excess height per pair and sub-step, plus linear diffusion (kd times
@@ -259,7 +298,7 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
                               const float dtx, const float dty, const float dtdiag, const float kdx,
                               const float kdy, const float kddiag, __global const float* restrict q,
                               const float cqx, const float cqy, const float cqdiag, const float kmx,
-                              const float kmy, const float kmdiag) {
+                              const float kmy, const float kmdiag, __global const float* restrict b0) {
   const int y = get_global_id(0);
   if (y >= H) return;
   const size_t row = (size_t)(y + 1) * P + PAD;  // 64-bit: padded grids may pass 2^31 cells
@@ -287,30 +326,61 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
 #define PW(o) 1.0f
 #endif
 #ifdef CHANNEL_DIFFUSION
-    // Channel (fluvial) diffusion: the pair's diffusivity grows with the unit discharge of the two
-    // cells, D + K_q * (q_c + q_n) / 2 (the 1/2 is in cq), capped at the monotone limit km. The sum
-    // q_c + q_n is the same bits for both cells of the pair, so the exchange stays antisymmetric.
+    // Channel (fluvial) diffusion: banks slump into the flowing water, and only into it. A pair's
+    // diffusivity is D + K_q * q_r (the 1/2 of (q_r + q_r) / 2 is in cq) with q_r the unit discharge
+    // of the pair's lower cell, the one that receives, capped at the monotone limit km. A bank beside
+    // a stream loses material to it; a dry cell never gains from it, so no bank is raised. Both cells
+    // of a pair evaluate the same expression on the same bits (the receiver's q, the pair's height
+    // difference negated), so the exchange stays antisymmetric.
     const V qc = LD(q, i);
-#define KD(kd, cq, km, o) fmin((kd) + (cq) * (qc + LD(q, i + (o))), (km))
+#define QN(o) LD(q, i + (o))
+#define KQ(kd, cq, km, qr) fmin((cq) * ((qr) + (qr)), (km) - (kd))
 #else
-#define KD(kd, cq, km, o) (kd)
+    const V qc = z;
+#define QN(o) z
+#define KQ(kd, cq, km, qr) z
 #endif
-    // in/out for the neighbour at offset o with talus heights t (rock) and td (deposit).
-#define EXCHANGE(o, t, td, kd, mask, in, out)                               \
-    {                                                                       \
-      const V diff = LD(b, i + (o)) - bc;                                   \
-      in = select(z, XFER(diff, t, td, RN(o), kd) * PW(o), mask);           \
-      out = select(z, XFER(-diff, t, td, rc, kd) * PW(o), mask);            \
+#ifdef BANK_ROOM
+    const V roomc = fmax(LD(b0, i) - bc, 0.0f) * 0.125f;
+#define ROOMN(o) (fmax(LD(b0, i + (o)) - LD(b, i + (o)), 0.0f) * 0.125f)
+    // A capped receiver gathers up to 8 transfers to exactly its room while each sender may lose less
+    // than half an ulp of its bed, which rounding then drops: material would appear. Transfers below
+    // about 2 ulps of the pair's beds (the same bits on both sides) are not made at all.
+#define ULPS(o) ((fabs(LD(b, i + (o))) + fabs(bc)) * 1.2e-7f)
+#define KEEP(x, o) select(z, (x), (x) >= ULPS(o))
+#else
+    const V roomc = (V)(1e30f);
+#define ROOMN(o) roomc
+#define KEEP(x, o) (x)
+#endif
+#ifdef BANK_THERMAL
+    // Bank failure only: the talus exchange runs only into a cell where water cuts (q > 0: unit
+    // discharge above the critical shear), so a stream's oversteepened banks slump into it while the
+    // cliffs and scarps of the input, where no water concentrates, stand.
+#define RHO(qr) select(z, (V)(rho), (qr) > 0.0f)
+#else
+#define RHO(qr) rho
+#endif
+    // in/out for the neighbour at offset o with talus heights t (rock) and td (deposit): `in` (the
+    // neighbour is higher) has this cell as receiver, `out` the neighbour.
+#define EXCHANGE(o, t, td, kd, cq, km, mask, in, out)                                            \
+    {                                                                                            \
+      const V diff = LD(b, i + (o)) - bc;                                                        \
+      const V qn = QN(o);                                                                        \
+      const V xin = XFER(diff, t, td, RN(o), kd, KQ(kd, cq, km, qc), RHO(qc), roomc);            \
+      const V xout = XFER(-diff, t, td, rc, kd, KQ(kd, cq, km, qn), RHO(qn), ROOMN(o));          \
+      in = select(z, KEEP(xin, o) * PW(o), mask);                                                \
+      out = select(z, KEEP(xout, o) * PW(o), mask);                                              \
     }
     V il, ol, ir, orr, it, ot, ib, ob, itl, otl, itr, otr, ibl, obl, ibr, obr;
-    EXCHANGE(-1, tx, dtx, KD(kdx, cqx, kmx, -1), left, il, ol)
-    EXCHANGE(1, tx, dtx, KD(kdx, cqx, kmx, 1), right, ir, orr)
-    EXCHANGE(-P, ty, dty, KD(kdy, cqy, kmy, -P), vup, it, ot)
-    EXCHANGE(P, ty, dty, KD(kdy, cqy, kmy, P), vdown, ib, ob)
-    EXCHANGE(-P - 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, -P - 1), vup & left, itl, otl)
-    EXCHANGE(-P + 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, -P + 1), vup & right, itr, otr)
-    EXCHANGE(P - 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, P - 1), vdown & left, ibl, obl)
-    EXCHANGE(P + 1, tdiag, dtdiag, KD(kddiag, cqdiag, kmdiag, P + 1), vdown & right, ibr, obr)
+    EXCHANGE(-1, tx, dtx, kdx, cqx, kmx, left, il, ol)
+    EXCHANGE(1, tx, dtx, kdx, cqx, kmx, right, ir, orr)
+    EXCHANGE(-P, ty, dty, kdy, cqy, kmy, vup, it, ot)
+    EXCHANGE(P, ty, dty, kdy, cqy, kmy, vdown, ib, ob)
+    EXCHANGE(-P - 1, tdiag, dtdiag, kddiag, cqdiag, kmdiag, vup & left, itl, otl)
+    EXCHANGE(-P + 1, tdiag, dtdiag, kddiag, cqdiag, kmdiag, vup & right, itr, otr)
+    EXCHANGE(P - 1, tdiag, dtdiag, kddiag, cqdiag, kmdiag, vdown & left, ibl, obl)
+    EXCHANGE(P + 1, tdiag, dtdiag, kddiag, cqdiag, kmdiag, vdown & right, ibr, obr)
     const V net = (((il - ol) + (ir - orr)) + ((it - ot) + (ib - ob))) +
                   (((itl - otl) + (ibr - obr)) + ((itr - otr) + (ibl - obl)));
     ST(select(z, bc + net, valid), b_out, i);
@@ -322,7 +392,14 @@ __kernel void erosion_thermal(__global const float* restrict b, __global const f
 #endif
 #undef RN
 #undef PW
-#undef KD
+#undef KQ
+#undef ROOMN
+#undef KEEP
+#ifdef ULPS
+#undef ULPS
+#endif
+#undef QN
+#undef RHO
 #undef EXCHANGE
   }
 }

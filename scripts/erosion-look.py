@@ -4,6 +4,12 @@
 measures an artist's complaints translate to, and draws before / after hillshades and the bed change.
 
   scripts/erosion-look.py DEM OUT.png [extra erode options...]
+  scripts/erosion-look.py nature DEM [--steps N] [--preset P] [--set key=value] [--png OUT.png]
+
+The second form runs what the studio's "Erode all" commits (an edit script {"op": "erode", "steps": N})
+on a projected DEM and prints the figures of docs/erosion.md, "Does it read as nature": cells changed
+> 1 m on hillslopes vs channels, levee rims beside channels, incised channel width vs drainage area
+(and its log-log exponent), the slope where the deposits lie. Needs rasterio too.
 
 Measures: mean elevation change (0 when the material is kept), mean |change|, share of cells at
 33-37 deg (a pile-up there means thermal erosion planed slopes into talus facets), share of cells
@@ -190,5 +196,188 @@ def main():
         print(f"  wrote {out}")
 
 
+# ---- "nature" measures (docs/erosion.md, "Does it read as nature"): what the studio's "Erode all" does
+# to a real DEM, from the before / after rasters.
+
+def read_rio(path):
+    """Float64 array and metric cell size (m) of a projected raster (rasterio)."""
+    import rasterio
+
+    with rasterio.open(path) as ds:
+        z = ds.read(1).astype(np.float64)
+        cx, cy = abs(ds.transform.a), abs(ds.transform.e)
+        if ds.crs is not None and ds.crs.is_geographic:
+            raise SystemExit(f"{path}: geographic CRS; warp it to metres first (gdalwarp -t_srs EPSG:326xx -tr 30 30)")
+        if ds.nodata is not None and np.any(z == ds.nodata):
+            raise SystemExit(f"{path}: has nodata cells; crop them away")
+    return z, cx, cy
+
+
+def run_edit(dem, ops, out):
+    """`terracl edit DEM --script S -o OUT` with S = {"operations": ops}: what the studio replays."""
+    import json
+
+    script = out + ".json"
+    with open(script, "w") as f:
+        json.dump({"operations": ops}, f)
+    subprocess.run([T, "-q", "edit", dem, "--script", script, "-o", out], check=True)
+
+
+def incised_width(dz, y, x, thr, cx, cy):
+    """Width (m) of the incised cross-section through (y, x): along each of the 4 axes (x, y, both
+    diagonals) the run of cells incised at least `thr` m; the narrowest of the 4 is the cross-section
+    (the others run along the channel)."""
+    h, w = dz.shape
+    best = np.inf
+    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        n = 1
+        for s in (-1, 1):
+            k = 1
+            while 0 <= y + s * k * dy < h and 0 <= x + s * k * dx < w and dz[y + s * k * dy, x + s * k * dx] >= thr:
+                k += 1
+            n += k - 1
+        best = min(best, n * np.hypot(dx * cx, dy * cy))
+    return best
+
+
+def nature(z0, z1, area, cx, cy, hill_area=2e4, channel_area=1e5, out=print, filled=None):
+    """Figures (a)-(d) of the brief: changes on hillslopes vs channels, levee rims, channel width vs
+    drainage area, where the deposits go. `area`: D8 drainage area (m^2) of the input."""
+    from scipy import ndimage
+
+    d = z1 - z0
+    res = {}
+    hill, chan = area < hill_area, area >= channel_area
+    res["changed_all"] = 100.0 * np.mean(np.abs(d) > 1)
+    res["changed_hill"] = 100.0 * np.mean(np.abs(d[hill]) > 1)
+    res["changed_channel"] = 100.0 * np.mean(np.abs(d[chan]) > 1)
+    res["lowered_hill"] = 100.0 * np.mean(d[hill] < -1)
+    res["raised_hill"] = 100.0 * np.mean(d[hill] > 1)
+    res["mean_abs_hill"] = float(np.mean(np.abs(d[hill])))
+    res["mean_abs_channel"] = float(np.mean(np.abs(d[chan])))
+    out(f"  (a) cells changed > 1 m: {res['changed_all']:.1f} % of all; hillslopes (area < {hill_area / 1e6:g} km2, "
+        f"{100 * hill.mean():.0f} % of cells) {res['changed_hill']:.1f} % (lowered {res['lowered_hill']:.1f} %, raised "
+        f"{res['raised_hill']:.1f} %), mean |change| {res['mean_abs_hill']:.2f} m; "
+        f"channels (area >= {channel_area / 1e6:g} km2, {100 * chan.mean():.1f} %) {res['changed_channel']:.1f} %, "
+        f"mean |change| {res['mean_abs_channel']:.2f} m")
+    # (b) levee rims: cells 1-3 cells beside a channel (input channels, and cells the run incised > 1 m),
+    # not channel cells themselves, raised above their input elevation.
+    chan_now = chan | (d < -1.0)
+    dist = ndimage.distance_transform_edt(~chan_now)
+    ring = (dist >= 1) & (dist <= 3.01)
+    if filled is not None:  # a closed depression of the input that fills is a lake floor, not a bank
+        lake = filled - z0 > 0.5
+        res["lake_fill_cells"] = int(np.sum(lake & (d > 0.5)))
+        ring &= ~lake
+    raised = d[ring]
+    res["rim_cells_05"] = int(np.sum(raised > 0.5))
+    res["rim_share_05"] = 100.0 * np.mean(raised > 0.5)
+    res["rim_cells_1"] = int(np.sum(raised > 1.0))
+    res["rim_max"] = float(raised.max()) if raised.size else 0.0
+    res["rim_p99"] = float(np.percentile(raised, 99)) if raised.size else 0.0
+    out(f"  (b) levee rims ({raised.size} cells 1-3 cells beside a channel, outside the input's depressions): {res['rim_cells_05']} raised > 0.5 m "
+        f"({res['rim_share_05']:.2f} %), {res['rim_cells_1']} > 1 m, 99th pct {res['rim_p99']:+.2f} m, max "
+        f"{res['rim_max']:+.2f} m")
+    # (c) incised cross-section width vs drainage area: at channel cells incised >= 1 m, the width of
+    # the run incised at least half as deep as the centre (and >= 0.25 m).
+    inc = -d
+    ys, xs = np.nonzero(chan & (inc >= 1.0))
+    widths = np.array([incised_width(inc, y, x, max(0.25, 0.5 * inc[y, x]), cx, cy) for y, x in zip(ys, xs)])
+    areas = area[ys, xs]
+    res["width_exponent"] = float("nan")
+    if widths.size >= 20:
+        edges = 10 ** np.arange(np.floor(np.log10(channel_area) * 2) / 2, np.log10(areas.max()) + 0.5, 0.5)
+        rows, bx, by = [], [], []
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            m = (areas >= lo) & (areas < hi)
+            if m.sum() >= 5:
+                med = float(np.median(widths[m]))
+                rows.append(f"{lo / 1e6:g}-{hi / 1e6:g} km2: {med:.0f} m (n={m.sum()})")
+                bx.append(np.log10(np.sqrt(lo * hi)))
+                by.append(np.log10(med))
+        slope = np.polyfit(np.log10(areas), np.log10(widths), 1)[0]
+        res["width_exponent"] = float(slope)
+        res["width_exponent_binned"] = float(np.polyfit(bx, by, 1)[0]) if len(bx) >= 2 else float("nan")
+        out(f"  (c) incised width vs drainage area ({widths.size} sections): " + "; ".join(rows))
+        out(f"      log-log exponent {slope:.3f} (all sections), {res['width_exponent_binned']:.3f} (bin medians)")
+    else:
+        out(f"  (c) too few incised channel sections ({widths.size})")
+    # (d) deposition > 0.5 m: slope of the input there vs where it eroded, share on low ground
+    s0 = slope_deg(z0, cx, cy)
+    dep, ero = d > 0.5, d < -0.5
+    vol = np.where(dep, d, 0.0)
+    res["dep_cells"] = int(dep.sum())
+    res["dep_slope"] = float(s0[dep].mean()) if dep.any() else float("nan")
+    res["ero_slope"] = float(s0[ero].mean()) if ero.any() else float("nan")
+    # valley floors: channel cells; slope breaks: cells much flatter than the ground 3 cells upslope
+    smax_up = ndimage.maximum_filter(s0, size=7)
+    low = (s0 < 10) & (chan | (smax_up - s0 > 10))
+    res["dep_low_share"] = 100.0 * vol[low].sum() / max(vol.sum(), 1e-12)
+    res["dep_flat_share"] = 100.0 * vol[s0 < 10].sum() / max(vol.sum(), 1e-12)
+    out(f"  (d) deposition > 0.5 m on {res['dep_cells']} cells: mean input slope {res['dep_slope']:.1f} deg (eroded "
+        f"cells: {res['ero_slope']:.1f} deg); {res['dep_flat_share']:.0f} % of the deposited volume on ground < 10 deg, "
+        f"{res['dep_low_share']:.0f} % on valley floors / slope breaks")
+    return res
+
+
+def nature_main(argv):
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(prog="erosion-look.py nature", description="Figures of an 'Erode all' run on a real DEM")
+    ap.add_argument("dem", help="projected DEM in metres (no nodata)")
+    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--preset", default="default")
+    ap.add_argument("--set", action="append", default=[], help="extra erode key=value (JSON value)")
+    ap.add_argument("--after", help="measure this raster instead of running the erosion")
+    ap.add_argument("--png", help="write before / after hillshades and the change here")
+    ap.add_argument("--keep", help="keep the after raster here")
+    a = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        before = os.path.join(tmp, "before.tif")
+        run_edit(a.dem, [], before)  # the reconstruction of the DEM itself: what erosion starts from
+        after = a.after
+        op = {"op": "erode", "steps": a.steps, "preset": a.preset}
+        for kv in a.set:
+            k, v = kv.split("=", 1)
+            op[k] = json.loads(v)
+        if not after:
+            after = a.keep or os.path.join(tmp, "after.tif")
+            run_edit(a.dem, [op], after)
+        acc = os.path.join(tmp, "area.tif")
+        subprocess.run([T, "-q", "drainage", before, "-o", acc], check=True)
+        fill = os.path.join(tmp, "filled.tif")
+        subprocess.run([T, "-q", "fill_depressions", before, "-o", fill], check=True)
+        z0, cx, cy = read_rio(before)
+        z1, _, _ = read_rio(after)
+        area, _, _ = read_rio(acc)
+        filled, _, _ = read_rio(fill)
+        print(f"{os.path.basename(a.dem)}: {z0.shape[1]} x {z0.shape[0]} cells of {cx:.1f} x {cy:.1f} m; "
+              f"{json.dumps(op) if not a.after else a.after}")
+        res = nature(z0, z1, area, cx, cy, filled=filled)
+        print("  json " + json.dumps({k: round(v, 4) for k, v in res.items()}))
+        if a.png:
+            shades = []
+            for src in (before, after):
+                png = os.path.join(tmp, os.path.basename(src) + ".png")
+                subprocess.run([T, "-q", "render", src, "-o", png], check=True)
+                shades.append(plt.imread(png))
+            d = z1 - z0
+            lim = max(np.percentile(np.abs(d), 99), 1e-6)
+            h, w = z0.shape
+            fig, ax = plt.subplots(1, 3, figsize=(3 * w / 100, h / 100 + 0.4), dpi=100)
+            for ax_, img, title in zip(ax, shades + [None], ["before", "after", "change (dark = eroded)"]):
+                ax_.imshow(d if img is None else img, cmap="gray" if img is None else None,
+                           vmin=-lim if img is None else None, vmax=lim if img is None else None)
+                ax_.set_title(title)
+                ax_.axis("off")
+            fig.tight_layout()
+            fig.savefig(a.png)
+            print(f"  wrote {a.png}")
+
+
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) > 1 and sys.argv[1] == "nature":
+        nature_main(sys.argv[2:])
+    else:
+        main()

@@ -67,14 +67,16 @@ double spearman(const std::vector<double>& a, const std::vector<double>& b) {
 }
 
 struct Measures {
-  double gini_before, gini_after, lap_ratio, rho;
+  double gini_before, gini_after, lap_ratio, rho, rho_abs;  // rho_abs: Spearman(|change|, log A0)
 };
 
 Measures measure(const Heightfield& before, const Heightfield& after) {
   const auto a0 = test::d8_area(before), a1 = test::d8_area(after);
-  std::vector<double> depth(before.size()), log_area(before.size());
-  for (size_t i = 0; i < depth.size(); ++i) depth[i] = double(before.z[i]) - after.z[i], log_area[i] = std::log(a0[i]);
-  return {gini(a0), gini(a1), mean_abs_laplacian(after) / mean_abs_laplacian(before), spearman(depth, log_area)};
+  std::vector<double> depth(before.size()), change(before.size()), log_area(before.size());
+  for (size_t i = 0; i < depth.size(); ++i)
+    depth[i] = double(before.z[i]) - after.z[i], change[i] = std::fabs(depth[i]), log_area[i] = std::log(a0[i]);
+  return {gini(a0), gini(a1), mean_abs_laplacian(after) / mean_abs_laplacian(before), spearman(depth, log_area),
+          spearman(change, log_area)};
 }
 
 }  // namespace
@@ -110,8 +112,9 @@ TEST(Erosion, T9DefaultRunCarvesChannelsOnSrtm) {
   p.settle = false;
   const Heightfield eroded = erode(test::device(), dem, p, 400);
   const Measures m = measure(dem, eroded);
-  std::printf("T9 default: Gini %.4f -> %.4f, mean |Laplacian| x%.2f, Spearman(depth, log A0) %.3f\n", m.gini_before,
-              m.gini_after, m.lap_ratio, m.rho);
+  std::printf("T9 default: Gini %.4f -> %.4f, mean |Laplacian| x%.2f, Spearman(depth, log A0) %.3f, "
+              "Spearman(|change|, log A0) %.3f\n",
+              m.gini_before, m.gini_after, m.lap_ratio, m.rho, m.rho_abs);
   // Recalibrated for the issue-15 defaults (a third of the rain, bed diffusion 2 m^2/s, open border):
   // they carve less and smooth the one-cell roughness the old ones added (old: Gini 0.778 -> 0.804,
   // |Laplacian| x2.37, Spearman 0.342; new: 0.778 -> 0.821, x1.15, 0.237). Flow still concentrates
@@ -124,14 +127,33 @@ TEST(Erosion, T9DefaultRunCarvesChannelsOnSrtm) {
   // 0.839, x0.97, Spearman 0.125 (the faster water carves the trunk valleys as well as the gullies).
   EXPECT_GT(m.gini_after, m.gini_before + 0.02);
   EXPECT_GE(m.lap_ratio, 0.85);
-  EXPECT_GE(m.rho, 0.1);
+  // Since "Does it read as nature" (docs/erosion.md) the capacity follows the slope along the flow
+  // and a critical shear: gullies cut the slopes where the flow gathers while the low trunk floors
+  // aggrade, so depth no longer rises with log area over all cells (Spearman 0.125 -> -0.21). What
+  // must hold is that the change is where water gathers: cells draining >= 20 cells change on
+  // average more than 1.5 times as much as cells draining < 3 (3.29 m against 1.83 m: on this raw
+  // SRTM3 crop the new gullies start in cells that drain < 3 cells on the input).
+  {
+    const auto a0 = test::d8_area(dem);
+    double hill = 0, chan = 0;
+    int nh = 0, nc = 0;
+    for (size_t i = 0; i < dem.size(); ++i) {
+      const double c = std::fabs(double(eroded.z[i]) - dem.z[i]);
+      if (a0[i] < 3) hill += c, ++nh;
+      if (a0[i] >= 20) chan += c, ++nc;
+    }
+    std::printf("T9 default: mean |change| %.3f m where the input drains < 3 cells, %.3f m where >= 20\n",
+                hill / std::max(1, nh), chan / std::max(1, nc));
+    EXPECT_GT(chan / std::max(1, nc), 1.5 * hill / std::max(1, nh));
+  }
   // The analysis module routes D8 on the depression-filled surface instead (every cell drains to
   // the border): an independent routing. With the old defaults its Gini rose (0.922 -> 0.933);
   // with the new ones it stays within 0.005 (0.922 -> 0.918): the diffusion rounds the small
   // channels that concentrated flow on the filled surface. Measured here so that a change shows.
   const double g0 = terracl::analysis::gini(analysis::d8_flow(dem).cells), g1 = terracl::analysis::gini(analysis::d8_flow(eroded).cells);
   std::printf("T9 default, filled-surface D8 (analysis module): Gini %.4f -> %.4f\n", g0, g1);
-  EXPECT_NEAR(g1, g0, 0.01);
+  // 0.922 -> 0.911 since the trunk floors aggrade (see above), which spreads their filled-surface D8.
+  EXPECT_NEAR(g1, g0, 0.015);
 
   // Thermal only, with a talus low enough (10 deg) that it really moves material on this terrain.
   ErosionParams thermal = p;

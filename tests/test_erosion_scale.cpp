@@ -129,6 +129,9 @@ TEST(ErosionRecession, MaxConcentrationBoundsTheLoadPerDepth) {
     p.boundary = ErosionBoundary::Closed;
     p.settle = false;
     p.max_concentration = c;
+    // Any flow picks up (no critical shear): the default's 200 Pa leaves the sheet flow clear and
+    // the 99th percentile of sediment/depth at 2.5, too close to the bound of 2 to test it.
+    p.critical_shear = 0;
     ErosionOutputs out;
     const Heightfield bed = erode(test::device(), dem, p, 150, nullptr, &out);
     std::vector<double> ratio;
@@ -214,7 +217,9 @@ TEST(ErosionScale, DefaultsGiveTheSameErosionAtAnyCellSize) {
               "fine grid %.2f m\n",
               m_coarse, std::sqrt(coarse.georef.cell_x * coarse.georef.cell_y), m_fine,
               std::sqrt(fine.georef.cell_x * fine.georef.cell_y), m_fine_old);
-  EXPECT_GT(m_coarse, 1.0);
+  // 0.73 m at 78 m cells, 0.81 m at 26 m: the critical shear leaves the hillslopes' sheet flow
+  // uncut (before it, 2.3 m), and the in-transit load refills the carved trunks.
+  EXPECT_GT(m_coarse, 0.5);
   EXPECT_NEAR(m_fine / m_coarse, 1.0, 0.3);
   EXPECT_FALSE(std::fabs(m_fine_old / m_coarse - 1.0) < 0.3) << "the old defaults were not scale-independent";
 }
@@ -277,10 +282,13 @@ TEST(ErosionScale, ChannelsAreSeveralCellsWideAtTenMetres) {
   std::printf("channel floors at %.1f x %.1f m cells: defaults %zu, %.1f %% one cell wide, mean %.2f cells; "
               "without channel diffusion %zu, %.1f %%, mean %.2f cells\n",
               fine.georef.cell_x, fine.georef.cell_y, n_new, 100 * one_new, mean_new, n_old, 100 * one_old, mean_old);
-  ASSERT_GT(n_new, 200u) << "the run must carve channels for this test to mean anything";
+  // With the critical shear only the concentrated flow cuts, so fewer floors are carved >= 1 m than
+  // before it (76 against 300-odd; without channel diffusion 241 narrower ones): defaults 54 % one
+  // cell wide, mean 2.01 cells; without channel diffusion 62 %, mean 1.46 cells.
+  ASSERT_GT(n_new, 40u) << "the run must carve channels for this test to mean anything";
   EXPECT_GT(one_old, 0.6) << "without channel diffusion the floors are one-cell notches";
-  EXPECT_LT(one_new, 0.45);
-  EXPECT_GT(mean_new, 2.0);
+  EXPECT_LT(one_new, one_old);
+  EXPECT_GT(mean_new, mean_old + 0.4);
 }
 
 namespace {
@@ -319,16 +327,27 @@ TEST(ErosionSettle, DefaultsLeaveNoRaisedValleyRibbon) {
   const ErosionParams p = ErosionParams::defaults();
   ErosionParams old = p;
   old.damping = 0.5, old.evaporation = 0.02, old.dissolve = 0.015;
+  // And the physics before "Does it read as nature" (docs/erosion.md) as far as it can be switched
+  // back: no critical shear, thermal erosion everywhere, the creep of then, and the suspended load
+  // settled where it stands (settle_sediment) instead of run on down the valleys (route_sediment).
+  old.critical_shear = 0, old.thermal_banks_only = false, old.diffusion = 2, old.channel_diffusion = 1;
+  old.settle = false;
   const auto steps = [&](const ErosionParams& q) {
     return int(std::ceil(400.0 / (0.5 * erosion_stability_limit(q, dem.georef.cell_x, dem.georef.cell_y))));
   };
   const Ribbon now = ribbon(dem, erode(test::device(), dem, p, steps(p)));
-  const Ribbon before = ribbon(dem, erode(test::device(), dem, old, steps(old)));
+  ErosionOutputs old_out;
+  Heightfield old_bed = erode(test::device(), dem, old, steps(old), nullptr, &old_out);
+  std::vector<float> no_deposit;
+  settle_sediment(old_bed, old_out.sediment.z, no_deposit, nullptr);
+  const Ribbon before = ribbon(dem, old_bed);
   std::printf("valley floors raised > 1 m: %.1f %% (95th pct %+.1f m), old defaults %.1f %% (%+.1f m); "
               "mean carving %.2f m, old %.2f m\n",
               100 * now.raised, now.p95, 100 * before.raised, before.p95, now.carved, before.carved);
   ASSERT_GT(before.raised, 0.15) << "the old defaults must show the ribbon for this test to mean anything";
   EXPECT_LT(now.raised, 0.5 * before.raised);
   EXPECT_LT(now.p95, 0.5 * before.p95);
-  EXPECT_GT(now.carved, 0.85 * before.carved) << "the ribbon must not go by carving less";
+  // The critical shear leaves the sheet flow of the hillslopes uncut, so the mean lowering is about
+  // half the old one (1.69 m against 2.95-3.47 m); ErosionLook checks that the channels still cut.
+  EXPECT_GT(now.carved, 0.4 * before.carved) << "the ribbon must not go by carving nothing";
 }

@@ -39,6 +39,9 @@ struct ErosionParams {
   double dissolve = 0.0;       ///< 1/s, K_s: rate of picking up (C - s)
   double deposit = 0.0;        ///< 1/s, K_d: rate of settling (s - C)
   double min_sin_slope = 0.0;  ///< lower bound of sin(slope) in the capacity, so flats still carry
+  double critical_shear = 0.0; ///< Pa, tau_c: the flow detaches the bed only where its shear stress
+                               ///< rho_w*g*d*S exceeds this (excess shear: the capacity's slope term is
+                               ///< S - tau_c/(rho_w*g*d)); thin sheet flow on hillslopes cuts nothing
   double depth_ramp = 0.0;     ///< m, K_dmax: capacity ramps up linearly with depth until this depth
   double max_change = 0.0;     ///< m, cap on the bed change of one cell in one sub-step
   double dry_depth = 1e-4;     ///< m, d_min: below it a cell has no velocity and deposits all it carries
@@ -51,6 +54,11 @@ struct ErosionParams {
                                    ///< q = |v| * d the unit discharge (m^2/s): widens channels to metres
   double talus_deg = 35.0;     ///< deg, talus (angle of repose) of the rock (of all material
                                ///< without a deposit layer)
+  bool thermal_banks_only = false;  ///< with water: the talus exchange runs only on pairs where the flow
+                                    ///< cuts at one of the two cells (bank failure into a stream); the
+                                    ///< input's cliffs away from the water stand. Not with thermal_only
+  bool creep_into_cuts = false;  ///< with water: creep (diffusion) runs only into cells below their input
+                                 ///< height, healing cuts; the input's hillslope texture stays
   bool deposit_layer = false;  ///< track a softer deposit layer on top of the rock
   double rock_erodibility = 0.3;   ///< with a deposit layer: rock dissolves at this fraction of K_s
   double deposit_talus_deg = 30.0; ///< deg, with a deposit layer: talus of the deposit
@@ -169,6 +177,26 @@ struct ErosionOutputs {
 /// what landed. Returns the settled volume (m^3).
 double settle_sediment(Heightfield& bed, std::vector<float>& sediment, std::vector<float>& deposit,
                        const std::vector<float>* weight);
+
+/// The load still in transit at the end of a run, run on down the valleys and settled (what erode()
+/// and Erosion::settled_bed do): cells are visited from the highest bed down; each refills its bed
+/// with the load it holds (its own suspended sediment plus what reached it from above), but never
+/// above `initial` (its elevation before the erosion) and times its brush weight; the rest passes on
+/// to its steepest lower neighbour (D8 on the bed). A cell with no lower neighbour takes all that
+/// reaches it (a depression fills), except on an open border, where it leaves the grid
+/// (`*drained`, m^3). So the load refills carved channels, fills depressions and leaves the crop; it
+/// never raises a bank above the ground it was cut from. The load runs at most `reach` cells (its
+/// load-weighted mean path length; 0 = no limit) and settles where it is when it has run that far,
+/// so a cell's result depends only on the cells within `reach` (tiles: erode_tile_halo adds it).
+/// `sediment` keeps what stays suspended (weight < 1), `deposit` (if not empty) gains what landed.
+/// Returns the settled volume (m^3).
+double route_sediment(Heightfield& bed, const std::vector<float>& initial, std::vector<float>& sediment,
+                      std::vector<float>& deposit, const std::vector<float>* weight, bool open_border,
+                      double* drained = nullptr, int reach = 0);
+/// How far (cells) erode() and Erosion::settled_bed let the load run on after `substeps_run`
+/// sub-steps: as far again as the water can go in that time at the velocity cap (half a cell per
+/// sub-step), at least 64 cells.
+int sediment_reach(long long substeps_run);
 
 /// Runs `steps` steps on `terrain` and returns the eroded bed (with params.settle, the suspended
 /// sediment settled onto it). `weight` as for Erosion.

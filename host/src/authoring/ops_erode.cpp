@@ -16,18 +16,20 @@ namespace {
 // Looks of erosion in physical units (docs/authoring.md, "Erosion presets"): what differs from the
 // defaults; keys given in the operation override them.
 void apply_preset(ErosionParams& q, const std::string& name) {
-  if (name == "young_alpine") {  // deep narrow gullies, sharp ridges, scree at a steep repose
-    q.rain = 0.004, q.dissolve = 0.012, q.deposit = 0.001, q.diffusion = 0.5, q.channel_diffusion = 0.5;
-    q.thermal_rate = 0.08, q.talus_deg = 40;
-  } else if (name == "old_hills") {  // rounded slopes, wide channels, valleys filling
+  // critical_shear (Pa) sets how concentrated the water must be to cut; channel_diffusion how wide the
+  // cut grows with discharge; diffusion (m^2/s) the creep of the slopes between the channels.
+  if (name == "young_alpine") {  // deep narrow gullies, sharp ridges, banks slumping at a steep repose
+    q.rain = 0.004, q.dissolve = 0.012, q.deposit = 0.001, q.diffusion = 0.2, q.channel_diffusion = 1;
+    q.thermal_rate = 0.08, q.talus_deg = 40, q.creep_into_cuts = false;
+  } else if (name == "old_hills") {  // rounded slopes (creep), wide shallow channels, valleys filling
     q.rain = 0.002, q.dissolve = 0.005, q.deposit = 0.004, q.diffusion = 6, q.channel_diffusion = 2;
-    q.thermal_rate = 0.03, q.talus_deg = 25;
-  } else if (name == "badlands") {  // dense sharp rills on soft rock, little creep
-    q.rain = 0.005, q.dissolve = 0.015, q.deposit = 0.001, q.diffusion = 0.3;
-    q.channel_diffusion = 0.3, q.thermal_rate = 0.06, q.talus_deg = 45;
+    q.thermal_rate = 0.03, q.talus_deg = 25, q.creep_into_cuts = false;  // creep rounds the whole relief
+  } else if (name == "badlands") {  // dense sharp rills on soft rock (a low threshold), little creep
+    q.rain = 0.005, q.dissolve = 0.015, q.deposit = 0.001, q.diffusion = 0.1;
+    q.channel_diffusion = 0.5, q.thermal_rate = 0.06, q.talus_deg = 45, q.critical_shear = 50;
   } else if (name == "desert_wash") {  // rare water that drops its load in fans and wide washes
-    q.rain = 0.0015, q.evaporation = 0.01, q.dissolve = 0.006, q.deposit = 0.006, q.diffusion = 1;
-    q.channel_diffusion = 3, q.thermal_rate = 0.06, q.talus_deg = 33;
+    q.rain = 0.0015, q.evaporation = 0.01, q.dissolve = 0.006, q.deposit = 0.006, q.diffusion = 0.5;
+    q.channel_diffusion = 4, q.thermal_rate = 0.06, q.talus_deg = 33, q.critical_shear = 150;
   }
 }
 }  // namespace
@@ -51,6 +53,12 @@ ErodeSpec parse_erode_spec(Params& p) {
   e.params.evaporation = p.number("evaporation", e.params.evaporation, 0.0, 100.0);
   e.params.thermal_rate = p.number("thermal_rate", e.params.thermal_rate, 0.0, 100.0);
   e.params.talus_deg = p.number("talus", e.params.talus_deg, 0.0, 89.0);
+  e.params.critical_shear = p.number("critical_shear", e.params.critical_shear, 0.0, 1e6);
+  e.params.max_concentration = p.number("max_concentration", e.params.max_concentration, 0.0, 1e6);
+  e.params.min_sin_slope = p.number("min_slope", e.params.min_sin_slope, 0.0, 1.0);
+  e.params.deposit_layer = p.boolean("deposit_layer", e.params.deposit_layer);
+  e.params.thermal_banks_only = p.boolean("thermal_banks_only", e.params.thermal_banks_only);
+  e.params.creep_into_cuts = p.boolean("creep_into_cuts", e.params.creep_into_cuts);
   // Creep and channel widening (docs/erosion.md): on a steep range the default channel diffusion
   // planes the sheet-flow flanks smooth; a gallery pass lowers both to keep the gullies it cuts.
   e.params.diffusion = p.number("diffusion", e.params.diffusion, 0.0, 1e4);

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <queue>
 
 namespace terracl {
 
@@ -16,6 +17,7 @@ namespace {
 
 constexpr int kPad = 8;  // pad columns on the left; must match PAD in kernels/erosion.cl
 constexpr const char* kStage = "erode";
+constexpr double kWaterDensity = 1000.0;  // kg/m^3, rho_w of the critical shear stress
 
 void check_param(double v, const char* name, double lo, double hi = INFINITY) {
   if (!std::isfinite(v) || v < lo || v > hi)
@@ -33,6 +35,7 @@ void validate(const ErosionParams& p) {
   check_param(p.dissolve, "dissolve", 0, 1e9);
   check_param(p.deposit, "deposit", 0, 1e9);
   check_param(p.min_sin_slope, "min_sin_slope", 0, 1);
+  check_param(p.critical_shear, "critical_shear", 0, 1e9);
   check_param(p.depth_ramp, "depth_ramp", 0, 1e9);
   check_param(p.max_change, "max_change", 0, 1e9);
   check_param(p.dry_depth, "dry_depth", 1e-9, 1e3);
@@ -70,15 +73,21 @@ ErosionParams ErosionParams::defaults() {
   p.deposit = 0.001;
   p.min_sin_slope = 0.05;
   p.depth_ramp = 5.0;
-  p.channel_diffusion = 1.0;
+  // Channel widening: banks slump into water that cuts (docs/erosion.md, "Does it read as nature").
+  p.channel_diffusion = 2.0;
+  // Excess shear: 200 Pa (tau = rho_w g d S: 2 cm of water on a 1:1 slope, 0.4 m on a 5 % one) keeps
+  // the sheet flow of the hillslopes from cutting them; the concentrated flow of hollows and valleys
+  // cuts. Bank failure only where water cuts: the input's own cliffs and scarps stand.
+  p.critical_shear = 200.0;
+  p.thermal_banks_only = true;
+  p.creep_into_cuts = true;
   p.max_change = 0.5;  // m/s: 0.5 m per ~1 s sub-step of the SRTM3 tiles it was tuned on
   p.thermal_rate = 0.05;
   p.talus_deg = 35.0;
-  // At 10-30 m cells: hillslope creep of 2 m^2/s smooths the one-cell crinkles of a
-  // 10 m grid in ~50 s (w^2/D) but a 66 m cell's features only after ~2000 s, five times the default
-  // run; an open border lets the valleys drain out of a DEM crop instead of filling as lakes
+  // Hillslope creep of 0.5 m^2/s smooths the one-cell crinkles of a 10 m grid in ~200 s (w^2/D) and
+  // leaves the texture of a 30 m DEM (1800 s) where no water concentrates; an open border lets the valleys drain out of a DEM crop instead of filling as lakes
   // against a wall that is not there; a low rain keeps the incision a few metres.
-  p.diffusion = 2.0;
+  p.diffusion = 0.5;
   p.boundary = ErosionBoundary::Open;
   return p;
 }
@@ -101,13 +110,14 @@ struct Erosion::Impl {
   size_t n_padded = 0;
   double lx = 1, ly = 1;
   bool has_weight = false;
-  cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2], q;
+  cl::Buffer b[2], d[2], s[2], f[4], w, drain, r[2], q, b0;
   size_t chunks = 1;        // work-items per row (global size of dimension 1)
   size_t local_rows = 4, local_chunks = 1;
   int cur = 0;  // index of the current d/s (and b when thermal is off)
   int bcur = 0;
   cl::Kernel k_flux, k_transport, k_thermal;
   std::vector<double> drained{0.0, 0.0};
+  std::vector<float> initial;  // the bed before the erosion: route_sediment refills no higher
   double rained = 0;
 
   explicit Impl(Device& device) : dev(device) {}
@@ -182,6 +192,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
   s.lx = lx;
   s.ly = ly;
   s.has_weight = weight != nullptr;
+  s.initial = terrain.z;
   s.meta.width = terrain.width;
   s.meta.height = terrain.height;
   s.meta.georef = terrain.georef;
@@ -219,8 +230,11 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       dev.queue().enqueueWriteBuffer(s.r[1], CL_TRUE, 0, bytes, std::vector<float>(s.n_padded, 0.0f).data());
       s.upload(s.r[0], deposit ? *deposit : std::vector<float>(n, 0.0f));
     }
-    const bool channel = params.channel_diffusion > 0 && !params.thermal_only;
+    const bool channel = (params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only;
     s.q = dev.buffer(channel ? bytes : 4, CL_MEM_READ_WRITE, "erosion unit discharge");
+    // The bed before the erosion: the channel and bank-failure shares fill no cell above it.
+    s.b0 = dev.buffer(channel ? bytes : 4, CL_MEM_READ_ONLY, "erosion initial bed");
+    if (channel) s.upload(s.b0, terrain.z);
     if (channel) dev.fill(s.q, 0.0f, 0, s.n_padded);
     s.drain = dev.buffer(size_t(2) * s.H * s.chunks * sizeof(float), CL_MEM_READ_WRITE, "erosion drain");
 
@@ -288,6 +302,8 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(34, s.q);
       k.setArg(35, 0.0f);  // no settling velocity while it rains; 36: the pick-up bound (1e30 = none)
       k.setArg(36, float(p.max_concentration > 0 ? p.max_concentration : 1e30));
+      k.setArg(37, float(p.critical_shear / (kWaterDensity * p.gravity)));  // tau_c/(rho_w g), m
+      k.setArg(38, s.b0);
     }
     {
       cl::Kernel& k = s.k_thermal;
@@ -327,6 +343,7 @@ Erosion::Erosion(Device& dev, const Heightfield& terrain, const ErosionParams& p
       k.setArg(22, float(0.25 * gx / gsum));
       k.setArg(23, float(0.25 * gy / gsum));
       k.setArg(24, float(0.25 * gdiag / gsum));
+      k.setArg(25, s.b0);
     }
   } catch (const cl::Error& e) {
     fail(kStage, "setting up the device state: {}", describe(e));
@@ -502,10 +519,155 @@ double settle_sediment(Heightfield& bed, std::vector<float>& sediment, std::vect
   return settled;
 }
 
+double route_sediment(Heightfield& bed, const std::vector<float>& initial, std::vector<float>& sediment,
+                      std::vector<float>& deposit, const std::vector<float>* weight, bool open_border,
+                      double* drained, int reach) {
+  const int W = bed.width, H = bed.height;
+  const size_t n = bed.size();
+  if (initial.size() != n || sediment.size() != n) fail(kStage, "route_sediment: sizes differ");
+  const double a = bed.georef.cell_x * bed.georef.cell_y;
+  // Priority-flood (Barnes et al. 2014) from the border cells on the bed as it is: every cell gets a
+  // parent (the cell it drains to, through depressions to their spill point) and a water level (its
+  // bed, or the spill level of the depression it lies in). Ties by index: the same order every run.
+  using Item = std::pair<float, size_t>;
+  auto later = [](const Item& p, const Item& q) { return p.first > q.first || (p.first == q.first && p.second > q.second); };
+  std::priority_queue<Item, std::vector<Item>, decltype(later)> open(later);
+  std::vector<long> parent(n, -2);  // -2: not reached yet, -1: a border seed
+  std::vector<float> level(n);
+  std::vector<size_t> visit;
+  visit.reserve(n);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (x == 0 || y == 0 || x == W - 1 || y == H - 1) {
+        const size_t i = size_t(y) * W + x;
+        parent[i] = -1, level[i] = bed.z[i];
+        open.push({level[i], i});
+      }
+  while (!open.empty()) {
+    const size_t i = open.top().second;
+    open.pop();
+    visit.push_back(i);
+    const int x = int(i % W), y = int(i / W);
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int xn = x + dx, yn = y + dy;
+        if ((dx == 0 && dy == 0) || xn < 0 || yn < 0 || xn >= W || yn >= H) continue;
+        const size_t j = size_t(yn) * W + xn;
+        if (parent[j] != -2) continue;
+        parent[j] = long(i);
+        level[j] = std::max(bed.z[j], level[i]);
+        open.push({level[j], j});
+      }
+  }
+  // Depressions: connected cells below their flood level (the spill level), labelled along the
+  // flood's parent links; each collects the load that reaches it into a pool and fills as a lake, flat
+  // to one level (so the result moves continuously with the bed, unlike filling cell by cell), and
+  // passes what overflows on to its outlet (the spill cell it was entered from).
+  std::vector<int> dep(n, -1);
+  std::vector<size_t> dep_first, dep_count;  // per depression: the first cell the flood entered, cells
+  for (size_t i : visit)
+    if (level[i] > bed.z[i] && parent[i] >= 0) {
+      const size_t p = size_t(parent[i]);
+      if (dep[p] >= 0 && level[p] == level[i]) {
+        dep[i] = dep[p];
+      } else {
+        dep[i] = int(dep_first.size());
+        dep_first.push_back(i);
+        dep_count.push_back(0);
+      }
+      ++dep_count[size_t(dep[i])];
+    }
+  std::vector<std::vector<size_t>> dep_cells(dep_first.size());
+  for (size_t k = 0; k < dep_cells.size(); ++k) dep_cells[k].reserve(dep_count[k]);
+  for (size_t i : visit)
+    if (dep[i] >= 0) dep_cells[size_t(dep[i])].push_back(i);
+  std::vector<double> pool(dep_first.size(), 0.0);
+
+  std::vector<double> carry(n, 0.0), hops(n, 0.0);  // hops: the carry's load-weighted mean path length
+  double settled = 0, out = 0;
+  auto land = [&](size_t i, double take) {
+    const float w = weight ? std::clamp((*weight)[i], 0.0f, 1.0f) : 1.0f;
+    const float before = bed.z[i];
+    bed.z[i] = float(double(before) + double(w) * take);
+    const float landed = bed.z[i] - before;  // what the float bed really took
+    // A full-weight cell keeps no sediment; the sub-ulp remainder of the addition is round-off.
+    sediment[i] = w >= 1.0f ? 0.0f : float(std::max(0.0, take - double(landed)));
+    if (!deposit.empty()) deposit[i] += landed;  // settled sediment is loose: deposit layer
+    settled += double(landed) * a;
+  };
+  auto pass_on = [&](size_t i, double pass, double len) {
+    const size_t j = size_t(parent[i]);
+    hops[j] = (carry[j] * hops[j] + pass * len) / (carry[j] + pass);
+    carry[j] += pass;
+  };
+  // Upstream first (the reverse of the flood's order): each cell holds what it can, the rest runs on.
+  for (auto it = visit.rbegin(); it != visit.rend(); ++it) {
+    const size_t i = *it;
+    const double load = double(std::max(0.0f, sediment[i])) + carry[i];
+    if (dep[i] >= 0) {
+      const size_t k = size_t(dep[i]);
+      pool[k] += load;
+      if (i != dep_first[k] || !(pool[k] > 0)) continue;
+      // The depression's last cell: fill it flat to the level h that holds the pool, at most the spill.
+      const auto& cells = dep_cells[k];
+      std::vector<double> beds(cells.size());
+      for (size_t c = 0; c < cells.size(); ++c) beds[c] = bed.z[cells[c]];
+      std::sort(beds.begin(), beds.end());
+      const double spill = level[i];
+      double h = spill, below = 0;  // below: volume (m) under h over the cells lower than it
+      for (size_t c = 0; c < beds.size(); ++c) {
+        const double next = c + 1 < beds.size() ? std::min(beds[c + 1], spill) : spill;
+        const double room = (next - beds[c]) * double(c + 1);
+        if (below + room >= pool[k]) {
+          h = beds[c] + (pool[k] - below) / double(c + 1);
+          break;
+        }
+        below += room;
+      }
+      double held = 0;
+      for (size_t c : cells) {
+        const double take = std::max(0.0, h - double(bed.z[c]));
+        held += take;
+        land(c, take);
+      }
+      const double over = std::max(0.0, pool[k] - held);
+      if (over > 0) pass_on(i, over, 1.0);  // spills over at the outlet
+      continue;
+    }
+    if (!(load > 0)) continue;
+    // Room: up to the ground it was cut from.
+    const double room = std::max(0.0, double(initial[i]) - double(bed.z[i]));
+    double take = std::min(load, room), pass = load - take, leave = 0;
+    if (parent[i] < 0) {  // a border cell: the load leaves over an open border, settles at a closed one
+      if (open_border) leave = pass;
+      else take = load;
+      pass = 0;
+    } else if (reach > 0 && carry[i] > 0 && hops[i] >= reach) {  // it has run as far as it may
+      take = load, pass = 0;
+    }
+    land(i, take);
+    out += leave * a;
+    if (pass > 0) {
+      // The load passed on: the carry's (length + 1) and this cell's own sediment (length 1), weighted.
+      const double own = std::max(0.0, load - carry[i]);
+      const double from_carry = std::max(0.0, pass - own);
+      pass_on(i, pass, (from_carry * (hops[i] + 1.0) + (pass - from_carry) * 1.0) / pass);
+    }
+  }
+  if (drained) *drained = out;
+  return settled;
+}
+
+int sediment_reach(long long substeps_run) {
+  return int(std::clamp(std::ceil(0.5 * double(substeps_run)), 64.0, 1e6));
+}
+
 Heightfield Erosion::settled_bed(const std::vector<float>* weight) {
   Heightfield h = bed();
   ErosionState st = state();
-  settle_sediment(h, st.sediment, st.deposit, weight);
+  route_sediment(h, m->initial, st.sediment, st.deposit, weight,
+                 m->p.boundary == ErosionBoundary::Open && !m->p.thermal_only, nullptr,
+                 sediment_reach(m_steps * m_substeps));
   return h;
 }
 
@@ -522,10 +684,12 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
   }
   Heightfield out = sim.bed();
   ErosionState st = sim.state();
-  double settled = 0, unsettled = 0;
+  double settled = 0, unsettled = 0, settle_drained = 0;
   const double a = terrain.georef.cell_x * terrain.georef.cell_y;
   if (params.settle) {
-    settled = settle_sediment(out, st.sediment, st.deposit, weight);
+    settled = route_sediment(out, terrain.z, st.sediment, st.deposit, weight,
+                             params.boundary == ErosionBoundary::Open && !params.thermal_only, &settle_drained,
+                             sediment_reach(sim.steps_done() * sim.substeps()));
     for (float s : st.sediment) unsettled += double(s) * a;
   }
   // The bed is finite by construction; check anyway so that no NaN ever reaches a file.
@@ -546,6 +710,7 @@ Heightfield erode(Device& dev, const Heightfield& terrain, const ErosionParams& 
     if (params.settle) {
       outputs->totals.sediment = unsettled;
       outputs->totals.settled = settled;
+      outputs->totals.drained_sediment += settle_drained;  // the load that ran on out of the grid
     }
     outputs->substeps = sim.substeps();
     outputs->substep_dt = sim.substep_dt();
@@ -563,7 +728,11 @@ std::string erosion_program_options(const Device& dev, int width, const ErosionP
   if (params.boundary == ErosionBoundary::Open) opts += " -DOPEN_BORDER";
   if (weight) opts += " -DHAS_WEIGHT";
   if (params.deposit_layer) opts += " -DDEPOSIT_LAYER";
-  if (params.channel_diffusion > 0 && !params.thermal_only) opts += " -DCHANNEL_DIFFUSION";
+  if ((params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only) opts += " -DCHANNEL_DIFFUSION";
+  if ((params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only) opts += " -DBANK_ROOM";
+  if (params.thermal_banks_only && !params.thermal_only) opts += " -DBANK_THERMAL";
+  if (params.creep_into_cuts && (params.channel_diffusion > 0 || params.thermal_banks_only) && !params.thermal_only)
+    opts += " -DCREEP_INTO_CUTS";
   return opts;
 }
 

@@ -111,6 +111,7 @@ ErosionParams params_from(const json& o) {
   num("dissolve", p.dissolve);
   num("deposit", p.deposit);
   num("min_slope", p.min_sin_slope);
+  num("critical_shear", p.critical_shear);
   num("depth_ramp", p.depth_ramp);
   num("max_change", p.max_change);
   num("damping", p.damping);
@@ -132,6 +133,10 @@ ErosionParams params_from(const json& o) {
     p.cells_per_item = o.at("cells_per_item").get<int>();
   if (o.contains("thermal_only") && o.at("thermal_only").is_boolean()) p.thermal_only = o.at("thermal_only").get<bool>();
   if (o.contains("settle") && o.at("settle").is_boolean()) p.settle = o.at("settle").get<bool>();
+  if (o.contains("thermal_banks_only") && o.at("thermal_banks_only").is_boolean())
+    p.thermal_banks_only = o.at("thermal_banks_only").get<bool>();
+  if (o.contains("creep_into_cuts") && o.at("creep_into_cuts").is_boolean())
+    p.creep_into_cuts = o.at("creep_into_cuts").get<bool>();
   if (o.contains("boundary") && o.at("boundary").is_string())
     p.boundary = o.at("boundary").get<std::string>() == "open" ? ErosionBoundary::Open : ErosionBoundary::Closed;
   return p;
@@ -211,7 +216,9 @@ int erode_tile_halo(const json& o, const Georef& g) {
   // fluxes (the water's pressure) carry it: one cell per sub-step (water itself moves at most half
   // a cell, the velocity cap). Faster components of the exact dependency cone (up to three cells
   // per sub-step through the three kernels) decay below float round-off: measured in docs/scale.md.
-  const double halo = std::ceil(kTileReachPerSubstep * steps * substeps);
+  // The load still in transit at the end runs on up to sediment_reach() cells (route_sediment).
+  const double halo = std::ceil(kTileReachPerSubstep * steps * substeps) +
+                      (p.settle ? sediment_reach((long long)(steps * substeps)) : 0);
   return int(std::clamp(halo, 1.0, 1e6));
 }
 
@@ -296,11 +303,15 @@ void register_erosion_stages(StageRegistry& r) {
              opt("evaporation", OptionType::Float, d.evaporation, "1/s", "Evaporation rate: depth decays by (1 - rate*dt)"),
              opt("thermal_only", OptionType::Bool, false, "", "Only thermal erosion (no water)"),
              opt("capacity", OptionType::Float, d.capacity, "s",
-              "Sediment capacity K_c: C = K_c * max(min_slope, sin slope) * speed * min(1, depth/depth_ramp)"),
+              "Sediment capacity K_c: C = K_c * (max(min_slope, S) - tau_c/(rho_w*g*depth)) * speed * min(1, depth/depth_ramp), "
+              "S the sine of the bed slope along the flow"),
              opt("dissolve", OptionType::Float, d.dissolve, "1/s", "Rate K_s of picking up sediment below capacity"),
              opt("deposit", OptionType::Float, d.deposit, "1/s", "Rate K_d of depositing sediment above capacity"),
              opt("min_slope", OptionType::Float, d.min_sin_slope, "", "Lower bound of sin(slope) in the capacity"),
              opt("depth_ramp", OptionType::Float, d.depth_ramp, "m", "Capacity ramps up with water depth until this depth"),
+             opt("critical_shear", OptionType::Float, d.critical_shear, "Pa",
+                 "Critical bed shear stress tau_c: the flow detaches the bed only where rho_w*g*depth*slope exceeds it "
+                 "(0 = any flow)"),
              opt("max_change", OptionType::Float, d.max_change, "m/s",
                  "Largest bed change of a cell per second (the cap of a sub-step is this times its dt)"),
              opt("damping", OptionType::Float, d.damping, "1/s", "Pipe flux damping k_f (semi-implicit)"),
@@ -312,9 +323,15 @@ void register_erosion_stages(StageRegistry& r) {
              opt("diffusion", OptionType::Float, d.diffusion, "m2/s",
                  "Bed diffusion D (hillslope creep): smooths features of width w in w^2/D s (0 = off)"),
              opt("channel_diffusion", OptionType::Float, d.channel_diffusion, "",
-                 "Channel diffusion K_q: extra bed diffusion K_q * q where water flows (q = speed x depth, m2/s); "
-                 "widens channels (0 = off)"),
+                 "Channel diffusion K_q: banks slump into water that cuts at K_q * q (q = speed x depth above the "
+                 "critical shear, m2/s); widens channels with discharge (0 = off)"),
              opt("talus", OptionType::Float, d.talus_deg, "deg", "Talus angle: steeper slopes shed material"),
+             opt("thermal_banks_only", OptionType::Bool, d.thermal_banks_only, "",
+                 "With water: the talus exchange only into cells where the flow cuts (banks slump into streams; "
+                 "the input's cliffs away from water stand)"),
+             opt("creep_into_cuts", OptionType::Bool, d.creep_into_cuts, "",
+                 "With water: creep only into cells below their input height (heals cuts, keeps the input's "
+                 "hillslope texture); off: plain diffusion everywhere"),
              opt("deposit_layer", OptionType::Bool, false, "",
                  "Track a softer deposit layer on the rock (own talus, rock dissolves slower)"),
              opt("rock_erodibility", OptionType::Float, d.rock_erodibility, "",
