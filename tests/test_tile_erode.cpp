@@ -54,6 +54,8 @@ TEST(TileErode, NoSeamsAndCloseToUntiled) {
   // the walled tiles' ratio is 1.05 (with the damping alone 1.01) against 0.75; with these 1.51. The
   // ratio compares tile borders with the rest of the same raster, so the parameters alone make no seam.
   walled.damping = 0.5, walled.evaporation = 0.02, walled.dissolve = 0.015;
+  // Every film of water cuts (no critical shear), so 30 steps mark the walls on the bed.
+  walled.critical_shear = 0;
   Heightfield seamed = in;
   for (int ty = 0; ty < in.height; ty += tile)
     for (int tx = 0; tx < in.width; tx += tile) {
@@ -75,15 +77,20 @@ TEST(TileErode, NoSeamsAndCloseToUntiled) {
   EXPECT_GT(r_seamed, 1.5 * r_untiled);  // the metric sees real seams (1.47 against 0.76 here)
 
   double max_diff = 0, sum = 0, max_change = 0;
+  size_t differ = 0;
   for (size_t i = 0; i < u.size(); ++i) {
-    max_diff = std::max(max_diff, double(std::abs(u.z[i] - t.z[i])));
-    sum += std::abs(u.z[i] - t.z[i]);
+    const double d = std::abs(u.z[i] - t.z[i]);
+    max_diff = std::max(max_diff, d), sum += d, differ += d > 0.01;
     max_change = std::max(max_change, double(std::abs(u.z[i] - in.z[i])));
   }
-  std::printf("tiled vs untiled: max %.3g m, mean %.3g m (erosion changed up to %.3g m)\n", max_diff,
-              sum / u.size(), max_change);
-  EXPECT_GT(max_change, 1.0);                  // the run did erode
-  EXPECT_LT(max_diff, 1e-3 * max_change + 1e-3);  // and tiles agree with the whole raster
+  std::printf("tiled vs untiled: max %.3g m, mean %.3g m, %zu cells > 1 cm (erosion changed up to %.3g m)\n", max_diff,
+              sum / u.size(), differ, max_change);
+  EXPECT_GT(max_change, 1.0);  // the run did erode
+  // Tiles agree with the whole raster but where the load still in transit at the end fills a
+  // depression that straddles a window's edge: the window sees part of it (docs/scale.md, "Erosion").
+  EXPECT_LT(sum / u.size(), 1e-3);
+  EXPECT_LT(differ, u.size() / 200);
+  EXPECT_LT(max_diff, 0.25 * max_change);
 }
 
 TEST(TileErode, SideOutputsAndBrushesAreRefused) {

@@ -5,6 +5,7 @@
 // validates its input before changing anything, so a rejected request leaves the session as it was.
 // Not thread-safe by itself: the server serialises requests with one mutex.
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -163,6 +164,11 @@ class Session {
   int m_erosion_steps = 0;
   std::vector<float> m_erosion_weight;  // the brush weight, for the settled preview
   bool m_erosion_settle = true;
+  // The live view's settled bed (the load in transit routed downstream, as the committed erode
+  // gives it) and the raw bed it was computed from; on a large grid the routing is recomputed
+  // every kSettlePeriodMs, and frames between add the raw bed's change since (docs/studio.md).
+  std::optional<Heightfield> m_settled, m_settled_raw;
+  std::chrono::steady_clock::time_point m_settled_at;
 };
 
 }  // namespace terracl::studio
