@@ -134,11 +134,22 @@ double gradient_noise(double x, double y, uint32_t seed) {
   return 1.4 * ((a + u * (b - a)) + v * ((c + u * (d - c)) - (a + u * (b - a))));
 }
 
+namespace {
+// cos and sin of 0.5 k, the rotation of octave k (the same doubles as computing them per sample).
+struct OctaveRotations {
+  std::array<double, 16> c{}, s{};
+  OctaveRotations() {
+    for (int k = 0; k < 16; ++k) c[k] = std::cos(0.5 * k), s[k] = std::sin(0.5 * k);
+  }
+};
+const OctaveRotations kRot;
+}  // namespace
+
 double fbm(double x, double y, int octaves, double gain, uint32_t seed) {
   double sum = 0, amp = 1, norm = 0, f = 1;
   for (int k = 0; k < octaves; ++k) {
     // Each octave is rotated by an irrational angle so that lattice directions do not line up.
-    const double c = std::cos(0.5 * k), s = std::sin(0.5 * k);
+    const double c = k < 16 ? kRot.c[k] : std::cos(0.5 * k), s = k < 16 ? kRot.s[k] : std::sin(0.5 * k);
     sum += amp * gradient_noise(f * (c * x - s * y) + 17.3 * k, f * (s * x + c * y) - 9.1 * k, seed + 101u * uint32_t(k));
     norm += amp;
     amp *= gain;
@@ -150,7 +161,7 @@ double fbm(double x, double y, int octaves, double gain, uint32_t seed) {
 double ridged(double x, double y, int octaves, double gain, uint32_t seed) {
   double sum = 0, amp = 1, norm = 0, f = 1, weight = 1;
   for (int k = 0; k < octaves; ++k) {
-    const double c = std::cos(0.5 * k), s = std::sin(0.5 * k);
+    const double c = k < 16 ? kRot.c[k] : std::cos(0.5 * k), s = k < 16 ? kRot.s[k] : std::sin(0.5 * k);
     const double n = gradient_noise(f * (c * x - s * y) + 17.3 * k, f * (s * x + c * y) - 9.1 * k, seed + 101u * uint32_t(k));
     double r = 1 - std::abs(n);
     r *= r;
