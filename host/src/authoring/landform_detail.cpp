@@ -79,6 +79,9 @@ AmplifyOptions style_options(const Dictionary& d, uint32_t seed, double strength
   o.factor = d.factor;
   o.seed = seed;
   o.detail_gain = float(d.detail_gain * strength);
+  // FLANN's randomized kd-trees (seeded: the same atoms every run): a third of a stroke's detail
+  // time against the exact scan of the 4000 atoms, with the same texture figures.
+  o.search = "flann";
   return o;
 }
 

@@ -184,7 +184,10 @@ void EditState::solve_local(bool warm) {
   const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
   // Changed cells: a changed face changes the divergence of both cells it separates; a hard cell
   // changes the terrain only where it differs from the base (freeze holds, it does not move).
-  std::vector<uint8_t> changed(N, 0);
+  // Scratch kept between solves (members): a fresh N-cell vector per solve costs its page faults and
+  // the kernel's zeroing, more than the loops over it at 2049^2.
+  std::vector<uint8_t>& changed = m_scratch_changed;
+  changed.assign(N, 0);
   size_t n_changed = 0;
   int bx0 = W, by0 = H, bx1 = -1, by1 = -1;
   for (int y = 0; y < H; ++y)
@@ -210,12 +213,21 @@ void EditState::solve_local(bool warm) {
       }
   const double F = falloff();
   m_locality = {{"mode", "local"}, {"falloff_m", F}, {"changed_cells", n_changed}};
-  Heightfield h = m_base;
-  h.georef = m_template.georef;
+  // The result starts as the base, in the previous solution's storage (no new 4-byte-a-cell block);
+  // taken once the warm start has read that solution.
+  const auto base_result = [this] {
+    Heightfield h;
+    if (m_solution) h = std::move(*m_solution);
+    h.width = m_base.width, h.height = m_base.height;
+    h.z.assign(m_base.z.begin(), m_base.z.end());
+    h.georef = m_template.georef;
+    h.metadata = m_base.metadata;
+    return h;
+  };
   m_last = ReconstructResult();
   if (n_changed == 0) {  // nothing moved (or only holds at the base elevation)
     m_locality["solved_cells"] = 0;
-    m_solution = std::move(h);
+    m_solution = base_result();
     return;
   }
   // The region: every cell within its falloff of a changed cell. Each operation's changed cells
@@ -224,7 +236,8 @@ void EditState::solve_local(bool warm) {
   // box, use F. One exact distance transform per distinct falloff, on the changed box grown by it.
   // wt: the taper weight (1 in the inner half of the band, C2 to 0 at its edge; max over groups).
   std::vector<std::pair<double, std::vector<Support>>> groups;
-  std::vector<uint8_t> covered;
+  std::vector<uint8_t>& covered = m_scratch_covered;
+  covered.clear();
   if (!m_falloff && !m_supports.empty()) {
     covered.assign(N, 0);
     const double min_f = kMinFalloffCells * std::max(cx, cy);
@@ -235,8 +248,10 @@ void EditState::solve_local(bool warm) {
       it->second.push_back(sp);
     }
   }
-  std::vector<float> wt(N, 0.f);
-  std::vector<uint8_t> omega(N, 0);
+  std::vector<float>& wt = m_scratch_wt;
+  wt.assign(N, 0.f);
+  std::vector<uint8_t>& omega = m_scratch_omega;
+  omega.assign(N, 0);
   std::vector<uint8_t> src;
   double f_max = 0;
   auto dilate = [&](double f, const std::function<bool(int, int)>& take) {
@@ -349,6 +364,7 @@ void EditState::solve_local(bool warm) {
   const double prep_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   m_last = reconstruct(m_device, dg, cs, o);
   const Heightfield& dh = m_last.height;
+  Heightfield h = base_result();
   for (int y = 0; y < wh; ++y)
     for (int x = 0; x < ww; ++x) {
       const size_t i = size_t(y + wy0) * W + x + wx0;

@@ -168,6 +168,8 @@ class EditState {
   std::vector<float> m_base_gx, m_base_gy;
   nlohmann::json m_locality = nlohmann::json::object();
   bool m_landform_detail = true;
+  std::vector<uint8_t> m_scratch_changed, m_scratch_covered, m_scratch_omega;  // solve_local's
+  std::vector<float> m_scratch_wt;
   /// False while m_template's gradient is the device field (a local solve just downloaded it).
   bool m_field_changed = true;
   std::shared_ptr<const Heightfield> m_start;
