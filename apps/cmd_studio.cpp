@@ -45,6 +45,8 @@ CommandRegistrar reg(45, [](CLI::App& app) {
     }
     // Scripts that drive the API can fix the token; otherwise it is random and only the page has it.
     if (const char* t = std::getenv("TERRACL_STUDIO_TOKEN")) o->token = t;
+    // The warm-up compiles every kernel ahead in child processes (`devices --warm`'s runs).
+    o->compile_ahead = [](const std::function<bool()>& stop) { warm_kernel_caches(globals().device, stop); };
     StudioServer server(device(), *o);
     const int port = server.start();
     // One line a script can read to find the server (tests start it on port 0).

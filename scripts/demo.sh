@@ -16,7 +16,8 @@ PIPELINES=(
   data/pipelines/demo.json
 )
 
-$T devices
+# Compile every kernel once now (PoCL caches them), so no stage below pays a first-use compile.
+$T devices --warm
 status=0
 for p in "${PIPELINES[@]}"; do
   echo

@@ -30,6 +30,38 @@ TEST(CLI, DevicesListsPocl) {
   EXPECT_TRUE(has(r.out, "OpenCL C")) << r.out;
 }
 
+// `devices --warm` compiles ahead: with empty caches it fills PoCL's kernel cache, and a solve
+// afterwards compiles nothing more (PoCL writes one .so per kernel and work-group shape it compiles).
+TEST(CLI, DevicesWarmCompilesAheadOfUse) {
+  test::TempDir tmp;
+  auto compiled = [&] {
+    size_t n = 0;
+    for (const auto& e : std::filesystem::recursive_directory_iterator(tmp.dir()))
+      n += e.path().extension() == ".so";
+    return n;
+  };
+  auto saved = [](const char* name) {
+    const char* v = std::getenv(name);
+    return std::pair<bool, std::string>(v != nullptr, v ? v : "");
+  };
+  const auto xdg = saved("XDG_CACHE_HOME"), pocl = saved("POCL_CACHE_DIR");
+  setenv("XDG_CACHE_HOME", tmp.dir().c_str(), 1);
+  setenv("POCL_CACHE_DIR", tmp.path("pocl").c_str(), 1);
+  const auto warm = test::run_cli("devices --warm");
+  const size_t after_warm = compiled();
+  const auto solve = test::run_cli("bench reconstruct --size 97 --repeats 1");
+  const size_t after_solve = compiled();
+  for (const auto& [name, v] : {std::pair{"XDG_CACHE_HOME", xdg}, std::pair{"POCL_CACHE_DIR", pocl}})
+    v.first ? setenv(name, v.second.c_str(), 1) : unsetenv(name);
+  EXPECT_EQ(warm.exit_code, 0) << warm.out;
+  EXPECT_TRUE(has(warm.out, "warmed the kernel caches")) << warm.out;
+  EXPECT_EQ(solve.exit_code, 0) << solve.out;
+  if (has(warm.out, "Portable Computing Language")) {
+    EXPECT_GT(after_warm, 10u);
+    EXPECT_EQ(after_solve, after_warm) << "the solve compiled kernels the warm-up did not";
+  }
+}
+
 TEST(CLI, InfoOnSrtmTile) {
   auto r = test::run_cli("info " + test::data_path("dem/N44W072.hgt"));
   EXPECT_EQ(r.exit_code, 0) << r.out;

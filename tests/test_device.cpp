@@ -132,6 +132,7 @@ TEST(Device, ProgramBinaryCacheOnDisk) {
   const std::string saved = old ? old : "";
   setenv("XDG_CACHE_HOME", tmp.dir().c_str(), 1);
   unsetenv("TERRACL_NO_CACHE");
+  setenv("TERRACL_PROGRAM_CACHE", "1", 1);  // PoCL's own cache replaces ours unless this is set
   {
     auto d = Device::open();
     d->program("raster");
@@ -165,6 +166,7 @@ TEST(Device, ProgramBinaryCacheOnDisk) {
   }
   EXPECT_FALSE(std::filesystem::exists(dir));
   unsetenv("TERRACL_NO_CACHE");
+  unsetenv("TERRACL_PROGRAM_CACHE");
   if (old)
     setenv("XDG_CACHE_HOME", saved.c_str(), 1);
   else

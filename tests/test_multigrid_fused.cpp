@@ -15,12 +15,19 @@ using namespace terracl;
 
 namespace {
 
-// Runs `f` with TERRACL_MG_FUSED=0 (the multi-launch path) and restores the environment.
+// The fused path is the default on GPUs only; these tests force it on the test device and
+// compare it with the multi-launch path (TERRACL_MG_FUSED=0).
+struct ForceFused {
+  ForceFused() { setenv("TERRACL_MG_FUSED", "1", 1); }
+  ~ForceFused() { unsetenv("TERRACL_MG_FUSED"); }
+};
+
+// Runs `f` with TERRACL_MG_FUSED=0 (the multi-launch path), then forces the fused path again.
 template <class F>
 auto multi_launch(F f) {
   setenv("TERRACL_MG_FUSED", "0", 1);
   auto r = f();
-  unsetenv("TERRACL_MG_FUSED");
+  setenv("TERRACL_MG_FUSED", "1", 1);
   return r;
 }
 
@@ -58,6 +65,7 @@ Problem problem(int w, int h, int n, bool dead) {
 }  // namespace
 
 TEST(MultigridFused, SameBitsAsOneLaunchPerStage) {
+  const ForceFused force;
   struct Case {
     int w, h, hard;
     bool dead;
@@ -83,6 +91,7 @@ TEST(MultigridFused, SameBitsAsOneLaunchPerStage) {
 }
 
 TEST(MultigridFused, RefinementSameBitsBothPaths) {
+  const ForceFused force;
   // The refinement's correction cycles go through the fused kernel too.
   const Problem p = problem(129, 129, 4, false);
   SolverOptions o;
@@ -98,7 +107,7 @@ TEST(MultigridFused, FewerLaunchesPerSolve) {
   // TERRACL_MG_PROFILE counts every launch of the solve (the CLI prints the total).
   auto launches = [](bool fused) {
     setenv("TERRACL_MG_PROFILE", "1", 1);
-    if (!fused) setenv("TERRACL_MG_FUSED", "0", 1);
+    setenv("TERRACL_MG_FUSED", fused ? "1" : "0", 1);
     const test::CmdResult r = test::run_cli("bench reconstruct --size 257 --repeats 1");
     unsetenv("TERRACL_MG_PROFILE");
     unsetenv("TERRACL_MG_FUSED");

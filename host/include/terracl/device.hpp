@@ -58,7 +58,8 @@ class Device {
   cl::Device& device() { return m_device; }
 
   /// Built program of kernels/<file>.cl with extra build options; cached in memory and on disk
-  /// ($XDG_CACHE_HOME/terracl or ~/.cache/terracl; TERRACL_NO_CACHE=1 disables the disk cache).
+  /// ($XDG_CACHE_HOME/terracl or ~/.cache/terracl; TERRACL_NO_CACHE=1 disables the disk cache;
+  /// on PoCL, which caches its builds itself, only with TERRACL_PROGRAM_CACHE=1).
   /// A build failure throws with the file, the options and the full build log.
   cl::Program& program(const std::string& file, const std::string& options = "");
   /// Same as program() for source that is not embedded (user kernels, tests); `name` labels errors

@@ -3,6 +3,7 @@
 /// terracl studio: a local web server with the sketching page and its JSON API (docs/studio.md).
 /// One shared session (an edit script on a base terrain) for every client.
 #include <memory>
+#include <functional>
 #include <string>
 #include <vector>
 #include <terracl/device.hpp>
@@ -31,6 +32,10 @@ struct StudioOptions {
   /// A connection must deliver each request (headers and body) within this many seconds of its
   /// start or of the previous answer, else it is closed (slow clients cannot hold the workers).
   double request_timeout_s = 10;
+  /// Run by the background warm-up once the programs are built (its argument: poll it, true means
+  /// stop): compiles every kernel ahead of the first stroke (the CLI runs `devices --warm`'s
+  /// workloads in child processes). Empty: only the programs are built ahead.
+  std::function<void(const std::function<bool()>& stop)> compile_ahead;
 };
 
 /// The server; stop() (or the destructor) ends the background thread.

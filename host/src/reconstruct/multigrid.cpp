@@ -64,10 +64,15 @@ void print_profile() {
   std::fprintf(stderr, "%-22s %9s    %5d launches\n", "total", "", launches);
 }
 
-/// TERRACL_MG_FUSED=0 turns the fused coarse cycle off (the multi-launch path, for comparison).
-bool fused_allowed() {
+/// The fused coarse cycle runs on devices of the wide launch shape (GPUs), where it saves ~480
+/// launches per 1025^2 solve. On CPU devices both paths take the same time (docs/performance.md),
+/// and PoCL needs ~10 s to compile the fused kernel's barriers in loops on first use, so they keep
+/// the multi-launch path. TERRACL_MG_FUSED=1 / =0 forces it on / off (comparisons, tests).
+bool fused_allowed(const DeviceInfo& info) {
   const char* v = std::getenv("TERRACL_MG_FUSED");
-  return !(v && std::string(v) == "0");
+  if (v && std::string(v) == "0") return false;
+  if (v && std::string(v) == "1") return true;
+  return info.launch == "wide";
 }
 
 struct Level {
@@ -186,7 +191,7 @@ class Solver {
     m_q.enqueueWriteBuffer(m_pinv, CL_FALSE, 0, m_pinv_host.size() * sizeof(float), m_pinv_host.data());
     track();
     m_stats.levels = int(m_levels.size());
-    if (fused_allowed() && m_o.smoother == Smoother::Rbgs) build_fused();
+    if (fused_allowed(m_d.info()) && m_o.smoother == Smoother::Rbgs) build_fused();
   }
 
   // The fused coarse cycle: the first level l >= 1 that is small enough (kFusedMaxCells, zebra

@@ -450,7 +450,8 @@ void StudioServer::Impl::routes() {
 StudioServer::StudioServer(Device& d, StudioOptions o) : m(std::make_unique<Impl>(d, std::move(o))) {
   if (!(m->opts.time_limit_s > 0) || !(m->opts.request_timeout_s > 0))
     throw UsageError("studio", "--time-limit and the request timeout must be positive numbers of seconds");
-  m->session = std::make_unique<studio::Session>(d, m->opts.base, m->opts.workspace, m->opts.allow_dirs);
+  m->session = std::make_unique<studio::Session>(d, m->opts.base, m->opts.workspace, m->opts.allow_dirs,
+                                                  m->opts.compile_ahead);
   if (!m->opts.script.empty()) {
     try {
       m->session->load_script(read_edit_script(m->opts.script));

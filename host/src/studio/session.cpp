@@ -46,8 +46,9 @@ constexpr size_t kMaxOps = max_edit_operations;
 }  // namespace
 
 Session::Session(Device& d, const std::string& base, const std::string& workspace,
-                 const std::vector<std::string>& allowed_dirs)
-    : m_device(d), m_base_spec(base) {
+                 const std::vector<std::string>& allowed_dirs,
+                 std::function<void(const std::function<bool()>&)> compile_ahead)
+    : m_device(d), m_base_spec(base), m_compile_ahead(std::move(compile_ahead)) {
   fs::create_directories(workspace);
   m_workspace = fs::canonical(workspace).string();
   m_file_roots = {m_workspace};
@@ -139,6 +140,20 @@ void Session::start_warm_up() {
       fmt::print("studio: {} OpenCL programs ready ({:.1f} s, compiled or loaded from the cache)\n", ready,
                  ms_since(t0) / 1000.0);
       std::fflush(stdout);
+    }
+    // PoCL compiles each kernel again for each work-group shape at its first launch: done ahead
+    // too (in other processes, whose compiles land in the shared disk cache), at this priority.
+    if (m_compile_ahead && !stop()) {
+      const auto t2 = std::chrono::steady_clock::now();
+      try {
+        m_compile_ahead([this] { return m_warm_stop.load(); });
+        if (!m_warm_stop) {
+          fmt::print("studio: kernels compiled ahead ({:.1f} s)\n", ms_since(t2) / 1000.0);
+          std::fflush(stdout);
+        }
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "studio: compiling ahead: {}\n", e.what());
+      }
     }
     // The landform tools' detail dictionaries (docs/authoring.md, "Detail and styles"): the base's
     // own texture on a real DEM, and the bundled styles the tools fall back to.

@@ -6,6 +6,7 @@
 // Not thread-safe by itself: the server serialises requests with one mutex.
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -40,8 +41,10 @@ class Session {
  public:
   /// `base`: a raster path or flat:WxH[@cell]; `workspace`: the only folder scripts and exports
   /// may be read from or written to; operations may also read files in `allowed_dirs`.
+  /// `compile_ahead`: StudioOptions::compile_ahead, run by the background warm-up.
   Session(Device& d, const std::string& base, const std::string& workspace,
-          const std::vector<std::string>& allowed_dirs = {});
+          const std::vector<std::string>& allowed_dirs = {},
+          std::function<void(const std::function<bool()>&)> compile_ahead = {});
   ~Session();
 
   /// {version, width, height, cell_x, cell_y, operations, can_undo, can_redo, last, lakes}
@@ -147,6 +150,7 @@ class Session {
   // touched (under its own lock), so requests run meanwhile.
   void start_warm_up();
   std::thread m_warm;
+  std::function<void(const std::function<bool()>&)> m_compile_ahead;  // StudioOptions::compile_ahead
   std::atomic<bool> m_warming{false}, m_warm_stop{false};
   /// Device work of requests (commit, preview, terrain, erosion) marks the session busy; the
   /// warm-up starts its next program only after kWarmIdle of quiet (PoCL compiles one program at a
