@@ -2,11 +2,13 @@
 # SPDX-License-Identifier: Apache-2.0
 # Render benchmark: an 8192 x 4400 raster made from the bundled N44W072 tile
 # (gdalwarp to UTM 19N, bilinear; nodata corners; kept in $WORK, never committed), then
-# `gdaldem hillshade` against `terracl render` (OpenCL device and --backend host) to an
-# uncompressed GeoTIFF, each run REPEATS times (default 3) after one warm-up (kernel cache, page
+# `gdaldem MODE` against `terracl render` (OpenCL device and --backend host) to a GeoTIFF
+# (gdaldem's uncompressed; terracl's pictures uncompressed, its value rasters as every terracl
+# GeoTIFF: DEFLATE with the floating-point predictor), each run REPEATS times (default 3) after one warm-up (kernel cache, page
 # cache). Prints wall time and peak RSS (/usr/bin/time -v) of every run and the medians.
 #   scripts/bench-render.sh            # hillshade
 #   MODE=shaded-relief scripts/bench-render.sh
+#   MODE=slope W=8193 H=8193 scripts/bench-render.sh   # value rasters: slope aspect tri tpi roughness
 #   ORDER="terracl-device terracl-wide" scripts/bench-render.sh   # a subset
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -40,7 +42,13 @@ run() {
 median() { sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}'; }
 
 declare -A CMDS
-CMDS[gdaldem]="gdaldem hillshade -q $BIG $WORK/gdaldem.tif"
+# gdaldem's name for the mode (shaded-relief and relief have no single gdaldem counterpart).
+case $MODE in
+  tri) GDMODE=TRI ;;
+  tpi) GDMODE=TPI ;;
+  *) GDMODE=$MODE ;;
+esac
+CMDS[gdaldem]="gdaldem $GDMODE -q $BIG $WORK/gdaldem.tif"
 CMDS[terracl-device]="$BIN -q render $BIG -o $WORK/terracl_device.tif --mode $MODE"
 CMDS[terracl-host]="$BIN -q render $BIG -o $WORK/terracl_host.tif --mode $MODE --backend host"
 # The wide launch shape (GPUs' one work-item per pixel) forced on the same device, for comparison.

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -91,6 +92,52 @@ TEST(RenderStream, SameFileAsTheInMemoryRender) {
   EXPECT_EQ(files, 28);
 }
 
+// Value rasters (gdaldem's slope, aspect, TRI, TPI, roughness) streamed in strips of whole
+// 256-row blocks hold the cells, nodata, units and quantity of values() + write_heightfield.
+TEST(RenderStream, ValueRastersSameCellsAsInMemory) {
+  test::TempDir tmp;
+  Heightfield h = test::smooth_terrain(300, 600);
+  h.georef.cell_x = h.georef.cell_y = 30;
+  for (int y = 250; y < 262; ++y)  // a hole across the first strip boundary (row 256)
+    for (int x = 40; x < 50; ++x) h.at(x, y) = NAN;
+  const std::string in = tmp.path("in.tif");
+  write_heightfield(h, in);
+  const Heightfield src = read_heightfield(in);
+  const Metadata meta{{"terracl:command", "render test"}};
+  int cases = 0;
+  for (auto mode : {render::Mode::Slope, render::Mode::Aspect, render::Mode::TRI, render::Mode::TPI,
+                    render::Mode::Roughness})
+    for (bool edges : {false, true}) {
+      render::Options o;
+      o.mode = mode;
+      o.compute_edges = edges;
+      const bool device = (cases % 2) == 1;
+      Heightfield ref = device ? render::values(src, o, test::device()) : render::values(src, o);
+      for (const auto& [k, v] : meta) ref.metadata[k] = v;
+      write_heightfield(ref, tmp.path("ref.tif"));
+      const Heightfield want = read_heightfield(tmp.path("ref.tif"));
+      ASSERT_TRUE(render::can_stream_render(in, tmp.path("got.tif"), o));
+      for (int strip : {256, 0}) {  // three strips (a short last one); the default (one strip)
+        std::filesystem::remove(tmp.path("got.tif"));
+        render::render_file(in, tmp.path("got.tif"), o, device ? &test::device() : nullptr, meta, strip);
+        const Heightfield got = read_heightfield(tmp.path("got.tif"));
+        const std::string what = "mode " + std::to_string(int(mode)) + " edges " + std::to_string(edges) +
+                                 " strips " + std::to_string(strip) + (device ? " device" : " host");
+        ASSERT_EQ(got.width, want.width) << what;
+        ASSERT_EQ(got.height, want.height) << what;
+        EXPECT_EQ(0, std::memcmp(got.z.data(), want.z.data(), want.z.size() * sizeof(float))) << what;
+        EXPECT_EQ(got.georef.nodata, want.georef.nodata) << what;
+        EXPECT_EQ(got.georef.vertical_units, want.georef.vertical_units) << what;
+        EXPECT_EQ(got.georef.geotransform, want.georef.geotransform) << what;
+        EXPECT_EQ(got.metadata, want.metadata) << what;
+        EXPECT_EQ(stored_band_type(tmp.path("got.tif")), stored_band_type(tmp.path("ref.tif"))) << what;
+      }
+      ++cases;
+    }
+  EXPECT_EQ(cases, 10);
+  EXPECT_EQ(tmp.count(), 3u) << "in.tif, ref.tif, got.tif: no temporaries left";
+}
+
 TEST(RenderStream, ProgressPerStripAndCancel) {
   test::TempDir tmp;
   const std::string in = tmp.path("in.tif");
@@ -128,10 +175,11 @@ TEST(RenderStream, RefusesWhatItCannotStreamAndNamesBadInput) {
   EXPECT_FALSE(render::can_stream_render("x.npy", "y.png", o));
   EXPECT_FALSE(render::can_stream_render("x.png", "y.png", o)) << "16-bit PNGs take their scale from a sidecar";
   o.mode = render::Mode::TRI;
-  EXPECT_FALSE(render::can_stream_render("x.tif", "y.tif", o)) << "value rasters are not pictures";
+  EXPECT_TRUE(render::can_stream_render("x.tif", "y.tif", o)) << "value rasters stream too";
+  EXPECT_FALSE(render::can_stream_render("x.tif", "y.png", o)) << "TRI has no picture";
   o.mode = render::Mode::Slope;
   EXPECT_TRUE(render::can_stream_render("x.tif", "y.png", o));
-  EXPECT_FALSE(render::can_stream_render("x.tif", "y.tif", o)) << "slope to .tif is gdaldem's float raster";
+  EXPECT_TRUE(render::can_stream_render("x.tif", "y.tif", o)) << "slope to .tif is gdaldem's float raster";
   // An infinite cell is refused as read_heightfield refuses it, naming the file and the cell.
   Heightfield h = test::smooth_terrain(20, 30);
   h.at(3, 25) = INFINITY;

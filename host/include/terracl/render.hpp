@@ -177,12 +177,14 @@ void write_image(const Image& img, const std::string& path, const Metadata& meta
 void tint_water(Image& img, const Heightfield& depth);
 
 /// Whether render_file can stream `input` to `output`: a GDAL raster (.tif, .hgt, .vrt, ...) to a
-/// picture (.png, or .tif for the picture modes).
+/// picture (.png, or .tif for the picture modes) or to a value raster (.tif: slope, aspect, TRI,
+/// TPI, roughness).
 bool can_stream_render(const std::string& input, const std::string& output, const Options& opt);
-/// Renders the picture of the raster `input` into `output` strip by strip (GDAL windows with a
-/// one-row halo; `strip_rows` rows a strip, 0 for about 4 Mi cells), on `device` or on the host
-/// when null, reporting progress per strip: the same file as read_heightfield + render +
-/// write_image, in memory bounded by a few strips instead of the raster and its picture.
+/// Renders the picture or the value raster of `input` into `output` strip by strip (GDAL windows
+/// with a one-row halo; `strip_rows` rows a strip, 0 for about 4 Mi cells; value rasters round it
+/// to whole 256-row blocks), on `device` or on the host when null, reporting progress per strip:
+/// the same picture as read_heightfield + render + write_image, the same cells as values() +
+/// write_heightfield, in memory bounded by a few strips instead of the raster and its output.
 void render_file(const std::string& input, const std::string& output, const Options& opt, Device* device,
                  const Metadata& meta = {}, int strip_rows = 0);
 

@@ -3,6 +3,7 @@
 // float32 GeoTIFF on write. GDAL's own error messages are captured and passed on, so the user
 // sees why a file was refused.
 #include "io/gdal_common.hpp"
+#include "io/gdal_window.hpp"
 #include "io/io_common.hpp"
 #include "io/checked_output.hpp"
 
@@ -382,6 +383,8 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   char** opts = nullptr;
   opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
   opts = CSLSetNameValue(opts, "PREDICTOR", GDALDataTypeIsInteger(type) ? "2" : "3");
+  // DEFLATE's fastest level (kDeflateLevel); --co ZLEVEL= (COG: LEVEL=) overrides.
+  opts = CSLSetNameValue(opts, wo.cog ? "LEVEL" : "ZLEVEL", std::to_string(kDeflateLevel).c_str());
   if (!wo.cog) opts = CSLSetNameValue(opts, "TILED", "YES");  // COG is always tiled (no such option)
   opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
   // DEFLATE on every core (GDAL compresses blocks in parallel; the bytes are the same): 4.3 s of an

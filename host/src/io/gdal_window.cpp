@@ -29,6 +29,7 @@ char** block_tiff_options(double width, double height, int bands) {
   char** opts = nullptr;
   opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
   opts = CSLSetNameValue(opts, "PREDICTOR", "3");
+  opts = CSLSetNameValue(opts, "ZLEVEL", std::to_string(kDeflateLevel).c_str());
   opts = CSLSetNameValue(opts, "TILED", "YES");
   opts = CSLSetNameValue(opts, "BLOCKXSIZE", "256");
   opts = CSLSetNameValue(opts, "BLOCKYSIZE", "256");

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // encode_float_block (gdal_window.hpp): a 256^2 float32 block compressed by libtiff itself, in a
 // TIFF held in memory, with the tags GDAL's GTiff driver sets for the window writer's files
-// (tiled 256^2, float32, one band, DEFLATE, PREDICTOR=3, no ZLEVEL): libtiff then runs the same
-// predictor and DEFLATE code at the same level, so the bytes are those GDAL would have written.
+// (tiled 256^2, float32, one band, DEFLATE, PREDICTOR=3, ZLEVEL=kDeflateLevel): libtiff then runs
+// the same predictor and DEFLATE code at the same level, so the bytes are those GDAL would have
+// written.
 #include <tiffio.h>
 
 #include <algorithm>
@@ -66,6 +67,7 @@ std::vector<uint8_t> encode_float_block(const float* cells) {
   TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
   TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE);
   TIFFSetField(t, TIFFTAG_PREDICTOR, PREDICTOR_FLOATINGPOINT);
+  TIFFSetField(t, TIFFTAG_ZIPQUALITY, kDeflateLevel);
   // libtiff's predictor works on a copy, but the call takes a non-const buffer.
   std::vector<float> copy(cells, cells + size_t(B) * B);
   const bool ok =

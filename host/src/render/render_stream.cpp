@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <future>
+#include <thread>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/render.hpp>
@@ -43,9 +44,76 @@ bool can_stream_render(const std::string& input, const std::string& output, cons
   const FileFormat in = format_from_extension(input), out = format_from_extension(output);
   const bool gdal_in = in == FileFormat::GeoTIFF || in == FileFormat::HGT || in == FileFormat::GDALOther;
   const bool picture = !is_value_mode(opt.mode) || (opt.mode == Mode::Slope && out == FileFormat::PNG);
+  const bool values = is_value_mode(opt.mode) && out == FileFormat::GeoTIFF;
   // A perspective ray may cross the whole raster: drawn from memory (render_view).
-  return gdal_in && picture && opt.mode != Mode::Perspective && (out == FileFormat::PNG || out == FileFormat::GeoTIFF);
+  return gdal_in && opt.mode != Mode::Perspective &&
+         ((picture && (out == FileFormat::PNG || out == FileFormat::GeoTIFF)) || values);
 }
+
+namespace {
+
+// The value rasters (slope, aspect, TRI, TPI, roughness) of `input` into the float32 GeoTIFF
+// `output`, strip by strip: strips of whole 256-row block rows, so every block is complete when
+// its strip is written and none waits in memory. The cells are those of values() on the whole
+// raster (a cell's window lies inside its strip and halo), stored as write_heightfield stores them.
+void values_file(const std::string& input, const std::string& output, const Options& opt,
+                 const std::function<Device*()>& open_device, const Metadata& meta, int strip_rows) {
+  io::require_readable(input);
+  const io::GdalWindowReader reader(input);
+  const int W = reader.width(), H = reader.height();
+  check_options(reader.header(), opt);
+  constexpr int kBlock = 256;  // GeoTiffWindowWriter's block width and height
+  const int want = strip_rows > 0 ? strip_rows : int(kStripCells / size_t(W));
+  const int S = std::clamp(std::max(1, want / kBlock) * kBlock, 1, std::max(H, 1));
+  const int n = (H + S - 1) / S;
+  auto span = [&](int k) { return std::pair{std::max(0, k * S - 1), std::min(H, (k + 1) * S + 1)}; };
+  auto read_strip = [&](int k) {
+    const auto [a, b] = span(k);
+    Heightfield h = read_rows(reader, input, a, b - a);
+    reader.release_cache();
+    return h;
+  };
+  Options o = opt;
+  o.progress = {};  // the strips report here
+  o.strip_rows = S + 2;
+  // The header as values() gives it for the whole raster: nodata, units, quantity, metadata.
+  const Heightfield& like = reader.header();
+  const Heightfield head = value_raster_like(Heightfield(1, 1), o);
+  Georef georef = like.georef;
+  georef.nodata = head.georef.nodata;
+  georef.vertical_units = head.georef.vertical_units;
+  Metadata metadata = like.metadata;
+  for (const auto& [k, v] : head.metadata) metadata[k] = v;
+  for (const auto& [k, v] : meta) metadata[k] = v;
+
+  io::GeoTiffWindowWriter out(output, W, H, georef, metadata);
+  const int blocks_x = (W + kBlock - 1) / kBlock;
+  const int parts = std::clamp(int(std::thread::hardware_concurrency()), 1, blocks_x);
+  std::future<Heightfield> next = std::async(std::launch::async, read_strip, 0);
+  Device* device = open_device();
+  for (int k = 0; k < n; ++k) {
+    Heightfield h = next.get();
+    if (k + 1 < n) next = std::async(std::launch::async, read_strip, k + 1);
+    const Heightfield v = device ? values(h, o, *device) : values(h, o);
+    const int y0 = k * S, rows = std::min(S, H - y0);
+    // DEFLATE is most of a value raster's time: the strip's block columns are compressed in
+    // `parts` threads (each part whole blocks), then appended in order.
+    std::vector<std::future<std::vector<uint8_t>>> encoded;
+    for (int p = 0; p < parts; ++p) {
+      const int x0 = std::min(W, p * blocks_x / parts * kBlock), x1 = std::min(W, (p + 1) * blocks_x / parts * kBlock);
+      if (x1 > x0)
+        encoded.push_back(std::async(std::launch::async, [&, x0, x1] {
+          return io::GeoTiffWindowWriter::encode(W, H, georef.nodata, x0, y0, v, x0, y0 - span(k).first, x1 - x0, rows);
+        }));
+    }
+    for (auto& e : encoded) out.put(e.get());
+    report_progress(opt.progress, "render", double(k + 1) / n,
+                    fmt::format("strip {}/{} (rows {}..{})", k + 1, n, y0, y0 + rows - 1));
+  }
+  out.commit();
+}
+
+}  // namespace
 
 void render_file(const std::string& input, const std::string& output, const Options& opt, Device* device,
                  const Metadata& meta, int strip_rows) {
@@ -55,8 +123,10 @@ void render_file(const std::string& input, const std::string& output, const Opti
 void render_file(const std::string& input, const std::string& output, const Options& opt,
                  const std::function<Device*()>& open_device, const Metadata& meta, int strip_rows) {
   if (!can_stream_render(input, output, opt))
-    fail("render", "{} -> {}: a streamed render reads a GDAL raster and writes a picture (.png or .tif)", input,
-         output);
+    fail("render", "{} -> {}: a streamed render reads a GDAL raster and writes a picture (.png or .tif) or values (.tif)",
+         input, output);
+  if (is_value_mode(opt.mode) && format_from_extension(output) == FileFormat::GeoTIFF)
+    return values_file(input, output, opt, open_device, meta, strip_rows);
   io::require_readable(input);
   const io::GdalWindowReader reader(input);
   const int W = reader.width(), H = reader.height();
