@@ -59,7 +59,15 @@ pid_t spawn_bench(const std::vector<std::string>& args, const std::string& devic
   posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
   posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
   pid_t pid = 0;
-  const int rc = posix_spawn(&pid, "/proc/self/exe", &fa, nullptr, c.data(), environ);
+  // The runs also write terracl's program binaries (not written on PoCL otherwise: program_cache.cpp).
+  std::vector<std::string> env_s;
+  for (char** e = environ; *e; ++e)
+    if (std::strncmp(*e, "TERRACL_PROGRAM_CACHE=", 22) != 0) env_s.emplace_back(*e);
+  env_s.emplace_back("TERRACL_PROGRAM_CACHE=1");
+  std::vector<char*> env;
+  for (auto& e : env_s) env.push_back(e.data());
+  env.push_back(nullptr);
+  const int rc = posix_spawn(&pid, "/proc/self/exe", &fa, nullptr, c.data(), env.data());
   posix_spawn_file_actions_destroy(&fa);
   if (rc != 0) fail("devices", "--warm: cannot start a warm-up run ({})", std::strerror(rc));
   return pid;

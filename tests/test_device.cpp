@@ -132,7 +132,7 @@ TEST(Device, ProgramBinaryCacheOnDisk) {
   const std::string saved = old ? old : "";
   setenv("XDG_CACHE_HOME", tmp.dir().c_str(), 1);
   unsetenv("TERRACL_NO_CACHE");
-  setenv("TERRACL_PROGRAM_CACHE", "1", 1);  // PoCL's own cache replaces ours unless this is set
+  setenv("TERRACL_PROGRAM_CACHE", "1", 1);  // on PoCL ours is written only when this is set
   {
     auto d = Device::open();
     d->program("raster");

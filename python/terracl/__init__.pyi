@@ -252,7 +252,7 @@ def reconstruct(
     smoother: str = 'rbgs',
     tolerance: Union[float, str] = 1e-06,
     max_cycles: int = 50,
-    refine: str = 'off',
+    refine: str = 'auto',
     refine_tolerance: Union[float, str] = 1e-07,
     mean: Optional[Union[float, str]] = None,  # [m]
     solver: str = 'multigrid',

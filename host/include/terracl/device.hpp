@@ -59,7 +59,8 @@ class Device {
 
   /// Built program of kernels/<file>.cl with extra build options; cached in memory and on disk
   /// ($XDG_CACHE_HOME/terracl or ~/.cache/terracl; TERRACL_NO_CACHE=1 disables the disk cache;
-  /// on PoCL, which caches its builds itself, only with TERRACL_PROGRAM_CACHE=1).
+  /// on PoCL binaries are read but written only with TERRACL_PROGRAM_CACHE=1, as `terracl devices
+  /// --warm` does: asking PoCL for a binary compiles every kernel of the program once more).
   /// A build failure throws with the file, the options and the full build log.
   cl::Program& program(const std::string& file, const std::string& options = "");
   /// Same as program() for source that is not embedded (user kernels, tests); `name` labels errors

@@ -49,15 +49,17 @@ bool env_on(const char* name) {
 
 bool disk_cache_enabled() { return !env_on("TERRACL_NO_CACHE"); }
 
-// PoCL caches every program it builds (keyed by source, options and device) and every kernel it
-// specialises at launch: a second cache of ours adds nothing there, and asking PoCL for the program
-// binary makes it compile every kernel of the program for a generic work-group size (~10 s of CPU
-// on first use for the multigrid programs). TERRACL_PROGRAM_CACHE=1 keeps ours anyway (tests).
-bool platform_caches_itself(const std::string& platform) {
+// PoCL caches every program it builds (keyed by the preprocessed source, options and device) and
+// every kernel it specialises at launch, but asking it for a program's binary makes it compile
+// every kernel of the program for a generic work-group size (~10 s of CPU on first use for the
+// multigrid programs). So on PoCL a command's own first use does not write our cache; the warm-up
+// runs (`terracl devices --warm`) do, with TERRACL_PROGRAM_CACHE=1. Reading it stays on: loading
+// a binary skips the preprocessing (and its temporary files) of a source build, ~50 ms a run.
+bool writes_binaries(const std::string& platform) {
   const char* pocl_cache = std::getenv("POCL_KERNEL_CACHE");
   const bool pocl_caches = !(pocl_cache && std::string(pocl_cache) == "0");
-  return platform.find("Portable Computing Language") != std::string::npos && pocl_caches &&
-         !env_on("TERRACL_PROGRAM_CACHE");
+  return !(platform.find("Portable Computing Language") != std::string::npos && pocl_caches) ||
+         env_on("TERRACL_PROGRAM_CACHE");
 }
 
 std::string build_log(const cl::Program& p, const cl::Device& d) {
@@ -134,7 +136,7 @@ cl::Program& Device::program_from_source(const std::string& file, const std::str
   for (const std::string& part : {options, m_info.platform, m_info.name, m_info.driver_version, m_info.device_version})
     h = fnv1a("\x1f" + part, h);
   const fs::path dir = cache_dir();
-  const bool use_disk = disk_cache_enabled() && !dir.empty() && !platform_caches_itself(m_info.platform);
+  const bool use_disk = disk_cache_enabled() && !dir.empty();
   const fs::path bin_path = dir / fmt::format("{}-{:016x}.bin", file, h);
 
   if (use_disk && path_exists(bin_path.string())) {
@@ -160,7 +162,7 @@ cl::Program& Device::program_from_source(const std::string& file, const std::str
                                       file, m_info.name, describe(e), options, build_log(p, m_device)));
   }
 
-  if (use_disk) {
+  if (use_disk && writes_binaries(m_info.platform)) {
     try {
       auto bins = p.getInfo<CL_PROGRAM_BINARIES>();
       if (!bins.empty() && !bins[0].empty()) {
