@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cstring>
 #include <terracl/error.hpp>
+#include <terracl/stage.hpp>
 #include <thread>
 
 extern char** environ;
@@ -77,17 +78,21 @@ pid_t spawn_bench(const std::vector<std::string>& args, const std::string& devic
 
 int warm_kernel_caches(const std::string& device, const std::function<bool()>& stop) {
   const size_t slots = std::max(1u, std::thread::hardware_concurrency());
+  // The runs of the benchmarks this build has (the core build has no render, edit or stroke).
+  std::vector<std::vector<std::string>> runs;
+  for (const auto& r : kWarmRuns)
+    if (BenchRegistry::instance().find(r.front())) runs.push_back(r);
   std::vector<std::pair<pid_t, std::string>> running;
   size_t next = 0, failed = 0;
   std::string failures;
-  while (next < kWarmRuns.size() || !running.empty()) {
+  while (next < runs.size() || !running.empty()) {
     if (stop && stop()) {
       for (const auto& r : running) ::kill(r.first, SIGTERM);
       for (const auto& r : running) ::waitpid(r.first, nullptr, 0);
       return int(next - running.size());
     }
-    while (next < kWarmRuns.size() && running.size() < slots) {
-      running.emplace_back(spawn_bench(kWarmRuns[next], device), label(kWarmRuns[next]));
+    while (next < runs.size() && running.size() < slots) {
+      running.emplace_back(spawn_bench(runs[next], device), label(runs[next]));
       ++next;
     }
     // Children of this process only: wait for ours, polling so that `stop` is heard.
@@ -113,9 +118,9 @@ int warm_kernel_caches(const std::string& device, const std::function<bool()>& s
     if (stop && !reaped) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   if (failed)
-    fail("devices", "--warm: {} of {} warm-up runs failed (run them to see why):{}", failed, kWarmRuns.size(),
+    fail("devices", "--warm: {} of {} warm-up runs failed (run them to see why):{}", failed, runs.size(),
          failures);
-  return int(kWarmRuns.size());
+  return int(runs.size());
 }
 
 }  // namespace terracl::cli
