@@ -32,7 +32,7 @@ CommandRegistrar reg(10, [](CLI::App& app) {
                 "Also print each cell kernel's work-group shape on each device (builds the kernels; see docs/gpu.md)");
   sub->add_flag("--warm", warm,
                 "Compile every kernel for the chosen device (--device) into the kernel caches now, so that no later "
-                "command pays a first-use compile (~15 s on 2 cores with PoCL; run after installing or upgrading)");
+                "command pays a first-use compile (~25 s on 2 cores with PoCL; run after installing or upgrading)");
   sub->callback([] {
     const auto devs = list_devices();
     if (devs.empty()) {
