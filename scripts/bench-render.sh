@@ -9,6 +9,7 @@
 #   scripts/bench-render.sh            # hillshade
 #   MODE=shaded-relief scripts/bench-render.sh
 #   MODE=slope W=8193 H=8193 scripts/bench-render.sh   # value rasters: slope aspect tri tpi roughness
+#   ARGS="--compress none" MODE=tri W=8193 H=8193 scripts/bench-render.sh   # uncompressed, as gdaldem
 #   ORDER="terracl-device terracl-wide" scripts/bench-render.sh   # a subset
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -49,8 +50,10 @@ case $MODE in
   *) GDMODE=$MODE ;;
 esac
 CMDS[gdaldem]="gdaldem $GDMODE -q $BIG $WORK/gdaldem.tif"
-CMDS[terracl-device]="$BIN -q render $BIG -o $WORK/terracl_device.tif --mode $MODE"
-CMDS[terracl-host]="$BIN -q render $BIG -o $WORK/terracl_host.tif --mode $MODE --backend host"
+# ARGS: more terracl render options, e.g. ARGS="--compress none" (value rasters as gdaldem writes them).
+ARGS=${ARGS:-}
+CMDS[terracl-device]="$BIN -q render $BIG -o $WORK/terracl_device.tif --mode $MODE $ARGS"
+CMDS[terracl-host]="$BIN -q render $BIG -o $WORK/terracl_host.tif --mode $MODE --backend host $ARGS"
 # The wide launch shape (GPUs' one work-item per pixel) forced on the same device, for comparison.
 CMDS[terracl-wide]="env TERRACL_LAUNCH=wide $BIN -q render $BIG -o $WORK/terracl_wide.tif --mode $MODE"
 ORDER=${ORDER:-"gdaldem terracl-device terracl-host terracl-wide"}

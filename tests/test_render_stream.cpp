@@ -138,6 +138,42 @@ TEST(RenderStream, ValueRastersSameCellsAsInMemory) {
   EXPECT_EQ(tmp.count(), 3u) << "in.tif, ref.tif, got.tif: no temporaries left";
 }
 
+// --compress none writes value rasters uncompressed (gdaldem's layout), streamed, in memory and
+// tiled, with the same cells as the DEFLATE default.
+TEST(RenderStream, ValueRastersUncompressedOnRequest) {
+  test::TempDir tmp;
+  Heightfield h = test::smooth_terrain(300, 600);
+  h.georef.cell_x = h.georef.cell_y = 30;
+  const std::string in = tmp.path("in.tif");
+  write_heightfield(h, in);
+  auto compression = [](const std::string& path) {
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> ds(GDALDataset::FromHandle(GDALOpen(path.c_str(), GA_ReadOnly)));
+    const char* c = ds ? ds->GetMetadataItem("COMPRESSION", "IMAGE_STRUCTURE") : nullptr;
+    return std::string(c ? c : "NONE");
+  };
+  const std::string base = "-q render " + in + " --mode aspect -o ";
+  ASSERT_EQ(test::run_cli(base + tmp.path("deflate.tif")).exit_code, 0);
+  ASSERT_EQ(test::run_cli(base + tmp.path("none.tif") + " --compress none").exit_code, 0);
+  ASSERT_EQ(test::run_cli(base + tmp.path("tiled.tif") + " --compress none --tile 128").exit_code, 0);
+  EXPECT_EQ(compression(tmp.path("deflate.tif")), "DEFLATE");
+  const Heightfield want = read_heightfield(tmp.path("deflate.tif"));
+  for (const char* f : {"none.tif", "tiled.tif"}) {
+    EXPECT_EQ(compression(tmp.path(f)), "NONE") << f;
+    const Heightfield got = read_heightfield(tmp.path(f));
+    ASSERT_EQ(got.z.size(), want.z.size()) << f;
+    EXPECT_EQ(0, std::memcmp(got.z.data(), want.z.data(), want.z.size() * sizeof(float))) << f;
+  }
+  // The in-memory path (a pipeline's render) honours it too.
+  const std::string p = tmp.path("p.json");
+  std::ofstream(p) << "[\"" << in << "\", {\"type\": \"render\", \"mode\": \"aspect\", \"compress\": \"none\", "
+                   << "\"file\": \"" << tmp.path("piped.tif") << "\"}]";
+  ASSERT_EQ(test::run_cli("-q run " + p).exit_code, 0);
+  EXPECT_EQ(compression(tmp.path("piped.tif")), "NONE");
+  const Heightfield piped = read_heightfield(tmp.path("piped.tif"));
+  EXPECT_EQ(0, std::memcmp(piped.z.data(), want.z.data(), want.z.size() * sizeof(float)));
+}
+
 TEST(RenderStream, ProgressPerStripAndCancel) {
   test::TempDir tmp;
   const std::string in = tmp.path("in.tif");

@@ -519,6 +519,7 @@ def render(
     water_level: Optional[Union[float, str]] = None,  # [m]
     water: bool = True,
     water_clarity: Union[float, str] = 20.0,  # [m]
+    compress: str = 'deflate',
     backend: str = 'device',
     device: DeviceSpec = None,
     progress: Progress = None,

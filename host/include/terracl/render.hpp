@@ -132,6 +132,9 @@ struct Options {
   View view;  ///< the perspective mode's camera
   /// Rows per device launch: bounds device memory and paces progress.
   int strip_rows = 1024;
+  /// Value rasters (.tif): DEFLATE with the floating-point predictor (level 1); false: uncompressed
+  /// (gdaldem's default: a third larger, less CPU).
+  bool compress = true;
   Progress progress;
 };
 

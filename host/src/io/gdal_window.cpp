@@ -25,11 +25,13 @@ namespace {
 
 // The windowed writer's GeoTIFF layout, for the file it writes and for the compacted copy of a
 // resumed one: deflate with the float predictor in 256^2 tiles.
-char** block_tiff_options(double width, double height, int bands) {
+char** block_tiff_options(double width, double height, int bands, bool compress = true) {
   char** opts = nullptr;
-  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
-  opts = CSLSetNameValue(opts, "PREDICTOR", "3");
-  opts = CSLSetNameValue(opts, "ZLEVEL", std::to_string(kDeflateLevel).c_str());
+  if (compress) {
+    opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
+    opts = CSLSetNameValue(opts, "PREDICTOR", "3");
+    opts = CSLSetNameValue(opts, "ZLEVEL", std::to_string(kDeflateLevel).c_str());
+  }
   opts = CSLSetNameValue(opts, "TILED", "YES");
   opts = CSLSetNameValue(opts, "BLOCKXSIZE", "256");
   opts = CSLSetNameValue(opts, "BLOCKYSIZE", "256");
@@ -129,10 +131,12 @@ uint64_t window_checksum(const float* cells, size_t n) {
 }
 
 GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& g,
-                                         const Metadata& metadata, const std::string& partial, int bands)
+                                         const Metadata& metadata, const std::string& partial, int bands,
+                                         bool compress)
     : m_path(path),
       m_tmp(partial.empty() ? temporary_path_for(path) : partial),
       m_resumable(!partial.empty()),
+      m_compress(compress),
       m_nodata(g.nodata) {
   m_width = width;
   m_height = height;
@@ -163,7 +167,7 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   }
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (!drv) fail("io", "GDAL has no GTiff driver");
-  char** opts = block_tiff_options(width, height, m_bands);
+  char** opts = block_tiff_options(width, height, m_bands, m_compress);
   // A resumable output is closed after every tile (flush()): without SPARSE_OK each close would
   // first write every block not yet written.
   // The raw writer's file is created empty (GDAL then writes no block) and libtiff adds the blocks.
@@ -476,7 +480,7 @@ void GeoTiffWindowWriter::commit_compacted() {
     return;
   }
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
-  char** opts = block_tiff_options(m_width, m_height, m_bands);
+  char** opts = block_tiff_options(m_width, m_height, m_bands, m_compress);
   const std::string compact = temporary_path_for(m_path);
   GDALDataset* out = drv ? drv->CreateCopy(compact.c_str(), in.get(), FALSE, opts, nullptr, nullptr) : nullptr;
   CSLDestroy(opts);

@@ -72,8 +72,10 @@ class GeoTiffWindowWriter {
   /// kept when the writer is destroyed uncommitted, and an existing float32 GeoTIFF of this size
   /// there is reopened for update (reopened()) rather than recreated.
   /// `bands` = 2: a gradient field (band 1 gx, band 2 gy, described so; gradient_tiff.cpp).
+  /// `compress` = false: uncompressed blocks, written through GDAL (windows from encode(...,
+  /// false), cells only).
   GeoTiffWindowWriter(const std::string& path, int width, int height, const Georef& georef, const Metadata& metadata,
-                      const std::string& partial = {}, int bands = 1);
+                      const std::string& partial = {}, int bands = 1, bool compress = true);
   ~GeoTiffWindowWriter();  ///< discards the temporary file unless committed (or resumable)
   GeoTiffWindowWriter(const GeoTiffWindowWriter&) = delete;
   GeoTiffWindowWriter& operator=(const GeoTiffWindowWriter&) = delete;
@@ -89,7 +91,7 @@ class GeoTiffWindowWriter {
   uint64_t put(const std::vector<uint8_t>& encoded, int band = 1);
   /// Whether this writer takes compressed blocks (encode(..., compress)): not when resumable, nor
   /// for two bands (GDAL interleaves them by band; the raw path knows one).
-  bool compresses() const { return !m_resumable && m_bands == 1; }
+  bool compresses() const { return !m_resumable && m_bands == 1 && m_compress; }
   /// The checksum of the stored cells [x, x + w) x [y, y + h), read back from the file.
   uint64_t checksum(int x, int y, int w, int h, int band = 1);
   int bands() const { return m_bands; }
@@ -120,7 +122,7 @@ class GeoTiffWindowWriter {
   std::map<uint32_t, Pending> m_pending;
   std::vector<char> m_block_written;
   std::vector<std::pair<std::string, std::string>> m_late_metadata;  // set_metadata_item, applied by commit()
-  bool m_resumable = false, m_reopened = false;
+  bool m_resumable = false, m_reopened = false, m_compress = true;
   std::optional<double> m_nodata;
   bool m_any_nan = false;
   std::vector<float> m_buffer;

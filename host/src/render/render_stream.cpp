@@ -86,7 +86,7 @@ void values_file(const std::string& input, const std::string& output, const Opti
   for (const auto& [k, v] : head.metadata) metadata[k] = v;
   for (const auto& [k, v] : meta) metadata[k] = v;
 
-  io::GeoTiffWindowWriter out(output, W, H, georef, metadata);
+  io::GeoTiffWindowWriter out(output, W, H, georef, metadata, {}, 1, opt.compress);
   const int blocks_x = (W + kBlock - 1) / kBlock;
   const int parts = std::clamp(int(std::thread::hardware_concurrency()), 1, blocks_x);
   std::future<Heightfield> next = std::async(std::launch::async, read_strip, 0);
@@ -98,6 +98,13 @@ void values_file(const std::string& input, const std::string& output, const Opti
     const int y0 = k * S, rows = std::min(S, H - y0);
     // DEFLATE is most of a value raster's time: the strip's block columns are compressed in
     // `parts` threads (each part whole blocks), then appended in order.
+    if (!opt.compress) {  // uncompressed: GDAL writes the strip's blocks, then lets go of them
+      out.write(0, y0, v, 0, y0 - span(k).first, W, rows);
+      out.flush();
+      report_progress(opt.progress, "render", double(k + 1) / n,
+                      fmt::format("strip {}/{} (rows {}..{})", k + 1, n, y0, y0 + rows - 1));
+      continue;
+    }
     std::vector<std::future<std::vector<uint8_t>>> encoded;
     for (int p = 0; p < parts; ++p) {
       const int x0 = std::min(W, p * blocks_x / parts * kBlock), x1 = std::min(W, (p + 1) * blocks_x / parts * kBlock);

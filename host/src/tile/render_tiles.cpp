@@ -42,12 +42,13 @@ class RenderValuesSink : public TileSink {
     Georef g = level;
     g.nodata = -9999.0;  // as render::values
     if (open)
-      m_writer = std::make_unique<io::GeoTiffWindowWriter>(st.options.at("file").get<std::string>(), w, h, g, md);
+      m_writer = std::make_unique<io::GeoTiffWindowWriter>(st.options.at("file").get<std::string>(), w, h, g, md,
+                                                           std::string(), 1, m_opt.compress);
   }
   std::vector<uint8_t> draw(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
     const Heightfield v = m_host ? render::values(win, m_opt) : render::values(win, m_opt, m_device());
     // Compressed by the rank that drew it: rank 0 only appends the blocks.
-    return io::GeoTiffWindowWriter::encode(m_w, m_h, -9999.0, cx, cy, v, cx - wx, cy - wy, cw, ch);
+    return io::GeoTiffWindowWriter::encode(m_w, m_h, -9999.0, cx, cy, v, cx - wx, cy - wy, cw, ch, m_opt.compress);
   }
   void put(const std::vector<uint8_t>& drawn, int, int, int, int) override { m_writer->put(drawn); }
   void commit() override { m_writer->commit(); }
