@@ -46,10 +46,7 @@ __attribute__((always_inline)) inline void render_pixel(const int mode, const in
 #define GREY_PASS(SHADING, NCH)                                              \
   for (int x = 1; x < w - 1; ++x) {                                          \
     float v[9];                                                              \
-    v[0] = up[x - 1], v[1] = up[x], v[2] = up[x + 1];                        \
-    v[3] = md[x - 1], v[4] = md[x], v[5] = md[x + 1];                        \
-    v[6] = dn[x - 1], v[7] = dn[x], v[8] = dn[x + 1];                        \
-    any_nan |= isnan(v[0] + v[3] + v[6] + v[1] + v[4] + v[7] + v[2] + v[5] + v[8]); \
+    any_nan |= rw_inner(up, md, dn, x, v);                                   \
     row[(size_t)x * NCH] = rw_byte(rw_shade(v, SHADING, pp));               \
     if (NCH == 2) row[(size_t)x * NCH + 1] = 255;                           \
   }

@@ -51,10 +51,7 @@ inline float terrain_value(const float* v, const int mode, const int flags, cons
 #define VALUE_PASS(MODE)                                                                 \
   for (int x = 1; x < w - 1; ++x) {                                                      \
     float v[9];                                                                          \
-    v[0] = up[x - 1], v[1] = up[x], v[2] = up[x + 1];                                    \
-    v[3] = md[x - 1], v[4] = md[x], v[5] = md[x + 1];                                    \
-    v[6] = dn[x - 1], v[7] = dn[x], v[8] = dn[x + 1];                                    \
-    any_nan |= isnan(v[0] + v[3] + v[6] + v[1] + v[4] + v[7] + v[2] + v[5] + v[8]);      \
+    any_nan |= rw_inner(up, md, dn, x, v);                                               \
     o[x] = terrain_value(v, MODE, flags, pp);                                            \
   }
 

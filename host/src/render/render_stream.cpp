@@ -38,6 +38,22 @@ Heightfield read_rows(const io::GdalWindowReader& r, const std::string& path, in
   return h;
 }
 
+// The raster in strips of S rows; strip k is read as rows [a, b) = span(k): its own rows and one
+// more each side where the raster has them (the 3x3 window's halo).
+struct Strips {
+  const io::GdalWindowReader& reader;
+  const std::string& path;
+  int H, S;
+  int count() const { return (H + S - 1) / S; }
+  std::pair<int, int> span(int k) const { return {std::max(0, k * S - 1), std::min(H, (k + 1) * S + 1)}; }
+  Heightfield read(int k) const {
+    const auto [a, b] = span(k);
+    Heightfield h = read_rows(reader, path, a, b - a);
+    reader.release_cache();
+    return h;
+  }
+};
+
 }  // namespace
 
 bool can_stream_render(const std::string& input, const std::string& output, const Options& opt) {
@@ -65,14 +81,10 @@ void values_file(const std::string& input, const std::string& output, const Opti
   constexpr int kBlock = 256;  // GeoTiffWindowWriter's block width and height
   const int want = strip_rows > 0 ? strip_rows : int(kStripCells / size_t(W));
   const int S = std::clamp(std::max(1, want / kBlock) * kBlock, 1, std::max(H, 1));
-  const int n = (H + S - 1) / S;
-  auto span = [&](int k) { return std::pair{std::max(0, k * S - 1), std::min(H, (k + 1) * S + 1)}; };
-  auto read_strip = [&](int k) {
-    const auto [a, b] = span(k);
-    Heightfield h = read_rows(reader, input, a, b - a);
-    reader.release_cache();
-    return h;
-  };
+  const Strips strips{reader, input, H, S};
+  const int n = strips.count();
+  auto span = [&](int k) { return strips.span(k); };
+  auto read_strip = [&](int k) { return strips.read(k); };
   Options o = opt;
   o.progress = {};  // the strips report here
   o.strip_rows = S + 2;
@@ -139,15 +151,10 @@ void render_file(const std::string& input, const std::string& output, const Opti
   const int W = reader.width(), H = reader.height();
   check_options(reader.header(), opt);
   const int S = std::clamp(strip_rows > 0 ? strip_rows : int(kStripCells / size_t(W)), 1, H);
-  const int n = (H + S - 1) / S;
-  // Rows [a, b) read for strip k: its own rows and one more each side where the raster has them.
-  auto span = [&](int k) { return std::pair{std::max(0, k * S - 1), std::min(H, (k + 1) * S + 1)}; };
-  auto read_strip = [&](int k) {
-    const auto [a, b] = span(k);
-    Heightfield h = read_rows(reader, input, a, b - a);
-    reader.release_cache();
-    return h;
-  };
+  const Strips strips{reader, input, H, S};
+  const int n = strips.count();
+  auto span = [&](int k) { return strips.span(k); };
+  auto read_strip = [&](int k) { return strips.read(k); };
 
   LayoutScan scan;
   const bool scanning = layout_needs_scan(W, H, opt);
