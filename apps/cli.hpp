@@ -38,7 +38,7 @@ bool interrupted();
 
 /// Compiles every kernel for `device` (--device syntax; empty: the default) into the kernel
 /// caches by running small benchmark runs of this executable, one per core at a time
-/// (apps/warm_kernels.cpp); returns how many ran. `stop`, polled every 0.1 s, ends them early.
+/// (apps/warm_kernels.cpp); returns how many ran. `stop`, polled every 50 ms, ends them early.
 /// Throws naming the runs that failed.
 int warm_kernel_caches(const std::string& device, const std::function<bool()>& stop = {});
 

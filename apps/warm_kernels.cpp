@@ -95,11 +95,12 @@ int warm_kernel_caches(const std::string& device, const std::function<bool()>& s
       running.emplace_back(spawn_bench(runs[next], device), label(runs[next]));
       ++next;
     }
-    // Children of this process only: wait for ours, polling so that `stop` is heard.
+    // Our children only (the studio may have others), polled: a slot is refilled as soon as any
+    // run ends, and `stop` is heard.
     bool reaped = false;
     for (auto it = running.begin(); it != running.end();) {
       int status = 0;
-      const pid_t done = ::waitpid(it->first, &status, stop ? WNOHANG : 0);
+      const pid_t done = ::waitpid(it->first, &status, WNOHANG);
       if (done == 0) {
         ++it;
         continue;
@@ -113,9 +114,8 @@ int warm_kernel_caches(const std::string& device, const std::function<bool()>& s
       }
       it = running.erase(it);
       reaped = true;
-      if (!stop) break;
     }
-    if (stop && !reaped) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (!reaped) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (failed)
     fail("devices", "--warm: {} of {} warm-up runs failed (run them to see why):{}", failed, runs.size(),
