@@ -35,7 +35,7 @@ file(GLOB_RECURSE TERRACL_CORE_SOURCES CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/hos
 # Sources that need a GIS / image / mesh / web library, and the features built on them
 # (amplify/resample.cpp and parallel.cpp stay: the downsample stage uses them).
 list(FILTER TERRACL_CORE_SOURCES EXCLUDE REGEX
-     "/host/src/(mpi/.*|reconstruct/hypre_bands|io/gdal_io|io/gdal_window|io/tiff_blocks|io/gradient_tiff|io/oiio_io|io/oiio_checked|render/render_stream|io/warp|tile/tile_run|tile/tile_segment|tile/tiled_run_parts|tile/render_tiles|tile/warp_tiles|tile/metrics_tiles|tile/amplify_tiles|authoring/gradient_image|authoring/landform_detail|analysis/sketch_vectors|analysis/pour_points|authoring/ops_amplify|render/render_png|mesh/mesh_gltf|studio/.*|amplify/(amplify|amplify_stage|amplify_step|amplify_calibration|amplify_cascade|amplify_gain|dictionary|eval|exemplar_warp|flann_search|ksvd|omp|patches|regression|spectral))\\.cpp$")
+     "/host/src/(mpi/.*|reconstruct/hypre_bands|io/gdal_io|io/gdal_window|io/tiff_blocks|io/gradient_tiff|io/image_io|io/image_file|io/png_codec|io/exr_codec|render/render_stream|io/warp|tile/tile_run|tile/tile_segment|tile/tiled_run_parts|tile/render_tiles|tile/warp_tiles|tile/metrics_tiles|tile/amplify_tiles|authoring/gradient_image|authoring/landform_detail|analysis/sketch_vectors|analysis/pour_points|authoring/ops_amplify|render/render_png|mesh/mesh_gltf|studio/.*|amplify/(amplify|amplify_stage|amplify_step|amplify_calibration|amplify_cascade|amplify_gain|dictionary|eval|exemplar_warp|flann_search|ksvd|omp|patches|regression|spectral))\\.cpp$")
 list(APPEND TERRACL_CORE_SOURCES ${CMAKE_SOURCE_DIR}/host/core_only/unavailable.cpp)
 
 add_library(terracl STATIC ${TERRACL_CORE_SOURCES} ${EMBEDDED_KERNELS_CPP})
@@ -75,11 +75,13 @@ if(TERRACL_BUILD_TESTS)
   list(TRANSFORM TERRACL_CORE_TESTS PREPEND ${CMAKE_SOURCE_DIR}/tests/)
   list(TRANSFORM TERRACL_CORE_TESTS APPEND .cpp)
   add_executable(terracl_tests ${TERRACL_CORE_TESTS})
+  add_executable(terracl_peak_rss ${CMAKE_SOURCE_DIR}/tests/tools/peak_rss.cpp)
   target_link_libraries(terracl_tests PRIVATE terracl GTest::gtest GTest::gtest_main)
   target_compile_definitions(terracl_tests PRIVATE
-    TERRACL_SOURCE_DIR="${CMAKE_SOURCE_DIR}" TERRACL_CLI="$<TARGET_FILE:terracl_cli>")
+    TERRACL_SOURCE_DIR="${CMAKE_SOURCE_DIR}" TERRACL_CLI="$<TARGET_FILE:terracl_cli>"
+    TERRACL_PEAK_RSS="$<TARGET_FILE:terracl_peak_rss>")
   target_compile_options(terracl_tests PRIVATE -Wno-ignored-attributes)
-  add_dependencies(terracl_tests terracl_cli)
+  add_dependencies(terracl_tests terracl_cli terracl_peak_rss)
   # Tests that read or write GeoTIFF/EXR/PNG, or run CLI commands the core CLI lacks, are left out.
   include(${CMAKE_SOURCE_DIR}/cmake/CoreTestFilter.cmake)
   add_test(NAME core_tests COMMAND terracl_tests --gtest_filter=${TERRACL_CORE_TEST_FILTER})

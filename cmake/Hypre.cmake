@@ -26,8 +26,8 @@ if(TERRACL_BUILD_TESTS AND TERRACL_BUILD_APPS)
   target_link_libraries(terracl_hypre_tests PRIVATE terracl GTest::gtest GTest::gtest_main
                         OpenImageIO::OpenImageIO GDAL::GDAL)
   target_compile_definitions(terracl_hypre_tests PRIVATE TERRACL_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
-                             TERRACL_CLI="$<TARGET_FILE:terracl_cli>")
-  add_dependencies(terracl_hypre_tests terracl_cli)
+                             TERRACL_CLI="$<TARGET_FILE:terracl_cli>" TERRACL_PEAK_RSS="$<TARGET_FILE:terracl_peak_rss>")
+  add_dependencies(terracl_hypre_tests terracl_cli terracl_peak_rss)
   target_compile_options(terracl_hypre_tests PRIVATE -Wno-ignored-attributes)
   gtest_discover_tests(terracl_hypre_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS mpi TIMEOUT 300)
   # 2 ranks under mpirun against 1 rank (the CLI; scripts/hypre-ranks-check.sh).

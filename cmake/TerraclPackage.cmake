@@ -38,7 +38,7 @@ set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SECTION libdevel)
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_DEPENDS
     "terracl (= ${PROJECT_VERSION}), ocl-icd-opencl-dev, opencl-clhpp-headers, nlohmann-json3-dev, libfmt-dev, libeigen3-dev")
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SUGGESTS
-    "libgdal-dev, libopenimageio-dev, libopenexr-dev, libflann-dev, libtinygltf-dev, liblz4-dev, libcpp-httplib-dev")
+    "libgdal-dev, libpng-dev, libopenexr-dev, libflann-dev, libtinygltf-dev, liblz4-dev, libcpp-httplib-dev")
 set(CPACK_DEBIAN_DEVELOPMENT_DESCRIPTION
     "Terrain authoring in the gradient domain on OpenCL devices: headers, static library, CMake package")
 

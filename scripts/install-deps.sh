@@ -7,7 +7,7 @@ set -euo pipefail
 PACKAGES=(
   cmake g++ make pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo oclgrind
-  libopenimageio-dev openimageio-tools libopenexr-dev
+  libopenimageio-dev openimageio-tools libopenexr-dev libpng-dev
   libgdal-dev gdal-bin
   libtiff-dev  # raw tile writes of tiled GeoTIFFs (docs/scale.md, "MPI speed-up")
   libopenmpi-dev openmpi-bin

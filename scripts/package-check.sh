@@ -101,7 +101,7 @@ for p in "$work"/deb/*.deb; do
   contents "$p" | grep -qx "./usr/share/doc/$name/copyright" || fail "$(basename "$p") lacks /usr/share/doc/$name/copyright"
 done
 depends=$(dpkg-deb -f "$rt" Depends)
-grep -q 'libgdal' <<<"$depends" && grep -q 'libopenimageio' <<<"$depends" ||
+grep -q 'libgdal' <<<"$depends" && grep -q 'libpng16' <<<"$depends" ||
   fail "$(basename "$rt") Depends not computed by dpkg-shlibdeps: '$depends'"
 grep -q "terracl (= $version)" <<<"$(dpkg-deb -f "$dev" Depends)" || fail "terracl-dev does not depend on terracl"
 py=$(deb python3-terracl)

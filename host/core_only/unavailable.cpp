@@ -47,7 +47,7 @@ std::vector<std::string> write_gdal_copy(const Heightfield&, const std::string& 
                                          const WriteOptions&) {
   unavailable("GDAL writing", tmp_path);
 }
-Heightfield read_oiio(const std::string& path, const ReadOptions&) { unavailable("PNG/EXR reading", path); }
+Heightfield read_image(const std::string& path, const ReadOptions&) { unavailable("PNG/EXR reading", path); }
 void write_png16(const Heightfield&, const std::string& tmp_path, double, double) {
   unavailable("PNG writing", tmp_path);
 }

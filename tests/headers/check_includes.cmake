@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 # Fails when a public header includes something an installed package cannot promise: a private
-# header of host/src ("multigrid.hpp"), or a library terracl uses only inside (GDAL, OpenImageIO,
+# header of host/src ("multigrid.hpp"), or a library terracl uses only inside (GDAL, libpng,
 # OpenEXR, FLANN, tinygltf, lz4, httplib). Allowed: <terracl/...>, the standard library (no
 # extension or <c...>), <CL/...>, <nlohmann/...>, <fmt/...>, <Eigen/...>.
 #   cmake -DHEADER_DIR=host/include/terracl -P tests/headers/check_includes.cmake

@@ -3,7 +3,7 @@
 /// Reading and writing heightfields and gradient fields. The format comes from the file's
 /// extension and is checked against the file's content:
 ///   .tif/.tiff (GDAL, GeoTIFF), .hgt (SRTM), .asc (ESRI ASCII grid), other GDAL rasters on read;
-///   .png (8/16-bit), .exr (float) through OpenImageIO/OpenEXR; .r16/.raw (RAW16 little-endian);
+///   .png (8/16-bit), .exr (float) through libpng/OpenEXR; .r16/.raw (RAW16 little-endian);
 ///   .npy (NumPy 2-D array: reads float32/float64/int16/uint16, writes float32).
 /// Writers put the output under a temporary name in the same folder and rename it when complete,
 /// so a failure never leaves a partial file.

@@ -167,7 +167,7 @@ Heightfield values(const Heightfield& h, const Options& opt);
 /// The same through kernels/render_terrain.cl (within 1e-4 relative of the host version).
 Heightfield values(const Heightfield& h, const Options& opt, Device& device);
 
-/// Writes a picture atomically: .png through OpenImageIO with `meta` (provenance) as text
+/// Writes a picture atomically: .png through libpng with `meta` (provenance) as text
 /// chunks; .tif/.tiff as a GeoTIFF with the image's geotransform and CRS (like gdaldem), alpha as
 /// an unassociated alpha band, `meta` as TIFF metadata.
 void write_image(const Image& img, const std::string& path, const Metadata& meta = {});

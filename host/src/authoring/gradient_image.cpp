@@ -4,12 +4,13 @@
 #include <terracl/edit.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/memory.hpp>
 
 #include "io/checked_output.hpp"
 #include "io/io_common.hpp"
-#include "io/oiio_checked.hpp"
+#include "io/image_file.hpp"
+#include "io/png_codec.hpp"
 
-#include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -41,12 +42,10 @@ void write_gradient_image(const GradientField& g, const std::string& path) {
                        {"cell_y", g.georef.cell_y}, {"encoding", "(r, g) = 2^(p-1) (1 + g/m), staggered faces"}};
   if (std::isfinite(g.mean_elevation)) sc["mean_elevation"] = g.mean_elevation;
   write_atomically(path, [&](const std::string& tmp) {
-    OIIO::ImageSpec spec(g.width, g.height, 2, OIIO::TypeDesc::UINT16);
-    spec.channelnames = {"R", "G"};
-    spec.attribute("oiio:ColorSpace", "linear");
-    spec.alpha_channel = -1;  // a PNG with 2 channels is grey + alpha: keep the values unassociated
-    spec.attribute("oiio:UnassociatedAlpha", 1);
-    io::write_image_checked(tmp, spec, OIIO::TypeDesc::UINT16, px.data(), "gradient-image");
+    // Two 16-bit channels make a grey + alpha PNG: its samples are stored as they are (unassociated).
+    io::CheckedImageFile file(tmp);
+    io::png::write(file, g.width, g.height, 2, 16, px.data(), {{"Software", "terracl"}}, true, "gradient-image");
+    file.finish("gradient-image");
     // The sidecar (renamed after the image) names the image it was written for: an image beside
     // an older sidecar (a failed second rename) would decode with the wrong scale m.
     const io::FileDigest d = io::file_digest(tmp);
@@ -69,22 +68,20 @@ GradientField read_gradient_image(const std::string& path) {
   if (!sc.contains("m") || !sc["m"].is_number() || !(sc["m"].get<double>() > 0))
     fail("gradient-image", "{}.json: needs \"m\" > 0 (the gradient scale)", path);
   const double m = sc["m"].get<double>();
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);  // no premultiplication of the "alpha" (g) channel
-  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path, &config);
-  if (!in) fail("gradient-image", "{}: cannot open: {}", path, OIIO::geterror());
-  const OIIO::ImageSpec& spec = in->spec();
-  if (spec.nchannels < 2) fail("gradient-image", "{}: expected 2 channels, has {}", path, spec.nchannels);
-  std::vector<uint16_t> px(size_t(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT16, px.data()))
-    fail("gradient-image", "{}: read failed: {}", path, in->geterror());
-  GradientField g(spec.width, spec.height);
+  io::check_png_chunks(path);
+  const io::png::Pixels px = io::png::read(path, [&](const io::png::Header& h) {
+    if (h.channels < 2) fail("gradient-image", "{}: expected 2 channels, has {}", path, h.channels);
+    require_raster_size("gradient-image", path, h.width, h.height, 16);
+  }, "gradient-image");
+  const int nch = px.header.channels;
+  const double widen = px.header.bit_depth == 8 ? 257.0 : 1.0;  // an 8-bit copy (saved by an image editor)
+  GradientField g(px.header.width, px.header.height);
   g.georef.cell_x = sc.value("cell_x", 1.0);
   g.georef.cell_y = sc.value("cell_y", 1.0);
   if (sc.contains("mean_elevation") && sc["mean_elevation"].is_number()) g.mean_elevation = sc["mean_elevation"].get<double>();
   for (size_t i = 0; i < g.size(); ++i) {
-    g.gx[i] = float(m * (px[i * spec.nchannels] / kHalf - 1.0));
-    g.gy[i] = float(m * (px[i * spec.nchannels + 1] / kHalf - 1.0));
+    g.gx[i] = float(m * (px.sample(i * nch) * widen / kHalf - 1.0));
+    g.gy[i] = float(m * (px.sample(i * nch + 1) * widen / kHalf - 1.0));
   }
   return g;
 }

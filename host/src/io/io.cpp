@@ -107,11 +107,11 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
       break;
     case FileFormat::PNG:
       require_magic(path, "PNG", f);
-      h = io::read_oiio(path, opts);
+      h = io::read_image(path, opts);
       break;
     case FileFormat::EXR:
       require_magic(path, "EXR", f);
-      h = io::read_oiio(path, opts);
+      h = io::read_image(path, opts);
       break;
     case FileFormat::RAW16:
       h = io::read_raw16(path, opts);
@@ -140,7 +140,7 @@ Heightfield read_heightfield(const std::string& path, const ReadOptions& opts) {
     cell("terracl:cell_x", h.georef.cell_x);
     cell("terracl:cell_y", h.georef.cell_y);
   }
-  // Every reader ends here, so one check covers GeoTIFF, OIIO, sidecar and option cell sizes: a NaN
+  // Every reader ends here, so one check covers GeoTIFF, PNG, EXR, sidecar and option cell sizes: a NaN
   // cell size gave all-NaN drainage and mesh vertices, 1e300 overflowed to Inf.
   io::check_cell_size(h.georef, path,
                       io::cell_size_source(h.georef, path, opts.cell_size && h.georef.cell_x == *opts.cell_size));

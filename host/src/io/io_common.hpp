@@ -106,7 +106,7 @@ std::vector<std::string> write_gdal_copy(const Heightfield& h, const std::string
                                          const WriteOptions& opts);
 void write_geotiff(const Heightfield& h, const std::string& tmp_path, const WriteOptions& opts = {});
 
-Heightfield read_oiio(const std::string& path, const ReadOptions& opts);
+Heightfield read_image(const std::string& path, const ReadOptions& opts);
 void write_png16(const Heightfield& h, const std::string& tmp_path, double zmin, double zmax);
 void write_exr(const Heightfield& h, const std::string& tmp_path);
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// Row-by-row picture output (render_png.cpp): PNG through OpenImageIO's scanlines, GeoTIFF through
+// Row-by-row picture output (render_png.cpp): PNG through libpng's rows, GeoTIFF through
 // GDAL. write_image writes all rows at once and the streamed render (render_stream.cpp) one strip
 // at a time through the same writer, so both give the same file.
 #include <cstdint>

@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// Picture output: PNG through OpenImageIO, GeoTIFF through GDAL. The only part of rendering that
+// Picture output: PNG through libpng, GeoTIFF through GDAL. The only part of rendering that
 // needs an image library, kept apart so the core build (TERRACL_CORE_ONLY) renders to arrays
 // without them.
-#include <OpenImageIO/imageio.h>
 #include <gdal_priv.h>
 
 #include <terracl/error.hpp>
@@ -11,7 +10,8 @@
 
 #include "io/checked_output.hpp"
 #include "io/gdal_common.hpp"
-#include "io/oiio_checked.hpp"
+#include "io/image_file.hpp"
+#include "io/png_codec.hpp"
 #include "render/picture_writer.hpp"
 
 namespace terracl::render {
@@ -29,7 +29,7 @@ struct PictureWriter::Impl {
   std::string path, tmp;
   int width = 0, height = 0, channels = 0, next_row = 0;
   std::unique_ptr<io::CheckedImageFile> png_file;  // declared first: outlives the writer using it
-  std::unique_ptr<OIIO::ImageOutput> png;
+  std::unique_ptr<io::png::Writer> png;
   GDALDataset* tif = nullptr;
   ~Impl() {
     if (tif) GDALClose(tif);
@@ -45,17 +45,11 @@ PictureWriter::PictureWriter(const std::string& path, const std::string& tmp, in
   m->height = height;
   m->channels = channels;
   if (format_from_extension(path) == FileFormat::PNG) {
-    OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-    if (channels == 2) {
-      spec.channelnames = {"Y", "A"};
-      spec.alpha_channel = 1;
-    }
-    // Our alpha only marks nodata (0 or 255): keep the colours as they are (no un-premultiply).
-    spec.attribute("oiio:UnassociatedAlpha", 1);
-    spec.attribute("Software", "terracl");
-    for (const auto& [k, v] : meta) spec.attribute(k, v);  // PNG text chunks
+    // Our alpha only marks nodata (0 or 255): the colours are stored as they are (unassociated).
+    io::png::TextChunks text{{"Software", "terracl"}};
+    for (const auto& [k, v] : meta) text.emplace_back(k, v);
     m->png_file = std::make_unique<io::CheckedImageFile>(tmp);
-    m->png = m->png_file->open(spec, "render");
+    m->png = std::make_unique<io::png::Writer>(*m->png_file, width, height, channels, 8, text, false, "render");
     return;
   }
   // Like gdaldem's output: uncompressed, striped, the input's geotransform and CRS; bands
@@ -97,9 +91,7 @@ void PictureWriter::write_rows(int y0, int rows, const uint8_t* px) {
   if (rows == 0) return;
   m->next_row += rows;
   if (m->png) {
-    const bool wrote = m->png->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, px);
-    m->png_file->check("render");
-    if (!wrote) fail("render", "cannot write {}: {}", m->path, m->png->geterror());
+    m->png->write_rows(px, rows);
     return;
   }
   const int n = m->channels;
@@ -117,9 +109,7 @@ void PictureWriter::write_rows(int y0, int rows, const uint8_t* px) {
 void PictureWriter::close() {
   if (m->next_row != m->height) fail("render", "{}: only {} of {} rows written", m->path, m->next_row, m->height);
   if (m->png) {
-    const bool closed = m->png->close();
-    m->png_file->check("render");
-    if (!closed) fail("render", "cannot write {}: {}", m->path, m->png->geterror());
+    m->png->finish();
     m->png.reset();
     m->png_file->finish("render");
     m->png_file.reset();
@@ -138,7 +128,7 @@ void write_image(const Image& img, const std::string& path, const Metadata& meta
   if (img.channels < 1 || img.channels > 4 || img.pixels.size() != size_t(img.width) * img.height * img.channels)
     fail("render", "inconsistent image buffer");
   const FileFormat f = format_from_extension(path);
-  if (f != FileFormat::PNG && f != FileFormat::GeoTIFF)  // OIIO would write a JPEG for x.jpg
+  if (f != FileFormat::PNG && f != FileFormat::GeoTIFF)  // no JPEG for x.jpg
     fail("render", "{}: pictures are written as PNG or GeoTIFF; use a .png or .tif name", path);
   write_atomically(path, [&](const std::string& tmp) {
     PictureWriter w(path, tmp, img.width, img.height, img.channels, img.georef, meta);
