@@ -14,6 +14,12 @@
 #include <numeric>
 #include <random>
 
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+
 namespace terracl::test {
 
 Device& device() {
@@ -59,6 +65,36 @@ CmdResult run_cli(const std::string& args) {
   const int status = pclose(p);
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+double cli_peak_rss_mib(const std::vector<std::string>& args) {
+  std::vector<std::string> all = {TERRACL_PEAK_RSS, TERRACL_CLI};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  int fds[2];
+  if (pipe(fds) != 0) return -1;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    dup2(null, 1);
+    dup2(fds[1], 2);
+    ::close(fds[0]);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  ::close(fds[1]);
+  std::string err;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::read(fds[0], buf, sizeof buf)) > 0 || (n < 0 && errno == EINTR))
+    if (n > 0) err.append(buf, size_t(n));
+  ::close(fds[0]);
+  int status = 0;
+  if (pid < 0 || waitpid(pid, &status, 0) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0) return -1;
+  const size_t at = err.rfind("peak_rss_kib ");
+  return at == std::string::npos ? -1 : std::strtod(err.c_str() + at + 13, nullptr) / 1024.0;
 }
 
 std::string data_path(const std::string& rel) { return std::string(TERRACL_SOURCE_DIR) + "/data/" + rel; }

@@ -37,6 +37,10 @@ struct CmdResult {
 };
 /// Runs the built `terracl` with `args` (a shell-quoted string).
 CmdResult run_cli(const std::string& args);
+/// Peak resident memory (MiB) of the built `terracl` run with `args` (no shell in between), or -1
+/// when it failed. Measured from a small parent process (tests/tools/peak_rss.cpp): a child forked
+/// from the test binary would report at least the test binary's own resident size.
+double cli_peak_rss_mib(const std::vector<std::string>& args);
 
 /// The whole content of a file (empty when it cannot be read).
 std::string file_bytes(const std::string& path);

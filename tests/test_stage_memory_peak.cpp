@@ -24,26 +24,9 @@ namespace {
 
 /// Peak resident memory (bytes) of `terracl ARGS`, which must succeed.
 double peak_rss(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  std::string cli = TERRACL_CLI;
-  argv.push_back(cli.data());
-  std::vector<std::string> copy = args;
-  for (std::string& a : copy) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    // Quiet: only the exit status matters here.
-    const int null = ::open("/dev/null", O_WRONLY);
-    dup2(null, 1);
-    dup2(null, 2);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  int status = 0;
-  rusage ru{};
-  wait4(pid, &status, 0, &ru);
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "terracl " << args[0] << " failed";
-  return double(ru.ru_maxrss) * 1024.0;
+  const double mib = test::cli_peak_rss_mib(args);
+  EXPECT_GT(mib, 0) << "terracl " << args[0] << " failed";
+  return mib * 1024.0 * 1024.0;
 }
 
 // A smooth terrain with some relief everywhere (pits and ridges for the hydrology stages).

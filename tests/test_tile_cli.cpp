@@ -16,23 +16,7 @@
 namespace terracl {
 namespace {
 
-// Peak resident set of the CLI run with `args` (no shell in between), in MiB; -1 when it failed.
-double peak_rss_mib(std::vector<std::string> args) {
-  args.insert(args.begin(), TERRACL_CLI);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    if (!freopen("/dev/null", "w", stdout)) _exit(126);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  int status = 0;
-  struct rusage ru {};
-  if (wait4(pid, &status, 0, &ru) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0) return -1;
-  return double(ru.ru_maxrss) / 1024.0;
-}
+double peak_rss_mib(const std::vector<std::string>& args) { return test::cli_peak_rss_mib(args); }
 
 // A w x h raster of the SRTM tile repeated (real relief, real depressions).
 std::string big_input(const test::TempDir& dir, int w, int h) {
