@@ -197,7 +197,29 @@ TEST(ImageCodecs, TheCliLoadsNoImageLibraryPluginStack) {
   ASSERT_NE(out.find("libpng"), std::string::npos) << out;
   for (const char* lib : {"libOpenImageIO", "libavcodec", "libopencv", "libgdcm", "libopenvdb"})
     EXPECT_EQ(out.find(lib), std::string::npos) << lib << " is loaded at start-up";
+#if TERRACL_LAZY_LIBRARIES
+  // GDAL and libtiff come at the first call into them (cmake/LazyLibraries.cmake)...
+  EXPECT_EQ(out.find("libgdal"), std::string::npos) << out;
+  EXPECT_EQ(out.find("libtiff"), std::string::npos) << out;
+#endif
 }
+
+#if TERRACL_LAZY_LIBRARIES
+// ...and then work as if linked: a GeoTIFF round trip through the CLI, GDAL's error messages
+// (a variadic CPLError path) included, and a command that opens no raster loads neither.
+TEST(ImageCodecs, LazilyLoadedGdalWorksFromTheFirstCall) {
+  test::TempDir dir;
+  write_heightfield(ramp(33, 21), dir.path("a.png"));
+  const auto conv = test::run_cli("-q convert " + dir.path("a.png") + " " + dir.path("a.tif"));
+  ASSERT_EQ(conv.exit_code, 0) << conv.out;
+  EXPECT_EQ(read_heightfield(dir.path("a.tif")).z, read_heightfield(dir.path("a.png")).z);
+  std::ofstream(dir.path("bad.tif")) << "II*\0 this is not a TIFF";
+  const auto bad = test::run_cli("info " + dir.path("bad.tif"));
+  EXPECT_EQ(bad.exit_code, 1) << bad.out;
+  EXPECT_NE(bad.out.find("bad.tif"), std::string::npos) << bad.out;
+  EXPECT_EQ(command_output("LD_DEBUG=files " TERRACL_CLI " --version 2>&1").find("libgdal"), std::string::npos);
+}
+#endif
 
 }  // namespace
 }  // namespace terracl
