@@ -4,9 +4,10 @@
 
 usage: /usr/bin/python3 scripts/bench-startup.py [build/bin/terracl] [--repeats 9]
 
-Runs each command alternately (A B C ... A B C ...), prints the median and the fastest wall time,
-then the dynamic linker's share for `terracl --version` (LD_DEBUG=statistics: time in relocation
-and in loading, number of relocations) and the number of shared libraries each binary loads.
+Runs each command alternately (A B C ... A B C ...), prints the median and the fastest wall time
+and the shared libraries each command loads (at start and by dlopen: GDAL comes at its first call
+in the CLI, cmake/LazyLibraries.cmake), then the dynamic linker's share for `terracl --version`
+(LD_DEBUG=statistics: time in relocation and in loading, number of relocations).
 """
 import os
 import re
@@ -30,12 +31,17 @@ def main():
     dem = os.path.join(root, "data", "crops", "presidential_128x96.tif")
     tmp = tempfile.mkdtemp(prefix="terracl-startup-")
     out = os.path.join(tmp, "out.tif")
+    png = os.path.join(tmp, "in.png")
+    subprocess.run([cli, "-q", "convert", dem, png], check=True, stdout=subprocess.DEVNULL)
+    gdalinfo = shutil.which("gdalinfo") or "gdalinfo"
     commands = {
         "terracl --version": [cli, "--version"],
         "terracl devices": [cli, "devices"],
-        "terracl info (128x96)": [cli, "info", dem],
-        "terracl convert (128x96)": [cli, "-q", "convert", dem, out],
-        "gdalinfo (128x96)": [shutil.which("gdalinfo") or "gdalinfo", dem],
+        "terracl info (128x96 tif)": [cli, "info", dem],
+        "terracl convert (tif->tif)": [cli, "-q", "convert", dem, out],
+        "terracl convert (png->exr)": [cli, "-q", "convert", png, os.path.join(tmp, "out.exr")],
+        "gdalinfo --version": [gdalinfo, "--version"],
+        "gdalinfo (128x96 tif)": [gdalinfo, dem],
     }
     times = {k: [] for k in commands}
     for _ in range(repeats):
@@ -46,7 +52,11 @@ def main():
     load = os.getloadavg()[0]
     print(f"start-up, {repeats} runs each interleaved, load {load:.2f}, {os.cpu_count()} cores")
     for name, t in times.items():
-        print(f"  {name:<26} median {1000 * statistics.median(t):7.1f} ms   fastest {1000 * min(t):7.1f} ms")
+        env = dict(os.environ, LD_DEBUG="libs")
+        r = subprocess.run(commands[name], env=env, capture_output=True, text=True)
+        libs = len(re.findall(r"calling init: ", r.stderr))
+        print(f"  {name:<27} median {1000 * statistics.median(t):7.1f} ms   fastest {1000 * min(t):7.1f} ms"
+              f"   {libs:4d} libraries")
     env = dict(os.environ, LD_DEBUG="statistics")
     r = subprocess.run([cli, "--version"], env=env, capture_output=True, text=True)
     stats = r.stderr
@@ -57,10 +67,6 @@ def main():
         print(f"dynamic loader for `terracl --version`: {total.group(1)} {total.group(2)} in all"
               + (f", relocation {reloc.group(1)} {reloc.group(2)} ({reloc.group(3)} %)" if reloc else "")
               + (f", {nrel.group(1)} relocations" if nrel else ""))
-    for name, exe in (("terracl", cli), ("gdalinfo", shutil.which("gdalinfo"))):
-        if exe:
-            libs = [l for l in subprocess.run(["ldd", exe], capture_output=True, text=True).stdout.splitlines() if "=>" in l]
-            print(f"shared libraries loaded by {name}: {len(libs)}")
     shutil.rmtree(tmp, ignore_errors=True)
 
 
