@@ -261,7 +261,7 @@ StageInfo render_stage_info() {
             "deflate",
             "",
             "Value rasters (.tif): DEFLATE with the floating-point predictor at level 1, or none (gdaldem's default: "
-            "a third larger, less CPU)",
+            "a third larger, less CPU); also a tiled render's GeoTIFF picture (DEFLATE level 1, or none)",
             {"deflate", "none"},
             false},
            {"backend",
