@@ -42,6 +42,8 @@ struct FillResult {
 /// increments (std::nextafter) towards their spill point, so every cell has a strictly lower
 /// neighbour or is an outlet; the volume then includes those tiny increments.
 FillResult priority_flood_fill(const Heightfield& h, bool epsilon = false, const Progress& progress = {});
+/// The same, filling `h`'s own cells into the result: one copy of the raster fewer at the peak.
+FillResult priority_flood_fill(Heightfield&& h, bool epsilon = false, const Progress& progress = {});
 
 /// Result of complete breaching (Lindsay 2016).
 struct BreachResult {

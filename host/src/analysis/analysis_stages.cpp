@@ -171,7 +171,6 @@ void run_watershed(StageContext& c) {
 void run_drainage(StageContext& c) {
   if (const std::string p = c.get<std::string>("product"); p != "area") return write_d8_pointer(c, p == "d8_esri");
   Heightfield& h = c.height();
-  Heightfield out = h;
   const bool dinf = c.get<std::string>("method") == "dinf";
   const std::vector<double>* cells;
   double area = 1;
@@ -187,11 +186,11 @@ void run_drainage(StageContext& c) {
     area = d8.cell_area_m2;
   }
   const bool as_cells = c.get<std::string>("units") == "cells";
-  for (size_t i = 0; i < out.size(); ++i)
-    out.z[i] = std::isnan(h.z[i]) ? NAN : float((*cells)[i] * (as_cells ? 1.0 : area));
-  out.georef.vertical_units = as_cells ? "cells" : "m2";
-  out.metadata["terracl:quantity"] = dinf ? "D-infinity drainage area" : "D8 drainage area";
-  h = std::move(out);
+  // In place: each cell's elevation is read once, for its nodata test, before its area replaces it.
+  for (size_t i = 0; i < h.size(); ++i)
+    h.z[i] = std::isnan(h.z[i]) ? NAN : float((*cells)[i] * (as_cells ? 1.0 : area));
+  h.georef.vertical_units = as_cells ? "cells" : "m2";
+  h.metadata["terracl:quantity"] = dinf ? "D-infinity drainage area" : "D8 drainage area";
 }
 
 }  // namespace
@@ -275,7 +274,7 @@ void register_analysis_stages(StageRegistry& r) {
            false}},
          [](StageContext& c) {
            Heightfield& h = c.height();
-           h = analysis::priority_flood_fill(h, c.get<bool>("epsilon"), c.progress).filled;
+           h = analysis::priority_flood_fill(std::move(h), c.get<bool>("epsilon"), c.progress).filled;
          }});
   r.add({"breach",
          "Complete depression breaching (Lindsay 2016): carve channels from every pit to its outlet.",

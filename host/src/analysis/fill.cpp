@@ -23,11 +23,12 @@ void require_indexable(const Heightfield& h, const char* stage) {
 
 using namespace detail;
 
-FillResult priority_flood_fill(const Heightfield& h, bool epsilon, const Progress& progress) {
+namespace {
+
+// `owned`, when given, is `h` itself, whose cells become the result's.
+FillResult flood(const Heightfield& h, Heightfield* owned, bool epsilon, const Progress& progress) {
   const char* stage = "fill";
   require_indexable(h, stage);
-  FillResult r;
-  r.filled = h;
   const size_t n = h.size();
   Padded g(h);
   std::vector<float>& z = g.z;
@@ -69,19 +70,39 @@ FillResult priority_flood_fill(const Heightfield& h, bool epsilon, const Progres
       next_report += n / 8 + 1;
     }
   }
-  g.unpad(r.filled.z);
+  // The flood's work memory goes before the output is made.
+  open = MinHeap();
+  std::vector<uint8_t>().swap(closed);
+  std::vector<uint32_t>().swap(pit);
+  FillResult r;
   const double area = h.georef.cell_x * h.georef.cell_y;
   double sum = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const double d = double(r.filled.z[i]) - double(h.z[i]);
-    if (d > 0) {
-      sum += d;
-      r.cells_raised++;
-      if (d > r.max_depth_m) r.max_depth_m = d;
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      const double d = double(z[g.index(x, y)]) - double(h.z[size_t(y) * h.width + x]);
+      if (d > 0) {
+        sum += d;
+        r.cells_raised++;
+        if (d > r.max_depth_m) r.max_depth_m = d;
+      }
     }
-  }
   r.volume_m3 = sum * area;
+  if (owned)
+    r.filled = std::move(*owned);
+  else
+    r.filled = h;
+  g.unpad(r.filled.z);
   return r;
+}
+
+}  // namespace
+
+FillResult priority_flood_fill(const Heightfield& h, bool epsilon, const Progress& progress) {
+  return flood(h, nullptr, epsilon, progress);
+}
+
+FillResult priority_flood_fill(Heightfield&& h, bool epsilon, const Progress& progress) {
+  return flood(h, &h, epsilon, progress);
 }
 
 }  // namespace terracl::analysis

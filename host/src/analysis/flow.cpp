@@ -56,6 +56,8 @@ D8Result d8_flow(const Heightfield& h, const Progress& progress) {
       r.cells[i] = 1.0;
       if (d < 8) donors[size_t(ptrdiff_t(i) + g.off[d])]++;
     }
+  // The accumulation needs only the directions: the filled surface goes (one raster less at the peak).
+  std::vector<float>().swap(f.filled.z);
   report_progress(progress, stage, 0.8, "directions");
   // Kahn's order: start from cells without donors, pass each cell's total to its receiver.
   std::vector<uint32_t> stack;
@@ -169,6 +171,7 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress) {
       donors[size_t(ptrdiff_t(i) + g.off[r.k1[i]])]++;
       if (r.k2[i] != kNoFlow) donors[size_t(ptrdiff_t(i) + g.off[r.k2[i]])]++;
     }
+  std::vector<float>().swap(f.filled.z);  // as in d8_flow
   report_progress(progress, stage, 0.8, "directions");
   std::vector<uint32_t> stack;
   stack.reserve(1024);

@@ -114,6 +114,10 @@ void init_gdal() {
   std::call_once(once, [] {
     GDALAllRegister();
     CPLSetErrorHandler(quiet_handler);
+    // GDAL's block cache defaults to 5 % of RAM, and whole-raster reads and writes leave every
+    // block in it: an 8193^2 convert peaked at 3.3 copies of the raster. 128 MB holds the blocks
+    // in flight; GDAL_CACHEMAX (environment or --config) still decides when set.
+    if (!CPLGetConfigOption("GDAL_CACHEMAX", nullptr)) GDALSetCacheMax64(GIntBig(128) << 20);
   });
 }
 
@@ -332,13 +336,22 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   CPLErrorReset();
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
   if (!mem) fail("io", "GDAL has no MEM driver");
-  DatasetPtr ds(mem->Create("", h.width, h.height, 1, type, nullptr));
-  if (!ds) fail("io", "cannot create an in-memory raster of {} x {} ({})", h.width, h.height, last_gdal_error());
   const Georef& g = h.georef;
+  const bool is_int = GDALDataTypeIsInteger(type);
+  // Float32 with NaN (or no) nodata: the band is the heightfield's own cells, not a copy (an 8193^2
+  // write held 268 MB twice). Otherwise the MEM band has the output's type and GDAL converts.
+  const bool borrow = type == GDT_Float32 && !(g.nodata && !std::isnan(*g.nodata) && h.count_nodata() > 0);
+  DatasetPtr ds(mem->Create("", h.width, h.height, borrow ? 0 : 1, type, nullptr));
+  if (!ds) fail("io", "cannot create an in-memory raster of {} x {} ({})", h.width, h.height, last_gdal_error());
+  if (borrow) {
+    char** o = CSLSetNameValue(nullptr, "DATAPOINTER", fmt::format("{}", static_cast<const void*>(h.z.data())).c_str());
+    const CPLErr added = ds->AddBand(GDT_Float32, o);
+    CSLDestroy(o);
+    if (added != CE_None) fail("io", "cannot wrap a raster of {} x {} for GDAL ({})", h.width, h.height, last_gdal_error());
+  }
   set_geotransform_for_writing(*ds, g, h.height);
   if (!g.crs_wkt.empty()) ds->SetProjection(g.crs_wkt.c_str());
   GDALRasterBand* band = ds->GetRasterBand(1);
-  const bool is_int = GDALDataTypeIsInteger(type);
   std::vector<float> data;
   const std::vector<float>* src = &h.z;
   if (g.nodata || h.count_nodata() > 0) {
@@ -368,7 +381,7 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   ds->SetMetadataItem("terracl_cell_x", fmt::format("{:.17g}", g.cell_x).c_str());
   ds->SetMetadataItem("terracl_cell_y", fmt::format("{:.17g}", g.cell_y).c_str());
   // GDAL rounds float -> integer to the nearest and clamps to the type's range.
-  if (band->RasterIO(GF_Write, 0, 0, h.width, h.height, const_cast<float*>(src->data()), h.width, h.height, GDT_Float32,
+  if (!borrow && band->RasterIO(GF_Write, 0, 0, h.width, h.height, const_cast<float*>(src->data()), h.width, h.height, GDT_Float32,
                      0, 0) != CE_None)
     fail("io", "filling an in-memory raster failed ({})", last_gdal_error());
   return ds;

@@ -15,6 +15,8 @@
 // source itself) into the next segment's source.
 #include "tile/tiled_run.hpp"
 
+#include "io/gdal_common.hpp"
+
 namespace terracl {
 namespace fs = std::filesystem;
 
@@ -112,7 +114,9 @@ void TiledRun::run() {
       return **opened;
     };
   }
-  // GDAL's block cache defaults to 5 % of RAM: bound it by the budget.
+  // GDAL's block cache defaults to 5 % of RAM: bound it by the budget (after init_gdal, which
+  // sets terracl's own default).
+  io::init_gdal();
   const uint64_t cache = m_t.memory_budget > 0 ? m_t.memory_budget / 4 : uint64_t(256) << 20;
   GDALSetCacheMax64(GIntBig(cache));
   // Tileability first, so that a refusal costs nothing.
