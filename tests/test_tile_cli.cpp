@@ -61,6 +61,19 @@ TEST(TileCli, PeakMemoryStaysBoundedUnderASmallBudget) {
   EXPECT_EQ(read_heightfield(dir.path("large.tif")).z, read_heightfield(dir.path("large_u.tif")).z);
 }
 
+// The tiled fill's perimeter graph grows as tiles shrink: the automatic tile is the largest one
+// with which the graph and the tile fit together (at 2400^2 under 32 MiB: 512, where the largest
+// tile alone, 768, left no room for its graph and the run was refused).
+TEST(TileCli, FillUnderABudgetChoosesATileItsGraphFitsWith) {
+  test::TempDir dir;
+  const std::string in = big_input(dir, 2400, 2400);
+  const auto tiled = test::run_cli("-q fill_depressions " + in + " -o " + dir.path("t.tif") + " --memory-budget 32M");
+  ASSERT_EQ(tiled.exit_code, 0) << tiled.out;
+  const auto untiled = test::run_cli("-q fill_depressions " + in + " -o " + dir.path("u.tif"));
+  ASSERT_EQ(untiled.exit_code, 0) << untiled.out;
+  EXPECT_EQ(read_heightfield(dir.path("t.tif")).z, read_heightfield(dir.path("u.tif")).z);
+}
+
 TEST(TileCli, ProgressPerTileAndUsageErrors) {
   test::TempDir dir;
   const std::string p = pipeline(dir, big_input(dir, 300, 200), "p", true);

@@ -73,18 +73,23 @@ std::vector<char> TiledRun::prepare_resume(const Segment& seg, const std::vector
   return done;
 }
 
-int TiledRun::tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes) const {
+int TiledRun::tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes,
+                        const std::function<double(int)>& per_tile_bytes) const {
   int align = 1;
   for (const Op& op : seg.ops)
     if (op.tiling.kind == TileKind::Local) align *= op.tiling.down;
-  auto fits = [&](double T) { return fixed_bytes + bytes_per_core_cell * T * T; };
+  auto fits = [&](int T) {
+    return fixed_bytes + bytes_per_core_cell * double(T) * T + (per_tile_bytes ? per_tile_bytes(T) : 0.0);
+  };
   int T = m_t.tile;
   if (T <= 0) {
     T = 2048;
     if (m_t.memory_budget > 0) {
-      // The largest multiple of 256 whose tile fits in the half of the budget GDAL's cache leaves.
+      // The largest multiple of 256 whose tile fits in the half of the budget GDAL's cache leaves
+      // (every size is tried: with a perimeter graph the need is smallest at a middle size).
       T = 256;
-      while (T < 16384 && fits(T + 256) <= 0.5 * double(m_t.memory_budget)) T += 256;
+      for (int t = 512; t <= 16384; t += 256)
+        if (fits(t) <= 0.5 * double(m_t.memory_budget)) T = t;
     }
   }
   T = (T + align - 1) / align * align;

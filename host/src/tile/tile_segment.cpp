@@ -56,11 +56,14 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
     if (global->type == "drainage") per_cell = std::max(per_cell, 4.0 + 1 + 1 + 8 + 8 + 4 + 4 + 4);
     fixed = 0;  // the perimeter graph is added below once the tile size is known
   }
-  int T = tile_size(seg, per_cell * (1 + 4.0 * (total_halo + extra_halo) / 256.0), fixed);
-  if (has_global && !warp && m_t.memory_budget > 0) {
-    // Perimeter cells (4 per tile side cell), each with its node, about four edges while the graph
-    // is built (24 B each) and its adjacency: about 200 B per perimeter cell at the peak.
-    const double graph = 4.0 * double(levels.back().w) * levels.back().h / T * 200.0;
+  // Perimeter cells (4 per tile side cell), each with its node, about four edges while the graph
+  // is built (24 B each) and its adjacency: about 200 B per perimeter cell at the peak.
+  const bool has_graph = has_global && !warp && m_t.memory_budget > 0;
+  auto graph_bytes = [&](int t) { return 4.0 * double(levels.back().w) * levels.back().h / t * 200.0; };
+  int T = tile_size(seg, per_cell * (1 + 4.0 * (total_halo + extra_halo) / 256.0), fixed,
+                    has_graph ? std::function<double(int)>(graph_bytes) : std::function<double(int)>());
+  if (has_graph) {
+    const double graph = graph_bytes(T);
     if (graph + per_cell * double(T) * T > 0.5 * double(m_t.memory_budget))
       throw UsageError("run",
                        fmt::format("--memory-budget {}: the tiled fill's perimeter graph ({} with {}-cell tiles) and a "

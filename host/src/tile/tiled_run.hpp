@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -140,7 +141,10 @@ class TiledRun {
     throw UsageError("run", fmt::format("{}: {}: stage '{}' ({}) cannot run tiled: {}", m_p.source(), st.where, st.tag,
                                         st.type, why));
   }
-  int tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes) const;
+  /// `per_tile_bytes(T)`, when given, adds what depends on the tile size otherwise (the tiled
+  /// fill's perimeter graph, which grows as tiles shrink).
+  int tile_size(const Segment& seg, double bytes_per_core_cell, double fixed_bytes,
+                const std::function<double(int)>& per_tile_bytes = {}) const;
   Metadata provenance(const PipelineStage& st) const {
     return {{"terracl:version", version()},
             {"terracl:pipeline", m_p.name()},
