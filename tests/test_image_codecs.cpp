@@ -129,6 +129,8 @@ TEST(ImageCodecs, ExrWrittenByTerraclCarriesItsAttributesForOpenImageIO) {
   h.georef.has_geotransform = true;
   h.georef.geotransform = {500000.0, 30.0, 0.0, 4950000.0, 0.0, -30.0};
   h.metadata["terracl:note"] = "ridge \xc3\xa9t\xc3\xa9";
+  h.metadata["terracl:cell_x"] = "30";  // the same name as a float attribute of ours
+  h.metadata["compression"] = "none";   // the name of an attribute every EXR header has
   write_heightfield(h, dir.path("h.exr"));
   auto in = OIIO::ImageInput::open(dir.path("h.exr"));
   ASSERT_TRUE(in);

@@ -33,6 +33,13 @@ int threads() {
   return Imf::globalThreadCount();
 }
 
+bool is_required_attribute(const std::string& k) {
+  for (const char* r : {"channels", "compression", "dataWindow", "displayWindow", "lineOrder", "pixelAspectRatio",
+                        "screenWindowCenter", "screenWindowWidth", "tiles", "type", "name", "version", "chunkCount"})
+    if (k == r) return true;
+  return false;
+}
+
 // OpenEXR writes its line offset table last, seeking back to it: the stream must seek.
 class FileStream : public Imf::OStream {
  public:
@@ -119,8 +126,15 @@ void write_float(CheckedImageFile& file, int width, int height, const std::vecto
     Imf::Header h(width, height);
     h.compression() = Imf::ZIP_COMPRESSION;
     for (const auto& name : channels) h.channels().insert(name, Imf::Channel(Imf::FLOAT));
-    for (const auto& [k, v] : attributes.strings) h.insert(k, Imf::StringAttribute(v));
-    for (const auto& [k, v] : attributes.floats) h.insert(k, Imf::FloatAttribute(v));
+    // A metadata key may repeat one of ours with another type, or name one of the attributes every
+    // EXR header must have: the later value wins, and the required ones are never replaced.
+    auto put = [&](const std::string& k, const Imf::Attribute& a) {
+      if (k.empty() || is_required_attribute(k)) return;
+      if (h.find(k) != h.end()) h.erase(k);
+      h.insert(k, a);
+    };
+    for (const auto& [k, v] : attributes.strings) put(k, Imf::StringAttribute(v));
+    for (const auto& [k, v] : attributes.floats) put(k, Imf::FloatAttribute(v));
     const size_t n = channels.size();
     Imf::FrameBuffer fb;
     char* base = reinterpret_cast<char*>(const_cast<float*>(pixels));
