@@ -15,6 +15,7 @@
 #include <cstring>
 #include <fstream>
 #include <numeric>
+#include <optional>
 #include <random>
 
 namespace terracl {
@@ -260,6 +261,17 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
       fail("dictionary", "mismatched cell sizes: exemplar {} has {:.3f} x {:.3f} m cells, exemplar 1 has {:.3f} x {:.3f} m",
            e + 1, g.cell_x, g.cell_y, g0.cell_x, g0.cell_y);
   }
+  // The detail gain's calibration learns and applies dictionaries of its own on the exemplar's
+  // folds: first, so that they and this dictionary's atoms are not in memory together.
+  std::optional<GainCalibration> calibration;
+  if (o.calibrate && f > 1) {
+    report_progress(progress, "dictionary", 0.0, "calibrating the detail gain");
+    LearnOptions c = o;
+    c.calibrate = false;
+    c.faithful_radius = 0;  // the folds' dictionaries serve detail mode only
+    c.max_patches = o.max_patches / 2;
+    calibration = calibrate_detail(exemplars[0], c);
+  }
   const int p = P / f;
   const auto low_mask = patch_mask(p);
   double lmsum = 0;
@@ -292,21 +304,25 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
       keep[i] = (l.array() - z * Eigen::Map<const VectorF>(low_mask.data(), p * p).array()).matrix().norm() > 1e-4f;
     }
   });
-  // Flat patches carry no shape to match; drop them.
-  std::vector<Eigen::Index> cols;
+  // Flat patches carry no shape to match; drop them (in place: a complete dictionary of a 1000^2
+  // exemplar holds 60,000 patches, 61 MB per copy).
+  Eigen::Index kept = 0;
   for (size_t i = 0; i < keep.size(); ++i)
-    if (keep[i]) cols.push_back(Eigen::Index(i));
-  if (cols.empty()) fail("dictionary", "the exemplars are flat: no patch has relief to learn from");
-  MatrixF T(P * P, Eigen::Index(cols.size()));
-  for (size_t i = 0; i < cols.size(); ++i) T.col(Eigen::Index(i)) = F.col(cols[i]);
-  F.resize(0, 0);
+    if (keep[i]) {
+      if (kept != Eigen::Index(i)) F.col(kept) = F.col(Eigen::Index(i));
+      ++kept;
+    }
+  if (kept == 0) fail("dictionary", "the exemplars are flat: no patch has relief to learn from");
+  F.conservativeResize(Eigen::NoChange, kept);
+  MatrixF T = std::move(F);
 
   MatrixF H;
   std::vector<float> norms;
+  const Eigen::Index training = T.cols();
   if (o.method == "complete") {
-    H = T;
     norms.resize(size_t(T.cols()));
     for (Eigen::Index j = 0; j < T.cols(); ++j) norms[size_t(j)] = downsample_atom(T.col(j), P, f, low_mask).norm();
+    H = std::move(T);  // the training patches are the atoms
     for (Eigen::Index j = 0; j < H.cols(); ++j) H.col(j).normalize();
   } else if (o.method == "ksvd" || o.method == "constrained") {
     KsvdOptions k;
@@ -333,7 +349,7 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
   d.constrained = o.method != "ksvd";
   d.cell_x = g0.cell_x;
   d.cell_y = g0.cell_y;
-  d.description = fmt::format("{} dictionary, {} training patches", o.method, T.cols());
+  d.description = fmt::format("{} dictionary, {} training patches", o.method, training);
   d.neighbours = o.calibration_neighbours;
   d.magnitude_weight = o.calibration_magnitude_weight;
   d.blend = o.calibration_blend;
@@ -351,12 +367,17 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
       if (!norms.empty()) d.low_norm.push_back(norms[size_t(j)]);
     }
   }
-  d.high.resize(P * P, Eigen::Index(good.size()));
-  d.low.resize(p * p, Eigen::Index(good.size()));
-  for (size_t i = 0; i < good.size(); ++i) {
-    d.high.col(Eigen::Index(i)) = H.col(good[i]);
-    d.low.col(Eigen::Index(i)) = L.col(good[i]);
-  }
+  // The good atoms, compacted in place (good[i] >= i).
+  for (size_t i = 0; i < good.size(); ++i)
+    if (good[i] != Eigen::Index(i)) {
+      H.col(Eigen::Index(i)) = H.col(good[i]);
+      L.col(Eigen::Index(i)) = L.col(good[i]);
+    }
+  H.conservativeResize(Eigen::NoChange, Eigen::Index(good.size()));
+  L.conservativeResize(Eigen::NoChange, Eigen::Index(good.size()));
+  d.high = std::move(H);
+  d.low = std::move(L);
+  T.resize(0, 0);  // the regression and the calibration below learn from the exemplars
   if (o.faithful_radius > 0 && f > 1) {
     // Faithful mode's regression from the same exemplars at the same scale (cheap: normal equations).
     const long n = regression_samples(exemplars, f, o.faithful_radius);
@@ -368,19 +389,13 @@ Dictionary learn_dictionary(const std::vector<Heightfield>& exemplars, const Lea
       d.description += fmt::format("; no faithful regression ({} complete neighbourhoods, {} needed)", n, need);
     }
   }
-  if (o.calibrate && f > 1) {
-    report_progress(progress, "dictionary", 0.95, "calibrating the detail gain");
-    LearnOptions c = o;
-    c.calibrate = false;
-    c.faithful_radius = 0;  // the folds' dictionaries serve detail mode only
-    c.max_patches = o.max_patches / 2;
-    const GainCalibration cal = calibrate_detail(exemplars[0], c);
-    d.detail_gain = float(cal.gain);
-    if (cal.calibrated) {
-      d.hf_gain = cal.hf_gain, d.rmse_gain = cal.rmse_gain, d.hf_target = c.calibration_hf_target;
-      d.spectral_scale = cal.spectral_scale;
+  if (calibration) {
+    d.detail_gain = float(calibration->gain);
+    if (calibration->calibrated) {
+      d.hf_gain = calibration->hf_gain, d.rmse_gain = calibration->rmse_gain, d.hf_target = o.calibration_hf_target;
+      d.spectral_scale = calibration->spectral_scale;
     }
-    d.description += "; calibrated " + cal.summary();
+    d.description += "; calibrated " + calibration->summary();
   }
   report_progress(progress, "dictionary", 1.0, fmt::format("{} atoms", d.atoms()));
   return d;
