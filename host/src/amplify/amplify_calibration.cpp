@@ -41,8 +41,8 @@ Rect rho_region(int w, int h) {
 // the held-out folds' (the output's HF at the dictionary's HF-matching gain over its HF target) and
 // the input's own spectrum extrapolated (predicted_energy_above, scaled by the ratio the folds
 // measured). Their errors are independent (the folds know the dictionary, the spectrum knows this
-// terrain). Capped by the folds' RMSE-budget gain. `detail` is the window's blended detail before
-// the gain (amplify_step's raw output); -1 when the dictionary carries no in-memory calibration
+// terrain). Capped by the folds' RMSE-budget gain. `detail` is the region's blended detail before
+// the gain (amplify_step's raw output there, cw f x ch f cells); -1 when the dictionary carries no in-memory calibration
 // (loaded files) or the region is too small. A function of the whole input only: tiled and untiled
 // runs get the same gain.
 double input_hf_gain(const Heightfield& low, int lx0, int ly0, int cw, int ch, const Heightfield& detail,
@@ -61,7 +61,7 @@ double input_hf_gain(const Heightfield& low, int lx0, int ly0, int cw, int ch, c
   Heightfield cb(cw * f, ch * f), cd(cw * f, ch * f);
   upsample_window(low, f, base, lx0 * f, ly0 * f, cw * f, ch * f, cb.z.data());
   for (int y = 0; y < ch * f; ++y)
-    for (int x = 0; x < cw * f; ++x) cd.at(x, y) = cb.at(x, y) + detail.at(lx0 * f + x, ly0 * f + y);
+    for (int x = 0; x < cw * f; ++x) cd.at(x, y) = cb.at(x, y) + detail.at(x, y);
   correct_block_means(cb, lowc, f, 4, base);
   correct_block_means(cd, lowc, f, 4, base);
   for (size_t j = 0; j < cd.z.size(); ++j) cd.z[j] -= cb.z[j];
@@ -143,13 +143,31 @@ std::vector<float> step_correlations(const AmplifyWindowReader& read, int width,
       rhos.push_back(std::clamp(o.detail_correlation, 0.f, 1.f));
       continue;
     }
-    const auto [rho, delta] =
-        fixed_rho ? std::pair<float, float>{std::clamp(o.detail_correlation, 0.f, 1.f), 0.f}
-                  : eng.measure_rho((r.x0 - a0) * f, (r.y0 - b0) * f, (r.x1 - a0) * f, (r.y1 - b0) * f);
+    // The region in the window's output cells.
+    const int X0 = (r.x0 - a0) * f, Y0 = (r.y0 - b0) * f, X1 = (r.x1 - a0) * f, Y1 = (r.y1 - b0) * f;
+    const bool gain_here = k == 0 && input_gain;
+    BlendSums sums;  // measure_rho's blend, which the gain's raw detail reuses
+    const auto [rho, delta] = fixed_rho ? std::pair<float, float>{std::clamp(o.detail_correlation, 0.f, 1.f), 0.f}
+                                        : eng.measure_rho(X0, Y0, X1, Y1, gain_here ? &sums : nullptr);
     rhos.push_back(rho);
     deltas[size_t(k)] = delta;
-    if (k == 0 && input_gain) {
-      const Heightfield detail = amplify_step(win, a0, b0, k, rho, delta, d, o, index, {}, -1, 1, true);
+    if (gain_here) {
+      Heightfield detail(X1 - X0, Y1 - Y0);
+      if (!sums.num.empty()) {
+        const bool aniso = delta != 0.f && eng.anisotropic();
+        parallel_for(size_t(detail.height), o.threads, [&](size_t y0, size_t y1) {
+          for (int y = int(y0); y < int(y1); ++y)
+            for (int x = 0; x < detail.width; ++x) {
+              const size_t c = size_t(Y0 - sums.y0 + y) * sums.w + size_t(X0 - sums.x0 + x);
+              detail.at(x, y) = blended_value(sums.num[c], sums.den[c], sums.den1[c], aniso ? sums.uv[2 * c] : 0.f,
+                                              aniso ? sums.uv[2 * c + 1] : 0.f, rho, delta, true, aniso);
+            }
+        });
+      } else {
+        const Heightfield raw = amplify_step(win, a0, b0, k, rho, delta, d, o, index, {}, -1, 1, true);
+        for (int y = 0; y < detail.height; ++y)
+          for (int x = 0; x < detail.width; ++x) detail.at(x, y) = raw.at(X0 + x, Y0 + y);
+      }
       gains[0] = float(input_hf_gain(win, r.x0 - a0, r.y0 - b0, r.x1 - r.x0, r.y1 - r.y0, detail, d, o.base));
     }
   }

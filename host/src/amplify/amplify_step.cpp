@@ -11,12 +11,33 @@
 #include <numeric>
 
 #include "amplify/amplify_internal.hpp"
+#include "amplify/simd_clones.hpp"
 #include "amplify/step_engine.hpp"
 
 namespace terracl::amplify_internal {
 
 // Bounds of the relief scale of a later cascade step (amplify_step).
 constexpr float kMinReliefScale = 0.5f, kMaxReliefScale = 2.f;
+
+TERRACL_SIMD_CLONES void add_patch_row(const float* w, const float* src, int u0, int u1, float* __restrict num,
+                                       float* __restrict den, float* __restrict den1, float* uv, float uv_sign) {
+  for (int u = u0; u < u1; ++u) num[u] += w[u] * src[u];
+  if (den1) {
+    for (int u = u0; u < u1; ++u) den[u] += w[u] * w[u];
+    for (int u = u0; u < u1; ++u) den1[u] += w[u];
+  } else {
+    for (int u = u0; u < u1; ++u) den[u] += w[u];
+  }
+  if (uv)
+    for (int u = u0; u < u1; ++u) uv[2 * u] += uv_sign * w[u];
+}
+
+// h *= gain, rows in parallel.
+void scale_cells(Heightfield& h, float gain, int threads) {
+  parallel_for(size_t(h.height), threads, [&](size_t y0, size_t y1) {
+    for (float *v = h.z.data() + y0 * h.width, *e = h.z.data() + y1 * h.width; v < e; ++v) *v *= gain;
+  });
+}
 
 // The output of one step over the window `low` (first cell: the step input's global cell ox, oy),
 // with the detail blend's correlation rho (detail blend only).
@@ -42,25 +63,21 @@ Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float
       const int X0 = i * tile, X1 = std::min(W, X0 + tile), Y0 = j * tile, Y1 = std::min(H, Y0 + tile);
       eng.blend(X0, Y0, X1, Y1, num, den, den1, aniso ? &uv : nullptr);
       const int tw = X1 - X0, th = Y1 - Y0;
-      for (int y = 0; y < th; ++y)
-        for (int x = 0; x < tw; ++x) {
-          const float dn = den[size_t(y) * tw + x];
-          if (!(dn > 0)) fail("amplify", "spacing {} leaves cells uncovered by {}-cell patches", S, d.patch);
-          // Detail blend: details with pairwise correlation rho have var(sum w_i d_i) = sigma^2 ((1 - rho)
-          // sum w_i^2 + rho (sum w_i)^2); dividing by its square root keeps the detail's variance the
-          // same wherever the patches overlap (a partition of unity, sum w_i d_i / sum w_i, right for
-          // rho = 1 only, halves the variance of uncorrelated details between two patch centres and
-          // quarters it between four: a ripple with the spacing).
-          const size_t c = size_t(y) * tw + x;
-          // Anisotropic details (delta != 0): x-neighbour overlaps correlate by rho + delta, y-neighbour
-          // ones by rho - delta (StepEngine::measure_rho).
-          const float norm = !detail_blend ? dn
-                             : aniso ? std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c] + 2 * delta * uv[2 * c] * uv[2 * c + 1])
-                                     : std::sqrt((1 - rho) * dn + rho * den1[c] * den1[c]);
-          out.at(X0 + x, Y0 + y) = num[c] / norm;
-        }
+      parallel_for(size_t(th), o.threads, [&](size_t y0, size_t y1) {
+        for (int y = int(y0); y < int(y1); ++y)
+          for (int x = 0; x < tw; ++x) {
+            const size_t c = size_t(y) * tw + x;
+            const float dn = den[c];
+            if (!(dn > 0)) fail("amplify", "spacing {} leaves cells uncovered by {}-cell patches", S, d.patch);
+            out.at(X0 + x, Y0 + y) =
+                blended_value(num[c], dn, detail_blend ? den1[c] : 0.f, aniso ? uv[2 * c] : 0.f,
+                              aniso ? uv[2 * c + 1] : 0.f, rho, delta, detail_blend, aniso);
+          }
+      });
       report_progress(progress, "amplify", double(j * tx + i + 1) / (tx * ty), fmt::format("tile {}/{}", j * tx + i + 1, tx * ty));
     }
+  // The last tile's sums (up to 5 floats per cell of a tile) are not needed by what follows.
+  for (auto* v : {&num, &den, &den1, &uv}) std::vector<float>().swap(*v);
   if (raw) return out;
   if (detail_blend)
     out.metadata["amplify_detail_correlation"] =
@@ -81,12 +98,11 @@ Heightfield amplify_step(const Heightfield& low, int ox, int oy, int step, float
   }
   if (detail_blend) {
     // out = bicubic + gain detail
-    if (gain != 1.f)
-      for (auto& v : out.z) v *= gain;
+    if (gain != 1.f) scale_cells(out, gain, o.threads);
     add_upsampled(out, low, f, 1.f, o.base);
   } else if (gain != 1.f) {
     // out = base + gain (out - base)
-    for (auto& v : out.z) v *= gain;
+    scale_cells(out, gain, o.threads);
     add_upsampled(out, low, f, 1.f - gain, o.base);
   }
   if (o.bias_correction) correct_block_means(out, low, f, 4, o.base);

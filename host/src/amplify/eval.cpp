@@ -32,18 +32,21 @@ std::vector<std::complex<double>> windowed_row_spectra(const Heightfield& h) {
     }
   const double a = sz / (double(w) * ht), b = sxx > 0 ? sxz / sxx : 0, c = syy > 0 ? syz / syy : 0;
   std::vector<std::complex<double>> grid(size_t(w) * ht);
-  for (int y = 0; y < ht; ++y)
-    for (int x = 0; x < w; ++x) {
-      const double win = (0.5 - 0.5 * std::cos(2 * M_PI * (x + 0.5) / w)) * (0.5 - 0.5 * std::cos(2 * M_PI * (y + 0.5) / ht));
-      grid[size_t(y) * w + x] = win * (h.at(x, y) - a - b * (x - cx) - c * (y - cy));
+  std::vector<double> hann_x(static_cast<size_t>(w));
+  for (int x = 0; x < w; ++x) hann_x[size_t(x)] = 0.5 - 0.5 * std::cos(2 * M_PI * (x + 0.5) / w);
+  // Rows in parallel: each is windowed and transformed on its own.
+  parallel_for(size_t(ht), 0, [&](size_t y0, size_t y1) {
+    Eigen::FFT<double> fft;
+    std::vector<std::complex<double>> in, out;
+    for (size_t y = y0; y < y1; ++y) {
+      const double hann_y = 0.5 - 0.5 * std::cos(2 * M_PI * (double(y) + 0.5) / ht);
+      for (int x = 0; x < w; ++x)
+        grid[y * w + x] = hann_x[size_t(x)] * hann_y * (h.at(x, int(y)) - a - b * (x - cx) - c * (double(y) - cy));
+      in.assign(grid.begin() + y * w, grid.begin() + (y + 1) * w);
+      fft.fwd(out, in);
+      std::copy(out.begin(), out.end(), grid.begin() + y * w);
     }
-  Eigen::FFT<double> fft;
-  std::vector<std::complex<double>> in, out;
-  for (int y = 0; y < ht; ++y) {
-    in.assign(grid.begin() + size_t(y) * w, grid.begin() + size_t(y + 1) * w);
-    fft.fwd(out, in);
-    std::copy(out.begin(), out.end(), grid.begin() + size_t(y) * w);
-  }
+  });
   return grid;
 }
 
@@ -52,19 +55,27 @@ std::vector<std::complex<double>> windowed_row_spectra(const Heightfield& h) {
 std::vector<std::complex<double>> spectrum_above(const Heightfield& h, int f) {
   const int w = h.width, ht = h.height;
   const std::vector<std::complex<double>> grid = windowed_row_spectra(h);
-  Eigen::FFT<double> fft;
-  std::vector<std::complex<double>> in, out, hf;
-  in.resize(size_t(ht));
   const double nyq = 0.5 / f;
-  for (int x = 0; x < w; ++x) {
-    for (int y = 0; y < ht; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
-    fft.fwd(out, in);
-    const double fx = std::fabs(double(x <= w / 2 ? x : x - w) / w);
-    for (int y = 0; y < ht; ++y) {
-      const double fy = std::fabs(double(y <= ht / 2 ? y : y - ht) / ht);
-      if (fx > nyq || fy > nyq) hf.push_back(out[size_t(y)]);
+  // Columns in parallel, each into its own list, joined in column order.
+  std::vector<std::vector<std::complex<double>>> cols(static_cast<size_t>(w));
+  parallel_for(size_t(w), 0, [&](size_t x0, size_t x1) {
+    Eigen::FFT<double> fft;
+    std::vector<std::complex<double>> in(static_cast<size_t>(ht)), out;
+    for (size_t x = x0; x < x1; ++x) {
+      for (int y = 0; y < ht; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
+      fft.fwd(out, in);
+      const double fx = std::fabs(double(int(x) <= w / 2 ? int(x) : int(x) - w) / w);
+      for (int y = 0; y < ht; ++y) {
+        const double fy = std::fabs(double(y <= ht / 2 ? y : y - ht) / ht);
+        if (fx > nyq || fy > nyq) cols[x].push_back(out[size_t(y)]);
+      }
     }
-  }
+  });
+  std::vector<std::complex<double>> hf;
+  size_t total = 0;
+  for (const auto& c : cols) total += c.size();
+  hf.reserve(total);
+  for (const auto& c : cols) hf.insert(hf.end(), c.begin(), c.end());
   return hf;
 }
 

@@ -60,6 +60,8 @@ struct SeededDevice {
 #undef rand
 #undef random_device
 
+#include "amplify/simd_clones.hpp"
+
 namespace terracl {
 
 float magnitude_feature(float norm) { return std::log(norm + 0.1f); }
@@ -79,6 +81,15 @@ float column_dot(const MatrixF& a, size_t ca, const MatrixF& b, size_t cb) {
   float s = 0;
   for (Eigen::Index i = 0; i < a.rows(); ++i) s += x[i] * y[i];
   return s;
+}
+
+// score[j] = 2 |a_j| / |q| - w^2 (feature(q) - feature(d_j))^2 (no magnitude term without `feat`).
+TERRACL_SIMD_CLONES void score_atoms(const float* a, const float* feat, size_t N, float nrm, float fq, float w2,
+                                     float* score) {
+  if (feat)
+    for (size_t j = 0; j < N; ++j) score[j] = 2 * std::fabs(a[j]) / nrm - w2 * (fq - feat[j]) * (fq - feat[j]);
+  else
+    for (size_t j = 0; j < N; ++j) score[j] = 2 * std::fabs(a[j]) / nrm;
 }
 
 bool magnitude_active(const std::vector<float>* atom_norm, float weight, size_t atoms) {
@@ -105,6 +116,7 @@ AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads, int
   const size_t blocks = (n + kBlock - 1) / kBlock;
   parallel_for(blocks, threads, [&](size_t b0, size_t b1) {
     std::vector<std::pair<float, int32_t>> best;  // (score, atom), the kk highest, best first
+    std::vector<float> score(N);
     MatrixF qb(Q.rows(), Eigen::Index(kBlock));
     for (size_t b = b0; b < b1; ++b) {
       const size_t c0 = b * kBlock, cn = std::min(kBlock, n - c0);
@@ -117,18 +129,33 @@ AtomMatch exact_atom_search(const MatrixF& D, const MatrixF& Q, int threads, int
         const float nrm = column_norm(Q, c0 + c);
         if (!(nrm > 0)) continue;
         // The FLANN criterion (search below): minimise |q/|q| -+ d|^2 + w^2 (feature(q) - feature(d))^2.
+        // Scores first, in one vectorised pass; then the selection.
         const float fq = mag ? magnitude_feature(nrm * query_scale) : 0.f;
+        const float* a = A.data() + c * size_t(A.rows());
+        score_atoms(a, mag ? feat.data() : nullptr, N, nrm, fq, w2, score.data());
         best.clear();
-        for (size_t j = 0; j < N; ++j) {
-          const float a = A(Eigen::Index(j), Eigen::Index(c));
-          float score = 2 * std::fabs(a) / nrm;
-          if (mag) score -= w2 * (fq - feat[j]) * (fq - feat[j]);
-          if (best.size() == kk && !(score > best.back().first)) continue;
+        float kth = 0;  // the kk-th best score, once there are kk
+        auto consider = [&](size_t j) {
+          const float sj = score[j];
+          if (best.size() == kk && !(sj > kth)) return;
           if (best.size() == kk) best.pop_back();
-          auto it = std::upper_bound(best.begin(), best.end(), score,
+          auto it = std::upper_bound(best.begin(), best.end(), sj,
                                      [](float s, const std::pair<float, int32_t>& e) { return s > e.first; });
-          best.insert(it, {score, int32_t(j)});
+          best.insert(it, {sj, int32_t(j)});
+          kth = best.back().first;
+        };
+        size_t j = 0;
+        for (; j < N && best.size() < kk; ++j) consider(j);
+        // Once there are kk, most runs of scores hold none above the kk-th: test a run at once.
+        constexpr size_t kRun = 16;
+        for (; j + kRun <= N; j += kRun) {
+          const float* sr = score.data() + j;
+          int above = 0;
+          for (size_t i = 0; i < kRun; ++i) above += sr[i] > kth ? 1 : 0;
+          if (above)
+            for (size_t i = j; i < j + kRun; ++i) consider(i);
         }
+        for (; j < N; ++j) consider(j);
         for (size_t t = 0; t < best.size(); ++t) {
           m.index[(c0 + c) * size_t(k) + t] = best[t].second;
           m.coef[(c0 + c) * size_t(k) + t] = A(best[t].second, Eigen::Index(c));

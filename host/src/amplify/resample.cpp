@@ -9,6 +9,8 @@
 #include <string>
 #include <cmath>
 
+#include "amplify/simd_clones.hpp"
+
 namespace terracl {
 
 namespace {
@@ -117,29 +119,63 @@ inline int mirrori(int i, int n) {
 }
 inline int edge(const UpTable& t, int i, int n) { return t.mirror ? mirrori(i, n) : clampi(i, n); }
 
+constexpr int kMaxTaps = 2 * kBandRadius;
+
+
+// out[i] = sum_j w[j] src[j][i0 + i] for i in [0, m), the taps added in order j = 0..n-1 (as a loop
+// of whole-row passes would), 16 columns at a time held in registers (independent sums hide the
+// adds' latency).
+TERRACL_SIMD_CLONES void fir_columns(const float* const* src, const float* w, int n, int i0, int m, float* out) {
+  constexpr int kLanes = 16;
+  int i = 0;
+  for (; i + kLanes <= m; i += kLanes) {
+    float s[kLanes] = {};
+    for (int j = 0; j < n; ++j) {
+      const float wj = w[j], *x = src[j] + i0 + i;
+      for (int q = 0; q < kLanes; ++q) s[q] += wj * x[q];
+    }
+    for (int q = 0; q < kLanes; ++q) out[i + q] = s[q];
+  }
+  for (; i < m; ++i) {
+    float s = 0;
+    for (int j = 0; j < n; ++j) s += w[j] * src[j][i0 + i];
+    out[i] = s;
+  }
+}
+
 // One output row Y of upsample(low) over the output columns [X0, X0 + w): the vertical pass over the
 // input columns [lo, hi) the taps reach (edges resolved once per row, not per tap), then the
-// horizontal pass. `row` is scratch of hi - lo floats.
-void upsample_row(const UpTable& t, const Heightfield& low, int Y, int X0, int w, int lo, int hi, float* row, float* o,
-                  bool add, float scale) {
+// horizontal pass phase by phase: the columns X = f k + ph share their weights, so each phase is a
+// short FIR over `row` that vectorises over k (each sum still adds its taps in order j = 0..n-1, so
+// the result is the same as a per-column loop). `row` is scratch of hi - lo floats, `acc` of at least
+// w / f + 1.
+void upsample_row(const UpTable& t, const Heightfield& low, int Y, int X0, int w, int lo, int hi, float* row,
+                  float* acc, float* o, bool add, float scale) {
   const int f = t.f, n = t.taps, lw = low.width;
   const int py = Y % f, by = Y / f + t.base[size_t(py)];
   const float* wy = t.weights(py);
-  std::fill(row, row + (hi - lo), 0.f);
   const int in0 = std::max(lo, 0), in1 = std::min(hi, lw);  // columns inside the input
-  for (int j = 0; j < n; ++j) {
-    const float* src = low.z.data() + size_t(edge(t, by + j, low.height)) * lw;
-    const float wj = wy[j];
-    for (int i = in0; i < in1; ++i) row[i - lo] += wj * src[i];
-  }
+  const float* src[kMaxTaps];
+  for (int j = 0; j < n; ++j) src[j] = low.z.data() + size_t(edge(t, by + j, low.height)) * lw;
+  fir_columns(src, wy, n, in0, in1 - in0, row + (in0 - lo));
   for (int i = lo; i < hi; ++i)  // columns outside the input: their edge images
     if (i < 0 || i >= lw) row[i - lo] = row[edge(t, i, lw) - lo];
-  for (int X = X0; X < X0 + w; ++X) {
-    const int px = X % f, bx = X / f + t.base[size_t(px)] - lo;
-    const float* wx = t.weights(px);
-    float s = 0;
-    for (int j = 0; j < n; ++j) s += wx[j] * row[bx + j];
-    o[X - X0] = add ? o[X - X0] + scale * s : scale * s;
+  for (int ph = 0; ph < f; ++ph) {
+    // Output columns X0 <= f k + ph < X0 + w.
+    const int k0 = (X0 - ph + f - 1 >= 0 ? (X0 - ph + f - 1) / f : -((ph - X0) / f));
+    const int k1 = (X0 + w - ph + f - 1) / f;
+    if (k1 <= k0) continue;
+    const int m = k1 - k0;
+    const float* wx = t.weights(ph);
+    const float* r = row + (k0 + t.base[size_t(ph)] - lo);
+    const float* taps[kMaxTaps];
+    for (int j = 0; j < n; ++j) taps[j] = r + j;
+    fir_columns(taps, wx, n, 0, m, acc);
+    float* dst = o + (size_t(k0) * f + ph - X0);
+    if (add)
+      for (int k = 0; k < m; ++k) dst[size_t(k) * f] += scale * acc[k];
+    else
+      for (int k = 0; k < m; ++k) dst[size_t(k) * f] = scale * acc[k];
   }
 }
 
@@ -158,17 +194,19 @@ std::pair<int, int> reach(const UpTable& t, const Heightfield& low, int X0, int 
 void upsample_into(const UpTable& t, const Heightfield& low, Heightfield& out, bool add, float scale = 1.f) {
   const auto [lo, hi] = reach(t, low, 0, out.width);
   parallel_for(size_t(out.height), 0, [&](size_t y0, size_t y1) {
-    std::vector<float> row(static_cast<size_t>(hi - lo));
+    std::vector<float> row(static_cast<size_t>(hi - lo)), acc(size_t(out.width / t.f + 2));
     for (size_t Y = y0; Y < y1; ++Y)
-      upsample_row(t, low, int(Y), 0, out.width, lo, hi, row.data(), out.z.data() + Y * size_t(out.width), add, scale);
+      upsample_row(t, low, int(Y), 0, out.width, lo, hi, row.data(), acc.data(), out.z.data() + Y * size_t(out.width),
+                   add, scale);
   });
 }
 
 // The window [X0, X0 + w) x [Y0, Y0 + h) of upsample(low), row-major into out.
 void upsample_window_into(const UpTable& t, const Heightfield& low, int X0, int Y0, int w, int h, float* out) {
   const auto [lo, hi] = reach(t, low, X0, w);
-  std::vector<float> row(static_cast<size_t>(hi - lo));
-  for (int Y = Y0; Y < Y0 + h; ++Y) upsample_row(t, low, Y, X0, w, lo, hi, row.data(), out + size_t(Y - Y0) * w, false, 1.f);
+  std::vector<float> row(static_cast<size_t>(hi - lo)), acc(size_t(w / t.f + 2));
+  for (int Y = Y0; Y < Y0 + h; ++Y)
+    upsample_row(t, low, Y, X0, w, lo, hi, row.data(), acc.data(), out + size_t(Y - Y0) * w, false, 1.f);
 }
 
 void bicubic_into(const Heightfield& low, int f, Heightfield& out, bool add, float scale = 1.f) {

@@ -18,8 +18,6 @@ double predicted_energy_above(const Heightfield& low, int f) {
   if (f < 2 || w < 16 || h < 16) return -1;
   // The evaluation's windowing (spectrum_above): plane removed, 2-D Hann window.
   const std::vector<std::complex<double>> grid = windowed_row_spectra(low);
-  Eigen::FFT<double> fft;
-  std::vector<std::complex<double>> in, out;
   // The input is the block mean of the terrain: its spectrum at (fx, fy) (cycles per input cell) is
   // the terrain's times the f-cell box's response B(u) = sin(pi u) / (f sin(pi u / f)) per axis, plus
   // the aliases (fx + mx, fy + my) of the finer frequencies folded onto it (|fx + mx| < f / 2). The
@@ -39,26 +37,42 @@ double predicted_energy_above(const Heightfield& low, int f) {
   std::vector<double> psum(kShells, 0.0), cnt(kShells, 0.0);
   std::vector<int> bin_shell;
   std::vector<double> alias_logk, alias_w;
-  in.resize(size_t(h));
-  for (int x = 0; x < w; ++x) {
-    for (int y = 0; y < h; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
-    fft.fwd(out, in);
-    const double fx = double(x <= w / 2 ? x : x - w) / w;
-    for (int y = 0; y < h; ++y) {
-      const double fy = double(y <= h / 2 ? y : y - h) / h, k = std::hypot(fx, fy);
-      if (k < 0.25 || k >= 0.5) continue;
-      const int s = std::min(kShells - 1, int(std::log2(k / 0.25) * kShells));
-      psum[size_t(s)] += std::norm(out[size_t(y)]);
-      cnt[size_t(s)] += 1;
-      bin_shell.push_back(s);
-      for (int my = -na; my <= na; ++my)
-        for (int mx = -na; mx <= na; ++mx) {
-          const double ux = fx + mx, uy = fy + my, ka = std::hypot(ux, uy);
-          const bool inside = std::fabs(ux) < 0.5 * f && std::fabs(uy) < 0.5 * f && ka > 0;
-          alias_logk.push_back(inside ? std::log(ka) : 0.0);
-          alias_w.push_back(inside ? box2(ux) * box2(uy) : 0.0);
-        }
+  // Columns in parallel, each into its own lists, then joined and summed in column order (as one
+  // serial loop would).
+  struct Column {
+    std::vector<int> shell;
+    std::vector<double> power, logk, weight;
+  };
+  std::vector<Column> cols(static_cast<size_t>(w));
+  parallel_for(size_t(w), 0, [&](size_t c0, size_t c1) {
+    Eigen::FFT<double> fft;
+    std::vector<std::complex<double>> in(static_cast<size_t>(h)), out;
+    for (size_t x = c0; x < c1; ++x) {
+      Column& col = cols[x];
+      for (int y = 0; y < h; ++y) in[size_t(y)] = grid[size_t(y) * w + x];
+      fft.fwd(out, in);
+      const double fx = double(int(x) <= w / 2 ? int(x) : int(x) - w) / w;
+      for (int y = 0; y < h; ++y) {
+        const double fy = double(y <= h / 2 ? y : y - h) / h, k = std::hypot(fx, fy);
+        if (k < 0.25 || k >= 0.5) continue;
+        col.shell.push_back(std::min(kShells - 1, int(std::log2(k / 0.25) * kShells)));
+        col.power.push_back(std::norm(out[size_t(y)]));
+        for (int my = -na; my <= na; ++my)
+          for (int mx = -na; mx <= na; ++mx) {
+            const double ux = fx + mx, uy = fy + my, ka = std::hypot(ux, uy);
+            const bool inside = std::fabs(ux) < 0.5 * f && std::fabs(uy) < 0.5 * f && ka > 0;
+            col.logk.push_back(inside ? std::log(ka) : 0.0);
+            col.weight.push_back(inside ? box2(ux) * box2(uy) : 0.0);
+          }
+      }
     }
+  });
+  for (const Column& col : cols) {
+    for (size_t b = 0; b < col.shell.size(); ++b)
+      psum[size_t(col.shell[b])] += col.power[b], cnt[size_t(col.shell[b])] += 1;
+    bin_shell.insert(bin_shell.end(), col.shell.begin(), col.shell.end());
+    alias_logk.insert(alias_logk.end(), col.logk.begin(), col.logk.end());
+    alias_w.insert(alias_w.end(), col.weight.begin(), col.weight.end());
   }
   std::vector<double> lp;  // log mean power per non-empty shell
   std::vector<int> shells;
@@ -66,16 +80,22 @@ double predicted_energy_above(const Heightfield& low, int f) {
     if (cnt[size_t(s)] > 0 && psum[size_t(s)] > 0) shells.push_back(s), lp.push_back(std::log(psum[size_t(s)] / cnt[size_t(s)]));
   if (shells.size() < 4) return -1;
   // For a given beta: the model's mean per shell, the best log A (mean log ratio) and the residual.
+  // The bins' sums in parallel (the exponentials are most of the calibration's time), added to their
+  // shells in bin order, as a serial loop would.
+  std::vector<double> bin_m(bin_shell.size());
   auto fit = [&](double beta, double* la) {
-    std::vector<double> msum(kShells, 0.0);
-    for (size_t b = 0; b < bin_shell.size(); ++b) {
-      double m = 0;
-      for (int a = 0; a < nal; ++a) {
-        const size_t i = b * size_t(nal) + size_t(a);
-        if (alias_w[i] > 0) m += alias_w[i] * std::exp(beta * alias_logk[i]);
+    parallel_for(bin_shell.size(), 0, [&](size_t b0, size_t b1) {
+      for (size_t b = b0; b < b1; ++b) {
+        double m = 0;
+        for (int a = 0; a < nal; ++a) {
+          const size_t i = b * size_t(nal) + size_t(a);
+          if (alias_w[i] > 0) m += alias_w[i] * std::exp(beta * alias_logk[i]);
+        }
+        bin_m[b] = m;
       }
-      msum[size_t(bin_shell[b])] += m;
-    }
+    });
+    std::vector<double> msum(kShells, 0.0);
+    for (size_t b = 0; b < bin_shell.size(); ++b) msum[size_t(bin_shell[b])] += bin_m[b];
     std::vector<double> r;
     double mean = 0;
     for (size_t j = 0; j < shells.size(); ++j) {
@@ -106,15 +126,24 @@ double predicted_energy_above(const Heightfield& low, int f) {
   // times the coarse one's.
   const int W = w * f, H = h * f;
   const double nyq = 0.5 / f;
-  double e = 0;
-  for (int Y = 0; Y < H; ++Y) {
-    const double gy = double(Y <= H / 2 ? Y : Y - H) / H;
-    for (int X = 0; X < W; ++X) {
-      const double gx = double(X <= W / 2 ? X : X - W) / W;
-      if (std::fabs(gx) <= nyq && std::fabs(gy) <= nyq) continue;
-      e += std::exp(la + beta * std::log(f * std::hypot(gx, gy)));
+  // The terms in parallel, summed in row order (as one serial loop would).
+  std::vector<double> terms(size_t(W) * H, 0.0);
+  std::vector<char> above(terms.size(), 0);
+  parallel_for(size_t(H), 0, [&](size_t y0, size_t y1) {
+    for (int Y = int(y0); Y < int(y1); ++Y) {
+      const double gy = double(Y <= H / 2 ? Y : Y - H) / H;
+      for (int X = 0; X < W; ++X) {
+        const double gx = double(X <= W / 2 ? X : X - W) / W;
+        if (std::fabs(gx) <= nyq && std::fabs(gy) <= nyq) continue;
+        const size_t i = size_t(Y) * W + X;
+        terms[i] = std::exp(la + beta * std::log(f * std::hypot(gx, gy)));
+        above[i] = 1;
+      }
     }
-  }
+  });
+  double e = 0;
+  for (size_t i = 0; i < terms.size(); ++i)
+    if (above[i]) e += terms[i];
   e *= double(f) * f * f * f;
   return std::isfinite(e) && e > 0 ? e : -1;
 }

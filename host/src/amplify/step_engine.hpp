@@ -16,6 +16,33 @@ namespace terracl::amplify_internal {
 
 inline int clampi(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
 
+// One row of a patch added to the blend's sums over its columns [u0, u1): num += w src, and den +=
+// w^2, den1 += w (detail blend: `den1` given) or den += w; uv[2 u] += uv_sign w where `uv` is given.
+void add_patch_row(const float* w, const float* src, int u0, int u1, float* num, float* den, float* den1, float* uv,
+                   float uv_sign);
+
+// The blend's sums over a window of output cells (StepEngine::blend): row-major, w x h, first cell
+// (x0, y0) in the engine's local output coordinates.
+struct BlendSums {
+  int x0 = 0, y0 = 0, w = 0, h = 0;
+  std::vector<float> num, den, den1, uv;
+};
+
+// The blended detail at one cell: its weighted sum over the spread of the blend there (detail
+// blend: details with pairwise correlation rho have var(sum w_i d_i) = sigma^2 ((1 - rho) sum w_i^2 +
+// rho (sum w_i)^2); dividing by its square root keeps the detail's variance the same wherever the
+// patches overlap (a partition of unity, sum w_i d_i / sum w_i, right for rho = 1 only, halves the
+// variance of uncorrelated details between two patch centres and quarters it between four: a
+// ripple with the spacing). Anisotropic details (delta != 0): x-neighbour overlaps correlate by
+// rho + delta, y-neighbour ones by rho - delta (StepEngine::measure_rho); u, v as blend's uv.
+inline float blended_value(float num, float den, float den1, float u, float v, float rho, float delta,
+                           bool detail_blend, bool aniso) {
+  const float norm = !detail_blend ? den
+                     : aniso       ? std::sqrt((1 - rho) * den + rho * den1 * den1 + 2 * delta * u * v)
+                                   : std::sqrt((1 - rho) * den + rho * den1 * den1);
+  return num / norm;
+}
+
 // SplitMix64 finaliser of (seed, a, b, c): a reproducible per-patch random number.
 inline uint64_t position_hash(uint64_t seed, int64_t a, int64_t b, int64_t c) {
   uint64_t z = seed * 0x9e3779b97f4a7c15ull + uint64_t(a) * 0xbf58476d1ce4e5b9ull + uint64_t(b) * 0x94d049bb133111ebull +
@@ -212,17 +239,15 @@ class StepEngine {
               detail.noalias() -= ucm * m_umat.transpose();
             }
             const float* src = m_detail_blend ? detail.data() : patch.data();
-            for (int v = std::max(0, -py); v < P && py + v < th; ++v)
-              for (int u = std::max(0, -px); u < P && px + u < tw; ++u) {
-                const int k = v * P + u;
-                const float w = m_weights[k];
-                if (w == 0.f) continue;
-                const size_t o2 = size_t(py + v) * tw + px + u;
-                num[o2] += w * src[k];
-                den[o2] += m_detail_blend ? w * w : w;
-                if (m_detail_blend) den1[o2] += w;
-                if (with_uv) (*uv)[2 * o2 + uv_off] += uv_sign * w;
-              }
+            // Row runs of the patch inside the window. A zero weight adds exactly nothing to a
+            // finite sum, so the runs need no per-cell test and vectorise.
+            const int u0 = std::max(0, -px), u1 = std::min(P, tw - px);
+            for (int v = std::max(0, -py); v < P && py + v < th; ++v) {
+              const size_t o2 = size_t(py + v) * tw + px;
+              add_patch_row(m_weights.data() + v * P, src + v * P, u0, u1, num.data() + o2, den.data() + o2,
+                            m_detail_blend ? den1.data() + o2 : nullptr,
+                            with_uv ? uv->data() + 2 * o2 + uv_off : nullptr, uv_sign);
+            }
           }
         }
       });
@@ -242,7 +267,8 @@ class StepEngine {
   // rho), chosen by the same flatness. Details of anisotropic terrain (the Front Range's north-south
   // ridges) are correlated more along one axis than the other, which one rho cannot fit: its
   // compromise left a ripple with the spacing along y (docs/amplify.md).
-  std::pair<float, float> measure_rho(int X0, int Y0, int X1, int Y1) const {
+  // `keep`: the blend's sums over the measured cells and their one-cell margin, for the caller.
+  std::pair<float, float> measure_rho(int X0, int Y0, int X1, int Y1, BlendSums* keep = nullptr) const {
     // Band-limited base: rho flattens the curvature of base + 2 detail per phase (2: a typical
     // calibrated gain, fixed so that the output stays affine in the gain, as the calibration needs). The
     // bicubic base's knots have a phase pattern of their own that the detail partly offsets; there
@@ -256,6 +282,10 @@ class StepEngine {
     std::vector<float> num, den, den1, uv;
     blend(bx0, by0, bx1, by1, num, den, den1, &uv);
     const int tw = bx1 - bx0, th = by1 - by0;
+    auto done = [&](float rho, float delta) {
+      if (keep) *keep = BlendSums{bx0, by0, tw, th, std::move(num), std::move(den), std::move(den1), std::move(uv)};
+      return std::pair<float, float>{rho, delta};
+    };
     // The flatness (coefficient of variation over the S x S phases of the squared curvature) of the
     // output for kRhos candidate normalisations: var(t, c) is the blend's variance at local cell c.
     auto flatness = [&](const std::function<float(int, size_t)>& var) {
@@ -329,14 +359,14 @@ class StepEngine {
       return (1 - r) * den[c] + r * den1[c] * den1[c];
     }));
     const double span = std::min(rho, 1.f - rho);
-    if (!m_o.detail_anisotropy || !anisotropic() || !(span > 0)) return {rho, 0.f};
+    if (!m_o.detail_anisotropy || !anisotropic() || !(span > 0)) return done(rho, 0.f);
     // delta = span (2 q - 1) for q = t / (kRhos - 1) in [0, 1]: from -span to +span, 0 in the middle.
     auto delta_of = [&](double q) { return float(span * (2 * q - 1)); };
     const float delta = delta_of(flatness([&](int t, size_t c) {
       const float r = rho, d = delta_of(double(t) / (kRhos - 1));
       return (1 - r) * den[c] + r * den1[c] * den1[c] + 2 * d * uv[2 * c] * uv[2 * c + 1];
     }));
-    return {rho, delta};
+    return done(rho, delta);
   }
 
  private:
