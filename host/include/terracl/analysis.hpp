@@ -95,8 +95,15 @@ struct DinfResult {
   double outflow_cells = 0;
   size_t valid_cells = 0;
 };
+/// The epsilon fill d8_flow and dinf_flow route, done in place: `h` unchanged when it already
+/// drains, else priority_flood_fill(h, true) (nodata stays nodata). Routing the result then makes
+/// no copy of the surface.
+void fill_for_routing(Heightfield& h, const Progress& progress = {});
+
 /// Tarboton's D-infinity flow directions and accumulation on the metric grid.
 DinfResult dinf_flow(const Heightfield& h, const Progress& progress = {});
+/// The same, `angle_rad` left empty when `with_angles` is false (4 bytes per cell less).
+DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_angles);
 
 // ---------------------------------------------------------------------------------------------
 // Statistics

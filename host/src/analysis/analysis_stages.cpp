@@ -176,12 +176,16 @@ void run_drainage(StageContext& c) {
   double area = 1;
   analysis::D8Result d8;
   analysis::DinfResult di;
+  // The epsilon fill in place of the stage's raster (its nodata cells stay nodata): the routing then
+  // finds a surface that drains and takes it as it is, with no copy (8193^2: 268 MB less).
+  const Progress routing = scaled_progress(c.progress, 0.5, 1.0);
+  analysis::fill_for_routing(h, scaled_progress(c.progress, 0.0, 0.5));
   if (dinf) {
-    di = analysis::dinf_flow(h, c.progress);
+    di = analysis::dinf_flow(h, routing, false);  // the stage writes areas only
     cells = &di.cells;
     area = di.cell_area_m2;
   } else {
-    d8 = analysis::d8_flow(h, c.progress);
+    d8 = analysis::d8_flow(h, routing);
     cells = &d8.cells;
     area = d8.cell_area_m2;
   }

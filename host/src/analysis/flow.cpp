@@ -24,6 +24,13 @@ struct Grid {
 
 }  // namespace
 
+void fill_for_routing(Heightfield& h, const Progress& progress) {
+  require_indexable(h, "drainage");
+  const Grid g(h);
+  if (surface_drains(h.z.data(), h.width, h.height, g.off) != kAllDrain)
+    h = priority_flood_fill(std::move(h), true, progress).filled;
+}
+
 D8Result d8_flow(const Heightfield& h, const Progress& progress) {
   const char* stage = "d8";
   require_indexable(h, stage);
@@ -80,7 +87,9 @@ D8Result d8_flow(const Heightfield& h, const Progress& progress) {
   return r;
 }
 
-DinfResult dinf_flow(const Heightfield& h, const Progress& progress) {
+DinfResult dinf_flow(const Heightfield& h, const Progress& progress) { return dinf_flow(h, progress, true); }
+
+DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_angles) {
   const char* stage = "dinf";
   require_indexable(h, stage);
   const Grid g(h);
@@ -99,7 +108,7 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress) {
   r.k1.assign(n, kNoFlow);
   r.k2.assign(n, kNoFlow);
   r.share1.assign(n, 0.f);
-  r.angle_rad.assign(n, NAN);
+  if (with_angles) r.angle_rad.assign(n, NAN);
   r.cells.assign(n, 0.0);
   std::vector<uint8_t> donors(n, 0);
   // Facet f spans cardinal neighbour c(f) and diagonal neighbour d(f) = the next one clockwise or
@@ -155,8 +164,10 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress) {
       const double d1 = kDx[kc] != 0 ? cx : cy, d2 = kDx[kc] != 0 ? cy : cx;
       const double amax = std::atan2(d2, d1);
       const double to_diag = best_r / amax;
-      r.angle_rad[i] = float(M_PI * fbase[best_f] + fsign[best_f] * best_r);
-      if (r.angle_rad[i] < 0) r.angle_rad[i] += float(2 * M_PI);
+      if (with_angles) {
+        r.angle_rad[i] = float(M_PI * fbase[best_f] + fsign[best_f] * best_r);
+        if (r.angle_rad[i] < 0) r.angle_rad[i] += float(2 * M_PI);
+      }
       if (to_diag <= 0) {
         r.k1[i] = uint8_t(kc);
         r.share1[i] = 1.f;

@@ -93,7 +93,7 @@ PerCell per_cell(const std::string& type, const json& o) {
   if (type == "edit") return {edit_host_bytes_per_cell, 0, edit_device_bytes_per_cell, 8};  // 111 in all (noise)
   if (type == "fill_depressions") return {20};         // measured 15.3
   if (type == "breach") return {21};                   // 16.4
-  if (type == "drainage") return {o.value("method", std::string("d8")) == "dinf" ? 40.0 : 31.0};  // 31.2, 24.7
+  if (type == "drainage") return {o.value("method", std::string("d8")) == "dinf" ? 30.0 : 25.0};  // 24.1, 17.0-20.1
   if (type == "watershed") return {35};                // drainage's D8 and a label per cell (not measured)
   if (type == "metrics") return {52};                  // 42.2
   if (type == "sketch") return {40};                   // 31.5
