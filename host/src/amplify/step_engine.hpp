@@ -294,21 +294,37 @@ class StepEngine {
       // parallel, each into its own sums, added in row order: rho does not depend on the threads.
       std::vector<double> row_k2(size_t(th) * kRhos * S, 0.0), row_n(size_t(th) * S, 0.0);
       parallel_for(size_t(th), m_o.threads, [&](size_t b, size_t e) {
-        std::vector<double> bl(size_t(3) * kRhos * tw);  // rows y-1, y, y+1 blended for every candidate
-        std::vector<float> base_rows(measure_output ? size_t(3) * tw : 0);  // the base there
+        // Three slots, each one row blended for every candidate; consecutive rows y share two of
+        // their three, so each row is blended once.
+        std::vector<double> bl(size_t(3) * kRhos * tw);
+        std::vector<float> base_row(measure_output ? size_t(tw) : 0);  // the base there
+        int slot_row[3] = {-1, -1, -1};
+        auto slot_of = [&](int row) {
+          for (int k = 0; k < 3; ++k)
+            if (slot_row[k] == row) return k;
+          return -1;
+        };
         for (size_t yy = b; yy < e; ++yy) {
           const int y = int(yy), gy = m_oy + by0 + y;
           if (y < 1 || y + 1 >= th || by0 + y < Y0 || by0 + y >= Y1 || (gy / S) % 4 != 0) continue;
           if (gy % 64 == 0 || gy % 64 == 63) continue;
-          if (measure_output) upsample_window(m_low, f, m_o.base, bx0, by0 + y - 1, tw, 3, base_rows.data());
-          for (int dy = 0; dy < 3; ++dy)
+          int slot[3];
+          for (int dy = 0; dy < 3; ++dy) slot[dy] = slot_of(y - 1 + dy);
+          for (int dy = 0; dy < 3; ++dy) {
+            if (slot[dy] >= 0) continue;
+            int k = 0;  // a slot holding none of rows y-1..y+1 (one is free: three slots, three rows)
+            while (slot_row[k] >= y - 1 && slot_row[k] <= y + 1) ++k;
+            slot[dy] = k;
+            slot_row[k] = y - 1 + dy;
+            if (measure_output) upsample_window(m_low, f, m_o.base, bx0, by0 + y - 1 + dy, tw, 1, base_row.data());
             for (int x = 0; x < tw; ++x) {
               const size_t c = size_t(y - 1 + dy) * tw + x;
               for (int t = 0; t < kRhos; ++t) {
                 const double v = double(num[c]) / std::sqrt(var(t, c));
-                bl[(size_t(dy) * kRhos + t) * tw + x] = measure_output ? base_rows[size_t(dy) * tw + x] + kRhoGain * v : v;
+                bl[(size_t(k) * kRhos + t) * tw + x] = measure_output ? base_row[size_t(x)] + kRhoGain * v : v;
               }
             }
+          }
           double* k2 = &row_k2[size_t(y) * kRhos * S];
           double* n = &row_n[size_t(y) * S];
           for (int x = 1; x + 1 < tw; ++x) {
@@ -317,9 +333,9 @@ class StepEngine {
             const int ph = gx % S;
             n[ph] += 1;
             for (int t = 0; t < kRhos; ++t) {
-              const double* r0 = &bl[(size_t(0) * kRhos + t) * tw];
-              const double* r1 = &bl[(size_t(1) * kRhos + t) * tw];
-              const double* r2 = &bl[(size_t(2) * kRhos + t) * tw];
+              const double* r0 = &bl[(size_t(slot[0]) * kRhos + t) * tw];
+              const double* r1 = &bl[(size_t(slot[1]) * kRhos + t) * tw];
+              const double* r2 = &bl[(size_t(slot[2]) * kRhos + t) * tw];
               const double lap = double(r1[x - 1]) + r1[x + 1] + r0[x] + r2[x] - 4.0 * r1[x];
               k2[size_t(t) * S + ph] += lap * lap;
             }
