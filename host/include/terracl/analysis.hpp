@@ -42,7 +42,9 @@ struct FillResult {
 /// increments (std::nextafter) towards their spill point, so every cell has a strictly lower
 /// neighbour or is an outlet; the volume then includes those tiny increments.
 FillResult priority_flood_fill(const Heightfield& h, bool epsilon = false, const Progress& progress = {});
-/// The same, filling `h`'s own cells into the result: one copy of the raster fewer at the peak.
+/// The same, filling `h`'s own cells into the result (no copy of the raster: the flood needs the
+/// cells and a byte per cell). The same cells; the statistics are summed in the flood's order, so
+/// volume_m3 may differ from the copying overload's in its last bits.
 FillResult priority_flood_fill(Heightfield&& h, bool epsilon = false, const Progress& progress = {});
 
 /// Result of complete breaching (Lindsay 2016).

@@ -25,19 +25,54 @@ using namespace detail;
 
 namespace {
 
-// `owned`, when given, is `h` itself, whose cells become the result's.
+// `owned`, when given, is `h` itself, whose cells become the result's (its statistics are then
+// summed in the flood's order). The flood works on the result's own cells, unpadded: a one-cell
+// frame of the byte-per-cell `closed` array stands for the grid's border, so the loop still needs no
+// bounds checks, and no padded copy of the raster is made (8193^2: 268 MB). Heap keys carry the
+// row-major index, so equal elevations pop in the same order as on a padded grid.
 FillResult flood(const Heightfield& h, Heightfield* owned, bool epsilon, const Progress& progress) {
   const char* stage = "fill";
   require_indexable(h, stage);
+  const int w = h.width, ht = h.height, pw = w + 2;
   const size_t n = h.size();
-  Padded g(h);
-  std::vector<float>& z = g.z;
-  std::vector<uint8_t>& closed = g.closed;
-  MinHeap open = make_heap(size_t(2 * (h.width + h.height)) + 1024);
-  g.seed_outlets(open, h.count_nodata() > 0);
+  const double area = h.georef.cell_x * h.georef.cell_y;
+  const bool any_nodata = h.count_nodata() > 0;
+  FillResult r;
+  if (owned)
+    r.filled = std::move(*owned);  // `h` is *owned: not read below
+  else
+    r.filled = h;
+  std::vector<float>& z = r.filled.z;
+  std::vector<uint8_t> closed(size_t(pw) * (ht + 2), 1);  // frame and nodata closed
+  for (int y = 0; y < ht; ++y)
+    for (int x = 0; x < w; ++x) closed[size_t(y + 1) * pw + x + 1] = std::isnan(z[size_t(y) * w + x]) ? 1 : 0;
+  ptrdiff_t poff[8], zoff[8];
+  for (int k = 0; k < 8; ++k) poff[k] = ptrdiff_t(kDy[k]) * pw + kDx[k], zoff[k] = ptrdiff_t(kDy[k]) * w + kDx[k];
+  MinHeap open = make_heap(size_t(2 * (w + ht)) + 1024);
+  // Outlets: valid cells with a nodata or off-grid neighbour (without nodata, the border only).
+  for (int y = 0; y < ht; ++y) {
+    const bool border_row = (y == 0 || y == ht - 1);
+    for (int x = 0; x < w; ++x) {
+      if (!border_row && !any_nodata && x != 0 && x != w - 1) {
+        x = w - 2;  // interior cells of a grid without nodata are never outlets
+        continue;
+      }
+      const size_t i = size_t(y) * w + x;
+      if (std::isnan(z[i])) continue;
+      bool outlet = false;
+      for (int k = 0; k < 8 && !outlet; ++k) {
+        const int xn = x + kDx[k], yn = y + kDy[k];
+        outlet = xn < 0 || yn < 0 || xn >= w || yn >= ht || std::isnan(z[size_t(yn) * w + xn]);
+      }
+      if (!outlet) continue;
+      closed[size_t(y + 1) * pw + x + 1] = 1;
+      open.push(key(z[i], i));
+    }
+  }
   std::vector<uint32_t> pit;  // FIFO as a vector with a moving head (cheaper than std::deque)
   pit.reserve(1024);
   size_t pit_head = 0;
+  double sum = 0;  // the owned path's statistics, as cells are raised
 
   size_t done = 0, next_report = n / 8 + 1;
   while (!open.empty() || pit_head < pit.size()) {
@@ -54,11 +89,21 @@ FillResult flood(const Heightfield& h, Heightfield* owned, bool epsilon, const P
     }
     const float zc = z[c];
     const float zmin = epsilon ? std::nextafter(zc, INFINITY) : zc;
+    const size_t cy = c / size_t(w), pc = (cy + 1) * pw + (c - cy * w) + 1;
     for (int k = 0; k < 8; ++k) {
-      const size_t m = size_t(ptrdiff_t(c) + g.off[k]);
-      if (closed[m]) continue;
-      closed[m] = 1;
+      const size_t pm = size_t(ptrdiff_t(pc) + poff[k]);
+      if (closed[pm]) continue;
+      closed[pm] = 1;
+      const size_t m = size_t(ptrdiff_t(c) + zoff[k]);
       if (z[m] <= zmin) {
+        if (owned) {
+          const double d = double(zmin) - double(z[m]);
+          if (d > 0) {
+            sum += d;
+            r.cells_raised++;
+            if (d > r.max_depth_m) r.max_depth_m = d;
+          }
+        }
         z[m] = zmin;
         pit.push_back(uint32_t(m));
       } else {
@@ -70,16 +115,9 @@ FillResult flood(const Heightfield& h, Heightfield* owned, bool epsilon, const P
       next_report += n / 8 + 1;
     }
   }
-  // The flood's work memory goes before the output is made.
-  open = MinHeap();
-  std::vector<uint8_t>().swap(closed);
-  std::vector<uint32_t>().swap(pit);
-  FillResult r;
-  const double area = h.georef.cell_x * h.georef.cell_y;
-  double sum = 0;
-  for (int y = 0; y < h.height; ++y)
-    for (int x = 0; x < h.width; ++x) {
-      const double d = double(z[g.index(x, y)]) - double(h.z[size_t(y) * h.width + x]);
+  if (!owned)
+    for (size_t i = 0; i < n; ++i) {
+      const double d = double(z[i]) - double(h.z[i]);
       if (d > 0) {
         sum += d;
         r.cells_raised++;
@@ -87,11 +125,6 @@ FillResult flood(const Heightfield& h, Heightfield* owned, bool epsilon, const P
       }
     }
   r.volume_m3 = sum * area;
-  if (owned)
-    r.filled = std::move(*owned);
-  else
-    r.filled = h;
-  g.unpad(r.filled.z);
   return r;
 }
 
