@@ -49,26 +49,12 @@ FillResult flood(const Heightfield& h, Heightfield* owned, bool epsilon, const P
   ptrdiff_t poff[8], zoff[8];
   for (int k = 0; k < 8; ++k) poff[k] = ptrdiff_t(kDy[k]) * pw + kDx[k], zoff[k] = ptrdiff_t(kDy[k]) * w + kDx[k];
   MinHeap open = make_heap(size_t(2 * (w + ht)) + 1024);
-  // Outlets: valid cells with a nodata or off-grid neighbour (without nodata, the border only).
-  for (int y = 0; y < ht; ++y) {
-    const bool border_row = (y == 0 || y == ht - 1);
-    for (int x = 0; x < w; ++x) {
-      if (!border_row && !any_nodata && x != 0 && x != w - 1) {
-        x = w - 2;  // interior cells of a grid without nodata are never outlets
-        continue;
-      }
-      const size_t i = size_t(y) * w + x;
-      if (std::isnan(z[i])) continue;
-      bool outlet = false;
-      for (int k = 0; k < 8 && !outlet; ++k) {
-        const int xn = x + kDx[k], yn = y + kDy[k];
-        outlet = xn < 0 || yn < 0 || xn >= w || yn >= ht || std::isnan(z[size_t(yn) * w + xn]);
-      }
-      if (!outlet) continue;
-      closed[size_t(y + 1) * pw + x + 1] = 1;
-      open.push(key(z[i], i));
-    }
-  }
+  for_each_outlet(w, ht, any_nodata, [&](int x, int y) { return !std::isnan(z[size_t(y) * w + x]); },
+                  [&](int x, int y) {
+                    const size_t i = size_t(y) * w + x;
+                    closed[size_t(y + 1) * pw + x + 1] = 1;
+                    open.push(key(z[i], i));
+                  });
   std::vector<uint32_t> pit;  // FIFO as a vector with a moving head (cheaper than std::deque)
   pit.reserve(1024);
   size_t pit_head = 0;

@@ -88,6 +88,28 @@ inline size_t surface_drains(const float* z, int w, int h, const ptrdiff_t off[8
   return kAllDrain;
 }
 
+/// Calls outlet(x, y) for every outlet of a w x h grid, in row-major order: a valid cell (valid(x, y))
+/// with an off-grid or invalid neighbour. Without nodata only the border is looked at.
+template <class Valid, class Outlet>
+void for_each_outlet(int w, int h, bool any_nodata, const Valid& valid, const Outlet& outlet) {
+  for (int y = 0; y < h; ++y) {
+    const bool border_row = (y == 0 || y == h - 1);
+    for (int x = 0; x < w; ++x) {
+      if (!border_row && !any_nodata && x != 0 && x != w - 1) {
+        x = w - 2;  // interior cells of a grid without nodata are never outlets
+        continue;
+      }
+      if (!valid(x, y)) continue;
+      bool open_side = false;
+      for (int k = 0; k < 8 && !open_side; ++k) {
+        const int xn = x + kDx[k], yn = y + kDy[k];
+        open_side = xn < 0 || yn < 0 || xn >= w || yn >= h || !valid(xn, yn);
+      }
+      if (open_side) outlet(x, y);
+    }
+  }
+}
+
 /// The grid with a one-cell nodata frame: every valid cell then has 8 addressable neighbours, so
 /// the flood loops need no bounds checks and no divisions, and "border cell" and "next to nodata"
 /// become the same test. Padded indices keep the row-major order of the original ones, so
@@ -119,22 +141,12 @@ struct Padded {
   }
   /// Pushes every outlet (a valid cell with a nodata or frame neighbour) and closes it.
   void seed_outlets(MinHeap& heap, bool any_nodata) {
-    for (int y = 0; y < h; ++y) {
-      const bool border_row = (y == 0 || y == h - 1);
-      for (int x = 0; x < w; ++x) {
-        if (!border_row && !any_nodata && x != 0 && x != w - 1) {
-          x = w - 2;  // interior cells of a grid without nodata are never outlets
-          continue;
-        }
-        const size_t i = index(x, y);
-        if (std::isnan(z[i])) continue;
-        bool outlet = false;
-        for (int k = 0; k < 8 && !outlet; ++k) outlet = std::isnan(z[size_t(ptrdiff_t(i) + off[k])]);
-        if (!outlet) continue;
-        closed[i] = 1;
-        heap.push(key(z[i], i));
-      }
-    }
+    for_each_outlet(w, h, any_nodata, [&](int x, int y) { return !std::isnan(z[index(x, y)]); },
+                    [&](int x, int y) {
+                      const size_t i = index(x, y);
+                      closed[i] = 1;
+                      heap.push(key(z[i], i));
+                    });
   }
 };
 
