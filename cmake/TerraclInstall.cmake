@@ -35,12 +35,28 @@ if(TARGET terracl_cli)
           RENAME terracl COMPONENT runtime)
 endif()
 
-# Debian's changelog.Debian.gz in every package (cmake/debian/changelog, gzip -n: reproducible).
-set(_changelog ${CMAKE_BINARY_DIR}/share/changelog.Debian.gz)
+# Who answers for the packages (Debian's Maintainer field and the changelog's trailer). A packager
+# sets TERRACL_PACKAGE_MAINTAINER, or DEBFULLNAME/DEBEMAIL as for dch; the default is the
+# project's own address (the one its commits carry).
+set(_maintainer "terracl maintainers <maintainers@users.noreply.h-seed-e2012863.example>")
+if(DEFINED ENV{DEBEMAIL} AND NOT "$ENV{DEBEMAIL}" STREQUAL "")
+  set(_name "$ENV{DEBFULLNAME}")
+  if(_name STREQUAL "")
+    set(_name "terracl maintainers")
+  endif()
+  set(_maintainer "${_name} <$ENV{DEBEMAIL}>")
+endif()
+set(TERRACL_PACKAGE_MAINTAINER "${_maintainer}" CACHE STRING "Maintainer of the .deb packages: Name <address>")
+if(NOT TERRACL_PACKAGE_MAINTAINER MATCHES "^[^<>]+ <[^<>@ ]+@[^<>@ ]+\\.[^<>@ ]+>$")
+  message(FATAL_ERROR "TERRACL_PACKAGE_MAINTAINER='${TERRACL_PACKAGE_MAINTAINER}': expected 'Name <user@host.domain>'")
+endif()
+
+# Debian's changelog in every package: changelog.gz, as for a native package (gzip -n: reproducible).
+configure_file(${CMAKE_SOURCE_DIR}/cmake/debian/changelog.in ${CMAKE_BINARY_DIR}/share/changelog @ONLY)
+set(_changelog ${CMAKE_BINARY_DIR}/share/changelog.gz)
 add_custom_command(OUTPUT ${_changelog}
-  COMMAND ${CMAKE_COMMAND} -E make_directory ${CMAKE_BINARY_DIR}/share
-  COMMAND sh -c "gzip -9n -c '${CMAKE_SOURCE_DIR}/cmake/debian/changelog' > '${_changelog}'"
-  DEPENDS ${CMAKE_SOURCE_DIR}/cmake/debian/changelog VERBATIM)
+  COMMAND sh -c "gzip -9n -c '${CMAKE_BINARY_DIR}/share/changelog' > '${_changelog}'"
+  DEPENDS ${CMAKE_BINARY_DIR}/share/changelog VERBATIM)
 add_custom_target(terracl_changelog ALL DEPENDS ${_changelog})
 install(FILES ${_changelog} DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl COMPONENT runtime)
 install(FILES ${_changelog} DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/terracl-dev COMPONENT development)

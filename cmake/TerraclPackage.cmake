@@ -6,7 +6,7 @@
 #   python3-terracl  the Python module, when python/ installs into the `python` component
 set(CPACK_PACKAGE_NAME terracl)
 set(CPACK_PACKAGE_VENDOR "terracl")
-set(CPACK_PACKAGE_CONTACT "terracl maintainers <terracl@localhost>")
+set(CPACK_PACKAGE_CONTACT "${TERRACL_PACKAGE_MAINTAINER}")  # cmake/TerraclInstall.cmake
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "Terrain authoring in the gradient domain on OpenCL devices")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_GENERATOR DEB)
@@ -28,8 +28,9 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "pocl-opencl-icd | opencl-icd")
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)  # a shlibs file for packages that link libterracl.so.0
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS_POLICY ">=")
+# Debian's Description: CPack puts the summary line first; extended lines of at most 80 characters.
 set(CPACK_DEBIAN_RUNTIME_DESCRIPTION
-    "Terrain authoring in the gradient domain on OpenCL devices: CLI and shared library")
+    "The terracl command-line tool (stages, pipelines, the studio) and the shared\nlibrary libterracl.so.0.")
 
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_NAME terracl-dev)
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SECTION libdevel)
@@ -40,11 +41,11 @@ set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_DEPENDS
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SUGGESTS
     "libgdal-dev, libpng-dev, libopenexr-dev, libflann-dev, libtinygltf-dev, liblz4-dev, libcpp-httplib-dev")
 set(CPACK_DEBIAN_DEVELOPMENT_DESCRIPTION
-    "Terrain authoring in the gradient domain on OpenCL devices: headers, static library, CMake package")
+    "Headers, the static library and the CMake package (find_package(terracl)).")
 
 set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-terracl)
 set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
 set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS "python3, python3-numpy")
-set(CPACK_DEBIAN_PYTHON_DESCRIPTION "Terrain authoring in the gradient domain on OpenCL devices: Python module")
+set(CPACK_DEBIAN_PYTHON_DESCRIPTION "The terracl Python module (numpy arrays, rasterio and xarray georeferencing).")
 
 include(CPack)

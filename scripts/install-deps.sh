@@ -20,7 +20,7 @@ PACKAGES=(
   chromium chromium-driver python3-selenium python3-gdal python3-numpy
   python3-rasterio python3-xarray  # python/tests/test_interop.py: rasterio and xarray round trips (docs/python.md)
   clang libclang-rt-14-dev
-  dpkg-dev file
+  dpkg-dev file lintian  # lintian: the .debs follow Debian policy (scripts/package-check.sh)
   strace  # fault injection in the tests: ENOSPC / EIO on an output's writes and renames (docs/reliability.md)
   pybind11-dev python3-dev python3-pytest python3-setuptools python3-pip
 )

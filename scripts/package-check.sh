@@ -5,7 +5,7 @@
 #      exported interface naming no private dependency (GDAL, OpenImageIO, ...);
 #   2. examples/cpp configured with find_package(terracl 0.1), built and RUN against the shared
 #      library, then against the static one (COMPONENTS static); the installed CLI reads the result;
-#   3. `cpack -G DEB` and the packages' contents (`dpkg-deb -c`) and Depends (dpkg-shlibdeps).
+#   3. `cpack -G DEB`, the packages' contents (`dpkg-deb -c`), Depends (dpkg-shlibdeps) and lintian.
 # usage: scripts/package-check.sh [BUILD_DIR] [DEM]   (a complete build: `cmake --build BUILD_DIR`)
 set -euo pipefail
 src=$(cd "$(dirname "$0")/.." && pwd)
@@ -112,5 +112,15 @@ if ls "$build"/python/terracl/_terracl*.so >/dev/null 2>&1; then
   contents "$py" | grep -q '/terracl/__init__\.py$' || fail "$(basename "$py") lacks terracl/__init__.py"
 fi
 if [ -n "$py" ]; then echo "package-check: $(basename "$py"): $(contents "$py" | grep -c '\.so$') module file(s)"; fi
+# Debian policy as lintian checks it: no errors. (Its warnings are printed: the ldconfig calls
+# CPack writes, and the library not being in its own libterracl0 package.)
+if command -v lintian >/dev/null 2>&1; then
+  lintian --tag-display-limit 0 "$work"/deb/*.deb >"$work/lintian.log" 2>&1 || true
+  grep -v '^running with root' "$work/lintian.log" | sed 's/^/package-check: lintian: /'
+  ! grep -q '^E: ' "$work/lintian.log" || fail "lintian reports errors on the packages"
+  lap "lintian"
+elif [ "${CI:-}" = true ]; then
+  fail "lintian is not installed (scripts/install-deps.sh installs it)"
+fi
 for p in "$work"/deb/*.deb; do echo "package-check: $(basename "$p") $(du -k "$p" | cut -f1) KiB"; done
 echo "package-check: OK (terracl $version)"
