@@ -6,6 +6,7 @@
 
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
+#include <terracl/render.hpp>
 
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
@@ -118,12 +119,77 @@ TEST(GdalConventions, VerticalUnitsInFeetBecomeMetres) {
   EXPECT_EQ(a.georef.vertical_units, "m");
   EXPECT_EQ(a.metadata.at("terracl:source_vertical_units"), "ft");
   EXPECT_EQ(b.metadata.at("terracl:source_vertical_units"), "US survey foot");
-  // The output is metres and says so; reading it again converts nothing.
+  // Written back in the unit it was read in: the file holds the same feet, and reads as before.
   write_heightfield(a, dir.path("out.tif"));
-  const Heightfield again = read_heightfield(dir.path("out.tif"));
-  EXPECT_EQ(again.z, a.z);
   Dataset ds(static_cast<GDALDataset*>(GDALOpen(dir.path("out.tif").c_str(), GA_ReadOnly)));
-  EXPECT_STREQ(ds->GetRasterBand(1)->GetUnitType(), "m");
+  EXPECT_STREQ(ds->GetRasterBand(1)->GetUnitType(), "ft");
+  float raw[4];
+  ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, 2, 2, raw, 2, 2, GDT_Float32, 0, 0), CE_None);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(raw[i], float((i + 1) * 1000)) << i;
+  EXPECT_EQ(read_heightfield(dir.path("out.tif")).z, a.z);
+}
+
+// Lengths in metres from a DEM in feet go back out in feet, on every write path (untiled, tiled,
+// streamed values), and keep an integer input's type; angles and areas are not lengths.
+TEST(GdalConventions, FeetInFeetOutOnEveryWritePath) {
+  test::TempDir dir;
+  const int w = 80, h = 70;
+  std::vector<double> raw(size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)  // a valley with a pit: fill changes cells, TRI is not constant
+      raw[size_t(y) * w + x] = std::round(3000 + 4.0 * std::abs(x - 40) + 2.5 * y + 40 * std::sin(0.3 * x) * std::cos(0.2 * y));
+  raw[size_t(35) * w + 40] -= 200;
+  const std::string ft = dir.path("ft.tif");
+  write_raw_tif(ft, GDT_Int16, raw, w, h, 1.0, 0.0, "ft", std::nullopt);
+  auto cli = [&](const std::string& args) {
+    const auto r = test::run_cli(args);
+    ASSERT_EQ(r.exit_code, 0) << args << "\n" << r.out;
+  };
+  auto open = [](const std::string& p) { return Dataset(static_cast<GDALDataset*>(GDALOpen(p.c_str(), GA_ReadOnly))); };
+  auto band = [&](const std::string& p) {
+    Dataset ds = open(p);
+    std::vector<double> v(size_t(w) * h);
+    EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, w, h, v.data(), w, h, GDT_Float64, 0, 0), CE_None);
+    return v;
+  };
+  auto unit = [&](const std::string& p) { return std::string(open(p)->GetRasterBand(1)->GetUnitType()); };
+
+  // convert: the same Int16 feet, as gdal_translate keeps them.
+  cli("convert " + ft + " " + dir.path("c.tif"));
+  EXPECT_EQ(open(dir.path("c.tif"))->GetRasterBand(1)->GetRasterDataType(), GDT_Int16);
+  EXPECT_EQ(unit(dir.path("c.tif")), "ft");
+  EXPECT_EQ(band(dir.path("c.tif")), raw);
+
+  // fill, untiled and tiled: feet, equal, and the pit raised to its spill height in feet.
+  cli("fill_depressions " + ft + " -o " + dir.path("f1.tif"));
+  cli("fill_depressions " + ft + " -o " + dir.path("f2.tif") + " --tile 32");
+  EXPECT_EQ(unit(dir.path("f1.tif")), "ft");
+  EXPECT_EQ(unit(dir.path("f2.tif")), "ft");
+  const std::vector<double> f1 = band(dir.path("f1.tif"));
+  EXPECT_EQ(f1, band(dir.path("f2.tif")));
+  EXPECT_GT(f1[size_t(35) * w + 40], raw[size_t(35) * w + 40] + 100);
+  EXPECT_EQ(f1[size_t(10) * w + 5], raw[size_t(10) * w + 5]);
+
+  // TRI (a length): feet, the metres TRI / 0.3048, untiled and tiled alike. Slope (an angle) and
+  // drainage area (m2) are written as they are.
+  cli("render " + ft + " --mode tri -o " + dir.path("tri.tif"));
+  cli("render " + ft + " --mode tri -o " + dir.path("tri2.tif") + " --tile 32");
+  EXPECT_EQ(unit(dir.path("tri.tif")), "ft");
+  EXPECT_EQ(band(dir.path("tri.tif")), band(dir.path("tri2.tif")));
+  render::Options o;
+  o.mode = render::Mode::TRI;
+  o.compute_edges = false;  // the CLI's default: the border is nodata (-9999, not divided)
+  const Heightfield metres = read_heightfield(ft);
+  const Heightfield tri_m = render::values(metres, o);
+  const std::vector<double> tri_ft = band(dir.path("tri.tif"));
+  for (size_t i = 0; i < tri_ft.size(); ++i) {
+    EXPECT_EQ(std::isfinite(tri_m.z[i]), tri_ft[i] != -9999.0) << i;
+    if (std::isfinite(tri_m.z[i])) EXPECT_NEAR(tri_ft[i], tri_m.z[i] / 0.3048, 1e-5 * (1 + tri_ft[i])) << i;
+  }
+  cli("render " + ft + " --mode slope -o " + dir.path("slope.tif"));
+  EXPECT_EQ(unit(dir.path("slope.tif")), "degrees");
+  cli("drainage " + ft + " -o " + dir.path("area.tif"));
+  EXPECT_EQ(unit(dir.path("area.tif")), "m2");
 }
 
 TEST(GdalConventions, GeoTiffOfAnUngeoreferencedRasterCarriesItsCellSize) {

@@ -40,23 +40,6 @@ bool looks_like_degrees(const std::array<double, 6>& gt, int w, int h) {
          std::fabs(y1) <= 90;
 }
 
-// Metres per unit of a band's unit type, for the vertical units GIS files use; nullopt for units
-// terracl does not convert (they are kept as they are, and named by `info`).
-std::optional<double> metres_per_unit(const std::string& units) {
-  std::string u;
-  for (unsigned char c : units)
-    if (std::isalpha(c)) u += char(std::tolower(c));
-  if (u.empty() || u == "m" || u == "metre" || u == "meter" || u == "metres" || u == "meters") return 1.0;
-  if (u == "ft" || u == "foot" || u == "feet" || u == "internationalfoot" || u == "footinternational") return 0.3048;
-  if (u == "ftus" || u == "usft" || u == "ussurveyfoot" || u == "ussurveyfeet" || u == "footus" || u == "usfoot" ||
-      u == "surveyfoot")
-    return 1200.0 / 3937.0;
-  if (u == "cm" || u == "centimetre" || u == "centimeter" || u == "centimetres" || u == "centimeters") return 0.01;
-  if (u == "mm" || u == "millimetre" || u == "millimeter" || u == "millimetres" || u == "millimeters") return 0.001;
-  if (u == "dm" || u == "decimetre" || u == "decimeter" || u == "decimetres" || u == "decimeters") return 0.1;
-  return std::nullopt;
-}
-
 // The geotransform write_local_geotransform gives a raster without georeferencing: read back, it
 // is no georeferencing again (the cell size comes from terracl_cell_x/y as before), so a round
 // trip through a GeoTIFF leaves the heightfield as it was.
@@ -99,6 +82,32 @@ char** add_creation_options(char** opts, GDALDriver& drv, const std::string& dri
 }
 
 }  // namespace
+
+// For the vertical units GIS files use; units terracl does not convert are kept as they are,
+// and named by `info`.
+std::optional<double> metres_per_unit(const std::string& units) {
+  std::string u;
+  for (unsigned char c : units)
+    if (std::isalpha(c)) u += char(std::tolower(c));
+  if (u.empty() || u == "m" || u == "metre" || u == "meter" || u == "metres" || u == "meters") return 1.0;
+  if (u == "ft" || u == "foot" || u == "feet" || u == "internationalfoot" || u == "footinternational") return 0.3048;
+  if (u == "ftus" || u == "usft" || u == "ussurveyfoot" || u == "ussurveyfeet" || u == "footus" || u == "usfoot" ||
+      u == "surveyfoot")
+    return 1200.0 / 3937.0;
+  if (u == "cm" || u == "centimetre" || u == "centimeter" || u == "centimetres" || u == "centimeters") return 0.01;
+  if (u == "mm" || u == "millimetre" || u == "millimeter" || u == "millimetres" || u == "millimeters") return 0.001;
+  if (u == "dm" || u == "decimetre" || u == "decimeter" || u == "decimetres" || u == "decimeters") return 0.1;
+  return std::nullopt;
+}
+
+std::optional<WrittenUnit> written_vertical_unit(const Georef& g, const Metadata& md) {
+  if (g.vertical_units != "m") return std::nullopt;
+  const auto it = md.find("terracl:source_vertical_units");
+  if (it == md.end()) return std::nullopt;
+  const auto f = metres_per_unit(it->second);
+  if (!f || *f == 1.0) return std::nullopt;
+  return WrittenUnit{*f, it->second};
+}
 
 void set_geotransform_for_writing(GDALDataset& ds, const Georef& g, int height) {
   // A raster without georeferencing (a flat: base, a PNG source) still has metric cells: GDAL,
@@ -333,7 +342,7 @@ Heightfield from_dataset(GDALDataset& dsr, const std::string& path) {
   return out;
 }
 
-DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
+DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type, bool source_units) {
   init_gdal();
   CPLErrorReset();
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
@@ -342,7 +351,8 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   const bool is_int = GDALDataTypeIsInteger(type);
   // Float32 with NaN (or no) nodata: the band is the heightfield's own cells, not a copy (an 8193^2
   // write held 268 MB twice). Otherwise the MEM band has the output's type and GDAL converts.
-  const bool borrow = type == GDT_Float32 && !(g.nodata && !std::isnan(*g.nodata) && h.count_nodata() > 0);
+  const std::optional<WrittenUnit> unit = source_units ? written_vertical_unit(g, h.metadata) : std::nullopt;
+  const bool borrow = type == GDT_Float32 && !unit && !(g.nodata && !std::isnan(*g.nodata) && h.count_nodata() > 0);
   DatasetPtr ds(mem->Create("", h.width, h.height, borrow ? 0 : 1, type, nullptr));
   if (!ds) fail("io", "cannot create an in-memory raster of {} x {} ({})", h.width, h.height, last_gdal_error());
   if (borrow) {
@@ -356,6 +366,11 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
   GDALRasterBand* band = ds->GetRasterBand(1);
   std::vector<float> data;
   const std::vector<float>* src = &h.z;
+  if (unit) {
+    data = h.z;
+    for (float& v : data) v = from_metres(v, unit->metres_per_unit);  // NaN stays NaN
+    src = &data;
+  }
   if (g.nodata || h.count_nodata() > 0) {
     double nd = g.nodata ? *g.nodata : double(NAN);
     // An integer band cannot hold NaN, nor a value outside its range (-32768 in UInt16): the
@@ -366,13 +381,13 @@ DatasetPtr to_mem_dataset(const Heightfield& h, GDALDataType type) {
       nd = type == GDT_UInt16 ? 65535.0 : tmin;
     band->SetNoDataValue(nd);
     if (!std::isnan(nd) && h.count_nodata() > 0) {
-      data = h.z;
+      if (src != &data) data = h.z;
       for (float& v : data)
         if (!std::isfinite(v)) v = float(nd);
       src = &data;
     }
   }
-  band->SetUnitType(g.vertical_units.c_str());
+  band->SetUnitType(unit ? unit->name.c_str() : g.vertical_units.c_str());
   for (const auto& [k, v] : h.metadata) {
     std::string key = k;
     for (char& c : key)
@@ -406,7 +421,7 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   // 8193^2 slope write was single-threaded compression.
   opts = CSLSetNameValue(opts, "NUM_THREADS", "ALL_CPUS");
   opts = add_creation_options(opts, *drv, driver, wo);
-  DatasetPtr mem = to_mem_dataset(h, type);
+  DatasetPtr mem = to_mem_dataset(h, type, true);
   GdalFirstError first;
   auto gdal_error = [&] { return name_output(first.message(), tmp_path); };
   CPLErrorReset();
@@ -448,10 +463,9 @@ std::string stored_band_type(const std::string& path) {
   GDALRasterBand* band = ds->GetRasterBand(1);
   const GDALDataType t = band->GetRasterDataType();
   if (t != GDT_Int16 && t != GDT_UInt16 && t != GDT_Int32 && t != GDT_Float64) return {};
-  // Values changed on read (scale, offset, feet to metres) are no longer the stored integers.
-  const char* units = band->GetUnitType();
-  if (band->GetScale() != 1.0 || band->GetOffset() != 0.0 || io::metres_per_unit(units ? units : "").value_or(1.0) != 1.0)
-    return {};
+  // Values changed on read (scale, offset) are no longer the stored integers. Feet are converted
+  // back on write (io::written_vertical_unit), so they keep their type.
+  if (band->GetScale() != 1.0 || band->GetOffset() != 0.0) return {};
   return GDALGetDataTypeName(t);
 }
 
@@ -500,7 +514,7 @@ std::vector<std::string> write_gdal_copy(const Heightfield& h, const std::string
   if (!drv) fail("io", "GDAL has no {} driver", driver);
   const GDALDataType type = output_band_type(wo);
   char** opts = add_creation_options(nullptr, *drv, driver, wo);
-  DatasetPtr mem = to_mem_dataset(h, type);
+  DatasetPtr mem = to_mem_dataset(h, type, true);
   GdalFirstError first;
   CPLErrorReset();
   GDALDataset* out = drv->CreateCopy(tmp_path.c_str(), mem.get(), FALSE, opts, nullptr, nullptr);

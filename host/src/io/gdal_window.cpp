@@ -123,6 +123,11 @@ std::string GdalWindowReader::band_description(int band) const {
 
 void GdalWindowReader::release_cache() const { m_ds->FlushCache(); }
 
+double written_metres_per_unit(const Georef& georef, const Metadata& metadata) {
+  const auto unit = written_vertical_unit(georef, metadata);
+  return unit ? unit->metres_per_unit : 1.0;
+}
+
 uint64_t window_checksum(const float* cells, size_t n) {
   uint64_t h = 1469598103934665603ull;
   const auto* b = reinterpret_cast<const unsigned char*>(cells);
@@ -137,7 +142,8 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
       m_tmp(partial.empty() ? temporary_path_for(path) : partial),
       m_resumable(!partial.empty()),
       m_compress(compress),
-      m_nodata(g.nodata) {
+      m_nodata(g.nodata),
+      m_metres_per_unit(written_metres_per_unit(g, metadata)) {
   m_width = width;
   m_height = height;
   m_bands = bands;
@@ -183,7 +189,8 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   for (int b = 1; b <= m_bands; ++b) {
     GDALRasterBand* band = m_ds->GetRasterBand(b);
     if (m_nodata) band->SetNoDataValue(*m_nodata);
-    band->SetUnitType(g.vertical_units.c_str());
+    const auto unit = written_vertical_unit(g, metadata);
+    band->SetUnitType(unit ? unit->name.c_str() : g.vertical_units.c_str());
     if (m_bands == 2) band->SetDescription(b == 1 ? "gx" : "gy");  // what read_gradient looks for
   }
   // The same items as write_geotiff, so a tiled output reads back like an untiled one.
@@ -231,7 +238,7 @@ GeoTiffWindowWriter::~GeoTiffWindowWriter() {
 uint64_t GeoTiffWindowWriter::write(int x, int y, const Heightfield& src, int sx, int sy, int w, int h, int band) {
   if (!m_ds && !m_tif) fail("io", "{}: written after commit", m_path);
   if (w < 1 || h < 1) return window_checksum(nullptr, 0);
-  return put(encode(m_width, m_height, m_nodata, x, y, src, sx, sy, w, h, compresses()), band);
+  return put(encode(m_width, m_height, m_nodata, x, y, src, sx, sy, w, h, compresses(), m_metres_per_unit), band);
 }
 
 namespace {
@@ -240,7 +247,7 @@ namespace {
 struct EncodedHeader {
   uint32_t magic;
   int32_t x, y, w, h;
-  uint8_t compressed, any_nan, has_cells, pad;
+  uint8_t compressed, any_nan, has_cells, in_other_unit;
   uint64_t checksum;
   uint32_t blocks;
 };
@@ -254,7 +261,8 @@ void append(std::vector<uint8_t>& b, const T& v) {
 }  // namespace
 
 std::vector<uint8_t> GeoTiffWindowWriter::encode(int width, int height, std::optional<double> nodata, int x, int y,
-                                                 const Heightfield& src, int sx, int sy, int w, int h, bool compress) {
+                                                 const Heightfield& src, int sx, int sy, int w, int h, bool compress,
+                                                 double metres_per_unit) {
   if (x < 0 || y < 0 || w < 1 || h < 1 || x + w > width || y + h > height)
     fail("io", "internal: window {},{} {} x {} outside the {} x {} raster", x, y, w, h, width, height);
   std::vector<float> cells(size_t(w) * h);
@@ -264,7 +272,7 @@ std::vector<uint8_t> GeoTiffWindowWriter::encode(int width, int height, std::opt
     const float* in = &src.z[size_t(sy + r) * src.width + sx];
     float* out = &cells[size_t(r) * w];
     for (int c = 0; c < w; ++c) {
-      float v = in[c];
+      float v = metres_per_unit == 1.0 ? in[c] : from_metres(in[c], metres_per_unit);
       if (!std::isfinite(v)) {
         any_nan = true;
         v = nd;
@@ -280,7 +288,7 @@ std::vector<uint8_t> GeoTiffWindowWriter::encode(int width, int height, std::opt
                    uint8_t(compress),
                    uint8_t(any_nan),
                    0,
-                   0,
+                   uint8_t(metres_per_unit != 1.0),
                    window_checksum(cells.data(), cells.size()),
                    0};
   std::vector<uint8_t> out(sizeof(EncodedHeader));
@@ -337,6 +345,9 @@ uint64_t GeoTiffWindowWriter::put(const std::vector<uint8_t>& e, int band) {
       hd.y + hd.h > m_height || (hd.compressed && !m_tif) || (!hd.compressed && !hd.has_cells))
     fail("io", "internal: encoded window {},{} {} x {} does not fit {} ({} x {})", hd.x, hd.y, hd.w, hd.h, m_path,
          m_width, m_height);
+  if ((hd.in_other_unit != 0) != (m_metres_per_unit != 1.0))
+    fail("io", "internal: window {},{} encoded in {} but {} is written in {}", hd.x, hd.y,
+         hd.in_other_unit ? "another unit" : "metres", m_path, m_metres_per_unit != 1.0 ? "another unit" : "metres");
   m_any_nan |= hd.any_nan != 0;
   size_t at = sizeof hd;
   for (uint32_t k = 0; k < hd.blocks; ++k) {

@@ -65,6 +65,9 @@ std::vector<uint8_t> encode_float_block(const float* cells);
 /// window compresses it and rank 0 only appends (put()); the file does not depend on who encoded.
 /// Blocks that a window covers only in part wait in memory for their other cells (rank 0
 /// compresses those). A resumable writer (`partial`) writes through GDAL as before.
+/// GeoTiffWindowWriter::metres_per_unit() of a writer made with this georef and metadata.
+double written_metres_per_unit(const Georef& georef, const Metadata& metadata);
+
 class GeoTiffWindowWriter {
  public:
   /// `georef` and `metadata` are the whole raster's (as write_geotiff would store them).
@@ -85,8 +88,14 @@ class GeoTiffWindowWriter {
   /// write() in two halves. encode(): the window's cells with nodata substituted, its blocks that
   /// lie wholly inside it compressed (compress = false: cells only, for a resumable writer), for a
   /// width x height raster whose nodata is `nodata`; any process may call it.
+  /// `metres_per_unit`: the cells are metres written in another unit (value / metres_per_unit):
+  /// the writer's metres_per_unit(), which any process can compute as written_metres_per_unit().
   static std::vector<uint8_t> encode(int width, int height, std::optional<double> nodata, int x, int y,
-                                     const Heightfield& src, int sx, int sy, int w, int h, bool compress = true);
+                                     const Heightfield& src, int sx, int sy, int w, int h, bool compress = true,
+                                     double metres_per_unit = 1.0);
+  /// Metres per unit of the band as written: 1, or the unit the data was read in (feet, ...; see
+  /// io::written_vertical_unit) for lengths in metres read from such a band.
+  double metres_per_unit() const { return m_metres_per_unit; }
   /// put(): stores what encode() made for this writer's raster; returns write()'s checksum.
   uint64_t put(const std::vector<uint8_t>& encoded, int band = 1);
   /// Whether this writer takes compressed blocks (encode(..., compress)): not when resumable, nor
@@ -124,6 +133,7 @@ class GeoTiffWindowWriter {
   std::vector<std::pair<std::string, std::string>> m_late_metadata;  // set_metadata_item, applied by commit()
   bool m_resumable = false, m_reopened = false, m_compress = true;
   std::optional<double> m_nodata;
+  double m_metres_per_unit = 1.0;
   bool m_any_nan = false;
   std::vector<float> m_buffer;
 };

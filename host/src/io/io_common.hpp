@@ -16,6 +16,15 @@ class GDALRasterBand;
 
 namespace terracl::io {
 
+/// Drops the terracl:* items a file was read with (they tell how *that* file was made; outputs get
+/// their own provenance), but keeps what describes the data itself: the unit elevations were read
+/// in (terracl:source_vertical_units, written back by the GDAL writers).
+inline void drop_terracl_keys(Metadata& md) {
+  for (auto it = md.begin(); it != md.end();)
+    it = it->first.rfind("terracl:", 0) == 0 && it->first != "terracl:source_vertical_units" ? md.erase(it)
+                                                                                            : std::next(it);
+}
+
 /// What the file's first bytes say it is ("PNG", "TIFF", "EXR", "" when unknown or empty).
 std::string sniff_magic(const std::string& path);
 /// Throws when an EXR file's header claims an attribute larger than the file: OpenEXR allocates

@@ -12,12 +12,7 @@
 namespace terracl {
 namespace {
 
-// Provenance of a file we read describes how *that* file was made; the outputs of this pipeline
-// get their own, so the old keys are dropped rather than mixed in.
-void drop_terracl_keys(Metadata& md) {
-  for (auto it = md.begin(); it != md.end();) it = it->first.rfind("terracl:", 0) == 0 ? md.erase(it) : std::next(it);
-}
-
+using io::drop_terracl_keys;
 
 DataKind check_read(const json& o, DataKind, const std::string& where) {
   const std::string f = o.at("filename").get<std::string>();

@@ -122,7 +122,8 @@ void values_file(const std::string& input, const std::string& output, const Opti
       const int x0 = std::min(W, p * blocks_x / parts * kBlock), x1 = std::min(W, (p + 1) * blocks_x / parts * kBlock);
       if (x1 > x0)
         encoded.push_back(std::async(std::launch::async, [&, x0, x1] {
-          return io::GeoTiffWindowWriter::encode(W, H, georef.nodata, x0, y0, v, x0, y0 - span(k).first, x1 - x0, rows);
+          return io::GeoTiffWindowWriter::encode(W, H, georef.nodata, x0, y0, v, x0, y0 - span(k).first, x1 - x0, rows,
+                                                 true, out.metres_per_unit());
         }));
     }
     for (auto& e : encoded) out.put(e.get());

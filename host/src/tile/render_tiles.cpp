@@ -16,6 +16,7 @@
 #include "io/gdal_common.hpp"
 #include "io/gdal_window.hpp"
 #include "pipeline/builtin.hpp"
+#include "render/render_internal.hpp"
 #include "tile/tile_sinks.hpp"
 
 namespace terracl::tile {
@@ -41,6 +42,8 @@ class RenderValuesSink : public TileSink {
         m_h(h) {
     Georef g = level;
     g.nodata = -9999.0;  // as render::values
+    g.vertical_units = render::value_raster_like(Heightfield(1, 1), m_opt).georef.vertical_units;
+    m_metres_per_unit = io::written_metres_per_unit(g, md);  // TRI in feet from a DEM in feet, as untiled
     if (open)
       m_writer = std::make_unique<io::GeoTiffWindowWriter>(st.options.at("file").get<std::string>(), w, h, g, md,
                                                            std::string(), 1, m_opt.compress);
@@ -48,7 +51,8 @@ class RenderValuesSink : public TileSink {
   std::vector<uint8_t> draw(const Heightfield& win, int wx, int wy, int cx, int cy, int cw, int ch) override {
     const Heightfield v = m_host ? render::values(win, m_opt) : render::values(win, m_opt, m_device());
     // Compressed by the rank that drew it: rank 0 only appends the blocks.
-    return io::GeoTiffWindowWriter::encode(m_w, m_h, -9999.0, cx, cy, v, cx - wx, cy - wy, cw, ch, m_opt.compress);
+    return io::GeoTiffWindowWriter::encode(m_w, m_h, -9999.0, cx, cy, v, cx - wx, cy - wy, cw, ch, m_opt.compress,
+                                           m_metres_per_unit);
   }
   void put(const std::vector<uint8_t>& drawn, int, int, int, int) override { m_writer->put(drawn); }
   void commit() override { m_writer->commit(); }
@@ -59,6 +63,7 @@ class RenderValuesSink : public TileSink {
   std::function<Device&()> m_device;
   int m_w, m_h;
   std::unique_ptr<io::GeoTiffWindowWriter> m_writer;
+  double m_metres_per_unit = 1.0;
 };
 
 // Pictures: 8-bit grey or RGB, always built with an alpha band; commit() drops it when the untiled

@@ -189,6 +189,12 @@ void TiledRun::run_chain(size_t first, size_t last) {
         out = (ref.parent_path() / fmt::format(".{}.tiles-{}.tif", ref.filename().string(), st.tag)).string();
         m_temporaries.push_back(out);
       }
+      // Feet read, feet written (io::written_vertical_unit), as the untiled write; a temporary in
+      // feet reads back in metres with the unit named, for the next segment's writers.
+      if (seg.source) {
+        const Metadata& read = seg.source->header().metadata;
+        if (auto it = read.find("terracl:source_vertical_units"); it != read.end()) md.insert(*it);
+      }
       run_segment(seg, &st, out, md);
       if (direct) return;
       Segment next;

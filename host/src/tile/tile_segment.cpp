@@ -293,9 +293,11 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
         } else {
           // Compressed here, by the tile's rank: rank 0 only appends the blocks (docs/scale.md).
           const Level& L = levels[l];
+          // In the unit the writer below will have (feet read: feet written), on any rank.
           calls.push_back({int(oi), 1, c, data.height->metadata,
-                           io::GeoTiffWindowWriter::encode(L.w, L.h, L.georef.nodata, c.x0, c.y0, *data.height,
-                                                           c.x0 - have.x0, c.y0 - have.y0, c.w(), c.h(), !resumable)});
+                           io::GeoTiffWindowWriter::encode(
+                               L.w, L.h, L.georef.nodata, c.x0, c.y0, *data.height, c.x0 - have.x0, c.y0 - have.y0,
+                               c.w(), c.h(), !resumable, io::written_metres_per_unit(L.georef, data.height->metadata))});
         }
       } else {
         const Win& n = need[l + 1];
@@ -447,7 +449,8 @@ void TiledRun::run_segment(const Segment& seg, const PipelineStage* global, cons
   // Each tile's rank compresses its core's blocks; rank 0 appends them (docs/scale.md, "MPI speed-up").
   const analysis::EncodingWindowWriter write{
       [&](int x, int y, const Heightfield& core) {
-        return io::GeoTiffWindowWriter::encode(L.w, L.h, out_georef.nodata, x, y, core, 0, 0, core.width, core.height);
+        return io::GeoTiffWindowWriter::encode(L.w, L.h, out_georef.nodata, x, y, core, 0, 0, core.width, core.height,
+                                               true, io::written_metres_per_unit(out_georef, md));
       },
       [&](int, int, const std::vector<uint8_t>& encoded) { out->put(encoded); }};
   if (drainage) {

@@ -2,6 +2,8 @@
 // Helpers of a tiled run: windows, the sink calls that travel between ranks, provenance keys.
 #include "tile/tiled_run.hpp"
 
+#include "io/io_common.hpp"
+
 namespace terracl::tiled {
 
 tile::Bytes pack_calls(const std::vector<SinkCall>& calls) {
@@ -58,9 +60,7 @@ GradientField extract_gradient_window(const GradientField& g, const Win& have, c
   return out;
 }
 
-void drop_terracl_keys(Metadata& md) {
-  for (auto it = md.begin(); it != md.end();) it = it->first.rfind("terracl:", 0) == 0 ? md.erase(it) : std::next(it);
-}
+void drop_terracl_keys(Metadata& md) { io::drop_terracl_keys(md); }
 
 // The georef of a window at (x, y) of a level: the level's, with the corner moved.
 Georef georef_at(const Georef& level, int x, int y) {
