@@ -280,9 +280,9 @@ TEST(AnalysisErrors, BadInputsAreRejectedClearly) {
 // Tarboton's (1997) known answer: on a cone z = -r the flow diverges radially and the specific
 // catchment area (upslope area per unit contour width) at distance r is r / 2. With the cell size
 // as the contour width, D-infinity measures a mean relative error of 11.5 % over 20 <= r <= 80
-// (about 10 % low between the axes, up to 27 % high along the 8 grid directions, where facet
-// boundaries collect flow); D8, which sends each cell's flow one way, is 4x further off (45 %).
-// The bounds guard that ranking; the axis bias is an open question (docs/analysis.md).
+// (about 10 % low: its flow lines lie cell * max(|cos t|, |sin t|) apart; up to 27 % high on the 8
+// grid directions, where the apex on a cell centre makes two facets tie); D8, which sends each
+// cell's flow one way, is 4x further off (45 %). The bounds guard that ranking (docs/analysis.md).
 TEST(AnalysisFlow, DinfSpecificCatchmentOnAConeIsHalfTheRadius) {
   const int n = 201, c = n / 2;
   Heightfield h = grid(n, n, 1.0);
