@@ -2,6 +2,7 @@
 // gdaldem's value rasters, one work-item per row of a strip: slope (degrees or percent), aspect,
 // TRI (Riley or Wilson), TPI, roughness, as float32 with NaN where gdaldem writes nodata. Each is
 // gdaldem's formula in the same operation order (host reference: host/src/render/terrain.cpp).
+// Profile and tangential curvature: GRASS r.slope.aspect's (host: render_window.hpp curvature()).
 #pragma OPENCL FP_CONTRACT OFF
 #include "render_window.clh"
 #include "launch.clh"
@@ -11,11 +12,32 @@
 #define VAL_TRI 2
 #define VAL_TPI 3
 #define VAL_ROUGHNESS 4
+#define VAL_PCURV 5
+#define VAL_TCURV 6
 
 #define FLAG_PERCENT 1
 #define FLAG_WILSON 2
 #define FLAG_TRIGONOMETRIC 4
 #define FLAG_ZERO_FOR_FLAT 8
+
+// GRASS's signs: its derivatives are minus those along east and north (see the host reference).
+inline float curvature(const float* v, const float* p, const int profile) {
+  const float cx = 1.0f / p[P_INV_EW], cy = -1.0f / p[P_INV_NS];
+  const float kz = p[P_ZS] * (p[P_ALG] != 0.0f ? 2.0f : 8.0f);  // z_factor / scale
+  const float gx = ((v[0] + v[3] + v[3] + v[6]) - (v[2] + v[5] + v[5] + v[8])) * kz / (8.0f * cx);
+  const float gy = ((v[6] + v[7] + v[7] + v[8]) - (v[0] + v[1] + v[1] + v[2])) * kz / (8.0f * cy);
+  const float s4 = v[0] + v[2] + v[6] + v[8] - 8.0f * v[4];
+  const float s5 = 4.0f * (v[3] + v[5]) - 2.0f * (v[1] + v[7]);
+  const float s6 = 4.0f * (v[1] + v[7]) - 2.0f * (v[3] + v[5]);
+  const float s3 = v[6] - v[8] + v[2] - v[0];
+  const float dxx = -(s4 + s5) * kz / (6.0f * cx * cx), dyy = -(s4 + s6) * kz / (6.0f * cy * cy);
+  const float dxy = -s3 * kz / (4.0f * cx * cy);
+  const float g2 = gx * gx + gy * gy;
+  if (sqrt(g2) <= 0.001f) return 0.0f;
+  const float q = g2 + 1.0f, cross = 2.0f * dxy * gx * gy;
+  return profile ? (dxx * gx * gx + cross + dyy * gy * gy) / (g2 * q * sqrt(q))
+                 : (dxx * gy * gy - cross + dyy * gx * gx) / (g2 * sqrt(q));
+}
 
 inline float terrain_value(const float* v, const int mode, const int flags, const float* p) {
   if (mode == VAL_SLOPE) return rw_slope(v, p, flags & FLAG_PERCENT);
@@ -41,6 +63,7 @@ inline float terrain_value(const float* v, const int mode, const int flags, cons
     return sqrt(s);
   }
   if (mode == VAL_TPI) return v[4] - ((v[0] + v[1] + v[2] + v[3] + v[5] + v[6] + v[7] + v[8]) * 0.125f);
+  if (mode == VAL_PCURV || mode == VAL_TCURV) return curvature(v, p, mode == VAL_PCURV);
   float lo = v[0], hi = v[0];
   for (int k = 1; k < 9; ++k) lo = fmin(lo, v[k]), hi = fmax(hi, v[k]);
   return hi - lo;
@@ -81,6 +104,10 @@ __kernel void terrain_rows(__global const float* z, const int w, const int h, co
       VALUE_PASS(VAL_TRI)
     } else if (mode == VAL_TPI) {
       VALUE_PASS(VAL_TPI)
+    } else if (mode == VAL_PCURV) {
+      VALUE_PASS(VAL_PCURV)
+    } else if (mode == VAL_TCURV) {
+      VALUE_PASS(VAL_TCURV)
     } else {
       VALUE_PASS(VAL_ROUGHNESS)
     }

@@ -293,10 +293,11 @@ def render(input, *, device=None, progress=None, cell_size=None, transform=None,
     Pictures (mode hillshade, relief, shaded-relief, perspective) come back as a (rows, columns, 3) RGB
     uint8 array, or (rows, columns, 4) RGBA where the picture has alpha (nodata cells, and the border
     cells unless compute_edges=True); grey pictures have three equal channels. Values (mode slope,
-    aspect, tri, tpi, roughness) come back as a (rows, columns) float32 array, NaN where undefined:
+    aspect, tri, tpi, roughness, profile-curvature, tangential-curvature) come back as a (rows,
+    columns) float32 array, NaN where undefined:
     slope in degrees (percent with slope_format="percent"), aspect in degrees clockwise from north
     (counter-clockwise from east with trigonometric=True; NaN on flat cells unless zero_for_flat=True),
-    TRI, TPI and roughness in metres. file= writes what `terracl render IN --file FILE` writes: a
+    TRI, TPI and roughness in metres, the curvatures in 1/m (GRASS r.slope.aspect's). file= writes what `terracl render IN --file FILE` writes: a
     value mode to .tif is gdaldem's Float32 raster, slope to .png the grey picture, a picture to .png
     or a georeferenced .tif. Options: those of the render stage (help(terracl.stage) / terracl.stages())."""
     input = _input(input, "render input", cell_size, transform, crs, nodata)

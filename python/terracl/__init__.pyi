@@ -528,4 +528,4 @@ def render(
     crs: Crs = None,
     nodata: Optional[float] = None,
 ) -> npt.NDArray[Any]:
-    """Write a picture (hillshade as gdaldem's, colour relief, slope, shaded relief; 8-bit grey or RGB, alpha where nodata) as .png or a georeferenced .tif, or gdaldem's value rasters (slope, aspect, tri, tpi, roughness) as a float32 GeoTIFF; passes the heightfield through."""
+    """Write a picture (hillshade as gdaldem's, colour relief, slope, shaded relief; 8-bit grey or RGB, alpha where nodata) as .png or a georeferenced .tif, or gdaldem's value rasters (slope, aspect, tri, tpi, roughness) and GRASS's profile/tangential curvature as a float32 GeoTIFF; passes the heightfield through."""

@@ -260,7 +260,7 @@ def test_xarray_masks_scale_and_attrs_from_rasterio(tmp_path):
 
 # --- render values -----------------------------------------------------------------------------
 
-@pytest.mark.parametrize("mode", ["slope", "aspect", "tri", "tpi", "roughness"])
+@pytest.mark.parametrize("mode", ["slope", "aspect", "tri", "tpi", "roughness", "profile-curvature", "tangential-curvature"])
 def test_render_values_equal_the_cli_float32_file(mode, dem, dem_path, cli, tmp_path):
     cli("render", dem_path, "-o", tmp_path / "cli.tif", "--mode", mode)
     values = terracl.render(dem, mode=mode, file=tmp_path / "py.tif")

@@ -4,7 +4,8 @@
 /// `gdaldem hillshade`, with its -multidirectional, -combined and -igor shadings), colour relief
 /// from a gdaldem-format ramp, slope, and colour relief shaded by the hillshade as 8-bit pictures
 /// (grey or RGB, one pixel per cell, plus alpha where gdaldem writes nodata); slope, aspect, TRI,
-/// TPI and roughness as float rasters equal to gdaldem's. Lengths use the metric cell size
+/// TPI and roughness as float rasters equal to gdaldem's; profile and tangential curvature as GRASS
+/// r.slope.aspect's pcurvature and tcurvature. Lengths use the metric cell size
 /// (georef.cell_x/cell_y), so geographic rasters need no -s scale.
 #include <cstdint>
 #include <string>
@@ -15,10 +16,24 @@
 
 namespace terracl::render {
 
-enum class Mode { Hillshade, Relief, Slope, ShadedRelief, Aspect, TRI, TPI, Roughness, Perspective };
-/// hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness|perspective (TRI/TPI in either case)
+enum class Mode {
+  Hillshade,
+  Relief,
+  Slope,
+  ShadedRelief,
+  Aspect,
+  TRI,
+  TPI,
+  Roughness,
+  Perspective,
+  ProfileCurvature,     ///< GRASS r.slope.aspect pcurvature [1/m]
+  TangentialCurvature,  ///< GRASS r.slope.aspect tcurvature [1/m]
+};
+/// hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness|profile-curvature|
+/// tangential-curvature|perspective (any case; GRASS's pcurvature/tcurvature too)
 Mode mode_from_name(const std::string& name);
-/// Aspect, TRI, TPI and roughness are only values (values()); slope is both a picture and values.
+/// Aspect, TRI, TPI, roughness and the curvatures are only values (values()); slope is both a
+/// picture and values.
 bool is_value_mode(Mode m);
 
 /// gdaldem hillshade's variants: default, -multidirectional, -combined, -igor.

@@ -35,7 +35,11 @@ Mode mode_from_name(const std::string& name) {
   if (n == "tpi") return Mode::TPI;
   if (n == "roughness") return Mode::Roughness;
   if (n == "perspective") return Mode::Perspective;
-  fail("render", "unknown mode '{}' (expected hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness|perspective)",
+  if (n == "profile-curvature" || n == "profile_curvature" || n == "pcurvature") return Mode::ProfileCurvature;
+  if (n == "tangential-curvature" || n == "tangential_curvature" || n == "tcurvature") return Mode::TangentialCurvature;
+  fail("render",
+       "unknown mode '{}' (expected hillshade|relief|slope|shaded-relief|aspect|tri|tpi|roughness|profile-curvature|"
+       "tangential-curvature|perspective)",
        name);
 }
 
@@ -46,7 +50,8 @@ Material material_from_name(const std::string& name) {
 }
 
 bool is_value_mode(Mode m) {
-  return m == Mode::Slope || m == Mode::Aspect || m == Mode::TRI || m == Mode::TPI || m == Mode::Roughness;
+  return m == Mode::Slope || m == Mode::Aspect || m == Mode::TRI || m == Mode::TPI || m == Mode::Roughness ||
+         m == Mode::ProfileCurvature || m == Mode::TangentialCurvature;
 }
 
 Shading shading_from_name(const std::string& name) {
@@ -228,10 +233,12 @@ void check_options(const Heightfield& h, const Options& opt) {
 static void refuse_value_picture(const Options& opt) {
   if (is_value_mode(opt.mode) && opt.mode != Mode::Slope)
     fail("render", "mode {} gives values, not a picture: write it as a GeoTIFF (.tif)",
-         opt.mode == Mode::Aspect ? "aspect"
-         : opt.mode == Mode::TRI  ? "tri"
-         : opt.mode == Mode::TPI  ? "tpi"
-                                  : "roughness");
+         opt.mode == Mode::Aspect                ? "aspect"
+         : opt.mode == Mode::TRI                 ? "tri"
+         : opt.mode == Mode::TPI                 ? "tpi"
+         : opt.mode == Mode::ProfileCurvature    ? "profile-curvature"
+         : opt.mode == Mode::TangentialCurvature ? "tangential-curvature"
+                                                 : "roughness");
 }
 
 static bool grey_mode(const Options& opt) { return opt.mode == Mode::Hillshade || opt.mode == Mode::Slope; }

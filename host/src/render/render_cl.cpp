@@ -104,13 +104,15 @@ Image render(const Heightfield& h, const Options& opt, const PictureLayout& l, D
 
 Heightfield values(const Heightfield& h, const Options& opt, Device& device) {
   check_options(h, opt);
-  if (!is_value_mode(opt.mode)) fail("render", "mode has no value raster (expected slope|aspect|tri|tpi|roughness)");
+  if (!is_value_mode(opt.mode)) fail("render", "mode has no value raster (expected slope|aspect|tri|tpi|roughness|profile-curvature|tangential-curvature)");
   Heightfield out = value_raster_like(h, opt);
-  const int mode = opt.mode == Mode::Slope    ? 0
-                   : opt.mode == Mode::Aspect ? 1
-                   : opt.mode == Mode::TRI    ? 2
-                   : opt.mode == Mode::TPI    ? 3
-                                              : 4;
+  const int mode = opt.mode == Mode::Slope                 ? 0
+                   : opt.mode == Mode::Aspect              ? 1
+                   : opt.mode == Mode::TRI                 ? 2
+                   : opt.mode == Mode::TPI                 ? 3
+                   : opt.mode == Mode::Roughness           ? 4
+                   : opt.mode == Mode::ProfileCurvature    ? 5
+                                                           : 6;
   const int flags = (opt.slope_percent ? 1 : 0) | (opt.tri_alg == TriAlg::Wilson ? 2 : 0) |
                     (opt.aspect_trigonometric ? 4 : 0) | (opt.zero_for_flat ? 8 : 0);
   const std::vector<float> prm = detail::ShadeParams(h, opt).slots();

@@ -116,7 +116,7 @@ StageInfo render_stage_info() {
   return {"render",
           "Write a picture (hillshade as gdaldem's, colour relief, slope, shaded relief; 8-bit grey or RGB, alpha "
           "where nodata) as .png or a georeferenced .tif, or gdaldem's value rasters (slope, aspect, tri, tpi, "
-          "roughness) as a float32 GeoTIFF; passes the heightfield through.",
+          "roughness) and GRASS's profile/tangential curvature as a float32 GeoTIFF; passes the heightfield through.",
           DataKind::Heightfield,
           DataKind::Heightfield,
           {{"file", OptionType::OutputPath, nullptr, "", "Picture or value raster to write (.png or .tif)", {}, true},
@@ -125,8 +125,9 @@ StageInfo render_stage_info() {
             "hillshade",
             "",
             "What to draw: pictures hillshade|relief|slope|shaded-relief, a perspective view (.png), values (.tif) "
-            "slope|aspect|tri|tpi|roughness",
-            {"hillshade", "relief", "slope", "shaded-relief", "aspect", "tri", "tpi", "roughness", "perspective"},
+            "slope|aspect|tri|tpi|roughness|profile-curvature|tangential-curvature (1/m, as GRASS r.slope.aspect)",
+            {"hillshade", "relief", "slope", "shaded-relief", "aspect", "tri", "tpi", "roughness", "profile-curvature",
+             "tangential-curvature", "perspective"},
             false},
            {"azimuth", OptionType::Float, 315.0, "deg", "Sun azimuth, clockwise from north", {}, false},
            {"altitude", OptionType::Float, 45.0, "deg", "Sun altitude above the horizon", {}, false},

@@ -57,6 +57,25 @@ inline double horn_y(const double* v) { return (v[6] + v[7] + v[7] + v[8]) - (v[
 inline double zt_x(const double* v) { return v[3] - v[5]; }
 inline double zt_y(const double* v) { return v[7] - v[1]; }
 
+/// GRASS r.slope.aspect's profile (pcurvature) or tangential (tcurvature) curvature [1/m]: Horn's
+/// gradient and the second derivatives of a quadratic fitted to the window, with GRASS's signs
+/// (its dx, dy, dxx, ... are minus the derivatives along east and north, so convex profiles are
+/// negative), 0 where the gradient is at most 0.001. `kz`: z_factor / scale (elevations times kz).
+inline double curvature(const double* v, double cx, double cy, double kz, bool profile) {
+  const double gx = horn_x(v) * kz / (8.0 * cx), gy = horn_y(v) * kz / (8.0 * cy);
+  const double s4 = v[0] + v[2] + v[6] + v[8] - 8.0 * v[4];
+  const double s5 = 4.0 * (v[3] + v[5]) - 2.0 * (v[1] + v[7]);
+  const double s6 = 4.0 * (v[1] + v[7]) - 2.0 * (v[3] + v[5]);
+  const double s3 = v[6] - v[8] + v[2] - v[0];
+  const double dxx = -(s4 + s5) * kz / (6.0 * cx * cx), dyy = -(s4 + s6) * kz / (6.0 * cy * cy);
+  const double dxy = -s3 * kz / (4.0 * cx * cy);
+  const double g2 = gx * gx + gy * gy;
+  if (std::sqrt(g2) <= 0.001) return 0.0;
+  const double q = g2 + 1.0, cross = 2.0 * dxy * gx * gy;
+  return profile ? (dxx * gx * gx + cross + dyy * gy * gy) / (g2 * q * std::sqrt(q))
+                 : (dxx * gy * gy - cross + dyy * gx * gx) / (g2 * std::sqrt(q));
+}
+
 /// The constants of one render, derived once (names as in render_window.clh's P_* slots).
 struct ShadeParams {
   double inv_ew, inv_ns, zs, sin_alt, cos_az_alt_z, sin_az_alt_z, az, slope_zx, slope_zy, slope_max, flat, cos_alt_z;

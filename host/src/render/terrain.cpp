@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Host reference of gdaldem's value rasters (kernels/render_terrain.cl): slope, aspect, TRI, TPI
-// and roughness in double precision, with gdaldem's window rules (render_window.hpp).
+// and roughness in double precision, with gdaldem's window rules (render_window.hpp), and GRASS
+// r.slope.aspect's profile and tangential curvatures on the same windows.
 #include <terracl/error.hpp>
 #include <terracl/render.hpp>
 
@@ -40,8 +41,12 @@ double terrain_value(const double* v, const Options& o, const detail::ShadeParam
       return v[4] - (v[0] + v[1] + v[2] + v[3] + v[5] + v[6] + v[7] + v[8]) / 8.0;
     case Mode::Roughness:
       return *std::max_element(v, v + 9) - *std::min_element(v, v + 9);
+    case Mode::ProfileCurvature:
+    case Mode::TangentialCurvature:
+      return detail::curvature(v, 1.0 / p.inv_ew, -1.0 / p.inv_ns, p.zs * (p.zt ? 2.0 : 8.0),
+                               o.mode == Mode::ProfileCurvature);
     default:
-      fail("render", "mode has no value raster (expected slope|aspect|tri|tpi|roughness)");
+      fail("render", "mode has no value raster (expected slope|aspect|tri|tpi|roughness|profile-curvature|tangential-curvature)");
   }
 }
 
@@ -49,7 +54,7 @@ double terrain_value(const double* v, const Options& o, const detail::ShadeParam
 
 Heightfield values(const Heightfield& h, const Options& opt) {
   check_options(h, opt);
-  if (!is_value_mode(opt.mode)) fail("render", "mode has no value raster (expected slope|aspect|tri|tpi|roughness)");
+  if (!is_value_mode(opt.mode)) fail("render", "mode has no value raster (expected slope|aspect|tri|tpi|roughness|profile-curvature|tangential-curvature)");
   Heightfield out = value_raster_like(h, opt);
   const detail::ShadeParams p(h, opt);
   double w[9];
@@ -83,6 +88,10 @@ Heightfield value_raster_like(const Heightfield& h, const Options& opt) {
       break;
     case Mode::TPI:
       what = "TPI";
+      break;
+    case Mode::ProfileCurvature:
+    case Mode::TangentialCurvature:
+      unit = "1/m", what = opt.mode == Mode::ProfileCurvature ? "profile curvature" : "tangential curvature";
       break;
     default:
       what = "roughness";

@@ -1,9 +1,10 @@
 #!/bin/bash
 # SPDX-License-Identifier: Apache-2.0
-# Remake the D8 / watershed anchor fixtures from data/crops/presidential_utm30_192.tif.
+# Remake the anchor fixtures of data/anchors/ (D8 pointers, watersheds, curvatures by SAGA and GRASS)
+# from data/crops/presidential_utm30_192.tif.
 # Needs saga_cmd (SAGA 8.5.0), grass (GRASS GIS 8.2.1), GDAL command-line tools (gdal_calc.py,
 # gdal_translate) and /usr/bin/python3 with numpy + rasterio (data/anchors/README.md).
-# Usage: scripts/make-hydrology-anchors.sh REPO_ROOT OUT_DIR   (e.g. . data/anchors)
+# Usage: scripts/make-anchors.sh REPO_ROOT OUT_DIR   (e.g. . data/anchors)
 set -euo pipefail
 REPO=$(realpath "$1"); OUT=$(realpath -m "$2"); mkdir -p "$OUT"
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT; cd "$W"
@@ -45,7 +46,21 @@ r.water.outlet input=ws_dir output=m3 coordinates=314053.586,4910772.008 --quiet
 r.mapcalc "main = if(isnull(m1), 0, 1) + if(isnull(m2), 0, 2) + if(isnull(m3), 0, 3)" --quiet
 r.out.gdal -c -m -f input=main output=grass_basins_main.tif format=GTiff type=Byte createopt=COMPRESS=DEFLATE --quiet
 GEOF
+# --- 3b. GRASS r.slope.aspect profile and tangential curvature of the 64 x 64 window at column 64,
+#         row 64 (its border is null: the 3 x 3 window leaves the crop there)
+gdal_translate -q -srcwin 64 64 64 64 dem.tif win.tif
+cat >> grass_job.sh <<'GEOF'
+r.in.gdal -o input=win.tif output=win --quiet
+g.region raster=win
+r.slope.aspect elevation=win pcurvature=pc tcurvature=tc precision=DCELL --quiet
+r.out.gdal -c -m -f input=pc output=grass_pcurvature_64.tif format=GTiff type=Float32 createopt=COMPRESS=DEFLATE --quiet
+r.out.gdal -c -m -f input=tc output=grass_tcurvature_64.tif format=GTiff type=Float32 createopt=COMPRESS=DEFLATE --quiet
+GEOF
 grass --tmp-location EPSG:32619 --exec bash grass_job.sh
+WULLR=$(/usr/bin/python3 -c "import rasterio; b=rasterio.open('win.tif').bounds; print('%r %r %r %r' % (b.left, b.top, b.right, b.bottom))")
+for k in pcurvature tcurvature; do
+  gdal_translate -q -co COMPRESS=DEFLATE -a_srs EPSG:32619 -a_ullr $WULLR grass_${k}_64.tif "$OUT/grass_${k}_64.tif"
+done
 gdal_translate -q $CO -a_ullr $ULLR grass_filldir_drainage.tif "$OUT/grass_filldir_drainage.tif"
 gdal_translate -q $CO -a_ullr $ULLR grass_basins_main.tif "$OUT/grass_basins_main.tif"
 
