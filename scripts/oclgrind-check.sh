@@ -99,7 +99,7 @@ run render_perspective render "$OUT/c45.tif" -o "$OUT/persp.png" --mode perspect
 # shadows on the water; the case above draws the natural material.
 run render_perspective_water render "$OUT/c45.tif" -o "$OUT/perspw.png" --mode perspective --size 48x30 \
   --water-level 400 --ramp hypsometric --azimuth 160
-for m in aspect tri tpi roughness; do
+for m in aspect tri tpi roughness profile-curvature tangential-curvature; do
   run "render_$m" render "$OUT/c45.tif" -o "$OUT/$m.tif" --mode "$m" --compute-edges
 done
 # The wide launch shape (GPUs: one work-item per cell in 2D groups, kernels/launch.clh) on the cell
