@@ -261,36 +261,46 @@ TEST(GdalConventions, CliWritesAnyGdalFormatWithGdalSpellings) {
   EXPECT_EQ(r.exit_code, 0) << r.out;
 }
 
-TEST(GdalConventions, Png16HasGdalAuxMetadataInMetres) {
-  test::TempDir dir;
-  Heightfield h = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
-  h.z[5] = NAN;
-  write_heightfield(h, dir.path("h.png"));
-  ASSERT_TRUE(std::filesystem::exists(dir.path("h.png.aux.xml")));
-  // GDAL (QGIS, rasterio) reads the PNG's georeferencing and its codes as metres.
-  Dataset ds(static_cast<GDALDataset*>(GDALOpen(dir.path("h.png").c_str(), GA_ReadOnly)));
-  ASSERT_TRUE(ds);
-  double gt[6];
-  ASSERT_EQ(ds->GetGeoTransform(gt), CE_None);
-  for (int i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(gt[i], h.georef.geotransform[i]) << i;
-  ASSERT_TRUE(ds->GetSpatialRef());
-  EXPECT_TRUE(ds->GetSpatialRef()->IsGeographic());
-  GDALRasterBand* b = ds->GetRasterBand(1);
-  int has_nd = 0;
-  EXPECT_EQ(b->GetNoDataValue(&has_nd), 0.0);
-  EXPECT_TRUE(has_nd);
-  std::vector<double> codes(h.size());
-  ASSERT_EQ(b->RasterIO(GF_Read, 0, 0, h.width, h.height, codes.data(), h.width, h.height, GDT_Float64, 0, 0), CE_None);
-  const double step = b->GetScale();
-  EXPECT_GT(step, 0.0);
-  for (size_t i = 0; i < h.size(); ++i) {
-    if (std::isnan(h.z[i])) {
-      EXPECT_EQ(codes[i], 0.0);
-      continue;
+// A 16-bit PNG carries <file>.png.aux.xml, a RAW16 heightmap <file>.r16.hdr (ENVI): GDAL opens
+// both georeferenced, with the codes as metres through the band's scale and offset.
+TEST(GdalConventions, Png16AndRaw16HaveGdalMetadataInMetres) {
+  for (const char* name : {"h.png", "h.r16"}) {
+    SCOPED_TRACE(name);
+    test::TempDir dir;
+    Heightfield h = read_heightfield(test::data_path("crops/presidential_128x96.tif"));
+    h.z[5] = NAN;
+    write_heightfield(h, dir.path(name));
+    const bool png = std::string(name) == "h.png";
+    ASSERT_TRUE(std::filesystem::exists(dir.path(name) + (png ? ".aux.xml" : ".hdr")));
+    // GDAL (QGIS, rasterio) reads the image's georeferencing and its codes as metres.
+    Dataset ds(static_cast<GDALDataset*>(GDALOpen(dir.path(name).c_str(), GA_ReadOnly)));
+    ASSERT_TRUE(ds);
+    EXPECT_EQ(ds->GetRasterXSize(), h.width);
+    EXPECT_EQ(ds->GetRasterYSize(), h.height);
+    double gt[6];
+    ASSERT_EQ(ds->GetGeoTransform(gt), CE_None);
+    for (int i = 0; i < 6; ++i) EXPECT_NEAR(gt[i], h.georef.geotransform[i], 1e-12 * std::fabs(gt[i]) + 1e-15) << i;
+    ASSERT_TRUE(ds->GetSpatialRef());
+    EXPECT_TRUE(ds->GetSpatialRef()->IsGeographic());
+    GDALRasterBand* b = ds->GetRasterBand(1);
+    EXPECT_EQ(b->GetRasterDataType(), GDT_UInt16);
+    int has_nd = 0;
+    EXPECT_EQ(b->GetNoDataValue(&has_nd), 0.0);
+    EXPECT_TRUE(has_nd);
+    std::vector<double> codes(h.size());
+    ASSERT_EQ(b->RasterIO(GF_Read, 0, 0, h.width, h.height, codes.data(), h.width, h.height, GDT_Float64, 0, 0), CE_None);
+    const double step = b->GetScale();
+    EXPECT_GT(step, 0.0);
+    for (size_t i = 0; i < h.size(); ++i) {
+      if (std::isnan(h.z[i])) {
+        EXPECT_EQ(codes[i], 0.0);
+        continue;
+      }
+      ASSERT_NEAR(codes[i] * step + b->GetOffset(), h.z[i], 0.51 * step) << i;
     }
-    ASSERT_NEAR(codes[i] * step + b->GetOffset(), h.z[i], 0.51 * step) << i;
+    // terracl's own reader (with the JSON sidecar) is unchanged by GDAL's file beside it.
+    const Heightfield back = read_heightfield(dir.path(name));
+    EXPECT_TRUE(std::isnan(back.z[5]));
+    EXPECT_EQ(back.width, h.width);
   }
-  // terracl's own reader (OIIO + the JSON sidecar) is unchanged by the .aux.xml beside it.
-  const Heightfield back = read_heightfield(dir.path("h.png"));
-  EXPECT_TRUE(std::isnan(back.z[5]));
 }

@@ -160,9 +160,13 @@ namespace {
 // the earlier pair as it was; one between the two renames leaves a new image beside the old
 // sidecar, which the reader refuses (check_sidecar_size) rather than decoding it with the wrong
 // range (the sidecar used to be renamed first, so a failed image rename did exactly that).
+// `gdal_view`: what GDAL reads the image through, as {suffix, content} (a 16-bit PNG's .aux.xml, a
+// RAW16's ENVI .hdr), written as path + suffix; none when the content is empty.
 template <typename F>
-void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_image, const std::string& aux_xml = {}) {
-  const std::string sc_path = io::sidecar_path(path), aux_path = path + ".aux.xml";
+void write_with_sidecar(const std::string& path, nlohmann::json sc, F&& write_image,
+                        const std::pair<std::string, std::string>& gdal_view = {}) {
+  const std::string& aux_xml = gdal_view.second;
+  const std::string sc_path = io::sidecar_path(path), aux_path = path + gdal_view.first;
   const std::string tmp = temporary_path_for(path), sc_tmp = temporary_path_for(sc_path);
   const std::string aux_tmp = aux_xml.empty() ? std::string() : temporary_path_for(aux_path);
   auto discard_companions = [&] {
@@ -231,6 +235,33 @@ std::string png_aux_xml(const Heightfield& h, const io::Quantiser& q) {
   x += "    <UnitType>" + xml_escape(g.vertical_units) + "</UnitType>\n";
   x += fmt::format("    <Offset>{:.17g}</Offset>\n    <Scale>{:.17g}</Scale>\n", offset, scale);
   x += "  </PAMRasterBand>\n</PAMDataset>\n";
+  return x;
+}
+
+// An ENVI header for a RAW16 file (GDAL's ENVI driver opens `x.r16` through `x.r16.hdr`): its
+// size, little-endian uint16 cells, the geotransform (the local metric grid when the raster has
+// none), CRS, and the code -> metres mapping as band gain/offset (code 0 ignored when it is
+// nodata), so GDAL, QGIS and rasterio read a headerless heightmap in metres, georeferenced.
+std::string raw16_envi_header(const Heightfield& h, const io::Quantiser& q) {
+  const Georef& g = h.georef;
+  std::array<double, 6> gt = {0.0, g.cell_x, 0.0, g.cell_y * h.height, 0.0, -g.cell_y};
+  if (g.has_geotransform) gt = g.geotransform;
+  const double lo = q.reserve_nodata ? 1.0 : 0.0;
+  const double scale = (q.zmax - q.zmin) / (q.max_code - lo), offset = q.zmin - lo * scale;
+  std::string x = "ENVI\ndescription = {terracl RAW16 heightmap (little-endian uint16)}\n";
+  x += fmt::format("samples = {}\nlines = {}\nbands = 1\nheader offset = 0\nfile type = ENVI Standard\n", h.width,
+                   h.height);
+  x += "data type = 12\ninterleave = bsq\nbyte order = 0\n";
+  if (gt[2] == 0.0 && gt[4] == 0.0)  // ENVI's map info has no rotation terms
+    x += fmt::format("map info = {{Arbitrary, 1, 1, {:.17g}, {:.17g}, {:.17g}, {:.17g}}}\n", gt[0], gt[3], gt[1], -gt[5]);
+  if (!g.crs_wkt.empty()) {
+    std::string wkt = g.crs_wkt;
+    std::replace(wkt.begin(), wkt.end(), '\n', ' ');
+    x += "coordinate system string = {" + wkt + "}\n";
+  }
+  x += fmt::format("data gain values = {{{:.17g}}}\ndata offset values = {{{:.17g}}}\n", scale, offset);
+  if (q.reserve_nodata) x += fmt::format("data ignore value = {}\n", io::kNodataCode);
+  x += "band names = {elevation (" + g.vertical_units + ")}\n";
   return x;
 }
 
@@ -347,7 +378,8 @@ void write_heightfield(const Heightfield& h, const std::string& path, const Writ
         else
           io::write_raw16(h, tmp, zmin, zmax);
       },
-      f == FileFormat::PNG ? png_aux_xml(h, q) : std::string());
+      f == FileFormat::PNG ? std::pair<std::string, std::string>{".aux.xml", png_aux_xml(h, q)}
+                           : std::pair<std::string, std::string>{".hdr", raw16_envi_header(h, q)});
 }
 
 }  // namespace terracl
