@@ -244,6 +244,34 @@ TEST_P(OutputFaultsFormat, InjectedWriteAndRenameErrorsLeaveRightOrAbsentOutputs
 INSTANTIATE_TEST_SUITE_P(OutputFaults, OutputFaultsFormat, ::testing::Values("tif", "png", "exr", "npy", "r16"),
                          [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
 
+// A GDAL format of several files (.asc + .prj + .asc.aux.xml): a full disk on any of its writes
+// gives the whole set or nothing. AAIGrid does not check its .prj's write, nor GDAL its .aux.xml's:
+// an output without its CRS used to be kept, and the empty temporary .prj left beside it.
+TEST(OutputFaults, AMultiFileGdalOutputIsWholeOrAbsentOnAFullDisk) {
+  ASSERT_TRUE(strace_works()) << "strace is missing or ptrace is forbidden (strace -f true failed)";
+  test::TempDir dir;
+  const std::string in = test::data_path("crops/frontrange_64.asc"), out = dir.path("o.asc");
+  int failed = 0, written = 0;
+  for (int n = 1; n <= 10; ++n) {
+    for (const char* f : {"o.asc", "o.prj", "o.asc.aux.xml"}) fs::remove(dir.path(f));
+    const auto r = run_with_fault("write:error=ENOSPC:when=" + std::to_string(n), "convert " + q(in) + " " + q(out));
+    EXPECT_FALSE(has_temporary(dir.dir())) << "write " << n;
+    if (r.exit_code == 0) {
+      ++written;
+      for (const char* f : {"o.asc", "o.prj", "o.asc.aux.xml"})
+        EXPECT_GT(fs::file_size(dir.path(f)), 0u) << f << ", write " << n;
+      EXPECT_FALSE(read_heightfield(out).georef.crs_wkt.empty()) << "write " << n;
+    } else {
+      ++failed;
+      EXPECT_EQ(r.exit_code, 1) << r.out;
+      EXPECT_NE(r.out.find(out), std::string::npos) << "write " << n << ": names the output\n" << r.out;
+      for (const char* f : {"o.asc", "o.prj", "o.asc.aux.xml"}) EXPECT_FALSE(fs::exists(dir.path(f))) << f << ", write " << n;
+    }
+  }
+  EXPECT_GE(failed, 8) << "the .asc's, the .prj's and the .aux.xml's writes each fail the output";
+  EXPECT_GE(written, 1) << "writes after the output's own are not the output's";
+}
+
 // The other writers on a full disk: a rendered picture, meshes, a metrics report.
 TEST(OutputFaults, InjectedWriteErrorsFailTheOtherWriters) {
   // scripts/install-deps.sh installs strace: a machine that runs the suite can inject faults.

@@ -274,11 +274,42 @@ void write_gdal_files(const Heightfield& h, const std::string& path, const std::
   try {
     files = io::write_gdal_copy(h, tmp, driver, opts);
   } catch (...) {
+    // GDAL's file list is only known after a successful write, so the companions it may have
+    // written before failing (dem.prj beside dem.asc) are found by the temporary's unique stem.
+    const fs::path tp(tmp);
+    const std::string family = tp.stem().string() + ".";
+    std::error_code ec;
+    for (fs::directory_iterator it(tp.parent_path().empty() ? fs::path(".") : tp.parent_path(), ec), end; !ec && it != end;
+         it.increment(ec))
+      if (it->path().filename().string().rfind(family, 0) == 0) fs::remove(it->path(), ec);
     discard_temporary(tmp);
     throw;
   }
   const fs::path tp(tmp), pp(path);
   const std::string tmp_stem = (tp.parent_path() / tp.stem()).string(), stem = (pp.parent_path() / pp.stem()).string();
+  // Every file of the temporary's family moves, listed by GDAL or not (a driver may leave out a
+  // companion it wrote).
+  {
+    std::error_code ec;
+    const std::string family = tp.stem().string() + ".";
+    for (fs::directory_iterator it(tp.parent_path().empty() ? fs::path(".") : tp.parent_path(), ec), end;
+         !ec && it != end; it.increment(ec)) {
+      const std::string f = (tp.parent_path() / it->path().filename()).string();
+      if (it->path().filename().string().rfind(family, 0) == 0 && std::find(files.begin(), files.end(), f) == files.end())
+        files.push_back(f);
+    }
+  }
+  // Not every driver checks the writes of its companions (AAIGrid's .prj, the .aux.xml GDAL adds):
+  // on a full disk one comes out empty and the output silently loses its CRS or unit.
+  for (const std::string& file : files) {
+    std::error_code ec;
+    if (fs::path(file) != tp && fs::exists(file, ec) && fs::file_size(file, ec) == 0 && !ec) {
+      for (const std::string& other : files) fs::remove(other, ec);
+      discard_temporary(tmp);
+      fail("io", "writing {} as {} failed: its companion {} came out empty (disk full?)", path, driver,
+           fs::path(stem + file.substr(std::min(file.size(), tmp_stem.size()))).filename().string());
+    }
+  }
   for (const std::string& file : files) {
     if (fs::path(file) == tp) continue;
     std::string target;
