@@ -410,6 +410,7 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   const char* driver = wo.cog ? "COG" : "GTiff";
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName(driver);
   if (!drv) fail("io", "GDAL has no {} driver", driver);
+  DatasetPtr mem = to_mem_dataset(h, type, true);  // before the option list: it may throw
   char** opts = nullptr;
   opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
   opts = CSLSetNameValue(opts, "PREDICTOR", GDALDataTypeIsInteger(type) ? "2" : "3");
@@ -421,7 +422,6 @@ void write_geotiff(const Heightfield& h, const std::string& tmp_path, const Writ
   // 8193^2 slope write was single-threaded compression.
   opts = CSLSetNameValue(opts, "NUM_THREADS", "ALL_CPUS");
   opts = add_creation_options(opts, *drv, driver, wo);
-  DatasetPtr mem = to_mem_dataset(h, type, true);
   GdalFirstError first;
   auto gdal_error = [&] { return name_output(first.message(), tmp_path); };
   CPLErrorReset();
@@ -513,8 +513,8 @@ std::vector<std::string> write_gdal_copy(const Heightfield& h, const std::string
   GDALDriver* drv = GetGDALDriverManager()->GetDriverByName(driver.c_str());
   if (!drv) fail("io", "GDAL has no {} driver", driver);
   const GDALDataType type = output_band_type(wo);
+  DatasetPtr mem = to_mem_dataset(h, type, true);  // before the option list: it may throw
   char** opts = add_creation_options(nullptr, *drv, driver, wo);
-  DatasetPtr mem = to_mem_dataset(h, type, true);
   GdalFirstError first;
   CPLErrorReset();
   GDALDataset* out = drv->CreateCopy(tmp_path.c_str(), mem.get(), FALSE, opts, nullptr, nullptr);
