@@ -24,7 +24,8 @@ class Session {
       if (auto flat = parse_flat_spec(spec)) {
         m_base = std::move(*flat);
       } else {
-        if (!std::filesystem::exists(spec)) throw UsageError("session", fmt::format("base terrain '{}' not found", spec));
+        if (!std::filesystem::exists(spec))
+          throw MissingFileError("session", fmt::format("base terrain '{}' not found", spec), spec);
         py::gil_scoped_release release;
         m_base = read_heightfield(spec);
       }

@@ -53,6 +53,8 @@ json resolve(const StageInfo& s, const json& options) {
     return resolve_options(s, options, s.name);
   } catch (const UsageError&) {
     throw;
+  } catch (const MissingFileError&) {
+    throw;  // a FileNotFoundError in Python
   } catch (const Error& e) {
     throw UsageError(s.name, std::string(e.what()).substr(e.stage().size() + 2));
   }

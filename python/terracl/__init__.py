@@ -27,6 +27,7 @@ from ._terracl import (  # noqa: F401
     GradientField,
     Georef,
     Heightfield,
+    MissingFileError,
     Session,
     UsageError,
     __version__,
@@ -130,7 +131,8 @@ def _input(value, what, cell_size=None, transform=None, crs=None, nodata=None):
 _STAGES = _terracl._stage_table()
 
 __all__ = [
-    "Cancelled", "DeviceInfo", "Error", "GradientField", "Georef", "Heightfield", "Session", "UsageError",
+    "Cancelled", "DeviceInfo", "Error", "GradientField", "Georef", "Heightfield", "MissingFileError", "Session",
+    "UsageError",
     "device", "devices", "select_device", "stages", "stage", "read", "write", "edit", "render",
     "run_pipeline", "fill", "flow",
 ]

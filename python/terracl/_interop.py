@@ -9,6 +9,7 @@ refused with a ValueError naming `cell_size`; masked cells and cells equal to `n
 when an input is one of theirs or a result is asked for in their types.
 """
 
+import errno
 import math
 import os
 import warnings
@@ -484,6 +485,9 @@ def from_rasterio(source, band=1):
     """A Heightfield from a rasterio dataset or a file name rasterio opens."""
     if isinstance(source, (str, os.PathLike)):
         import rasterio
+        path = os.fspath(source)
+        if "://" not in path and not path.startswith("/vsi") and not os.path.exists(path):
+            raise FileNotFoundError(errno.ENOENT, "from_rasterio: no such file", path)
         with rasterio.open(source) as src:
             return as_heightfield(src, band=band, what="from_rasterio")
     if not _is_rasterio_dataset(source):

@@ -176,3 +176,17 @@ def test_ctrl_c_stops_a_long_stage(dem):
         terracl.erode(dem, steps=200000)
     timer.join()
     assert time.perf_counter() - t0 < 60
+
+
+def test_a_missing_input_is_a_file_not_found_error(tmp_path):
+    missing = str(tmp_path / "nope.tif")
+    for call in (lambda: terracl.read(missing),
+                 lambda: terracl.run_pipeline([missing, str(tmp_path / "o.tif")]),
+                 lambda: terracl.Heightfield.from_rasterio(missing)):
+        with pytest.raises(FileNotFoundError) as info:
+            call()
+        assert info.value.filename == missing
+        assert "nope.tif" in str(info.value)
+    with pytest.raises(terracl.MissingFileError):
+        terracl.read(missing)
+    assert issubclass(terracl.MissingFileError, terracl.Error)

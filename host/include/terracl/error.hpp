@@ -26,6 +26,30 @@ class UsageError : public Error {
   using Error::Error;
 };
 
+/// Thrown when an input file does not exist (Python: terracl.MissingFileError, a FileNotFoundError
+/// with .filename); the CLI exits with 1, as for other errors.
+class MissingFileError : public Error {
+ public:
+  MissingFileError(const std::string& stage, const std::string& message, const std::string& path)
+      : Error(stage, message), m_path(path) {}
+  const std::string& path() const { return m_path; }
+
+ private:
+  std::string m_path;
+};
+
+/// A pipeline naming an input file that does not exist: invalid like any bad pipeline (the CLI
+/// exits with 2), and a missing file all the same (Python: terracl.MissingFileError).
+class MissingInputError : public UsageError {
+ public:
+  MissingInputError(const std::string& stage, const std::string& message, const std::string& path)
+      : UsageError(stage, message), m_path(path) {}
+  const std::string& path() const { return m_path; }
+
+ private:
+  std::string m_path;
+};
+
 /// Thrown when a progress callback asked to stop (the CLI exits with 130, the Ctrl-C convention).
 class Cancelled : public Error {
  public:

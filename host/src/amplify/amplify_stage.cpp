@@ -105,7 +105,7 @@ void run_amplify(StageContext& c) {
     std::vector<Heightfield> ex;
     std::vector<std::string> notes;
     for (const auto& f : split_list(c.get<std::string>("exemplar"))) {
-      if (!path_exists(f)) throw UsageError("amplify", fmt::format("--exemplar: file {} does not exist", f));
+      if (!path_exists(f)) throw MissingFileError("amplify", fmt::format("--exemplar: file {} does not exist", f), f);
       ex.push_back(read_heightfield(f, filled()));
       if (c.get<bool>("resample_exemplar")) {
         // To the output's cell size (the finest step's); coarser steps average it further.

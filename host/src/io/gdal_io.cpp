@@ -293,7 +293,9 @@ Heightfield read_gdal(const std::string& path) {
   if (!ds) {
     VSIStatBufL st;
     if (is_virtual_path(path) && VSIStatL(path.c_str(), &st) != 0)
-      fail("io", "{}: no such file in GDAL's virtual file system (gdalinfo {} would say the same)", path, path);
+      throw MissingFileError(
+          "io", fmt::format("{}: no such file in GDAL's virtual file system (gdalinfo {} would say the same)", path, path),
+          path);
     fail("io", "{}: not a raster GDAL can read ({})", path, last_gdal_error());
   }
   if (ds->GetRasterXSize() > 0 && ds->GetRasterYSize() > 0)

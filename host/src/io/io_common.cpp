@@ -122,7 +122,7 @@ void check_exr_header(const std::string& path) {
 void require_readable(const std::string& path) {
   if (is_virtual_path(path)) return;  // GDAL's open says what is wrong
   std::error_code ec;
-  if (!fs::exists(path, ec)) fail("io", "{}: no such file", path);
+  if (!fs::exists(path, ec)) throw MissingFileError("io", fmt::format("{}: no such file", path), path);
   if (fs::is_directory(path, ec)) fail("io", "{}: is a folder, expected a raster file", path);
   if (fs::file_size(path, ec) == 0) fail("io", "{}: file is empty", path);
   if (::access(path.c_str(), R_OK) != 0) fail("io", "{}: not readable ({})", path, std::strerror(errno));

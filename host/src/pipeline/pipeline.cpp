@@ -210,6 +210,9 @@ void Pipeline::validate() {
       st.options = resolve_options(info, st.options, st.where, pending);
     } catch (const UsageError&) {
       throw;
+    } catch (const MissingFileError& e) {  // invalid, and still a missing file (Python: FileNotFoundError)
+      throw MissingInputError("pipeline", m_source.empty() ? bare_message(e) : m_source + ": " + bare_message(e),
+                              e.path());
     } catch (const Error& e) {
       error(bare_message(e));
     }

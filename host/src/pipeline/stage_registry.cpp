@@ -218,7 +218,7 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
         const bool pending = std::find(pending_outputs.begin(), pending_outputs.end(), p) != pending_outputs.end();
         std::error_code ec;
         if (p.rfind("flat:", 0) != 0 && !pending && !is_virtual_path(p) && !std::filesystem::exists(p, ec))
-          fail("pipeline", "{}: input file {} does not exist", path, p);
+          throw MissingFileError("pipeline", fmt::format("{}: input file {} does not exist", path, p), p);
         break;
       }
       case OptionType::OutputPath:
