@@ -215,16 +215,29 @@ std::string xml_escape(const std::string& s) {
   return out;
 }
 
+// What GDAL is told about a 16-bit image: its geotransform (the local metric grid when the raster
+// has none) and the code -> metres mapping (code 0 is nodata when the raster has nodata).
+struct CodesView {
+  std::array<double, 6> gt;
+  double scale, offset;
+};
+CodesView gdal_view_of_codes(const Heightfield& h, const io::Quantiser& q) {
+  const Georef& g = h.georef;
+  CodesView v{{0.0, g.cell_x, 0.0, g.cell_y * h.height, 0.0, -g.cell_y}, 0.0, 0.0};
+  if (g.has_geotransform) v.gt = g.geotransform;
+  const double lo = q.reserve_nodata ? 1.0 : 0.0;
+  v.scale = (q.zmax - q.zmin) / (q.max_code - lo);
+  v.offset = q.zmin - lo * v.scale;
+  return v;
+}
+
 // GDAL's auxiliary metadata (PAM) for a 16-bit PNG: its geotransform (the local metric grid when
 // the raster has none), CRS, and the code -> metres mapping as band scale/offset with code 0 as
 // nodata, so that GDAL, QGIS and rasterio read the PNG in metres where terracl's JSON sidecar is
 // invisible to them.
 std::string png_aux_xml(const Heightfield& h, const io::Quantiser& q) {
   const Georef& g = h.georef;
-  std::array<double, 6> gt = {0.0, g.cell_x, 0.0, g.cell_y * h.height, 0.0, -g.cell_y};
-  if (g.has_geotransform) gt = g.geotransform;
-  const double lo = q.reserve_nodata ? 1.0 : 0.0;
-  const double scale = (q.zmax - q.zmin) / (q.max_code - lo), offset = q.zmin - lo * scale;
+  const auto [gt, scale, offset] = gdal_view_of_codes(h, q);
   std::string x = "<PAMDataset>\n";
   if (!g.crs_wkt.empty()) x += "  <SRS dataAxisToSRSAxisMapping=\"" + std::string(g.geographic ? "2,1" : "1,2") + "\">" +
                                xml_escape(g.crs_wkt) + "</SRS>\n";
@@ -244,10 +257,7 @@ std::string png_aux_xml(const Heightfield& h, const io::Quantiser& q) {
 // nodata), so GDAL, QGIS and rasterio read a headerless heightmap in metres, georeferenced.
 std::string raw16_envi_header(const Heightfield& h, const io::Quantiser& q) {
   const Georef& g = h.georef;
-  std::array<double, 6> gt = {0.0, g.cell_x, 0.0, g.cell_y * h.height, 0.0, -g.cell_y};
-  if (g.has_geotransform) gt = g.geotransform;
-  const double lo = q.reserve_nodata ? 1.0 : 0.0;
-  const double scale = (q.zmax - q.zmin) / (q.max_code - lo), offset = q.zmin - lo * scale;
+  const auto [gt, scale, offset] = gdal_view_of_codes(h, q);
   std::string x = "ENVI\ndescription = {terracl RAW16 heightmap (little-endian uint16)}\n";
   x += fmt::format("samples = {}\nlines = {}\nbands = 1\nheader offset = 0\nfile type = ENVI Standard\n", h.width,
                    h.height);
