@@ -8,6 +8,7 @@
 #include <future>
 #include <map>
 #include <terracl/analysis.hpp>
+#include <terracl/distributed.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
 #include <terracl/stage.hpp>
@@ -90,6 +91,21 @@ void add_command(CLI::App& app, const std::string& name, const std::string& outp
     if (a->tile.tiled()) {
       TileFlags::refuse_untiled_flag(name, a->fill_nodata || a->in.zmin || a->in.zmax || a->in.cell_size,
                                      "--fill-nodata, --zmin, --zmax, --cell-size");
+      // A render that streams already holds a few strips, never the raster: --tile (or
+      // --memory-budget) just streams, which tiles only slowed (docs/scale.md). Under mpirun rank 0
+      // writes it and the others have nothing to do. --resume keeps the tiled run and its journal.
+      StageData none;
+      StageContext ctx{none, resolved, []() -> Device& { return device(); }, make_progress(s.name), s.name,
+                       provenance()};
+      if (name == "render" && !a->tile.resume && render_streams(a->input, ctx)) {
+        (void)a->tile.options(name);  // its values are still checked
+        if (distributed::rank() == 0) {
+          if (!globals().quiet) fmt::print(stderr, "render: streams strip by strip; --tile is not needed (docs/scale.md)\n");
+          run_render_streamed(a->input, ctx);
+          finish_progress();
+        }
+        return;
+      }
       a->tile.run_stage(name, a->input, name, resolved, "");
       return;
     }

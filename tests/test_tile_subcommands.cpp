@@ -59,12 +59,18 @@ TEST(TileSubcommands, EqualTheUntiledCommands) {
   EXPECT_EQ(differing_cells(u + "d.tif", t + "d.tif"), 0u);
   expect_ok(test::run_cli("-q convert " + in + " " + t + "conv.tif --tile 64 --memory-budget 64M"));
   EXPECT_EQ(differing_cells(in, t + "conv.tif"), 0u);
-  // render writes its own file (-o is its --file).
+  // render writes its own file (-o is its --file). A render that streams just streams under --tile
+  // (to a .png too, which a tiled run cannot write).
   expect_ok(test::run_cli("-q render " + in + " -o " + u + "r.tif --mode shaded-relief"));
-  expect_ok(test::run_cli("-q render " + in + " -o " + t + "r.tif --mode shaded-relief --tile 33"));
-  const auto a = picture(u + "r.tif"), b = picture(t + "r.tif");
+  const auto streamed = test::run_cli("render " + in + " -o " + t + "r.tif --mode shaded-relief --tile 33");
+  expect_ok(streamed);
+  EXPECT_NE(streamed.out.find("streams strip by strip; --tile is not needed"), std::string::npos) << streamed.out;
+  const auto a = picture(u + "r.tif");
   ASSERT_FALSE(a.empty());
-  EXPECT_TRUE(a == b);
+  EXPECT_TRUE(a == picture(t + "r.tif"));
+  expect_ok(test::run_cli("-q render " + in + " -o " + u + "r.png"));
+  expect_ok(test::run_cli("-q render " + in + " -o " + t + "r.png --tile 33"));
+  EXPECT_TRUE(picture(u + "r.png") == picture(t + "r.png"));
   // erode: a halo of one cell per sub-step (not bit for bit; close).
   expect_ok(test::run_cli("-q erode " + in + " -o " + u + "e.tif --steps 8"));
   expect_ok(test::run_cli("-q erode " + in + " -o " + t + "e.tif --steps 8 --tile 48 --halo 2"));
@@ -80,7 +86,7 @@ TEST(TileSubcommands, RefuseWhatATiledRunCannotDo) {
     std::string args, expect;
   };
   for (const Case& c :
-       {Case{"render " + in + " -o " + dir.path("a.png") + " --tile 32", "use a .tif name"},
+       {Case{"render " + in + " -o " + dir.path("a.png") + " --tile 32 --resume", "use a .tif name"},
         Case{"downsample " + in + " -o " + dir.path("a.tif") + " --factor 2 --tile 32 --cog", "--cog"},
         Case{"erode " + in + " -o " + dir.path("a.tif") + " --halo 3", "--halo needs --tile"},
         Case{"convert " + in + " " + dir.path("a.tif") + " --tile 32 --zmin 3", "--zmin"},

@@ -129,6 +129,8 @@ std::string stages_markdown(const std::vector<std::string>& commands = {});
 /// the picture strip by strip with `c`'s render options (c.data is not used) and returns true;
 /// otherwise returns false and the caller reads IN and runs the stage.
 bool run_render_streamed(const std::string& input, StageContext& c);
+/// Whether run_render_streamed would stream this render (it holds a few strips, never the raster).
+bool render_streams(const std::string& input, const StageContext& c);
 
 /// Benchmarks for `terracl bench <name>`: print their figures on stdout.
 struct BenchArgs {

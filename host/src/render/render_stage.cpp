@@ -103,6 +103,10 @@ void run_render(StageContext& c) {
 
 }  // namespace
 
+bool render_streams(const std::string& input, const StageContext& c) {
+  return render::can_stream_render(input, c.get<std::string>("file"), render_stage_options(c));
+}
+
 bool run_render_streamed(const std::string& input, StageContext& c) {
   const render::Options o = render_stage_options(c);
   const std::string file = c.get<std::string>("file");
