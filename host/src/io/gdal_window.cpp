@@ -189,8 +189,8 @@ GeoTiffWindowWriter::GeoTiffWindowWriter(const std::string& path, int width, int
   for (int b = 1; b <= m_bands; ++b) {
     GDALRasterBand* band = m_ds->GetRasterBand(b);
     if (m_nodata) band->SetNoDataValue(*m_nodata);
-    const auto unit = written_vertical_unit(g, metadata);
-    band->SetUnitType(unit ? unit->name.c_str() : g.vertical_units.c_str());
+    band->SetUnitType(m_metres_per_unit != 1.0 ? metadata.at("terracl:source_vertical_units").c_str()
+                                                : g.vertical_units.c_str());
     if (m_bands == 2) band->SetDescription(b == 1 ? "gx" : "gy");  // what read_gradient looks for
   }
   // The same items as write_geotiff, so a tiled output reads back like an untiled one.

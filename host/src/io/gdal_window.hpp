@@ -58,6 +58,9 @@ constexpr int kDeflateLevel = 1;
 /// driver compresses it through libtiff (floating-point predictor + DEFLATE at kDeflateLevel): the bytes TIFFReadRawTile returns from GDAL's file (test: GeoTiffRaw*).
 std::vector<uint8_t> encode_float_block(const float* cells);
 
+/// GeoTiffWindowWriter::metres_per_unit() of a writer made with this georef and metadata.
+double written_metres_per_unit(const Georef& georef, const Metadata& metadata);
+
 /// A float32 GeoTIFF (tiled, DEFLATE + floating-point predictor, BigTIFF when it may pass 4 GB)
 /// written window by window under a temporary name; finish() closes it, commit() renames it.
 /// GDAL creates the file (georef, nodata, metadata), libtiff appends the blocks compressed by
@@ -65,9 +68,6 @@ std::vector<uint8_t> encode_float_block(const float* cells);
 /// window compresses it and rank 0 only appends (put()); the file does not depend on who encoded.
 /// Blocks that a window covers only in part wait in memory for their other cells (rank 0
 /// compresses those). A resumable writer (`partial`) writes through GDAL as before.
-/// GeoTiffWindowWriter::metres_per_unit() of a writer made with this georef and metadata.
-double written_metres_per_unit(const Georef& georef, const Metadata& metadata);
-
 class GeoTiffWindowWriter {
  public:
   /// `georef` and `metadata` are the whole raster's (as write_geotiff would store them).
