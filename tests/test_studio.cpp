@@ -179,6 +179,25 @@ TEST(StudioApi, BadInputIsRejectedWithItsPathAndTheSessionIsUnharmed) {
 }
 
 // An operation whose support is smaller than a cell is accepted with a warning the page shows.
+TEST(StudioApi, ResponsesAreNotCompressedForABrowserThatAcceptsIt) {
+  // A browser accepts brotli; compressing a state or a script at brotli's top quality costs more
+  // than the change it answers (server.cpp). The page itself (text/html, 7 KB) may be.
+  Studio s;
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", kCrest}});
+  const httplib::Headers accept = {{"Accept-Encoding", "br, gzip, deflate"}};
+  for (const char* path : {"/api/state", "/web/studio.js", "/three/build/three.module.js"}) {
+    auto r = c.Get(path, accept);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 200) << path;
+    EXPECT_FALSE(r->has_header("Content-Encoding")) << path << ": " << r->get_header_value("Content-Encoding");
+  }
+  auto r = c.Get("/api/state", accept);
+  EXPECT_EQ(body(r)["operations"].size(), 1u);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/json; charset=utf-8");
+  EXPECT_EQ(c.Get("/web/studio.js")->get_header_value("Content-Type"), "application/javascript; charset=utf-8");
+}
+
 TEST(StudioApi, SubCellSupportIsAWarningInTheState) {
   Studio s;
   auto c = s.client();
