@@ -72,7 +72,7 @@ double EditState::falloff() const {
 void EditState::rebase() {
   if (!m_solution || m_stale) solve();
   m_base = *m_solution;
-  if (m_field_changed) download();  // a local solve left the current field in m_template
+  if (m_field_changed) sync_field();  // a local solve left the current field in m_template
   m_base_gx = m_template.gx;
   m_base_gy = m_template.gy;
   // Every change so far is in the base now: later local solves see only their own operations.
@@ -88,7 +88,9 @@ void EditState::clear_hard() {
   m_stale = true;
 }
 
-GradientField EditState::download() {
+GradientField EditState::download() { return sync_field(); }
+
+const GradientField& EditState::sync_field() {
   m_buf.download(m_device, m_template);
   return m_template;
 }
@@ -142,7 +144,7 @@ void EditState::keep_far_field_level() {
   const int W = m_grid.width, H = m_grid.height;
   const size_t N = size_t(W) * size_t(H);
   if (m_base.z.size() != N || m_base_gx.size() != N || m_solution->z.size() != N) return;
-  download();
+  sync_field();
   const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
   std::vector<uint8_t> near(N, 0);
   for (int y = 0; y < H; ++y)
@@ -179,7 +181,7 @@ void EditState::solve_local(bool warm) {
   const size_t N = size_t(W) * size_t(H);
   const double cx = m_grid.cell_x, cy = m_grid.cell_y;
   const auto t0 = std::chrono::steady_clock::now();
-  download();
+  sync_field();
   m_field_changed = false;
   const std::vector<float>&gx = m_template.gx, &gy = m_template.gy;
   // Changed cells: a changed face changes the divergence of both cells it separates; a hard cell
@@ -362,7 +364,9 @@ void EditState::solve_local(bool warm) {
     o.initial = nullptr;
   }
   const double prep_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const auto t_solve = std::chrono::steady_clock::now();
   m_last = reconstruct(m_device, dg, cs, o);
+  m_locality["solve_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_solve).count();
   const Heightfield& dh = m_last.height;
   Heightfield h = base_result();
   for (int y = 0; y < wh; ++y)
