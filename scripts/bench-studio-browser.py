@@ -66,8 +66,11 @@ def main():
     if not url:
         raise SystemExit("the studio did not start")
     opts = webdriver.ChromeOptions()
+    # Chromium as it runs on a machine without a GPU: software compositing, WebGL on SwiftShader.
+    # (Forcing all of its GL onto SwiftShader, --use-gl=angle --use-angle=swiftshader, composites
+    # every frame through the emulated GPU: 8x the CPU per frame, taken from the server's cores.)
     for a in ["--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1700,860",
-              "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]:
+              "--enable-unsafe-swiftshader"]:
         opts.add_argument(a)
     opts.binary_location = "/usr/bin/chromium"
     driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=opts)
@@ -169,8 +172,11 @@ def main():
               f"p95 {pct(lat, 0.95):.0f} ms (n = {len(lat)})")
         ph = js("window.__terracl.phases")[:len(lat)]
         med = lambda k: statistics.median(x[k] for x in ph)
-        print(f"    of which: request {med('change'):.0f} ms, terrain fetch + shading {med('terrain'):.0f} ms, "
+        print(f"    of which: request {med('change'):.0f} ms (server {med('server'):.0f} ms), terrain fetch + shading {med('terrain'):.0f} ms, "
               f"to the painted frame {med('paint'):.0f} ms (medians)")
+        sp = [x["serverPhases"] for x in ph]
+        print("      server phases (medians, ms): " +
+              ", ".join(f"{k} {statistics.median(x.get(k, 0) for x in sp):.1f}" for k in sp[0]))
         print(f"  drawing: {fps:.1f} preview frames/s (server {statistics.median(prev_ms):.0f} ms median per preview)")
         print(f"  vertex of a layer after an erosion -> painted map: median {statistics.median(after):.0f} ms, "
               f"p95 {pct(after, 0.95):.0f} ms (n = {len(after)}; last: {mode_after})")

@@ -179,7 +179,7 @@ async function change(method, path, body, t0 = performance.now()) {
   requestAnimationFrame(() => {
     const ms = performance.now() - t0;
     window.__terracl.latency.push(ms);
-    window.__terracl.phases.push({ change: t1 - t0, terrain: t2 - t1, paint: t0 + ms - t2 });
+    window.__terracl.phases.push({ change: t1 - t0, server: last.ms || 0, serverPhases: last.phases_ms || {}, terrain: t2 - t1, paint: t0 + ms - t2 });
     const from = last.mode === 'replay' && last.from > 0 ? ` from layer ${last.from}` : '';
     status(`${last.mode || ''}${from} ${last.ms ? last.ms.toFixed(0) + ' ms solve' : ''}, ${ms.toFixed(0)} ms to the painted map${warn}`);
   });

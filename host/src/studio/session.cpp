@@ -331,7 +331,10 @@ void Session::commit(const json& ops, bool record_undo) {
   erosion_cancel();
   std::string mode;
   size_t from = 0;
+  // Where a change's time goes (state's last.phases_ms; scripts/bench-studio-browser.py prints it).
+  json phases = {{"check", ms_since(t0)}};
   try {
+    auto t = std::chrono::steady_clock::now();
     if (append) {
       apply_ops(tail);
       m_canonical = false;
@@ -341,13 +344,18 @@ void Session::commit(const json& ops, bool record_undo) {
       from = replay(ops);
       mode = "replay";
     }
+    phases["run"] = ms_since(t);
+    t = std::chrono::steady_clock::now();
     // A validated script can still solve to non-finite elevations (extreme parameters): refuse it.
     for (float z : m_edit->height().z)
       if (!std::isfinite(z)) throw RequestError(400, "/operations: these operations give non-finite elevations");
+    phases["finite"] = ms_since(t);
+    t = std::chrono::steady_clock::now();
     // The live terrain becomes the base of the next append's local solve, which then re-solves
     // only its own stroke's window instead of every edit since the session's base (the export
     // replays the script canonically, docs/studio.md "Latency").
     if (append && m_edit->local()) m_edit->rebase();
+    phases["rebase"] = ms_since(t);
   } catch (...) {
     // Validated operations can still fail while running (a file vanished, a cancel, the time
     // budget): go back to the previous list so the session stays consistent. That replay rebuilds
@@ -365,10 +373,12 @@ void Session::commit(const json& ops, bool record_undo) {
   ++m_version;
   // from: the first operation that ran (a replay from a snapshot starts after its expensive layer).
   m_last = {{"mode", mode}, {"from", from}, {"ms", ms_since(t0)}, {"operations", m_ops.size()},
-            {"snapshots", m_snapshots.size()}, {"warnings", warnings}};
+            {"snapshots", m_snapshots.size()}, {"warnings", warnings}, {"phases_ms", phases}};
   // An append solved locally moved only the cells of its window: the page fetches just those.
   if (append && m_edit->local()) {
     const json loc = m_edit->locality();
+    for (const char* k : {"prepare_ms", "solve_ms"})
+      if (loc.contains(k)) m_last["phases_ms"][std::string("local_") + k] = loc[k];
     m_last["window"] = loc.value("solved_cells", 0) > 0 && loc.contains("window") ? loc["window"] : json::array();
   }
 }
