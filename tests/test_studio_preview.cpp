@@ -5,8 +5,10 @@
 #include <httplib.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "studio_client.hpp"
@@ -158,6 +160,38 @@ TEST(StudioPreview, AnAppendNamesTheWindowOfCellsItMoved) {
   EXPECT_EQ(patch.step, 3);
   for (int y = 0; y < patch.h; ++y)
     for (int x = 0; x < patch.w; ++x) ASSERT_EQ(patch.at(x, y), after.at(9 + 3 * x, 6 + 3 * y));
+}
+
+TEST(StudioPreview, AChangePostedDuringAPreviewStopsIt) {
+  // A drag's first preview replays the layers before the dragged one on the coarse grid, an
+  // erosion included: the change posted at the mouse release must not wait for that stale preview.
+  Studio s;
+  auto c = s.client();
+  post(c, "/api/operations", {{"op", kCrest}});
+  const auto t0 = std::chrono::steady_clock::now();
+  post(c, "/api/operations", {{"op", {{"op", "erode"}, {"steps", 6000}, {"rain", 0.02}}}});
+  const double erode_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const json far = {{"op", "crest"}, {"points", {{300, 150}, {900, 120}}}, {"height", 40}, {"radius", 100}};
+  json moved = far;
+  moved["points"][1] = {900, 200};
+  post(c, "/api/operations", {{"op", far}});
+  int status = 0;
+  std::string answer;
+  std::thread drag([&] {
+    auto c2 = s.client();
+    auto r = c2.Post("/api/preview?max=257", json{{"op", moved}, {"index", 2}}.dump(), "application/json");
+    if (r) status = r->status, answer = r->body;
+  });
+  std::this_thread::sleep_for(std::chrono::duration<double>(0.25 * erode_s));  // the preview is replaying the erosion
+  auto put = c.Put("/api/operations/2", json{{"op", moved}}.dump(), "application/json");
+  drag.join();
+  EXPECT_EQ(status, 409) << answer;
+  EXPECT_NE(answer.find("superseded"), std::string::npos) << answer;
+  ASSERT_TRUE(put);
+  EXPECT_EQ(put->status, 200) << put->body;
+  EXPECT_EQ(json::parse(put->body)["operations"][2], moved);
+  // The next preview runs normally.
+  EXPECT_GT(preview(c, {{"op", far}, {"index", 2}}, 257).z.size(), 0u);
 }
 
 }  // namespace

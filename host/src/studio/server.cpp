@@ -158,6 +158,15 @@ struct StudioServer::Impl {
   // The stop condition of the request holding the session (terracl/interrupt.hpp).
   std::atomic<bool> cancel{false};
   std::atomic<long long> deadline_ns{0};  ///< steady clock; 0 = no request running
+  // A preview holds the session; a change to the script posted meanwhile makes it stale, so the
+  // change stops it (a drag's first preview can replay slow layers on the coarse grid, seconds
+  // that the mouse release would otherwise wait for).
+  std::atomic<bool> previewing{false}, superseded{false};
+  void supersede_preview() {
+    if (!previewing) return;
+    superseded = true;
+    cancel = true;
+  }
   int stop_check_id = -1;
 
   Impl(Device& d, StudioOptions o)
@@ -184,6 +193,7 @@ struct StudioServer::Impl {
     try {
       std::lock_guard<std::mutex> lock(mutex);
       cancel = false;
+      superseded = false;
       deadline_ns = now_ns() + static_cast<long long>(opts.time_limit_s * 1e9);
       struct Done {
         std::atomic<long long>& d;
@@ -194,7 +204,9 @@ struct StudioServer::Impl {
     } catch (const RequestError& e) {
       send_error(res, e.status, e.what());
     } catch (const Cancelled& e) {
-      if (cancel)
+      if (superseded)
+        send_error(res, 409, fmt::format("preview superseded by a change to the script: {}", e.what()));
+      else if (cancel)
         send_error(res, 409, fmt::format("cancelled (POST /api/cancel); the session is as it was: {}", e.what()));
       else
         send_error(res, 503, fmt::format("stopped after the studio's time budget of {} s (--time-limit); the session "
@@ -279,6 +291,7 @@ void StudioServer::Impl::routes() {
     });
   });
   s.Post("/api/operations", [this](const httplib::Request& req, httplib::Response& res) {
+    supersede_preview();
     api(req, res, [&] {
       const json b = parse_body(req);
       if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
@@ -289,6 +302,7 @@ void StudioServer::Impl::routes() {
     });
   });
   s.Put(R"(/api/operations/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+    supersede_preview();
     api(req, res, [&] {
       const json b = parse_body(req);
       if (!b.is_object() || !b.contains("op")) throw RequestError(400, "/op: missing: the operation object");
@@ -297,6 +311,7 @@ void StudioServer::Impl::routes() {
     });
   });
   s.Delete(R"(/api/operations/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+    supersede_preview();
     api(req, res, [&] {
       session->remove(parse_index(req.matches[1], "index"));
       return session->state();
@@ -391,6 +406,11 @@ void StudioServer::Impl::routes() {
       std::optional<size_t> replace;
       if (b.contains("index")) replace = index_field(b, "index");
       const int max_side = int_param(req, "max", 257, 2, 1025);
+      struct Previewing {
+        std::atomic<bool>& on;
+        ~Previewing() { on = false; }
+      } previewing_now{previewing};
+      previewing = true;
       const Heightfield h = session->preview(b["op"], replace, max_side);
       res.set_content(f32_body(h, 1 << 16, res), "application/octet-stream");
       // The coarse grid's cell is the sampling step of the full grid.
