@@ -41,9 +41,9 @@ namespace {
 
 // httplib compresses a response the browser accepts brotli for when its type is exactly
 // "application/json" or "application/javascript", or any text/ type, at brotli's top quality: 4.5 ms
-// for a 1 KB state, more than the solve for a long script, and 2.1 s for three.module.js. On a
-// loopback server bytes cost nothing, so the API and the scripts use types httplib leaves alone
-// (the same types with their charset); the page and its style sheet (7 KB, once) stay text/.
+// for a 1 KB state (it grows with the script) and 2.1 s for three.module.js. On a loopback server
+// bytes cost nothing, so the API and the scripts use types httplib leaves alone (the same types
+// with their charset); the page and its style sheet (7 KB, once) stay text/.
 const char* const kJson = "application/json; charset=utf-8";
 const char* const kJavascript = "application/javascript; charset=utf-8";
 
