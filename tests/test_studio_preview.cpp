@@ -182,7 +182,7 @@ TEST(StudioPreview, AChangePostedDuringAPreviewStopsIt) {
     auto r = c2.Post("/api/preview?max=257", json{{"op", moved}, {"index", 2}}.dump(), "application/json");
     if (r) status = r->status, answer = r->body;
   });
-  std::this_thread::sleep_for(std::chrono::duration<double>(0.25 * erode_s));  // the preview is replaying the erosion
+  std::this_thread::sleep_for(std::chrono::duration<double>(0.4 * erode_s));  // the preview is replaying the erosion
   auto put = c.Put("/api/operations/2", json{{"op", moved}}.dump(), "application/json");
   drag.join();
   EXPECT_EQ(status, 409) << answer;

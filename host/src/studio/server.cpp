@@ -199,18 +199,20 @@ struct StudioServer::Impl {
         std::atomic<long long>& d;
         ~Done() { d = 0; }
       } done{deadline_ns};
-      json out = f();
+      json out;
+      try {
+        out = f();
+      } catch (const Cancelled& e) {
+        // Why it stopped is read while the session is still held: the request waiting for the
+        // session (the change that superseded a preview) resets the flags once it has it.
+        if (superseded) throw RequestError(409, fmt::format("preview superseded by a change to the script: {}", e.what()));
+        if (cancel) throw RequestError(409, fmt::format("cancelled (POST /api/cancel); the session is as it was: {}", e.what()));
+        throw RequestError(503, fmt::format("stopped after the studio's time budget of {} s (--time-limit); the session "
+                                            "is as it was: {}", opts.time_limit_s, e.what()));
+      }
       if (!out.is_null()) res.set_content(out.dump(-1, ' ', false, json::error_handler_t::replace), kJson);
     } catch (const RequestError& e) {
       send_error(res, e.status, e.what());
-    } catch (const Cancelled& e) {
-      if (superseded)
-        send_error(res, 409, fmt::format("preview superseded by a change to the script: {}", e.what()));
-      else if (cancel)
-        send_error(res, 409, fmt::format("cancelled (POST /api/cancel); the session is as it was: {}", e.what()));
-      else
-        send_error(res, 503, fmt::format("stopped after the studio's time budget of {} s (--time-limit); the session "
-                                         "is as it was: {}", opts.time_limit_s, e.what()));
     } catch (const Error& e) {  // validation (JSON paths) and library errors
       send_error(res, 400, e.what());
     } catch (const std::exception& e) {
