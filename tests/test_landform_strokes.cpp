@@ -13,6 +13,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <iostream>
 
 using namespace terracl;
 using nlohmann::json;
@@ -121,4 +123,62 @@ TEST(LandformStrokes, ConstraintsCuttingTheTerrainWarn) {
   ASSERT_EQ(w.size(), 1u);
   EXPECT_NE(w[0].find("cut into the terrain"), std::string::npos) << w[0];
   EXPECT_GT(s.log()[0]["constraint_cut_m"].get<double>(), 10.0);
+}
+
+namespace {
+
+// Slopes (degrees) of the terrain at the cells where `mask` holds, by central differences.
+std::vector<double> slopes_where(const Heightfield& h, const std::function<bool(int, int)>& mask) {
+  const double cx = h.georef.cell_x, cy = h.georef.cell_y;
+  std::vector<double> out;
+  for (int y = 1; y + 1 < h.height; ++y)
+    for (int x = 1; x + 1 < h.width; ++x)
+      if (mask(x, y)) {
+        const double gx = (h.at(x + 1, y) - h.at(x - 1, y)) / (2 * cx), gy = (h.at(x, y + 1) - h.at(x, y - 1)) / (2 * cy);
+        out.push_back(std::atan(std::hypot(gx, gy)) * 180 / M_PI);
+      }
+  return out;
+}
+double quantile(std::vector<double> v, double q) {
+  const size_t i = std::min(v.size() - 1, size_t(q * double(v.size() - 1)));
+  std::nth_element(v.begin(), v.begin() + i, v.end());
+  return v[i];
+}
+
+}  // namespace
+
+// A long stroke drawn across hills makes a landform at the hills' scale: a default crest no taller
+// than half their relief, with flanks about as steep as the ground's own steep slopes; a default
+// river runs from the higher end of the ground under it (drawn either way, the same valley), and
+// where its bed must cut through a rise the valley widens with the gorge so its walls keep their
+// slope instead of making a slot.
+TEST(LandformStrokes, DefaultStrokesAcrossHillsMatchTheHills) {
+  const int n = 300;
+  const Heightfield base = test::n44_window(500, 400, n);
+  std::vector<double> z(base.z.begin(), base.z.end());
+  const double relief = quantile(z, 0.95) - quantile(z, 0.05);
+  const double steep = std::max(20.0, quantile(slopes_where(base, [](int, int) { return true; }), 0.9));
+  // West to east the ground rises from 255 m to 840 m and crosses a 950 m ridge on the way.
+  const json west_to_east = {{15, 150}, {150, 120}, {285, 150}};
+  const json east_to_west = {{285, 150}, {150, 120}, {15, 150}};
+  for (const std::string tool : {"crest", "river"}) {
+    EditSession s(test::device(), base);
+    s.apply({{"units", "cells"}, {"operations", {{{"op", tool}, {"points", west_to_east}}}}});
+    const Heightfield& h = s.height();
+    double peak = 0;
+    for (size_t i = 0; i < h.z.size(); ++i) peak = std::max(peak, std::abs(double(h.z[i]) - base.z[i]));
+    const auto sl = slopes_where(h, [&](int x, int y) { return std::abs(h.at(x, y) - base.at(x, y)) > 0.1 * peak; });
+    const double p50 = quantile(sl, 0.5), p90 = quantile(sl, 0.9);
+    SCOPED_TRACE(fmt::format("{}: relief {:.0f} m, steep ground {:.1f} deg, peak change {:.0f} m, slopes p50 {:.1f} p90 {:.1f} deg",
+                             tool, relief, steep, peak, p50, p90));
+    if (tool == "crest") {
+      EXPECT_LT(peak, 0.5 * relief);
+      EXPECT_LT(p50, steep + 8);
+    } else {
+      EXPECT_LT(p90, steep + 10);
+      EditSession r(test::device(), base);
+      r.apply({{"units", "cells"}, {"operations", {{{"op", tool}, {"points", east_to_west}}}}});
+      EXPECT_EQ(r.height().z, h.z) << "a river drawn from its low end is the same river";
+    }
+  }
 }

@@ -76,22 +76,35 @@ double terrain_at(EditState& s, double x, double y) {
   return (1 - ty) * ((1 - tx) * h.at(x0, y0) + tx * h.at(x1, y0)) + ty * ((1 - tx) * h.at(x0, y1) + tx * h.at(x1, y1));
 }
 
-double local_relief(EditState& s, const std::vector<Vec2>& pts, double radius) {
+GroundAround ground_around(EditState& s, const std::vector<Vec2>& pts, double radius) {
   const Heightfield& h = terrain_estimate(s);
-  const Box b = box_around(s.grid(), pts, radius);
-  if (b.empty()) return 0;
-  // A sparse sample is enough for two quantiles; at most ~64k cells are read.
+  const Grid& g = s.grid();
+  const Box b = box_around(g, pts, radius);
+  GroundAround out;
+  if (b.empty()) return out;
+  // A sparse sample is enough for quantiles; at most ~64k cells are read.
   const int step = std::max(1, int(std::sqrt(double(b.w) * b.h / 65536.0)));
-  std::vector<float> v;
+  std::vector<float> v, t;
   for (int y = b.y0; y < b.y0 + b.h; y += step)
-    for (int x = b.x0; x < b.x0 + b.w; x += step)
-      if (std::isfinite(h.at(x, y))) v.push_back(h.at(x, y));
-  if (v.size() < 2) return 0;
-  const size_t i05 = v.size() / 20, i95 = v.size() - 1 - v.size() / 20;
-  std::nth_element(v.begin(), v.begin() + i05, v.end());
-  const float lo = v[i05];
-  std::nth_element(v.begin(), v.begin() + i95, v.end());
-  return double(v[i95]) - lo;
+    for (int x = b.x0; x < b.x0 + b.w; x += step) {
+      const float z = h.at(x, y);
+      if (!std::isfinite(z)) continue;
+      v.push_back(z);
+      const int xl = std::max(0, x - 1), xr = std::min(g.width - 1, x + 1);
+      const int yu = std::max(0, y - 1), yd = std::min(g.height - 1, y + 1);
+      if (xr == xl || yd == yu) continue;
+      const double gx = (double(h.at(xr, y)) - h.at(xl, y)) / ((xr - xl) * g.cell_x);
+      const double gy = (double(h.at(x, yd)) - h.at(x, yu)) / ((yd - yu) * g.cell_y);
+      if (std::isfinite(gx) && std::isfinite(gy)) t.push_back(float(std::hypot(gx, gy)));
+    }
+  const auto quantile = [](std::vector<float>& a, double q) {
+    const size_t i = std::min(a.size() - 1, size_t(q * double(a.size() - 1) + 0.5));
+    std::nth_element(a.begin(), a.begin() + i, a.end());
+    return double(a[i]);
+  };
+  if (v.size() >= 2) out.relief = quantile(v, 0.95) - quantile(v, 0.05);
+  if (t.size() >= 2) out.steep_tan = quantile(t, 0.90);
+  return out;
 }
 
 uint64_t Rng::next() {
@@ -247,7 +260,7 @@ void max_ridge(ShapeRaster& out, const Grid& g, const RidgeLine& line, double sh
 // keep more relief at the finest scales than a smooth fractal (scripts/landform-relief.py).
 constexpr double kDetailGain = 0.62;
 
-void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wavelength, uint32_t seed) {
+void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wavelength, uint32_t seed, double cap) {
   if (shape.box.empty() || amp == 0 || !(wavelength > 0)) return;
   const double cell = std::max(g.cell_x, g.cell_y);
   const int oct = octaves_down_to_cells(wavelength, cell);
@@ -258,7 +271,8 @@ void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wav
         float& v = shape.at(x, y);
         if (v == 0) continue;
         const double px = x * g.cell_x / wavelength, py = y * g.cell_y / wavelength;
-        v = float(v * (1.0 + amp * ridged(px, py, oct, kDetailGain, seed)));
+        const double r = amp * ridged(px, py, oct, kDetailGain, seed);
+        v = float(v <= cap ? v * (1.0 + r) : v + cap * r);
       }
   });
 }

@@ -13,6 +13,7 @@
 #include "authoring/state.hpp"
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace terracl::edit {
@@ -41,8 +42,12 @@ const ShapeRaster& add_change(EditState& s, ShapeRaster& change, int sign);
 const Heightfield& terrain_estimate(EditState& s);
 /// Bilinear sample of the terrain estimate at (x, y) metres (clamped to the grid).
 double terrain_at(EditState& s, double x, double y);
-/// The relief (p95 - p05 of the terrain estimate) within `radius` metres of the points' bounding box.
-double local_relief(EditState& s, const std::vector<Vec2>& pts, double radius);
+/// The ground within `radius` metres of the points' bounding box, from the terrain estimate.
+struct GroundAround {
+  double relief = 0;      ///< p95 - p05 of the elevations (m)
+  double steep_tan = 0;   ///< p90 of the slopes, as a tangent (0 on a level base)
+};
+GroundAround ground_around(EditState& s, const std::vector<Vec2>& pts, double radius);
 
 // ---- randomness and noise on the host (deterministic across platforms) ----
 
@@ -93,6 +98,8 @@ void max_ridge(ShapeRaster& out, const Grid& g, const RidgeLine& line, double sh
 /// Multiplies the shape by (1 + amp * noise) with fractal detail from `wavelength` down to the
 /// grid's resolution (ridged noise, oriented by nothing: the shape's own spurs carry direction),
 /// and warps nothing: the detail's amplitude follows the shape, so it vanishes where the shape does.
-void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wavelength, uint32_t seed);
+/// Above `cap` metres of shape the amplitude stays that of `cap` (a gorge keeps its valley's detail).
+void add_relief_detail(ShapeRaster& shape, const Grid& g, double amp, double wavelength, uint32_t seed,
+                       double cap = std::numeric_limits<double>::infinity());
 
 }  // namespace terracl::edit

@@ -323,6 +323,28 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
     const double end = smoothstep(std::min(arc[i], arc.back() - arc[i]) / std::max(1e-9, W));
     main.w.push_back(W * (0.45 + 0.55 * end) * (1 + 0.2 * fbm(arc[i] / (2.5 * W), 4.3, 2, 0.5, p.look.seed + 12)));
   }
+  if (p.depth > 0) {
+    // A gorge: the walls (from the floor's edge to the rim) may be as steep as the valley's own or
+    // `wall_tan`; the widening that keeps them so is spread over about a width each way (a running
+    // maximum, then a running mean), so the walls open before the rise and do not kink.
+    const size_t n = main.pts.size();
+    const int r = std::max(1, int(std::lround(W / std::max(W / 5, cell))));
+    const double wall = std::max(1e-6, (1 - p.floor) * W);
+    const double allowed = std::max(p.wall_tan, p.depth / wall);
+    std::vector<double> wide(n), grown(n);
+    for (size_t i = 0; i < n; ++i) wide[i] = std::clamp(main.depth[i] / (allowed * wall), 1.0, 4.0);
+    const auto window = [&](size_t i, auto&& f) {
+      for (int k = -r; k <= r; ++k)
+        if (int(i) + k >= 0 && int(i) + k < int(n)) f(size_t(int(i) + k));
+    };
+    for (size_t i = 0; i < n; ++i) window(i, [&](size_t j) { grown[i] = std::max(grown[i], wide[j]); });
+    for (size_t i = 0; i < n; ++i) {
+      double acc = 0;
+      int m = 0;
+      window(i, [&](size_t j) { acc += grown[j], ++m; });
+      main.w[i] *= acc / m;
+    }
+  }
   pieces.push_back(main);
   // Side valleys: they join at an acute angle pointing downstream, at uneven spacing, mostly on
   // alternating sides, as deep as the main valley at their mouth and rising to nothing at the tip.
@@ -362,7 +384,9 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   const int blur = int(std::lround(age * 0.08 * W / cell));
   std::vector<Vec2> all;
   for (const auto& pc : pieces) all.insert(all.end(), pc.pts.begin(), pc.pts.end());
-  ShapeRaster out(box_around(g, all, W + (2 * blur + 2) * cell));
+  double wall = W;
+  for (const auto& pc : pieces) wall = std::max(wall, *std::max_element(pc.w.begin(), pc.w.end()));
+  ShapeRaster out(box_around(g, all, wall + (2 * blur + 2) * cell));
   for (const auto& pc : pieces) {
     const double wmax = *std::max_element(pc.w.begin(), pc.w.end());
     const Nearest n = nearest_on(g, pc.pts, out.box, wmax);
@@ -388,7 +412,8 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   }
   soften(out, blur);
   ShapeRaster detail = out;
-  add_relief_detail(detail, g, (0.15 + 0.35 * rough) * (1 - 0.5 * age), 0.4 * W, p.look.seed + 7);
+  add_relief_detail(detail, g, (0.15 + 0.35 * rough) * (1 - 0.5 * age), 0.4 * W, p.look.seed + 7,
+                    p.depth > 0 ? p.depth : std::numeric_limits<double>::infinity());
   out = std::move(detail);
   return out;
 }

@@ -52,6 +52,10 @@ struct ValleyParams {
   std::vector<Vec2> stroke;
   std::function<double(const Vec2&, double arc, double length)> depth_at;
   double width = 0;         ///< half-width at the rim (m)
+  /// The valley's own depth (m; 0: unknown). Where `depth_at` is deeper (a gorge through rising
+  /// ground), the valley widens, up to 4 times, so that its walls are no steeper than their own
+  /// slope or `wall_tan` (a tangent), whichever is steeper.
+  double depth = 0, wall_tan = 0;
   double floor = 0.2;       ///< floor half-width / width
   int bands = 0;            ///< rock bands in the walls (0: a smooth wall)
   double branches = 1;      ///< side valleys per length, scale in [0, 2]

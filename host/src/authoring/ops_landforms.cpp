@@ -37,14 +37,30 @@ std::vector<Vec2> stroke_of(Params& p, const std::string& key, size_t min) {
   return xy(pts);
 }
 
-// The size of a default landform (metres): the larger of 4 cells (6 for a point), 0.4 x the
-// relief around the stroke and 0.06 x its length (at most 1.5 km); each tool scales it. Widths
-// follow from it and are at least 9 cells (min_half_width), so every default form is resolved.
-double default_size(EditState& s, const std::vector<Vec2>& pts) {
+// The default scale of a landform from the ground around the stroke. On a level base its length
+// is the only cue (0.06 x the length, at most 1.5 km); where the ground has relief, the landform
+// matches it (0.4 x the relief, p95 - p05) and the length's share fades as the relief grows, so a
+// long stroke across hills does not raise a wall above them. `flank` is the steepest slope a new
+// flank should have there: the ground's p90 slope, at least 20 degrees (a level base: none).
+struct DefaultScale {
+  double size = 0, flank_tan = 0;
+};
+DefaultScale default_scale(EditState& s, const std::vector<Vec2>& pts) {
   const double cell = cell_of(s.grid());
   const double L = pts.size() > 1 ? arc_lengths(pts).back() : 0.0;
-  const double relief = local_relief(s, pts, std::max(0.25 * L, 40 * cell));
-  return std::max({pts.size() > 1 ? 4 * cell : 6 * cell, 0.4 * relief, std::min(0.06 * L, 1500.0)});
+  const GroundAround gnd = ground_around(s, pts, std::max(0.25 * L, 40 * cell));
+  const double from_length = std::max(0.0, std::min(0.06 * L, 1500.0) - gnd.relief);
+  DefaultScale d;
+  d.size = std::max({pts.size() > 1 ? 4 * cell : 6 * cell, 0.4 * gnd.relief, from_length});
+  if (gnd.relief > 2 * cell) d.flank_tan = std::max(gnd.steep_tan, std::tan(20 * M_PI / 180));
+  return d;
+}
+double default_size(EditState& s, const std::vector<Vec2>& pts) { return default_scale(s, pts).size; }
+
+// A ridge's half-width: `factor` x its height, wider on gentle ground so that its mean flank (the
+// profile falls over 0.8 of the half-width) is no steeper than the ground's steep slopes.
+double ridge_half_width(const DefaultScale& d, double h, double factor) {
+  return d.flank_tan > 0 ? std::max(factor * h, h / (0.8 * d.flank_tan)) : factor * h;
 }
 
 // Optional positive lengths, noted as the operation's reach when known at parse time.
@@ -134,10 +150,11 @@ Operation parse_range_like(Params& p, bool point, double def_spurs, double size_
   return [=](EditState& s) {
     RidgeParams r;
     r.stroke = stroke;
-    double h = height.value_or(size_factor * default_size(s, stroke));
+    const DefaultScale d = default_scale(s, stroke);
+    double h = height.value_or(size_factor * d.size);
     r.height = {h};
     if (!per_vertex.empty()) r.height = per_vertex, h = *std::max_element(per_vertex.begin(), per_vertex.end());
-    r.width = std::max(min_half_width(s.grid()), width.value_or(width_factor * h));
+    r.width = std::max(min_half_width(s.grid()), width.value_or(ridge_half_width(d, h, width_factor)));
     r.spurs = spurs;
     r.look = look;
     ShapeRaster c = ridge_system(s.grid(), r);
@@ -184,9 +201,16 @@ Operation parse_valley_like(Params& p, double size_factor, double width_factor, 
   return [=](EditState& s) {
     ValleyParams v;
     v.stroke = stroke;
-    const double d = depth.value_or(size_factor * default_size(s, stroke));
+    // Water runs downhill: drawn from its low end, the valley is turned round so that its bed
+    // does not have to cut a gorge through all the ground it climbs.
+    if (terrain_at(s, stroke.back().x, stroke.back().y) > terrain_at(s, stroke.front().x, stroke.front().y))
+      std::reverse(v.stroke.begin(), v.stroke.end());
+    const DefaultScale scale = default_scale(s, stroke);
+    const double d = depth.value_or(size_factor * scale.size);
     v.width = std::max(min_half_width(s.grid()), width ? 0.5 * *width : width_factor * d);
     v.depth_at = MonotoneBed{&s, d, v.width};
+    v.depth = d;
+    v.wall_tan = scale.flank_tan;
     v.floor = floor;
     v.bands = bands;
     v.branches = branches;
@@ -217,9 +241,10 @@ Operation relative_crest(Params& p) {
   return [=](EditState& s) {
     RidgeParams r;
     r.stroke = stroke;
-    const double h = height.value_or(0.6 * default_size(s, stroke));
+    const DefaultScale d = default_scale(s, stroke);
+    const double h = height.value_or(0.6 * d.size);
     r.height = {h};
-    r.width = std::max(min_half_width(s.grid()), width ? 0.5 * *width : 2.2 * h);
+    r.width = std::max(min_half_width(s.grid()), width ? 0.5 * *width : ridge_half_width(d, h, 2.2));
     r.spurs = spurs;
     r.sharpness = sharpness;
     r.free_line = false;
