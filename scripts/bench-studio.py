@@ -5,6 +5,7 @@
   scripts/bench-studio.py [build/bin/terracl] [--size 1025] [--ops 30] [--erosion-size 513] [--frames 60]
   scripts/bench-studio.py [build/bin/terracl] --after-erosion [--size 1025] [--changes 10] [--steps 60]
   scripts/bench-studio.py [build/bin/terracl] --first-drainage [--size 1025]
+  scripts/bench-studio.py [build/bin/terracl] --first-strokes DEM
 
 Starts `terracl studio flat:NxN@10` on a free port and measures
   * append: POST one operation at the end (one operation + warm solve) and GET the updated preview
@@ -21,6 +22,11 @@ builds [mountain_range, erode --steps, crest], then PUTs a changed last crest --
 $XDG_CACHE_HOME for terracl's program cache and $POCL_CACHE_DIR for PoCL's), a `drainage` on a
 range: at once after start, and once the studio's background warm-up is done ("warming": false in
 /api/state; a studio without warm-up has no such key).
+
+--first-strokes measures only: on a real DEM, once the warm-up is done, the first default stroke of
+each landform tool, each in another part of the map (its corners and centre), as the studio's tools
+post them (relative: no elevation, no size), so each one's detail uses the DEM's own texture there:
+the time to answer the POST and the server's own time.
 """
 import json
 import random
@@ -125,8 +131,38 @@ def first_drainage(cli):
               f"then first drainage {d:.0f} ms")
 
 
+def first_strokes(cli):
+    dem = arg("--first-strokes", "")
+    p, base = start(cli, dem)
+    try:
+        st = json.loads(request(base, "GET", "/api/state"))
+        t_start = time.perf_counter()
+        while st.get("warming", False):
+            time.sleep(0.2)
+            st = json.loads(request(base, "GET", "/api/state"))
+        warm_s = time.perf_counter() - t_start
+        w, h = st["width"], st["height"]
+        cx, cy = st.get("cell_x", 1.0), st.get("cell_y", 1.0)
+        rows = []
+        places = [(0.2, 0.2), (0.8, 0.2), (0.5, 0.5), (0.2, 0.8), (0.8, 0.8)]
+        for tool, (fx, fy) in zip(["mountain_range", "river", "canyon", "cliff", "crest"], places):
+            x, y, d = fx * (w - 1) * cx, fy * (h - 1) * cy, 0.08 * (w - 1) * cx
+            op = {"op": tool, "points": [[x - d, y], [x, y - 0.3 * d], [x + d, y]]}
+            t0 = time.perf_counter()
+            s2 = json.loads(request(base, "POST", "/api/operations", {"op": op}))
+            rows.append((tool, fx, fy, (time.perf_counter() - t0) * 1e3, s2["last"]["ms"]))
+    finally:
+        p.terminate()
+        p.wait()
+    print(f"{cli}: studio on {dem} ({w}x{h}), warm-up done {warm_s:.1f} s after the first state; first stroke of each tool:")
+    for tool, fx, fy, ms, server in rows:
+        print(f"  {tool:15s} at ({fx:.1f}, {fy:.1f}) of the map: {ms:.0f} ms (server {server:.0f} ms)")
+
+
 def main():
     cli = sys.argv[1] if len(sys.argv) > 1 and not sys.argv[1].startswith("--") else "build/bin/terracl"
+    if "--first-strokes" in sys.argv:
+        return first_strokes(cli)
     if "--after-erosion" in sys.argv:
         return after_erosion(cli)
     if "--first-drainage" in sys.argv:

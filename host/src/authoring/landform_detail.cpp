@@ -85,12 +85,19 @@ AmplifyOptions style_options(const Dictionary& d, uint32_t seed, double strength
   return o;
 }
 
+// At most this many dictionaries stay cached (about 4 MB each); the least recently used goes first.
+constexpr size_t kStyleCache = 32;
+
 std::shared_ptr<const Style> cached(const std::string& key, const std::function<Heightfield()>& exemplar) {
   static std::mutex mutex;
-  static std::map<std::string, std::shared_ptr<const Style>> cache;
+  static std::map<std::string, std::pair<std::shared_ptr<const Style>, uint64_t>> cache;
+  static uint64_t clock = 0;
   std::lock_guard<std::mutex> lock(mutex);
   const auto it = cache.find(key);
-  if (it != cache.end()) return it->second;
+  if (it != cache.end()) {
+    it->second.second = ++clock;
+    return it->second.first;
+  }
   const Heightfield ex = exemplar();
   auto st = std::make_shared<Style>();
   st->dict = learn_style(ex);
@@ -103,9 +110,25 @@ std::shared_ptr<const Style> cached(const std::string& key, const std::function<
     return win;
   };
   st->correlations = amplify_correlations(read, low.width, low.height, st->dict, style_options(st->dict, 1, 1));
-  if (cache.size() > 16) cache.clear();
-  cache.emplace(key, st);
+  if (cache.size() >= kStyleCache)
+    cache.erase(std::min_element(cache.begin(), cache.end(), [](const auto& a, const auto& b) { return a.second.second < b.second.second; }));
+  cache.emplace(key, std::make_pair(st, ++clock));
   return st;
+}
+
+// The dictionary of the local window of `base` with its corner at (x0, y0).
+std::shared_ptr<const Style> local_dictionary(const Heightfield& base, int x0, int y0, int side) {
+  Heightfield w(side, side);
+  w.georef.cell_x = base.georef.cell_x, w.georef.cell_y = base.georef.cell_y;
+  for (int y = 0; y < side; ++y) std::memcpy(&w.at(0, y), base.z.data() + size_t(y0 + y) * base.width + x0, sizeof(float) * size_t(side));
+  const uint64_t h = fnv1a(w.z.data(), w.z.size() * sizeof(float), fnv1a(&w.georef.cell_x, sizeof(double)));
+  return cached(fmt::format("local:{:016x}:{}", h, side), [&] { return w; });
+}
+
+// The corner of the local window a stroke around (cx, cy) uses.
+std::pair<int, int> local_window(const Heightfield& base, int cx, int cy, int side) {
+  const int half = std::max(1, side / 2);
+  return {std::clamp((cx - half) / half * half, 0, base.width - side), std::clamp((cy - half) / half * half, 0, base.height - side)};
 }
 
 // The dictionary of `style` for a stroke around cell (cx, cy) of `base` (the start terrain);
@@ -113,14 +136,9 @@ std::shared_ptr<const Style> cached(const std::string& key, const std::function<
 std::shared_ptr<const Style> style_dictionary(const Heightfield* base, const std::string& style, int cx, int cy) {
   if (style != "local") return cached("bundled:" + style, [&] { return bundled_exemplar(style); });
   if (!base) return nullptr;
-  const int side = std::min({kLocalWindow, base->width, base->height}), half = std::max(1, side / 2);
-  const int x0 = std::clamp((cx - half) / half * half, 0, base->width - side);
-  const int y0 = std::clamp((cy - half) / half * half, 0, base->height - side);
-  Heightfield w(side, side);
-  w.georef.cell_x = base->georef.cell_x, w.georef.cell_y = base->georef.cell_y;
-  for (int y = 0; y < side; ++y) std::memcpy(&w.at(0, y), base->z.data() + size_t(y0 + y) * base->width + x0, sizeof(float) * size_t(side));
-  const uint64_t h = fnv1a(w.z.data(), w.z.size() * sizeof(float), fnv1a(&w.georef.cell_x, sizeof(double)));
-  return cached(fmt::format("local:{:016x}:{}", h, side), [&] { return w; });
+  const int side = std::min({kLocalWindow, base->width, base->height});
+  const auto [x0, y0] = local_window(*base, cx, cy, side);
+  return local_dictionary(*base, x0, y0, side);
 }
 
 // `t` (a box of the terrain, cells of `g`) with its relief finer than the dictionary's factor
@@ -222,9 +240,28 @@ double distance_to(const std::vector<Vec2>& line, double x, double y) {
 
 }  // namespace
 
-void warm_style(const std::string& style, const Heightfield* base) {
-  if (base) style_dictionary(base, style, base->width / 2, base->height / 2);
-  else if (style != "local") style_dictionary(nullptr, style, 0, 0);
+size_t warm_style(const std::string& style, const Heightfield* base, const std::function<bool()>& stop) {
+  if (style != "local") return style_dictionary(nullptr, style, 0, 0) ? 1 : 0;
+  if (!base) return 0;
+  // Every window a stroke can land in (their corners lie on a lattice of half a window), the
+  // nearest to the centre first: a stroke anywhere on a 1025^2 base finds its dictionary ready.
+  const int side = std::min({kLocalWindow, base->width, base->height}), half = std::max(1, side / 2);
+  std::vector<std::pair<int, int>> corners;
+  for (int cy = 0; cy < base->height + half; cy += half)
+    for (int cx = 0; cx < base->width + half; cx += half) {
+      const auto c = local_window(*base, std::min(cx, base->width - 1), std::min(cy, base->height - 1), side);
+      if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
+    }
+  const auto dist = [&](const std::pair<int, int>& c) {
+    return std::hypot(c.first + 0.5 * side - 0.5 * base->width, c.second + 0.5 * side - 0.5 * base->height);
+  };
+  std::stable_sort(corners.begin(), corners.end(), [&](const auto& a, const auto& b) { return dist(a) < dist(b); });
+  size_t ready = 0;
+  for (const auto& [x0, y0] : corners) {
+    if (ready == kLocalWarmWindows || (stop && stop())) break;
+    if (local_dictionary(*base, x0, y0, side)) ++ready;
+  }
+  return ready;
 }
 
 bool add_real_detail(EditState& s, ShapeRaster& change, const DetailSpec& d, uint32_t seed, const std::vector<Vec2>* keep) {

@@ -8,6 +8,7 @@
 // region (ops_style.cpp), blended per cell where regions overlap.
 #include "authoring/landform.hpp"
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -41,8 +42,12 @@ bool add_real_detail(EditState& s, ShapeRaster& change, const DetailSpec& d, uin
                      const std::vector<Vec2>* keep = nullptr);
 
 /// Learns `style`'s dictionary ahead of the first stroke (the studio's background warm-up): a
-/// bundled style, or "local" for the window of `base` around its centre. A no-op when cached.
-void warm_style(const std::string& style, const Heightfield* base);
+/// bundled style, or "local" for the windows of `base` a stroke can use, the nearest to its centre
+/// first, at most kLocalWarmWindows of them; `stop` (may be empty) is asked before each. Returns
+/// how many dictionaries are ready (cached ones count).
+size_t warm_style(const std::string& style, const Heightfield* base, const std::function<bool()>& stop = {});
+/// The most local-style windows warm_style learns ahead (about 4 MB each).
+constexpr size_t kLocalWarmWindows = 24;
 
 /// The `style` operation's work: records a painted style region (`weight` over its box, 1 inside)
 /// for later strokes and, with `retexture`, replaces the relief finer than 4 cells of the terrain

@@ -165,14 +165,13 @@ void Session::start_warm_up() {
     for (const auto& st : styles) {
       if (stop()) break;
       try {
-        edit::warm_style(st, st == "local" ? &m_base : nullptr);
-        ++learned;
+        learned += edit::warm_style(st, st == "local" ? &m_base : nullptr, stop);
       } catch (const std::exception& e) {
         fmt::print(stderr, "studio: style {}: {}\n", st, e.what());
       }
     }
     if (!m_warm_stop) {
-      fmt::print("studio: {} detail styles ready ({:.1f} s)\n", learned, ms_since(t1) / 1000.0);
+      fmt::print("studio: {} detail dictionaries ready ({:.1f} s)\n", learned, ms_since(t1) / 1000.0);
       std::fflush(stdout);
     }
     m_warming = false;
