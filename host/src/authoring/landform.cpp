@@ -221,7 +221,10 @@ std::vector<Vec2> wander(const std::vector<Vec2>& pts, double amp, double wavele
     const Vec2 a = pts[i > 0 ? i - 1 : i], b = pts[i + 1 < pts.size() ? i + 1 : i];
     const double l = std::max(1e-9, std::hypot(b.x - a.x, b.y - a.y));
     const double nx = -(b.y - a.y) / l, ny = (b.x - a.x) / l;
-    const double end = std::min(1.0, std::min(arc[i], L - arc[i]) / std::max(1e-9, 0.5 * wavelength));
+    // The offset fades in with a zero slope, so the line leaves its ends in the drawn direction
+    // (what lies beyond an end, e.g. a cliff's plateau edge, continues that direction).
+    const double t = std::min(1.0, std::min(arc[i], L - arc[i]) / std::max(1e-9, 0.5 * wavelength));
+    const double end = t * t * (3 - 2 * t);
     const double off = amp * end * fbm(arc[i] / wavelength, 0.37, octaves, 0.5, seed);
     out[i] = {pts[i].x + nx * off, pts[i].y + ny * off};
   }

@@ -45,6 +45,20 @@ std::vector<Vec2> branch_path(Vec2 p, Vec2 dir, double len, double bend, double 
   return wander(pts, wobble * len, 0.6 * len, 2, seed);
 }
 
+// A line's wander from the scale of the whole landform down: fBm of gain 1/2 whose first octave's
+// wavelength is a third of the line's length, at least `lo` and at most `hi`, with amplitude `ratio`
+// of it (fbm is normalised: the typical offset is about a fifth of that), and octaves down to an
+// eighth of `lo`. Each octave's amplitude is the same share of its
+// wavelength, so a long stroke bends at the scale of the landform as a short one does at the scale
+// of its parts (no long line stays ruled straight). A line shorter than 3 lo wanders as one
+// octave group at lo.
+std::vector<Vec2> wander_scales(const std::vector<Vec2>& pts, double ratio, double lo, double hi, uint32_t seed) {
+  if (pts.size() < 2 || !(lo > 0)) return pts;
+  const double top = std::clamp(arc_lengths(pts).back() / 3, lo, std::max(lo, hi));
+  const int octaves = 3 + int(std::floor(std::log2(top / lo) + 1e-9));
+  return wander(pts, ratio * top, top, std::min(octaves, 9), seed);
+}
+
 // Two passes of a separable box blur of radius r cells (about a Gaussian of sigma 0.8 r): age
 // rounds crests and softens walls.
 void soften(ShapeRaster& s, int r) {
@@ -176,7 +190,7 @@ ShapeRaster ridge_system(const Grid& g, const RidgeParams& p) {
   if (!peak) {
     const auto base = resample(p.stroke, std::max(W / 6, cell));
     const auto base_arc = arc_lengths(base);
-    main.pts = wander(base, p.free_line ? (0.03 + 0.1 * rough) * W : 0.0, 1.6 * W, 3, p.look.seed + 1);
+    main.pts = p.free_line ? wander_scales(base, 0.2 + 0.2 * rough, 1.6 * W, 12 * W, p.look.seed + 1) : base;
     const double L = base_arc.back();
     const double taper = p.taper >= 0 ? p.taper : std::min(0.8 * W, L / 3);
     for (size_t i = 0; i < main.pts.size(); ++i) {
@@ -315,7 +329,8 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   };
   std::vector<Piece> pieces;
   Piece main;
-  main.pts = wander(resample(p.stroke, std::max(W / 5, cell)), p.meander * W * (0.6 + 0.8 * rough), 3 * W, 3, p.look.seed + 1);
+  main.pts = wander_scales(resample(p.stroke, std::max(W / 5, cell)), 1.2 * p.meander * (0.6 + 0.8 * rough), 3 * W, 15 * W,
+                           p.look.seed + 1);
   const auto arc = arc_lengths(main.pts);
   for (size_t i = 0; i < main.pts.size(); ++i) {
     main.depth.push_back(p.depth_at(main.pts[i], arc[i], arc.back()));
@@ -424,7 +439,7 @@ ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
   const Bands bands = make_bands(p.bands, rng);
   const double face = std::max(2 * cell, (0.3 + 0.3 * age) * D);
   const double apron = std::max(2 * cell, p.talus * D * 2.2);
-  const auto line = wander(resample(p.stroke, std::max(cell, D / 2)), (0.05 + 0.2 * rough) * D, 3 * D, 3, p.look.seed + 1);
+  const auto line = wander_scales(resample(p.stroke, std::max(cell, D / 2)), 0.2 + 0.2 * rough, 3 * D, 40 * D, p.look.seed + 1);
   const auto arc = arc_lengths(line);
   const double L = arc.back(), taper = std::min(2 * D, L / 4);
   // Chutes: notches cut back into the plateau edge at uneven spacing.
