@@ -238,11 +238,11 @@ uint64_t upload_level0(Device& d, mg::Problem& p, const HardCells& hc, double m,
     double s = 0;
     for (float v : rs) s += v;
     const double mean = s / double(N);
-    if (mean != 0.0) {
-      cl::Kernel sh = d.kernel("multigrid", "shift_free");
-      set_args(sh, p.g, W, H, float(mean));
-      launch_rows(d, sh, size_t(H));
-    }
+    // Launched even when the mean is 0 (the same bits then): a small symmetric problem, such as
+    // the warm-up's runs (apps/warm_kernels.cpp), must compile it for a user's first solve.
+    cl::Kernel sh = d.kernel("multigrid", "shift_free");
+    set_args(sh, p.g, W, H, float(mean));
+    launch_rows(d, sh, size_t(H));
   }
   clk.mark(d, "device init");
   return peak;
