@@ -158,7 +158,7 @@ TEST(LandformStrokes, DefaultStrokesAcrossHillsMatchTheHills) {
   std::vector<double> z(base.z.begin(), base.z.end());
   const double relief = quantile(z, 0.95) - quantile(z, 0.05);
   const double steep = std::max(20.0, quantile(slopes_where(base, [](int, int) { return true; }), 0.9));
-  // West to east the ground rises from 255 m to 840 m and crosses a 950 m ridge on the way.
+  // West to east the ground rises from 255 m to 840 m and crosses a ridge of about 900 m on the way.
   const json west_to_east = {{15, 150}, {150, 120}, {285, 150}};
   const json east_to_west = {{285, 150}, {150, 120}, {15, 150}};
   for (const std::string tool : {"crest", "river"}) {

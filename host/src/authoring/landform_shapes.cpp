@@ -46,12 +46,10 @@ std::vector<Vec2> branch_path(Vec2 p, Vec2 dir, double len, double bend, double 
 }
 
 // A line's wander from the scale of the whole landform down: fBm of gain 1/2 whose first octave's
-// wavelength is a third of the line's length, at least `lo` and at most `hi`, with amplitude `ratio`
-// of it (fbm is normalised: the typical offset is about a fifth of that), and octaves down to an
-// eighth of `lo`. Each octave's amplitude is the same share of its
-// wavelength, so a long stroke bends at the scale of the landform as a short one does at the scale
-// of its parts (no long line stays ruled straight). A line shorter than 3 lo wanders as one
-// octave group at lo.
+// wavelength is a third of the line's length (at least `lo`, at most `hi`), with amplitude `ratio`
+// of that wavelength (fbm is normalised: typical offsets are about a fifth of it), and octaves down
+// to a quarter of `lo`. Each octave's amplitude is the same share of its wavelength, so a long
+// stroke bends at the scale of the whole landform as a short one does at the scale of its parts.
 std::vector<Vec2> wander_scales(const std::vector<Vec2>& pts, double ratio, double lo, double hi, uint32_t seed) {
   if (pts.size() < 2 || !(lo > 0)) return pts;
   const double top = std::clamp(arc_lengths(pts).back() / 3, lo, std::max(lo, hi));
@@ -399,9 +397,9 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   const int blur = int(std::lround(age * 0.08 * W / cell));
   std::vector<Vec2> all;
   for (const auto& pc : pieces) all.insert(all.end(), pc.pts.begin(), pc.pts.end());
-  double wall = W;
-  for (const auto& pc : pieces) wall = std::max(wall, *std::max_element(pc.w.begin(), pc.w.end()));
-  ShapeRaster out(box_around(g, all, wall + (2 * blur + 2) * cell));
+  double widest = W;  // a gorge widens the main valley (and its side valleys) beyond W
+  for (const auto& pc : pieces) widest = std::max(widest, *std::max_element(pc.w.begin(), pc.w.end()));
+  ShapeRaster out(box_around(g, all, widest + (2 * blur + 2) * cell));
   for (const auto& pc : pieces) {
     const double wmax = *std::max_element(pc.w.begin(), pc.w.end());
     const Nearest n = nearest_on(g, pc.pts, out.box, wmax);
