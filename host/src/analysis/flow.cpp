@@ -120,6 +120,8 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_a
   // the sense (+1 ccw, -1 cw) of turning from the cardinal towards the diagonal.
   static const double fbase[8] = {0, 1.5, 1.5, 1, 1, 0.5, 0.5, 0};  // in multiples of pi
   static const int fsign[8] = {-1, 1, -1, 1, -1, 1, -1, 1};
+  // The diagonal's length for a facet whose cardinal runs along x (d1 = cx) or along y (d1 = cy).
+  const double diag_x = std::hypot(cx, cy), diag_y = std::hypot(cy, cx);
   for (int y = 0; y < g.ht; ++y)
     for (int x = 0; x < g.w; ++x) {
       const size_t i = size_t(y) * g.w + x;
@@ -127,8 +129,8 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_a
       if (std::isnan(e0)) continue;
       r.valid_cells++;
       r.cells[i] = 1.0;
-      double best_s = 0, best_r = 0;
-      int best_f = -1;
+      double best_s = 0, best_s1 = 0, best_s2 = 0;
+      int best_f = -1, best_clip = 0;
       for (int fi = 0; fi < 8; ++fi) {
         const int kc = fc[fi], kd = fd[fi];
         if (!g.inside(x + kDx[kc], y + kDy[kc]) || !g.inside(x + kDx[kd], y + kDy[kd])) continue;
@@ -146,14 +148,13 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_a
         if (s2 < 0) {
           s = s1, clip = -1;
         } else if (s1 <= 0 || s2 * d1 > s1 * d2) {
-          s = (double(e0) - double(e2)) / std::hypot(d1, d2), clip = 1;
+          s = (double(e0) - double(e2)) / (kDx[kc] != 0 ? diag_x : diag_y), clip = 1;
         } else {
           s = std::sqrt(s1 * s1 + s2 * s2), clip = 0;
         }
         if (s > best_s) {  // strict: the lowest facet wins ties
-          best_s = s;
-          best_r = clip < 0 ? 0.0 : (clip > 0 ? std::atan2(d2, d1) : std::atan2(s2, s1));
-          best_f = fi;
+          best_s = s, best_s1 = s1, best_s2 = s2;
+          best_f = fi, best_clip = clip;
         }
       }
       if (best_f < 0) {
@@ -163,6 +164,7 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_a
       const int kc = fc[best_f], kd = fd[best_f];
       const double d1 = kDx[kc] != 0 ? cx : cy, d2 = kDx[kc] != 0 ? cy : cx;
       const double amax = std::atan2(d2, d1);
+      const double best_r = best_clip < 0 ? 0.0 : (best_clip > 0 ? amax : std::atan2(best_s2, best_s1));
       const double to_diag = best_r / amax;
       if (with_angles) {
         r.angle_rad[i] = float(M_PI * fbase[best_f] + fsign[best_f] * best_r);

@@ -165,7 +165,7 @@ Operation parse_drainage(Params& p) {
     std::vector<uint8_t> recv;
     std::vector<double> acc;
     if (dp.dinf) {
-      analysis::DinfResult f = analysis::dinf_flow(filled.filled);
+      analysis::DinfResult f = analysis::dinf_flow(filled.filled, {}, false);  // no angles needed
       recv.resize(N);
       for (size_t i = 0; i < N; ++i)
         recv[i] = (f.k2[i] < 8 && f.share1[i] < 0.5f) ? f.k2[i] : f.k1[i];
