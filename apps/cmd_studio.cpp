@@ -22,16 +22,13 @@
 namespace terracl::cli {
 namespace {
 
-// Every change in the studio allocates and frees blocks of megabytes (a snapshot's copy, the
-// solver's levels, previews). glibc maps each block over its sliding threshold afresh, returns
-// freed memory at the top of the heap, and gives each server thread its own arena, so each change
-// page-faulted its memory in again: at 1025^2, changing a layer after an erosion spent 150 of its
-// 300 ms in the page faults of copying the 50 MB snapshot. One arena, blocks up to 32 MB from the
-// heap and no trimming keep that memory for the next change (the process keeps its peak size).
+// Every studio change copies and frees tens of megabytes (a snapshot's layers, the solver's
+// levels, previews): trimmed, the next change page-faulted them in again. Changing a layer after an
+// erosion spent 150 of its 300 ms at 1025^2 in the page faults of copying the 50 MB snapshot; never
+// trimming the heap (main() sets one arena and 32 MB blocks from the heap): 111 ms. The process
+// keeps its peak memory.
 void keep_freed_memory() {
 #ifdef __GLIBC__
-  mallopt(M_ARENA_MAX, 1);
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, INT_MAX);
 #endif
 }
@@ -55,7 +52,7 @@ CommandRegistrar reg(45, [](CLI::App& app) {
       ->check(CLI::Range(1.0, 86400.0))
       ->capture_default_str();
   sub->callback([o, sub] {
-    keep_freed_memory();  // before the device and the server start their threads
+    keep_freed_memory();
     // Like `terracl edit`: without BASE, a script's own "base" (relative to the script) is used.
     if (sub->count("base") == 0 && !o->script.empty()) {
       const nlohmann::json script = read_edit_script(o->script);

@@ -129,6 +129,11 @@ void init_gdal() {
     // a written raster's second copy until the file is closed (128 MB: 8193^2 convert 466 MB
     // against 368 MB, no faster). GDAL_CACHEMAX (environment or --config) still decides when set.
     if (!CPLGetConfigOption("GDAL_CACHEMAX", nullptr)) GDALSetCacheMax64(GIntBig(32) << 20);
+    // A read that spans several compressed GeoTIFF blocks decodes them on every core (GDAL >= 3.6;
+    // the cells are the same). The streamed render's nodata scan and its strips were one thread
+    // inflating DEFLATE: an 8193^2 colour relief 5.2 s, now 3.3 s (gdaldem 3.45 s). A
+    // GDAL_NUM_THREADS of the user's (environment or --config) still decides when set.
+    if (!CPLGetConfigOption("GDAL_NUM_THREADS", nullptr)) CPLSetConfigOption("GDAL_NUM_THREADS", "ALL_CPUS");
   });
 }
 

@@ -266,7 +266,7 @@ StageInfo render_stage_info() {
             "deflate",
             "",
             "Value rasters (.tif): DEFLATE with the floating-point predictor at level 1, or none (gdaldem's default: "
-            "a third larger, less CPU); also a tiled render's GeoTIFF picture (DEFLATE level 1, or none)",
+            "a third larger, less CPU); pictures are written uncompressed, tiled or not",
             {"deflate", "none"},
             false},
            {"backend",
