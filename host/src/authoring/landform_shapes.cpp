@@ -474,7 +474,12 @@ ShapeRaster escarpment(const Grid& g, const EscarpmentParams& p) {
         }
         const double sd = sd0 - notch;
         double h;
-        if (sd >= 0) h = D * (1 - smoothstep((sd - 0.4 * p.back) / std::max(0.6 * p.back, face)));  // plateau, then its back slope
+        if (sd >= 0) {
+          // The plateau, then its back slope, whose top edge wanders along the stroke (a ruled
+          // edge parallel to the brink read as a crease behind the cliff).
+          const double flat = 0.35 * p.back * (1 + 0.8 * fbm(s / (1.5 * D), 0.37, 3, 0.5, p.look.seed + 5));
+          h = D * (1 - smoothstep((sd - flat) / std::max(p.back - flat, face)));
+        }
         else if (sd > -face) h = D * (p.talus + (1 - p.talus) * bands(1 + sd / face));  // the face
         else h = D * p.talus * std::pow(std::max(0.0, 1 - (-sd - face) / apron), 2);   // the apron
         const double end = taper > 0 ? smoothstep(std::min(s, L - s) / taper) : 1.0;
