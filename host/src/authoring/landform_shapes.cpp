@@ -272,7 +272,7 @@ ShapeRaster volcano(const Grid& g, const VolcanoParams& p) {
   const double R = p.radius, H = p.height, cell = cell_of(g), age = p.look.age, rough = p.look.roughness;
   Rng rng(p.look.seed);
   const double rc = p.crater * R;
-  const double crater_depth = (0.5 - 0.3 * age) * H * std::min(1.0, 2.5 * p.crater);
+  const double crater_depth = (0.9 - 0.4 * age) * H * std::min(1.0, 2.5 * p.crater);
   const int blur = int(std::lround(age * 0.06 * R / cell));
   ShapeRaster out(box_around(g, {p.center}, 1.15 * R + (2 * blur + 2) * cell));
   const Box& b = out.box;
@@ -285,14 +285,7 @@ ShapeRaster volcano(const Grid& g, const VolcanoParams& p) {
         const double th = std::atan2(dy, dx);
         // An uneven footprint: the radius wanders with the direction (lava flows ran further).
         const double rr = std::hypot(dx, dy) / (1 + 0.12 * fbm(1.2 * std::cos(th), 1.2 * std::sin(th), 3, 0.5, p.look.seed + 5));
-        double h = rr < rc ? cone(rc) : cone(rr);
-        if (rc > 0 && rr < 1.3 * rc) {  // the crater bowl and its rim
-          const double u = rr / rc;
-          const double bowl = u < 1 ? crater_depth * (1 - u * u) : 0.0;
-          const double rim = 0.04 * H * std::exp(-8 * (u - 1) * (u - 1));
-          h = h - bowl + rim;
-        }
-        out.at(x, y) = float(std::max(0.0, h));
+        out.at(x, y) = float(rr < rc ? cone(rc) : cone(rr));
       }
   });
   // Radial ridges between gullies: lines from the rim down the flanks, a little above the cone
@@ -314,6 +307,20 @@ ShapeRaster volcano(const Grid& g, const VolcanoParams& p) {
   }
   soften(out, blur);
   detail_below_top(out, g, (0.25 + 0.35 * rough) * (1 - 0.4 * age), 0.3 * R, p.look.seed + 7);
+  // The crater last, a clean bowl under a sharp rim: carved before the detail, its floor got the
+  // flanks' full roughness and read as a pitted top rather than a crater.
+  if (rc > 0)
+    parallel_for(size_t(b.h), 0, [&](size_t r0, size_t r1) {
+      for (int y = b.y0 + int(r0); y < b.y0 + int(r1); ++y)
+        for (int x = b.x0; x < b.x0 + b.w; ++x) {
+          const double u = std::hypot(x * g.cell_x - p.center.x, y * g.cell_y - p.center.y) / rc;
+          if (u >= 1.6) continue;
+          const double bowl = u < 1 ? crater_depth * (1 - u * u) : 0.0;
+          const double rim = 0.04 * H * std::exp(-8 * (u - 1) * (u - 1));
+          float& o = out.at(x, y);
+          o = float(std::max(0.0, o - bowl + rim));
+        }
+    });
   return out;
 }
 

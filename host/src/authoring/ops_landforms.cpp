@@ -177,7 +177,11 @@ Operation parse_volcano(Params& p) {
   return [=](EditState& s) {
     VolcanoParams v;
     v.center = c;
-    v.height = height.value_or(1.2 * default_size(s, {c}));
+    // With no size given, the cone is at least 40 cells in radius (3.5 heights), so that its crater
+    // spans several cells: sized from gentle ground alone it was a bump whose crater barely showed
+    // (177 m high, 25 cells across, on the rolling hills of a 30 m DEM).
+    const double least = radius ? 0.0 : 40 * cell_of(s.grid()) / 3.5;
+    v.height = height.value_or(std::max(1.2 * default_size(s, {c}), least));
     v.radius = std::max(min_half_width(s.grid()), radius.value_or(3.5 * v.height));
     v.crater = crater;
     v.look = look;
