@@ -141,12 +141,12 @@ int run_cli(int argc, char** argv);
 // Stages allocate and free blocks of kilobytes to tens of megabytes (a render strip's compressed
 // blocks, amplify's levels, the solver's). With glibc's defaults each thread got its own arena
 // and freed blocks were handed back to the kernel, so the same memory was page-faulted in again
-// and again: an 8193^2 TRI render took 185,000 page faults and 5.2 s (gdaldem: 3.7 s). One
-// arena, blocks up to 32 MB from the heap, and a heap trimmed only when more than 32 MB lies free
-// at its top: 4.1 s; amplify x4 also peaks lower (206 -> 187 MB: a level freed before the next,
-// larger one is given back). Measured in docs/performance.md, "Allocator". Setting any of these
-// turns off glibc's sliding thresholds, so all three are set. The studio keeps everything
-// (apps/cmd_studio.cpp).
+// and again: an 8193^2 TRI render took 185,000 page faults. One arena, blocks up to 32 MB from
+// the heap, and a heap trimmed only when more than 32 MB lies free at its top: 37,000 faults,
+// 5.9 -> 4.5 s (gdaldem 5.1 s); amplify x4 peaks lower, 201 -> 187 MiB (a level freed before the
+// next, larger one is given back). docs/performance.md, "Allocator and GDAL threads". Setting any
+// of these turns off glibc's sliding thresholds, so all three are set. The studio keeps
+// everything (apps/cmd_studio.cpp).
 void keep_freed_memory() {
 #ifdef __GLIBC__
   mallopt(M_ARENA_MAX, 1);
