@@ -4,6 +4,8 @@
 // would see; only the geotransform moves to the window.
 #include "io/gdal_window.hpp"
 
+#include <terracl/amplify.hpp>  // parallel_for
+
 #include <cpl_conv.h>
 #include <cpl_error.h>
 #include <fmt/format.h>
@@ -292,9 +294,12 @@ std::vector<uint8_t> GeoTiffWindowWriter::encode(int width, int height, std::opt
                    window_checksum(cells.data(), cells.size()),
                    0};
   std::vector<uint8_t> out(sizeof(EncodedHeader));
-  std::vector<float> block(size_t(kBlock) * kBlock);
   const int bx_n = (width + kBlock - 1) / kBlock;
   bool partial = !compress;
+  struct Whole {
+    int bx, by;
+  };
+  std::vector<Whole> whole;  // the blocks wholly inside the window, in row order
   for (int by = y / kBlock; by * kBlock < y + h; ++by)
     for (int bx = x / kBlock; bx * kBlock < x + w; ++bx) {
       const int x0 = bx * kBlock, y0 = by * kBlock;
@@ -303,17 +308,30 @@ std::vector<uint8_t> GeoTiffWindowWriter::encode(int width, int height, std::opt
         partial = true;
         continue;
       }
-      if (!compress) continue;
+      if (compress) whole.push_back({bx, by});
+    }
+  // DEFLATE is most of a window's cost: its blocks are compressed on every core, then appended in
+  // row order (a tiled 8193^2 convert compressed on one core: 2.1x the untiled one).
+  std::vector<std::vector<uint8_t>> bytes(whole.size());
+  parallel_for(whole.size(), whole.size() >= 4 ? 0 : 1, [&](size_t b, size_t e) {
+    std::vector<float> block(size_t(kBlock) * kBlock);
+    for (size_t k = b; k < e; ++k) {
+      const int x0 = whole[k].bx * kBlock, y0 = whole[k].by * kBlock;
+      const int x1 = std::min(x0 + kBlock, width), y1 = std::min(y0 + kBlock, height);
       std::fill(block.begin(), block.end(), 0.0f);  // GDAL pads edge blocks with 0
       for (int r = y0; r < y1; ++r)
         std::memcpy(&block[size_t(r - y0) * kBlock], &cells[size_t(r - y) * w + size_t(x0 - x)],
                     size_t(x1 - x0) * sizeof(float));
-      const std::vector<uint8_t> bytes = encode_float_block(block.data());
-      append(out, uint32_t(by * bx_n + bx));
-      append(out, uint32_t(bytes.size()));
-      out.insert(out.end(), bytes.begin(), bytes.end());
-      ++hd.blocks;
+      bytes[k] = encode_float_block(block.data());
     }
+  });
+  for (size_t k = 0; k < whole.size(); ++k) {
+    append(out, uint32_t(whole[k].by * bx_n + whole[k].bx));
+    append(out, uint32_t(bytes[k].size()));
+    out.insert(out.end(), bytes[k].begin(), bytes[k].end());
+    std::vector<uint8_t>().swap(bytes[k]);
+    ++hd.blocks;
+  }
   if (partial) {
     hd.has_cells = 1;
     const auto* p = reinterpret_cast<const uint8_t*>(cells.data());
