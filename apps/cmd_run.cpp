@@ -167,10 +167,12 @@ CommandRegistrar reg(40, [](CLI::App& app) {
     to.resume = a->resume;
     TileCounts tiles;
     try {
-      if (tiled)
+      if (tiled) {
+        keep_memory_between_tiles();
         run_tiled(p, to, ro, report, &tiles);
-      else
+      } else {
         p.run(ro, report);
+      }
     } catch (const Cancelled&) {
       finish_progress();
       const auto done = report.outputs();

@@ -33,4 +33,7 @@ struct TileFlags {
 /// of a tiled run calls it once the run is done.
 std::string ranks_report();
 
+/// Before a tiled run: freed memory stays in the heap for the next tile (see tile_flags.cpp).
+void keep_memory_between_tiles();
+
 }  // namespace terracl::cli
