@@ -143,10 +143,10 @@ int run_cli(int argc, char** argv);
 // and freed blocks were handed back to the kernel, so the same memory was page-faulted in again
 // and again: an 8193^2 TRI render took 185,000 page faults. One arena, blocks up to 32 MB from
 // the heap, and a heap trimmed only when more than 32 MB lies free at its top: 37,000 faults,
-// 5.9 -> 4.5 s (gdaldem 5.1 s); amplify x4 peaks lower, 201 -> 187 MiB (a level freed before the
-// next, larger one is given back). docs/performance.md, "Allocator and GDAL threads". Setting any
-// of these turns off glibc's sliding thresholds, so all three are set. The studio keeps
-// everything (apps/cmd_studio.cpp).
+// 5.9 -> 4.5 s (gdaldem 5.1 s); amplify x4 peaks lower, 201 -> 187 MiB (never trimming, it
+// peaked at 250 MiB). docs/performance.md, "Allocator and GDAL threads". Setting any of these
+// turns off glibc's sliding thresholds, so all three are set. The studio and tiled runs keep
+// everything (apps/cmd_studio.cpp, apps/tile_flags.cpp).
 void keep_freed_memory() {
 #ifdef __GLIBC__
   mallopt(M_ARENA_MAX, 1);
