@@ -483,4 +483,10 @@ EncodeReport encode_report(const Heightfield& h, int sparsity, int atoms, int pa
 /// Parallel for over [0, n) in contiguous chunks (threads 0 = hardware concurrency).
 void parallel_for(size_t n, int threads, const std::function<void(size_t begin, size_t end)>& body);
 
+/// Parts a per-cell pass over `cells` cells in `rows` rows is split into: one per core, or one
+/// below 2^16 cells, where starting a thread costs more than the pass.
+size_t row_parts(size_t cells, int rows);
+/// body(part, y0, y1) for `parts` consecutive row ranges of `rows` rows, at once.
+void for_row_ranges(int rows, size_t parts, const std::function<void(size_t part, int y0, int y1)>& body);
+
 }  // namespace terracl

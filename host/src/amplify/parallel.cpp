@@ -34,4 +34,15 @@ void parallel_for(size_t n, int threads, const std::function<void(size_t, size_t
     if (e) std::rethrow_exception(e);
 }
 
+size_t row_parts(size_t cells, int rows) {
+  if (cells < (size_t(1) << 16) || rows < 1) return 1;
+  return std::clamp<size_t>(std::thread::hardware_concurrency(), 1, size_t(rows));
+}
+
+void for_row_ranges(int rows, size_t parts, const std::function<void(size_t, int, int)>& body) {
+  parallel_for(parts, int(parts), [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) body(k, int(size_t(rows) * k / parts), int(size_t(rows) * (k + 1) / parts));
+  });
+}
+
 }  // namespace terracl

@@ -3,9 +3,8 @@
 // Priority-Flood+epsilon surface, so that every valid cell has a strictly lower neighbour or is an
 // outlet (flats and depressions drain towards their spill points). Accumulation visits cells in
 // topological order (Kahn: a cell is processed once all its donors are), which is O(n).
-#include <terracl/amplify.hpp>  // parallel_for
+#include <terracl/amplify.hpp>  // row_parts, for_row_ranges
 #include <terracl/error.hpp>
-#include <thread>
 
 #include "analysis/grid.hpp"
 
@@ -23,20 +22,6 @@ struct Grid {
   }
   bool inside(int x, int y) const { return x >= 0 && y >= 0 && x < w && y < ht; }
 };
-
-// Parts a per-cell pass over w x h cells is split into: one per core, or one below 2^16 cells,
-// where starting a thread costs more than the pass.
-size_t row_parts(int w, int h) {
-  if (size_t(w) * size_t(h) < (size_t(1) << 16)) return 1;
-  return std::clamp<size_t>(std::thread::hardware_concurrency(), 1, size_t(h));
-}
-
-// body(part, y0, y1) over `parts` consecutive row ranges at once.
-void for_row_ranges(int h, size_t parts, const std::function<void(size_t, int, int)>& body) {
-  parallel_for(parts, int(parts), [&](size_t b, size_t e) {
-    for (size_t k = b; k < e; ++k) body(k, int(size_t(h) * k / parts), int(size_t(h) * (k + 1) / parts));
-  });
-}
 
 }  // namespace
 
@@ -141,7 +126,7 @@ DinfResult dinf_flow(const Heightfield& h, const Progress& progress, bool with_a
   // Each cell's facet depends on its own neighbourhood only: rows in parallel (`terracl bench
   // analysis --size 2049`, D-inf accumulation on two cores: 1.45 -> 1.03 s). The donor counts,
   // which neighbouring rows share, follow in one pass.
-  std::vector<size_t> valid(row_parts(g.w, g.ht), 0);
+  std::vector<size_t> valid(row_parts(size_t(g.w) * size_t(g.ht), g.ht), 0);
   for_row_ranges(g.ht, valid.size(), [&](size_t part, int y0, int y1) {
     for (int y = y0; y < y1; ++y)
       for (int x = 0; x < g.w; ++x) {

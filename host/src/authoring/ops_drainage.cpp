@@ -31,7 +31,7 @@
 // its locality work unchanged.
 #include "authoring/state.hpp"
 
-#include <terracl/amplify.hpp>  // parallel_for
+#include <terracl/amplify.hpp>  // row_parts, for_row_ranges
 #include <terracl/analysis.hpp>
 #include <terracl/error.hpp>
 
@@ -42,7 +42,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <thread>
 #include <vector>
 
 namespace terracl::edit {
@@ -202,40 +201,37 @@ Operation parse_drainage(Params& p) {
     const int rx_max = int(std::ceil(dp.max_width / cx)), ry_max = int(std::ceil(dp.max_width / cy));
     // Candidates row by row on every core (the per-cell powers are most of this pass: 435 k
     // candidates on a 1025^2 range), gathered in row order as one pass would list them.
-    const size_t parts = N >= (size_t(1) << 16) ? std::max(1u, std::thread::hardware_concurrency()) : 1;
+    const size_t parts = row_parts(N, H);
     std::vector<std::vector<Channel>> part(parts);
-    parallel_for(parts, int(parts), [&](size_t tb, size_t te) {
-      for (size_t t = tb; t < te; ++t) {
-        const int y0 = int(size_t(H) * t / parts), y1 = int(size_t(H) * (t + 1) / parts);
-        for (int y = y0; y < y1; ++y)
-          for (int x = 0; x < W; ++x) {
-            const size_t i = size_t(y) * W + x;
-            const double A = acc[i] * cell_area;
-            if (!(A >= dp.a_min) || A <= 0 || w_region(x, y) <= 0) continue;
-            const uint8_t k = recv[i];
-            if (k == analysis::kNoFlow) continue;
-            double S = 0;
-            if (k < 8) {
-              const size_t j = size_t(ptrdiff_t(i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
-              S = std::max(0.0, (double(zf[i]) - double(zf[j])) / dist[k]);
-            } else {
-              // An outlet (the grid's edge): the slope from its largest donor, so the channel is cut
-              // through the edge instead of ending at a dam that the re-fill would flood back.
-              double best = -1;
-              for (int q = 0; q < 8; ++q) {
-                const int u = x + analysis::kDx[q], v = y + analysis::kDy[q];
-                if (u < 0 || v < 0 || u >= W || v >= H) continue;
-                const size_t j = size_t(v) * W + u;
-                const uint8_t kj = recv[j];
-                if (kj >= 8 || u + analysis::kDx[kj] != x || v + analysis::kDy[kj] != y) continue;
-                if (acc[j] > best) best = acc[j], S = std::max(0.0, (double(zf[j]) - double(zf[i])) / dist[q]);
-              }
+    for_row_ranges(H, parts, [&](size_t t, int y0, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < W; ++x) {
+          const size_t i = size_t(y) * W + x;
+          const double A = acc[i] * cell_area;
+          if (!(A >= dp.a_min) || A <= 0 || w_region(x, y) <= 0) continue;
+          const uint8_t k = recv[i];
+          if (k == analysis::kNoFlow) continue;
+          double S = 0;
+          if (k < 8) {
+            const size_t j = size_t(ptrdiff_t(i) + ptrdiff_t(analysis::kDy[k]) * W + analysis::kDx[k]);
+            S = std::max(0.0, (double(zf[i]) - double(zf[j])) / dist[k]);
+          } else {
+            // An outlet (the grid's edge): the slope from its largest donor, so the channel is cut
+            // through the edge instead of ending at a dam that the re-fill would flood back.
+            double best = -1;
+            for (int q = 0; q < 8; ++q) {
+              const int u = x + analysis::kDx[q], v = y + analysis::kDy[q];
+              if (u < 0 || v < 0 || u >= W || v >= H) continue;
+              const size_t j = size_t(v) * W + u;
+              const uint8_t kj = recv[j];
+              if (kj >= 8 || u + analysis::kDx[kj] != x || v + analysis::kDy[kj] != y) continue;
+              if (acc[j] > best) best = acc[j], S = std::max(0.0, (double(zf[j]) - double(zf[i])) / dist[q]);
             }
-            const double e = std::min(dp.max_depth, dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n)));
-            if (!(e > 0)) continue;
-            part[t].push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), min_half_width, dp.max_width)});
           }
-      }
+          const double e = std::min(dp.max_depth, dp.depth * std::pow(A / dp.a_ref, dp.m) * (dp.n == 0 ? 1.0 : std::pow(S, dp.n)));
+          if (!(e > 0)) continue;
+          part[t].push_back({i, e, std::clamp(dp.width * std::pow(A / dp.a_ref, dp.width_exp), min_half_width, dp.max_width)});
+        }
     });
     for (const auto& p : part) ch.insert(ch.end(), p.begin(), p.end());
     // Grading to base level: visited downstream first (the filled terrain's ascending order, a
