@@ -211,6 +211,38 @@ TEST(RenderCli, WritesEightBitPngForEveryMode) {
   EXPECT_FALSE(std::filesystem::exists(tmp.path("x.png")));
 }
 
+// gdaldem color-relief's colour names ("2600 white", optionally with an alpha): each one gives
+// the colour gdaldem itself paints for it (its own table: grey is 191, brown 191 127 63).
+TEST(RenderRamp, GdaldemColourNamesGiveGdaldemsColours) {
+  test::TempDir tmp;
+  const std::string in = test::data_path("crops/frontrange_64.asc");
+  GDALAllRegister();
+  for (const char* name : {"white", "black", "red", "green", "blue", "yellow", "magenta", "cyan", "aqua", "grey", "gray",
+                           "orange", "brown", "purple", "violet", "indigo"}) {
+    const std::string ramp = tmp.path(std::string(name) + ".txt"), out = tmp.path(std::string(name) + ".tif");
+    std::ofstream(ramp) << "0% " << name << "\n100% " << name << " 255\n";
+    ASSERT_EQ(std::system(("gdaldem color-relief -q " + in + " " + ramp + " " + out).c_str()), 0) << name;
+    std::unique_ptr<GDALDataset> ds(GDALDataset::FromHandle(GDALOpen(out.c_str(), GA_ReadOnly)));
+    ASSERT_TRUE(ds) << out;
+    const auto r = render::ColorRamp::load(ramp);
+    uint8_t c[3];
+    r.color(1500, 1000, 2000, c);
+    for (int k = 0; k < 3; ++k) {
+      uint8_t g = 0;
+      ASSERT_EQ(ds->GetRasterBand(k + 1)->RasterIO(GF_Read, 32, 32, 1, 1, &g, 1, 1, GDT_Byte, 0, 0), CE_None);
+      EXPECT_EQ(int(c[k]), int(g)) << name << " channel " << k;
+    }
+  }
+  try {
+    render::ColorRamp::parse("0 chartreuse\n", "names.txt");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("names.txt:1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("colour-name"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(render::ColorRamp::parse("0 white 300\n", "alpha.txt"), Error);
+}
+
 // `edit --preview` draws the shaded relief at the output's full size with the chosen ramp; a bad
 // ramp is refused before any work, leaving no output.
 TEST(RenderCli, EditPreviewIsFullSizeAndTakesARamp) {

@@ -77,6 +77,29 @@ std::vector<uint8_t> hillshade(const Heightfield& h, double azimuth_deg, double 
   return out;
 }
 
+namespace {
+// The colour names gdaldem color-relief knows, with the values it gives them (GDAL 3.6, read
+// back from its output; its own table, not CSS's: grey is 191, brown 191 127 63).
+bool named_colour(std::string name, uint8_t rgb[3]) {
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+  static const struct {
+    const char* name;
+    uint8_t r, g, b;
+  } table[] = {{"white", 255, 255, 255}, {"black", 0, 0, 0},       {"red", 255, 0, 0},      {"green", 0, 255, 0},
+               {"blue", 0, 0, 255},      {"yellow", 255, 255, 0},  {"magenta", 255, 0, 255}, {"cyan", 0, 255, 255},
+               {"aqua", 0, 191, 191},    {"grey", 191, 191, 191},  {"gray", 191, 191, 191}, {"orange", 255, 127, 0},
+               {"brown", 191, 127, 63},  {"purple", 127, 0, 255},  {"violet", 127, 0, 255}, {"indigo", 0, 127, 255}};
+  for (const auto& c : table)
+    if (name == c.name) {
+      rgb[0] = c.r;
+      rgb[1] = c.g;
+      rgb[2] = c.b;
+      return true;
+    }
+  return false;
+}
+}  // namespace
+
 ColorRamp ColorRamp::parse(const std::string& text, const std::string& where) {
   ColorRamp r;
   std::istringstream in(text);
@@ -92,16 +115,23 @@ ColorRamp ColorRamp::parse(const std::string& text, const std::string& where) {
     std::vector<std::string> tok;
     for (std::string t; ls >> t;) tok.push_back(t);
     if (tok.empty()) continue;
-    if (tok.size() < 4 || tok.size() > 5)
-      fail("render", "{}:{}: expected 'elevation r g b [a]', got '{}'", where, lineno, line);
     Entry e;
     uint8_t rgb[3];
-    for (int k = 0; k < 3; ++k) {
+    auto component = [&](const std::string& t) {
       char* end = nullptr;
-      const long v = std::strtol(tok[k + 1].c_str(), &end, 10);
+      const long v = std::strtol(t.c_str(), &end, 10);
       if (*end != '\0' || v < 0 || v > 255)
-        fail("render", "{}:{}: colour component '{}' is not an integer 0..255", where, lineno, tok[k + 1]);
-      rgb[k] = uint8_t(v);
+        fail("render", "{}:{}: colour component '{}' is not an integer 0..255", where, lineno, t);
+      return uint8_t(v);
+    };
+    if ((tok.size() == 2 || tok.size() == 3) && named_colour(tok[1], rgb)) {
+      if (tok.size() == 3) (void)component(tok[2]);  // gdaldem's alpha after a name: checked, unused
+    } else if (tok.size() < 4 || tok.size() > 5) {
+      fail("render", "{}:{}: expected 'elevation r g b [a]' or 'elevation colour-name [a]' (gdaldem's names: white, "
+           "black, red, green, blue, yellow, magenta, cyan, aqua, grey, gray, orange, brown, purple, violet, indigo), got '{}'",
+           where, lineno, line);
+    } else {
+      for (int k = 0; k < 3; ++k) rgb[k] = component(tok[k + 1]);
     }
     std::string v = tok[0];
     std::transform(v.begin(), v.end(), v.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
