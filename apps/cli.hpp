@@ -32,6 +32,11 @@ Device& device();
 Progress make_progress(const std::string& stage);
 /// Ends a progress bar line if one is being drawn.
 void finish_progress();
+
+/// The process's allocator settings (apps/allocator.cpp): glibc's arenas and trimming, and 2 MB
+/// pages, for which use_huge_pages may execute the CLI again with the same arguments.
+void keep_freed_memory();
+void use_huge_pages(int argc, char** argv);
 /// Installs SIGINT handling: the first Ctrl-C asks running stages to stop cleanly.
 void install_interrupt_handler();
 bool interrupted();

@@ -10,10 +10,6 @@
 
 #include <unistd.h>
 
-#ifdef __GLIBC__
-#include <malloc.h>
-#endif
-
 #include <algorithm>
 #include <climits>
 #include <cstdlib>
@@ -138,26 +134,11 @@ bool setup_ranks(int argc, char** argv) {
 namespace {
 int run_cli(int argc, char** argv);
 
-// Stages allocate and free blocks of kilobytes to tens of megabytes (a render strip's compressed
-// blocks, amplify's levels, the solver's). With glibc's defaults each thread got its own arena
-// and freed blocks were handed back to the kernel, so the same memory was page-faulted in again
-// and again: an 8193^2 TRI render took 185,000 page faults. One arena, blocks up to 32 MB from
-// the heap, and a heap trimmed only when more than 32 MB lies free at its top: 37,000 faults,
-// 5.9 -> 4.5 s (gdaldem 5.1 s); amplify x4 peaks lower, 201 -> 187 MiB (never trimming, it
-// peaked at 250 MiB). docs/performance.md, "Allocator and GDAL threads". Setting any of these
-// turns off glibc's sliding thresholds, so all three are set. The studio and tiled runs keep
-// everything (apps/cmd_studio.cpp, apps/tile_flags.cpp).
-void keep_freed_memory() {
-#ifdef __GLIBC__
-  mallopt(M_ARENA_MAX, 1);
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  mallopt(M_TRIM_THRESHOLD, 32 << 20);
-#endif
-}
 }  // namespace
 
 int main(int argc, char** argv) {
-  keep_freed_memory();  // before MPI, OpenCL, GDAL or the studio's server start threads
+  terracl::cli::use_huge_pages(argc, argv);  // may start the process again (apps/allocator.cpp)
+  terracl::cli::keep_freed_memory();          // before MPI, OpenCL, GDAL or the studio's server start threads
   // Joins MPI when launched by mpirun (a build with TERRACL_MPI); else the only rank.
   terracl::distributed::start(&argc, &argv);
   if (!terracl::cli::setup_ranks(argc, argv)) {

@@ -51,7 +51,7 @@ target_compile_options(terracl PRIVATE -Wall -Wextra -Wno-ignored-attributes)
 # The CLI: `terracl bench` and `terracl devices` are what the core build is for.
 add_executable(terracl_cli ${CMAKE_SOURCE_DIR}/apps/terracl.cpp ${CMAKE_SOURCE_DIR}/apps/cmd_bench.cpp
                ${CMAKE_SOURCE_DIR}/apps/cmd_devices.cpp ${CMAKE_SOURCE_DIR}/apps/warm_kernels.cpp
-               ${CMAKE_SOURCE_DIR}/apps/progress_display.cpp)
+               ${CMAKE_SOURCE_DIR}/apps/progress_display.cpp ${CMAKE_SOURCE_DIR}/apps/allocator.cpp)
 set_target_properties(terracl_cli PROPERTIES OUTPUT_NAME terracl RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
 target_link_libraries(terracl_cli PRIVATE terracl CLI11::CLI11)
 target_compile_options(terracl_cli PRIVATE -Wall -Wextra -Wno-ignored-attributes)
