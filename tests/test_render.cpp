@@ -215,7 +215,9 @@ TEST(RenderCli, WritesEightBitPngForEveryMode) {
 // the colour gdaldem itself paints for it (its own table: grey is 191, brown 191 127 63).
 TEST(RenderRamp, GdaldemColourNamesGiveGdaldemsColours) {
   test::TempDir tmp;
-  const std::string in = test::data_path("crops/frontrange_64.asc");
+  // A copy: GDAL leaves a .aux.xml beside the ASCII grid it reads, which must not land in data/.
+  const std::string in = tmp.path("dem.tif");
+  ASSERT_EQ(std::system(("gdal_translate -q " + test::data_path("crops/frontrange_64.asc") + " " + in).c_str()), 0);
   GDALAllRegister();
   for (const char* name : {"white", "black", "red", "green", "blue", "yellow", "magenta", "cyan", "aqua", "grey", "gray",
                            "orange", "brown", "purple", "violet", "indigo"}) {
