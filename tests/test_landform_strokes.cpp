@@ -77,6 +77,30 @@ TEST(LandformStrokes, DefaultStrokesKeepTheirSignOnARealDem) {
   }
 }
 
+// A river across rolling real hills: its bed runs at most its depth below the lowest ground it
+// passes, and nothing it carves (side valleys, texture) goes below that. Before, side valleys took
+// the gorge's depth where it crossed a ridge and dug it below their own lower ground, and the
+// default depth grew with the stroke's length: these two strokes reached 61 and 76 m, 190 m under
+// the lowest ground of the window, against 201 and 203 m now.
+TEST(LandformStrokes, DefaultRiverStaysAboveItsBedOnRealHills) {
+  const Heightfield base = test::n44_window(300, 300, 300);
+  for (const json& pts : {json{{20, 250}, {150, 150}, {285, 200}}, json{{20, 80}, {150, 110}, {285, 80}}}) {
+    EditSession s(test::device(), base);
+    s.apply({{"units", "cells"}, {"operations", {{{"op", "river"}, {"points", pts}}}}});
+    const Heightfield& h = s.height();
+    const double depth = s.log()[0].at("size_m").get<double>();
+    float ground = 1e30f, lowest = 1e30f;
+    for (size_t i = 0; i < h.z.size(); ++i) {
+      if (h.z[i] < base.z[i] - 0.5f) ground = std::min(ground, base.z[i]);
+      lowest = std::min(lowest, h.z[i]);
+    }
+    ASSERT_LT(ground, 1e30f) << "the river carved nothing";
+    EXPECT_GE(lowest, ground - depth - 2.0) << pts.dump() << ": depth " << depth << " m below the lowest ground " << ground;
+    // The default depth follows the hills' relief, not the 19 km length.
+    EXPECT_LT(depth, 100.0) << pts.dump();
+  }
+}
+
 TEST(LandformStrokes, RelativeCrestSitsItsHeightAboveTheGround) {
   const int n = 240;
   const Heightfield base = test::n44_window(300, 600, n);

@@ -330,7 +330,18 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   const Bands bands = make_bands(p.bands, rng);
   struct Piece {
     std::vector<Vec2> pts;
-    std::vector<double> depth, w;
+    std::vector<double> depth, w, bed;
+    int parent = -1;  // the piece it joins (-1: none) and where, a vertex of that piece
+    size_t at = 0;
+  };
+  // The ground under a point (bilinear, metres), for the beds.
+  const auto ground_at = [&](const Vec2& q) {
+    const Heightfield& h = *p.ground;
+    const double fx = std::clamp(q.x / g.cell_x, 0.0, h.width - 1.0), fy = std::clamp(q.y / g.cell_y, 0.0, h.height - 1.0);
+    const int x0 = std::min(int(fx), std::max(0, h.width - 2)), y0 = std::min(int(fy), std::max(0, h.height - 2));
+    const int x1 = std::min(x0 + 1, h.width - 1), y1 = std::min(y0 + 1, h.height - 1);
+    const double tx = fx - x0, ty = fy - y0;
+    return (1 - ty) * ((1 - tx) * h.at(x0, y0) + tx * h.at(x1, y0)) + ty * ((1 - tx) * h.at(x0, y1) + tx * h.at(x1, y1));
   };
   std::vector<Piece> pieces;
   Piece main;
@@ -389,15 +400,19 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
         return s;
       };
       const double len = W * rng.uniform(1.3, 3.0);
-      const Piece s = side_valley(main.pts[i], dir, len, 0.85 * main.depth[i], main.w[i] * rng.uniform(0.22, 0.38), uint32_t(rng.next()));
+      Piece s = side_valley(main.pts[i], dir, len, 0.85 * main.depth[i], main.w[i] * rng.uniform(0.22, 0.38), uint32_t(rng.next()));
+      s.parent = 0, s.at = i;
       pieces.push_back(s);
+      const int side_index = int(pieces.size()) - 1;
       const int forks = len > 1.8 * W ? 1 + int(rng.uniform() < 0.5) : int(rng.uniform() < 0.5);
       for (int f = 0; f < forks; ++f) {
         const size_t k = std::min(s.pts.size() - 2, size_t(rng.uniform(0.3, 0.75) * double(s.pts.size() - 1)));
         const Vec2 t2 = unit({s.pts[k + 1].x - s.pts[k].x, s.pts[k + 1].y - s.pts[k].y});
         const double turn = (rng.uniform() < 0.5 ? -1 : 1) * rng.uniform(0.5, 1.1);
-        pieces.push_back(side_valley(s.pts[k], rotate(t2, turn), len * rng.uniform(0.3, 0.55), 0.8 * s.depth[k], 0.7 * s.w[k],
-                                     uint32_t(rng.next())));
+        Piece fork = side_valley(s.pts[k], rotate(t2, turn), len * rng.uniform(0.3, 0.55), 0.8 * s.depth[k], 0.7 * s.w[k],
+                                 uint32_t(rng.next()));
+        fork.parent = side_index, fork.at = k;
+        pieces.push_back(fork);
       }
     }
   }
@@ -407,6 +422,17 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   double widest = W;  // a gorge widens the main valley (and its side valleys) beyond W
   for (const auto& pc : pieces) widest = std::max(widest, *std::max_element(pc.w.begin(), pc.w.end()));
   ShapeRaster out(box_around(g, all, widest + (2 * blur + 2) * cell));
+  // With the ground, each cell's depth down to its piece's bed (the most of its pieces'): the
+  // blur and the relief detail below do not take a cell under it.
+  ShapeRaster to_bed(p.ground ? out.box : Box{});
+  // A side valley's bed is the ground less its depth, but never below the floor it joins (its
+  // depth comes from the main valley's at the mouth, which in a gorge is the ridge's height above
+  // the bed, not the side valley's own ground's).
+  if (p.ground)
+    for (auto& pc : pieces) {
+      const double floor = pc.parent >= 0 ? pieces[size_t(pc.parent)].bed[pc.at] : -std::numeric_limits<double>::infinity();
+      for (size_t k = 0; k < pc.pts.size(); ++k) pc.bed.push_back(std::max(floor, ground_at(pc.pts[k]) - pc.depth[k]));
+    }
   for (const auto& pc : pieces) {
     const double wmax = *std::max_element(pc.w.begin(), pc.w.end());
     const Nearest n = nearest_on(g, pc.pts, out.box, wmax);
@@ -419,7 +445,16 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
           if (!(d < wmax)) continue;
           const double w = along(pc.w, parc, n.arc.at(x, y));
           if (!(d < w)) continue;
-          const double depth = along(pc.depth, parc, n.arc.at(x, y));
+          // With the ground, at most the cell's own height above the bed: nothing goes below
+          // the bed, and a cell on ground lower than its vertex is not dug as deep as the vertex.
+          // Not more than the vertex's depth either: a side valley climbing a wall stays a groove
+          // of its depth instead of cutting a level notch back into the wall.
+          double depth = along(pc.depth, parc, n.arc.at(x, y));
+          if (p.ground) {
+            const double above = std::max(0.0, double(p.ground->at(x, y)) - along(pc.bed, parc, n.arc.at(x, y)));
+            to_bed.at(x, y) = std::max(to_bed.at(x, y), float(above));
+            depth = std::min(depth, above);
+          }
           // The wall's bench edges wander (no ruled stripes); the floor widens and narrows.
           double u = d / w + 0.05 * (0.5 + rough) * fbm(x * g.cell_x / (0.7 * W), y * g.cell_y / (0.7 * W), 3, 0.5, p.look.seed + 9);
           const double f = p.floor * (1 + 0.3 * fbm(n.arc.at(x, y) / (2 * W), 1.7, 2, 0.5, p.look.seed + 11));
@@ -431,10 +466,17 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
     });
   }
   soften(out, blur);
+  // The limit is blurred as the shape is: its steps where the nearest vertex changes (at a bend,
+  // along a tapering end) would otherwise cut straight-edged facets into a detailed floor.
+  if (p.ground) soften(to_bed, std::max(blur, int(std::lround(0.05 * W / cell))));
   ShapeRaster detail = out;
   add_relief_detail(detail, g, (0.15 + 0.35 * rough) * (1 - 0.5 * age), 0.4 * W, p.look.seed + 7,
                     p.depth > 0 ? p.depth : std::numeric_limits<double>::infinity());
   out = std::move(detail);
+  if (p.ground)
+    for (size_t i = 0; i < out.v.size(); ++i)
+      if (to_bed.v[i] > 0) out.v[i] = std::min(out.v[i], to_bed.v[i]);
+  if (p.to_bed) *p.to_bed = std::move(to_bed);
   return out;
 }
 

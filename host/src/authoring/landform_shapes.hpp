@@ -60,6 +60,14 @@ struct ValleyParams {
   int bands = 0;            ///< rock bands in the walls (0: a smooth wall)
   double branches = 1;      ///< side valleys per length, scale in [0, 2]
   double meander = 0.2;     ///< lateral wander / width
+  /// The ground the valley is cut into (cells of `g`), or none. With it each piece's bed is an
+  /// elevation (the ground under its vertex less its depth there) and a cell is lowered by its own
+  /// height above that bed times the cross-section's share, so it never goes below the bed and
+  /// cells already below it stay; without it every cell is lowered by the vertex's depth.
+  const Heightfield* ground = nullptr;
+  /// With `ground`: where given, each cell's depth down to its bed (0: outside every piece), so
+  /// that detail added afterwards can be kept above the beds too.
+  ShapeRaster* to_bed = nullptr;
   LandformLook look;
 };
 ShapeRaster valley_system(const Grid& g, const ValleyParams& p);
