@@ -25,9 +25,33 @@ struct WarpArgs {
   TileFlags tile;  // --tile: out of core (docs/scale.md, "Tiled warp and resize")
 };
 
+// --size's words: "W H" or "WxH", each a whole number of cells >= 1.
+std::pair<int, int> parse_size(const std::vector<std::string>& words) {
+  std::vector<std::string> v = words;
+  if (v.size() == 1) {
+    const size_t x = v[0].find_first_of("xX");
+    if (x == std::string::npos) throw UsageError("resize", fmt::format("--size {}: expected WIDTH HEIGHT or WIDTHxHEIGHT", v[0]));
+    v = {v[0].substr(0, x), v[0].substr(x + 1)};
+  }
+  int out[2];
+  for (int k = 0; k < 2; ++k) {
+    size_t used = 0;
+    long n = 0;
+    try {
+      n = std::stol(v[size_t(k)], &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != v[size_t(k)].size() || n < 1 || n > (1L << 30))
+      throw UsageError("resize", fmt::format("--size: '{}' is not a size in cells (a whole number >= 1)", v[size_t(k)]));
+    out[k] = int(n);
+  }
+  return {out[0], out[1]};
+}
+
 struct ResizeArgs {
   std::string input, output, preset, resampling = "bilinear";
-  std::vector<int> size;
+  std::vector<std::string> size;  // WIDTH HEIGHT, or WIDTHxHEIGHT as `render --size` takes it
   bool fill_nodata = false;
   InputScaleFlags in;
   OutputFlags out;
@@ -106,7 +130,8 @@ CommandRegistrar reg(13, [](CLI::App& app) {
     std::vector<std::string> presets;
     for (const auto& [n, s] : engine_presets()) presets.push_back(n);
     auto* preset = sub->add_option("--preset", a->preset, "Engine size (square)")->check(CLI::IsMember(presets));
-    auto* size = sub->add_option("--size", a->size, "Target size WIDTH HEIGHT in cells")->expected(2);
+    auto* size = sub->add_option("--size", a->size, "Target size in cells: WIDTH HEIGHT (as gdalwarp -ts) or WIDTHxHEIGHT")
+                     ->expected(1, 2);
     preset->excludes(size);
     sub->add_option("--resampling,-r", a->resampling, "Resampling method")
         ->check(CLI::IsMember(warp_resamplings()))
@@ -118,8 +143,9 @@ CommandRegistrar reg(13, [](CLI::App& app) {
     sub->callback([a] {
       if (a->preset.empty() && a->size.empty()) throw UsageError("resize", "needs --preset NAME or --size WIDTH HEIGHT");
       check_output_paths("resize", {{"input", a->input}}, {{"-o", a->output}});
-      const int w = a->preset.empty() ? a->size[0] : engine_preset_size(a->preset);
-      const int ht = a->preset.empty() ? a->size[1] : w;
+      const auto [sw, sh] = a->preset.empty() ? parse_size(a->size) : std::pair<int, int>{0, 0};
+      const int w = a->preset.empty() ? sw : engine_preset_size(a->preset);
+      const int ht = a->preset.empty() ? sh : w;
       if (a->tile.tiled()) {  // the engine scale is in the output's metadata (engine_*)
         refuse_untiled_flags("resize", a->fill_nodata, a->in, a->out);
         a->tile.run_stage("resize", a->input, "resize", json{{"width", w}, {"height", ht}, {"resampling", a->resampling}},

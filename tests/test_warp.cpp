@@ -3,6 +3,8 @@
 // nodata kept, engine presets' sizes and Z scale, and amplify's error naming the warp command.
 #include "test_helpers.hpp"
 
+#include <filesystem>
+
 #include <terracl/amplify.hpp>
 #include <terracl/error.hpp>
 #include <terracl/io.hpp>
@@ -119,6 +121,25 @@ TEST(Warp, LocalGridWithoutGeoreferencing) {
   const double mean = (h.at(0, 0) + h.at(1, 0) + h.at(0, 1) + h.at(1, 1)) / 4.0;
   EXPECT_NEAR(r.at(0, 0), mean, 1e-3);
   EXPECT_THROW(warp(h, WarpOptions{"EPSG:32619"}), Error);  // no CRS to reproject from
+}
+
+// --size takes gdalwarp's "W H" and render's "WxH"; anything else is a usage error naming the word.
+TEST(Resize, SizeAsTwoWordsOrWidthByHeight) {
+  test::TempDir dir;
+  const std::string in = crop_with_void(dir);
+  for (const std::string size : {"40 30", "40x30"}) {
+    const auto c = test::run_cli("-q resize " + q(in) + " -o " + q(dir.path("s.tif")) + " --size " + size);
+    ASSERT_EQ(c.exit_code, 0) << size << ": " << c.out;
+    const Heightfield r = read_heightfield(dir.path("s.tif"));
+    EXPECT_EQ(r.width, 40) << size;
+    EXPECT_EQ(r.height, 30) << size;
+  }
+  for (const std::string size : {"40", "0x30", "40xq"}) {
+    const auto c = test::run_cli("-q resize " + q(in) + " -o " + q(dir.path("bad.tif")) + " --size " + size);
+    EXPECT_EQ(c.exit_code, 2) << size << ": " << c.out;
+    EXPECT_NE(c.out.find("--size"), std::string::npos) << c.out;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("bad.tif")));
+  }
 }
 
 TEST(Resize, EnginePresetsKeepTheExtentAndRecordTheZScale) {
