@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 using namespace terracl;
@@ -40,6 +41,32 @@ TEST(AmplifyCli, LearnThenAmplifyWithDictionary) {
   EXPECT_NEAR(out.georef.geotransform[1] * 4, low.georef.geotransform[1], 1e-12);
   const Heightfield m = block_mean(out, 4);
   for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 0.05f);
+}
+
+// A bundled style's dictionary needs no file: --dictionary style:NAME, in a pipeline as well
+// (validation accepts it); an unknown style is refused with the list.
+TEST(AmplifyCli, BundledStyleDictionaries) {
+  Files f;
+  const auto amp = test::run_cli("-q amplify " + f.low + " -o " + f.tmp.path("s.tif") + " --dictionary style:eroded_hills");
+  ASSERT_EQ(amp.exit_code, 0) << amp.out;
+  const Heightfield out = read_heightfield(f.tmp.path("s.tif"));
+  const Heightfield low = read_heightfield(f.low);
+  ASSERT_EQ(out.width, 128);
+  const Heightfield m = block_mean(out, 4);
+  double detail = 0;
+  for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(m.z[i], low.z[i], 0.05f);
+  for (size_t i = 1; i < out.z.size(); ++i) detail += std::fabs(double(out.z[i]) - out.z[i - 1]);
+  EXPECT_GT(detail, 0);
+  {
+    std::ofstream(f.tmp.path("p.json")) << "[\"" << f.low << "\", {\"type\": \"amplify\", \"dictionary\": \"style:alpine\"}, \""
+                                        << f.tmp.path("p.tif") << "\"]";
+  }
+  const auto run = test::run_cli("-q run " + f.tmp.path("p.json"));
+  EXPECT_EQ(run.exit_code, 0) << run.out;
+  const auto bad = test::run_cli("-q amplify " + f.low + " -o " + f.tmp.path("b.tif") + " --dictionary style:lunar");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.out.find("dissected_plateau"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(f.tmp.path("b.tif")));
 }
 
 TEST(AmplifyCli, AmplifyFromExemplarAndBadArguments) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The `amplify` stage and the `amplify` benchmark.
 #include "amplify/exemplar_warp.hpp"
+#include "authoring/landform_detail.hpp"
 #include "pipeline/builtin.hpp"
 
 #include <terracl/amplify.hpp>
@@ -34,6 +35,12 @@ std::vector<std::string> split_list(const std::string& s) {
   while (std::getline(ss, item, ','))
     if (!item.empty()) out.push_back(item);
   return out;
+}
+
+// A .tdic file, or `style:NAME`: a bundled style's dictionary (the studio's landform detail).
+Dictionary dictionary_from(const std::string& spec) {
+  if (spec.rfind("style:", 0) == 0) return edit::bundled_style_dictionary(spec.substr(6));
+  return load_dictionary(spec);
 }
 
 }  // namespace
@@ -83,17 +90,19 @@ void run_amplify(StageContext& c) {
   require_raster_size("amplify", fmt::format("the x{} output of a {} x {} input", o.factor, low.width, low.height),
                       int64_t(low.width) * o.factor, int64_t(low.height) * o.factor, 8);
   const bool has_ex = c.has("exemplar"), has_dict = c.has("dictionary");
-  if (has_ex == has_dict) throw UsageError("amplify", "give exactly one of --exemplar FILE[,FILE...] or --dictionary FILE");
+  if (has_ex == has_dict)
+    throw UsageError("amplify", "give exactly one of --exemplar FILE[,FILE...] or --dictionary FILE (a .tdic, or a bundled "
+                                "style: --dictionary style:alpine, style:eroded_hills or style:dissected_plateau)");
   Heightfield out;
   if (c.has("style_mask")) {
     if (!has_dict || !c.has("style_dictionary"))
       throw UsageError("amplify", "--style-mask needs --dictionary (mask 0) and --style-dictionary (mask 1)");
-    const Dictionary a = load_dictionary(c.get<std::string>("dictionary"));
-    const Dictionary b = load_dictionary(c.get<std::string>("style_dictionary"));
+    const Dictionary a = dictionary_from(c.get<std::string>("dictionary"));
+    const Dictionary b = dictionary_from(c.get<std::string>("style_dictionary"));
     const Heightfield mask = read_heightfield(c.get<std::string>("style_mask"));
     out = amplify_styles(low, {&a, &b}, mask, c.get<double>("style_blend"), o, c.progress);
   } else if (has_dict) {
-    const Dictionary d = load_dictionary(c.get<std::string>("dictionary"));
+    const Dictionary d = dictionary_from(c.get<std::string>("dictionary"));
     if (o.mode == "faithful" && !d.has_regression())
       throw UsageError("amplify", fmt::format("--mode faithful: {} stores no faithful regression (format version 2 or "
                                               "older, or learned with --faithful-radius 0); learn it again with "
@@ -153,7 +162,7 @@ void register_amplify_stages(StageRegistry& r) {
          {
              OptionSpec{"factor", OptionType::Int, 4, "", "Total amplification factor (power of 4)", {}}.range(2, 256),
              {"exemplar", OptionType::String, nullptr, "", "High-resolution exemplar file(s), comma-separated", {}},
-             {"dictionary", OptionType::Path, nullptr, "", "Dictionary file (.tdic) from `terracl dictionary learn`", {}},
+             {"dictionary", OptionType::Path, nullptr, "", "Dictionary file (.tdic) from `terracl dictionary learn`, or a bundled style: style:alpine, style:eroded_hills, style:dissected_plateau", {}},
              OptionSpec{"patch", OptionType::Int, 16, "cells", "Patch size P at the output resolution (with --exemplar)", {}}.range(2, 256),
              OptionSpec{"atoms", OptionType::Int, 1024, "", "Dictionary atoms (with --exemplar, constrained/ksvd)", {}}.range(1, 1 << 20),
              {"method", OptionType::Enum, "complete", "", "Learning method with --exemplar", {"complete", "constrained", "ksvd"}},
@@ -175,7 +184,7 @@ void register_amplify_stages(StageRegistry& r) {
              {"base", OptionType::Enum, "auto", "", "Detail mode's base (what the input's block means determine; details are taken relative to it): bicubic, bandlimited (a consistent band-limited kernel: no curvature peak at the input cells' centres) or auto (the dictionary's; bandlimited when learned now, bicubic for dictionaries older than format version 3)", {"auto", "bicubic", "bandlimited"}},
              OptionSpec{"cascade_relief_exponent", OptionType::Float, -1.0, "", "Detail blend, x16 and beyond: steps after the first multiply their detail gain by (q_ref / q_med)^b, q_med the median relief of the step's patch footprints, q_ref the dictionary's atoms' (-1: b from the dictionary's atoms; 0: off)", {}}.range(-1, 4),
              {"style_mask", OptionType::Path, nullptr, "", "Mask at the input resolution: 0 = --dictionary, 1 = --style-dictionary", {}},
-             {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary", {}},
+             {"style_dictionary", OptionType::Path, nullptr, "", "Second style's dictionary (a .tdic or style:NAME)", {}},
              OptionSpec{"style_blend", OptionType::Float, 4.0, "cells", "Width of the blend across the mask's edge (input cells)", {}}.range(0, 1000),
          },
          run_amplify});

@@ -316,4 +316,11 @@ ShapeRaster paint_style(EditState& s, const std::string& style, const HostRegion
   return c;
 }
 
+Dictionary bundled_style_dictionary(const std::string& name) {
+  const auto& names = bundled_styles();
+  if (std::find(names.begin(), names.end(), name) == names.end())
+    fail("amplify", "no bundled style '{}' (bundled: {})", name, fmt::format("{}", fmt::join(names, ", ")));
+  return style_dictionary(nullptr, name, 0, 0)->dict;
+}
+
 }  // namespace terracl::edit

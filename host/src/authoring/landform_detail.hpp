@@ -8,6 +8,8 @@
 // region (ops_style.cpp), blended per cell where regions overlap.
 #include "authoring/landform.hpp"
 
+#include <terracl/amplify.hpp>  // Dictionary
+
 #include <functional>
 #include <string>
 #include <vector>
@@ -46,6 +48,10 @@ bool add_real_detail(EditState& s, ShapeRaster& change, const DetailSpec& d, uin
 /// first, at most kLocalWarmWindows of them; `stop` (may be empty) is asked before each. Returns
 /// how many dictionaries are ready (cached ones count).
 size_t warm_style(const std::string& style, const Heightfield* base, const std::function<bool()>& stop = {});
+/// A bundled style's dictionary (`terracl amplify --dictionary style:NAME`): learned from its
+/// embedded exemplar on first use (~0.2 s), then cached for the process. Throws, listing the
+/// bundled styles, for any other name.
+Dictionary bundled_style_dictionary(const std::string& name);
 /// The most local-style windows warm_style learns ahead (about 4 MB each).
 constexpr size_t kLocalWarmWindows = 24;
 

@@ -217,7 +217,9 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
         check_path_length("pipeline", path, p);
         const bool pending = std::find(pending_outputs.begin(), pending_outputs.end(), p) != pending_outputs.end();
         std::error_code ec;
-        if (p.rfind("flat:", 0) != 0 && !pending && !is_virtual_path(p) && !std::filesystem::exists(p, ec))
+        // flat:WxH@CELL is a generated base, style:NAME a bundled style's dictionary (amplify).
+        if (p.rfind("flat:", 0) != 0 && p.rfind("style:", 0) != 0 && !pending && !is_virtual_path(p) &&
+            !std::filesystem::exists(p, ec))
           throw MissingFileError("pipeline", fmt::format("{}: input file {} does not exist", path, p), p);
         break;
       }
