@@ -129,6 +129,10 @@ TEST(Pipeline, ValidationErrorsNameTheJsonPath) {
        "/0/fill_nodata: expected true or false"},
       {R"([{"type": "read", "filename": ")" + c + R"(", "colour": 1}, "o.tif"])",
        "/0/colour: stage 'read' has no option 'colour'"},
+      // render writes to "file"; "filename" (the write stage's) is pointed at it, as a near miss is.
+      {R"([")" + c + R"(", {"type": "render", "filename": "o.png"}])",
+       "/1/filename: stage 'render' has no option 'filename'; did you mean 'file'?"},
+      {R"([")" + c + R"(", {"type": "erode", "step": 3}, "o.tif"])", "/1/step: stage 'erode' has no option 'step'; did you mean 'steps'?"},
       {R"(["no/such/file.tif", "o.tif"])", "/0/filename: input file no/such/file.tif does not exist"},
       {R"([")" + c + R"(", {"type": "write", "filename": "o.png", "zmax": "3 parsec"}])",
        "/1/zmax: unknown unit 'parsec'"},

@@ -145,6 +145,36 @@ json option_from_text(const OptionSpec& o, const std::string& text) {
   }
 }
 
+namespace {
+// The option a mistyped key most likely meant: one containing it or contained in it ("filename"
+// for render's "file", which the write stage calls "filename"), else one within 2 edits; "" if none.
+std::string nearest_option(const StageInfo& stage, const std::string& key) {
+  if (key.size() < 3 || key.size() > 64) return "";
+  auto edits = [](const std::string& a, const std::string& b) {
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+      size_t diag = row[0];
+      row[0] = i;
+      for (size_t j = 1; j <= b.size(); ++j) {
+        const size_t up = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        diag = up;
+      }
+    }
+    return row[b.size()];
+  };
+  std::string best;
+  size_t best_d = 3;
+  for (const auto& o : stage.options) {
+    if (o.name.size() >= 3 && (o.name.find(key) != std::string::npos || key.find(o.name) != std::string::npos)) return o.name;
+    const size_t d = edits(key, o.name);
+    if (d < best_d) best_d = d, best = o.name;
+  }
+  return best;
+}
+}  // namespace
+
 json resolve_options(const StageInfo& stage, const json& options, const std::string& where,
                      const std::vector<std::string>& pending_outputs) {
   if (!options.is_object()) fail("pipeline", "{}: stage options must be a JSON object", where);
@@ -156,8 +186,9 @@ json resolve_options(const StageInfo& stage, const json& options, const std::str
     if (!known) {
       std::string names;
       for (const auto& o : stage.options) names += (names.empty() ? "" : ", ") + o.name;
-      fail("pipeline", "{}/{}: stage '{}' has no option '{}' (options: {})", where, abbreviate(key), stage.name, abbreviate(key),
-           names.empty() ? "none" : names);
+      const std::string near = nearest_option(stage, key);
+      fail("pipeline", "{}/{}: stage '{}' has no option '{}'{} (options: {})", where, abbreviate(key), stage.name,
+           abbreviate(key), near.empty() ? "" : fmt::format("; did you mean '{}'?", near), names.empty() ? "none" : names);
     }
   }
   for (const auto& o : stage.options) {
