@@ -41,10 +41,10 @@ const TOOLS = {
   // procedural, or a style name (docs/authoring.md, "Detail and styles").
   crest: { height: '', radius: '', detail: '' },
   mountain_range: { height: '', radius: '', roughness: 0.5, age: 0.3, spurs: 1, detail: '' },
-  river: { depth: '', radius: '', detail: '' },
-  canyon: { depth: '', radius: '', bands: 4, roughness: 0.5, detail: '' },
+  river: { depth: '', radius: '', branches: '', detail: '' },
+  canyon: { depth: '', radius: '', bands: 4, branches: '', roughness: 0.5, detail: '' },
   ravine: { radius: 0.05, depth: 60 },
-  cliff: { drop: '', side: 'right', bands: 3, detail: '' },
+  cliff: { drop: '', side: 'right', bands: 3, back: '', detail: '' },
   fault: { radius: 0.03, throw: 40 },
   free_crest: { radius: 0.08, height: 100 },
   peak: { height: '', radius: '', detail: '' },
@@ -64,7 +64,7 @@ const TOOLS = {
 // The field a brush's strength is ([ and ] change the radius, { and } the strength).
 const STRENGTH = { scale_slopes: 'factor', noise: 'amplitude', tensor: 'strength' };
 const WORDS = new Set(['exemplar', 'side', 'detail', 'style']);
-const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength', 'channel_width']);
+const LENGTHS = new Set(['radius', 'width', 'falloff', 'wavelength', 'channel_width', 'back']);
 const AREAS = new Set(['threshold']);
 const CURVES = new Set(['crest', 'river', 'ravine', 'cliff', 'fault', 'free_crest', 'mountain_range', 'canyon']);
 const PAINTED = new Set(['scale_slopes', 'noise', 'freeze', 'tensor', 'style']);

@@ -326,6 +326,24 @@ def main():
         blue1 = driver.execute_script(blue)
         check(blue1 > blue0 + 100, f"the map shows the water in blue ({blue0} -> {blue1} blue pixels)")
 
+        # The gallery's cliff and canyon scripts set a cliff's plateau `back` and a canyon's side-valley
+        # `branches`: both are fields of those tools, posted as typed (empty: the operation's default).
+        for tool, field, value in (("cliff", "back", "900"), ("canyon", "branches", "0.5")):
+            Select(driver.find_element(By.ID, "tool")).select_by_value(tool)
+            box = driver.find_element(By.ID, "p_" + field)
+            box.clear()
+            box.send_keys(value + Keys.TAB)
+            v = version(driver)
+            drag_path(driver, canvas, -250, -250, [(20, 6)] * 10)
+            wait_version(driver, v)
+            st = get_json(url + "api/state")
+            want = float(value)
+            if field == "back" and st["units"] == "cells":
+                want = round(want / st["cell_x"], 1)
+            got = st["operations"][-1]
+            check(got["op"] == tool and abs(float(got.get(field, -1)) - want) < 0.06,
+                  f"the {tool} tool posts its {field} field ({got})")
+
         # Save the script; export from the dialog with masks.
         name = driver.find_element(By.ID, "file")
         name.clear()
