@@ -66,9 +66,9 @@ const Heightfield& terrain_estimate(EditState& s) {
   return last ? *last : s.height();
 }
 
-double terrain_at(EditState& s, double x, double y) {
-  const Heightfield& h = terrain_estimate(s);
-  const Grid& g = s.grid();
+double terrain_at(EditState& s, double x, double y) { return sample_at(terrain_estimate(s), s.grid(), x, y); }
+
+double sample_at(const Heightfield& h, const Grid& g, double x, double y) {
   const double fx = std::clamp(x / g.cell_x, 0.0, h.width - 1.0), fy = std::clamp(y / g.cell_y, 0.0, h.height - 1.0);
   const int x0 = std::min(int(fx), std::max(0, h.width - 2)), y0 = std::min(int(fy), std::max(0, h.height - 2));
   const int x1 = std::min(x0 + 1, h.width - 1), y1 = std::min(y0 + 1, h.height - 1);

@@ -42,6 +42,8 @@ const ShapeRaster& add_change(EditState& s, ShapeRaster& change, int sign);
 const Heightfield& terrain_estimate(EditState& s);
 /// Bilinear sample of the terrain estimate at (x, y) metres (clamped to the grid).
 double terrain_at(EditState& s, double x, double y);
+/// `h` (cells of `g`) at the point (x, y) metres, bilinear, clamped to the grid.
+double sample_at(const Heightfield& h, const Grid& g, double x, double y);
 /// The ground within `radius` metres of the points' bounding box, from the terrain estimate.
 struct GroundAround {
   double relief = 0;      ///< p95 - p05 of the elevations (m)

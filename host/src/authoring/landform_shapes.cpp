@@ -334,15 +334,6 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
     int parent = -1;  // the piece it joins (-1: none) and where, a vertex of that piece
     size_t at = 0;
   };
-  // The ground under a point (bilinear, metres), for the beds.
-  const auto ground_at = [&](const Vec2& q) {
-    const Heightfield& h = *p.ground;
-    const double fx = std::clamp(q.x / g.cell_x, 0.0, h.width - 1.0), fy = std::clamp(q.y / g.cell_y, 0.0, h.height - 1.0);
-    const int x0 = std::min(int(fx), std::max(0, h.width - 2)), y0 = std::min(int(fy), std::max(0, h.height - 2));
-    const int x1 = std::min(x0 + 1, h.width - 1), y1 = std::min(y0 + 1, h.height - 1);
-    const double tx = fx - x0, ty = fy - y0;
-    return (1 - ty) * ((1 - tx) * h.at(x0, y0) + tx * h.at(x1, y0)) + ty * ((1 - tx) * h.at(x0, y1) + tx * h.at(x1, y1));
-  };
   std::vector<Piece> pieces;
   Piece main;
   main.pts = wander_scales(resample(p.stroke, std::max(W / 5, cell)), 1.2 * p.meander * (0.6 + 0.8 * rough), 3 * W, 15 * W,
@@ -431,7 +422,7 @@ ShapeRaster valley_system(const Grid& g, const ValleyParams& p) {
   if (p.ground)
     for (auto& pc : pieces) {
       const double floor = pc.parent >= 0 ? pieces[size_t(pc.parent)].bed[pc.at] : -std::numeric_limits<double>::infinity();
-      for (size_t k = 0; k < pc.pts.size(); ++k) pc.bed.push_back(std::max(floor, ground_at(pc.pts[k]) - pc.depth[k]));
+      for (size_t k = 0; k < pc.pts.size(); ++k) pc.bed.push_back(std::max(floor, sample_at(*p.ground, g, pc.pts[k].x, pc.pts[k].y) - pc.depth[k]));
     }
   for (const auto& pc : pieces) {
     const double wmax = *std::max_element(pc.w.begin(), pc.w.end());

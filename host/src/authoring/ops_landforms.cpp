@@ -106,7 +106,7 @@ void finish(EditState& s, ShapeRaster& c, int sign, const DetailSpec& det, uint3
   const auto t0 = std::chrono::steady_clock::now();
   const bool real = add_real_detail(s, c, det, seed, keep);
   // A valley's texture stays above its beds (a river's floor is not pitted below its bed).
-  if (to_bed && !to_bed->v.empty())
+  if (to_bed && to_bed->v.size() == c.v.size())
     for (size_t i = 0; i < c.v.size(); ++i)
       if (to_bed->v[i] > 0) c.v[i] = std::max(c.v[i], -to_bed->v[i]);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
