@@ -78,8 +78,7 @@ bool huge_pages_on_request() {
 // so the CLI starts itself again with it (the same process id, arguments and environment). Not
 // for the commands that only start up (--version, devices, info, stages, a small convert: the
 // second start costs ~20 ms), not under MPI launchers, not when the user set the tunable.
-// Measured (docs/performance.md): amplify x4 2.9 -> 2.4 s, 8193^2 convert 2.75 -> 2.3 s,
-// hillshade 1.33 -> 1.2 s, faults 72,000 -> 4,000.
+// The figures, off against on, are in docs/performance.md, "2 MB pages".
 void use_huge_pages(int argc, char** argv) {
 #if defined(__linux__) && defined(__GLIBC__)
   const char* env = std::getenv("GLIBC_TUNABLES");
